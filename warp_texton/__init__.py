@@ -1,0 +1,35 @@
+"""warp-texton: texton noise by example.
+
+Learn a small *texton* from an example of a Gaussian texture (NumPy FFT
+analysis), then evaluate *texton noise* — randomly scattered, summed copies of
+the texton — anywhere, with NVIDIA Warp kernels on the CPU or a CUDA GPU.
+
+References
+----------
+EUSIPCO: B. Galerne, A. Leclaire, L. Moisan, "A Texton for Fast and Flexible
+Gaussian Texture Synthesis", EUSIPCO 2014.
+CGF: B. Galerne, A. Leclaire, L. Moisan, "Texton Noise", Computer Graphics
+Forum 2017.
+"""
+
+__version__ = "0.1.0"
+
+from .errors import TextonError
+from .io import read_image, write_image
+from .gaussian import periodic_component, gaussian_texture
+from .texton import Texton, load_texton
+from .analysis import analyze, model_error
+from .dsn import dsn
+
+__all__ = [
+    "TextonError",
+    "Texton",
+    "analyze",
+    "dsn",
+    "gaussian_texture",
+    "load_texton",
+    "model_error",
+    "periodic_component",
+    "read_image",
+    "write_image",
+]

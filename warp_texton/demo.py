@@ -1,0 +1,59 @@
+"""The demo: analyse the texture shipped with the package and write the results."""
+
+from __future__ import annotations
+
+from importlib import resources
+from pathlib import Path
+
+from .analysis import analyze
+from .gaussian import gaussian_texture
+from .io import read_image, write_image
+from .texton import Texton
+
+DEMO_TEXTURE = "grass_256.png"
+
+
+def demo_texture_path() -> Path:
+    """Path of the demo texture: a 256² crop of scikit-image's grass (CC0)."""
+    return Path(str(resources.files("warp_texton.data") / DEMO_TEXTURE))
+
+
+def texton_preview(texton: Texton):
+    """The texton as a viewable image: mean + coefficients scaled to the input's
+    contrast (coefficients carry the 1/√(MN) normalisation of t_u)."""
+    import numpy as np
+
+    return texton.mean + texton.coeffs * np.sqrt(texton.size[0] * texton.size[1])
+
+
+def run_demo(out_dir, size: int = 64, seed: int = 0, progress: bool = True) -> list[Path]:
+    """Write input, Gaussian version, texton (+ noise when available) to ``out_dir``.
+
+    Returns the paths written, PNG and EXR for each picture plus the texton
+    itself as ``texton.exr`` and ``texton.texton``.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    u = read_image(demo_texture_path())
+    texton = analyze(u, size=size, seed=seed, progress=progress)
+    texton.metadata["source"] = DEMO_TEXTURE
+    pictures = {
+        "input": u,
+        "gaussian": gaussian_texture(u, seed=seed),
+        "texton_preview": texton_preview(texton),
+    }
+    try:
+        from .synthesis import synthesize
+    except ImportError:  # the noise kernels are not part of this build
+        synthesize = None
+    if synthesize is not None:
+        pictures["noise"] = synthesize(texton, shape=(512, 512), seed=seed)
+    written = []
+    for name, img in pictures.items():
+        for ext in (".png", ".exr"):
+            write_image(out / f"{name}{ext}", img)
+            written.append(out / f"{name}{ext}")
+    for ext in (".exr", ".texton"):
+        texton.save(out / f"texton{ext}")
+        written.append(out / f"texton{ext}")
+    return written

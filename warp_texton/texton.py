@@ -1,0 +1,329 @@
+"""The texton: interpolation coefficients α, a mean colour and an order.
+
+h(y) = Σ_k α(k) ψ(y − k) with ψ the centred B-spline of the texton's order
+(CGF eq. (3)). Coefficient (row i, column j) sits at texel position
+(x, y) = (j, i). Files: EXR (coefficients as pixels, the rest as header
+attributes) and the version-1 ``.texton`` text format of the authors'
+reference viewer.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import scipy.ndimage as ndi
+
+from . import __version__
+from ._checks import CHANNELS
+from .bspline import ORDERS, kernel_width, sampled_autocorrelation
+from .errors import TextonError
+from .io import EXR, atomic_path, read_exr, write_exr
+
+TEXTON_EXT = ".texton"
+#: Version of the metadata layout in EXR textons written by this package.
+EXR_TEXTON_VERSION = 1
+#: Largest texton side accepted from a file (textons are small by design).
+MAX_TEXTON_SIDE = 4096
+
+
+@dataclass(frozen=True, eq=False)
+class Texton:
+    """A texton: what texton noise needs besides a seed and an MNI.
+
+    Attributes
+    ----------
+    coeffs : float32 array (r, s, C)
+        Interpolation coefficients α, C in {1, 3}.
+    mean : float32 array (C,)
+        Mean colour m of the noise.
+    order : int
+        Interpolation order: 0 (nearest, the EUSIPCO SOT), 1 (bilinear, the
+        CGF default), 3 or 5 (B-splines, CGF §10).
+    metadata : dict
+        Provenance (source image, analysis parameters, model error...); any
+        JSON-serialisable values.
+    """
+
+    coeffs: np.ndarray
+    mean: np.ndarray
+    order: int = 1
+    metadata: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        a = np.asarray(self.coeffs)
+        if a.ndim == 2:
+            a = a[:, :, None]
+        if a.ndim != 3 or a.shape[2] not in CHANNELS or min(a.shape[:2]) < 1:
+            raise TextonError(
+                f"texton coefficients must have shape (r, s, 1) or (r, s, 3), got {a.shape}"
+            )
+        a = np.ascontiguousarray(a, dtype=np.float32)
+        if not np.isfinite(a).all():
+            raise TextonError("texton coefficients contain NaN or infinite values")
+        m = np.atleast_1d(np.asarray(self.mean, dtype=np.float32)).ravel()
+        if m.shape != (a.shape[2],) or not np.isfinite(m).all():
+            raise TextonError(
+                f"texton mean must be {a.shape[2]} finite values (one per channel), got {self.mean!r}"
+            )
+        if isinstance(self.order, bool) or self.order not in ORDERS:
+            raise TextonError(f"texton order must be one of {', '.join(map(str, ORDERS))}, got {self.order!r}")
+        a.setflags(write=False)
+        m.setflags(write=False)
+        object.__setattr__(self, "coeffs", a)
+        object.__setattr__(self, "mean", m)
+        object.__setattr__(self, "order", int(self.order))
+        object.__setattr__(self, "metadata", dict(self.metadata))
+
+    # ------------------------------------------------------------------ model
+    @property
+    def channels(self) -> int:
+        return self.coeffs.shape[2]
+
+    @property
+    def size(self) -> tuple[int, int]:
+        """(rows, columns) of the coefficient array."""
+        return self.coeffs.shape[:2]
+
+    @property
+    def support_mask(self) -> np.ndarray:
+        """Coefficients that are non-zero in some channel."""
+        return np.any(self.coeffs != 0, axis=2)
+
+    @property
+    def support_area(self) -> float:
+        """Area of supp h in texels²: the union of the supports of ψ(· − k) over
+        the non-zero coefficients. A full r × s texton of order k covers
+        (r + k)(s + k). The noise intensity is λ = MNI / support_area (CGF §3.3).
+        """
+        w = kernel_width(self.order)
+        mask = self.support_mask
+        if w > 1:
+            # Each coefficient covers the w × w unit cells of its ψ support; the
+            # padding keeps the dilation inside the array, so the count is exact.
+            mask = ndi.binary_dilation(np.pad(mask, w - 1), structure=np.ones((w, w), bool))
+        return float(np.count_nonzero(mask))
+
+    @property
+    def integral(self) -> np.ndarray:
+        """∫h per channel: Σ α, since every ψ integrates to 1."""
+        return self.coeffs.sum(axis=(0, 1), dtype=np.float64)
+
+    def covariance(self) -> np.ndarray:
+        """Lag-0 colour covariance of the noise, C × C: ∫ h hᵀ.
+
+        Equals Σ_τ b(τ) Σ_x α(x) α(x + τ)ᵀ with b the sampled ψ * ψ (CGF §4.1).
+        """
+        return lag0_covariance(self.coeffs.astype(np.float64), self.order)
+
+    def spectrum(self, shape: tuple[int, int]) -> np.ndarray:
+        """DFT of the model kernel on an M × N grid: α̂ √b̂, shape (M, N, C).
+
+        Its squared modulus is the sampled power spectrum |α̂|² b̂ of the noise
+        (CGF eq. (4)). The coefficients are placed at the grid origin.
+        """
+        from .bspline import bhat
+
+        m, n = shape
+        r, s = self.size
+        if r > m or s > n:
+            raise TextonError(f"a {r}x{s} texton does not fit on a {m}x{n} grid")
+        a_hat = np.fft.fft2(self.coeffs.astype(np.float64), s=(m, n), axes=(0, 1))
+        return a_hat * np.sqrt(bhat((m, n), self.order))[:, :, None]
+
+    # ------------------------------------------------------------------ files
+    def save(self, path) -> None:
+        """Write the texton to ``.exr`` or ``.texton`` (by extension), atomically."""
+        path = Path(path)
+        ext = path.suffix.lower()
+        if ext == EXR:
+            write_exr(
+                path,
+                self.coeffs,
+                texton_version=EXR_TEXTON_VERSION,
+                texton_order=self.order,
+                texton_mean=[float(v) for v in self.mean],
+                texton_metadata=json.dumps({**self.metadata, "warp_texton": __version__}),
+            )
+        elif ext == TEXTON_EXT:
+            text = _format_texton_text(self)
+            with atomic_path(path) as tmp:
+                Path(tmp).write_text(text, encoding="ascii")
+        else:
+            raise TextonError(f"{path}: unsupported texton extension {ext or '(none)'!r}; use .exr or .texton")
+
+    def __repr__(self) -> str:
+        r, s = self.size
+        return f"Texton({r}x{s}, channels={self.channels}, order={self.order}, mean={np.round(self.mean, 4).tolist()})"
+
+
+def lag0_covariance(alpha: np.ndarray, order: int) -> np.ndarray:
+    """∫ h hᵀ for coefficients alpha (r, s, C): Σ_τ b(τ) Σ_x α(x) α(x+τ)ᵀ."""
+    b = sampled_autocorrelation(order)
+    k = order
+    r, s, c = alpha.shape
+    out = np.zeros((c, c))
+    for dy in range(-k, k + 1):
+        for dx in range(-k, k + 1):
+            w = b[k + dy] * b[k + dx]
+            # pairs (x, x + τ) that both lie inside the coefficient array
+            a0 = alpha[max(0, -dy): r - max(0, dy), max(0, -dx): s - max(0, dx)]
+            a1 = alpha[max(0, dy): r + min(0, dy), max(0, dx): s + min(0, dx)]
+            if a0.size:
+                out += w * a0.reshape(-1, c).T @ a1.reshape(-1, c)
+    return 0.5 * (out + out.T)
+
+
+# ---------------------------------------------------------------- .texton text
+def _format_texton_text(t: Texton) -> str:
+    """The reference viewer's version-1 layout.
+
+    Lines: ``TEXTON``; version ``1``; the order; the RGB mean; ``width height``
+    of the stored array, which carries a one-texel zero frame (the viewer needs
+    the kernel to vanish on the texture border); then width × height lines of
+    three coefficients, bottom row first, each row left to right (OpenGL
+    order); then a free ``Original image: NAME (W x H)`` line. Grey textons are
+    stored as three equal channels.
+    """
+    a = t.coeffs
+    mean = t.mean
+    if t.channels == 1:
+        a = np.repeat(a, 3, axis=2)
+        mean = np.repeat(mean, 3)
+    framed = np.pad(a, ((1, 1), (1, 1), (0, 0)))
+    h, w = framed.shape[:2]
+    rows = framed[::-1].reshape(-1, 3)
+    lines = ["TEXTON", "1", str(t.order), " ".join(f"{float(v):.9e}" for v in mean), f"{w} {h}"]
+    lines.extend(f"{x:.9e} {y:.9e} {z:.9e}" for x, y, z in rows.tolist())
+    src = str(t.metadata.get("source", "unknown")).replace("\n", " ")
+    src_shape = t.metadata.get("source_shape") or [0, 0]
+    lines.append(f"Original image: {src} ({int(src_shape[1])} x {int(src_shape[0])})")
+    return "\n".join(lines) + "\n"
+
+
+def _parse_texton_text(path: Path) -> Texton:
+    def bad(what):
+        return TextonError(f"{path}: malformed .texton file: {what}")
+
+    try:
+        with open(path, "rb") as f:
+            raw = f.read(64 * 1024 * 1024 + 1)
+    except OSError as exc:
+        raise TextonError(f"{path}: cannot read ({exc.strerror})") from None
+    if len(raw) > 64 * 1024 * 1024:
+        raise bad("larger than 64 MiB")
+    try:
+        text = raw.decode("ascii")
+    except UnicodeDecodeError:
+        raise bad("not ASCII text") from None
+    lines = text.splitlines()
+    if not lines or lines[0].strip() != "TEXTON":
+        raise bad("the first line must be TEXTON")
+    try:
+        version = int(lines[1])
+        order = int(lines[2])
+        mean = np.array([float(v) for v in lines[3].split()], dtype=np.float64)
+        w, h = (int(v) for v in lines[4].split())
+    except (IndexError, ValueError):
+        raise bad("the header must be TEXTON, version, order, three mean values, 'width height'") from None
+    if version != 1:
+        raise bad(f"version {version} is not supported (only version 1)")
+    if order not in ORDERS:
+        raise bad(f"order {order} is not one of {', '.join(map(str, ORDERS))}")
+    if mean.shape != (3,) or not np.isfinite(mean).all():
+        raise bad("the mean line must hold three finite values")
+    if not (1 <= w <= MAX_TEXTON_SIDE and 1 <= h <= MAX_TEXTON_SIDE):
+        raise bad(f"size {w} x {h} is outside 1..{MAX_TEXTON_SIDE}")
+    body = lines[5: 5 + w * h]
+    if len(body) < w * h:
+        raise bad(f"expected {w * h} coefficient lines, found {len(body)}")
+    try:
+        vals = np.array(" ".join(body).split(), dtype=np.float64)
+    except ValueError:
+        raise bad("a coefficient line holds something other than numbers") from None
+    if vals.size != 3 * w * h:
+        raise bad(f"expected 3 values on each of {w * h} coefficient lines")
+    if not np.isfinite(vals).all():
+        raise bad("coefficients must be finite")
+    a = vals.reshape(h, w, 3)[::-1]
+    # Strip the zero frame the format carries, when it is there.
+    if h >= 3 and w >= 3 and not (a[0].any() or a[-1].any() or a[:, 0].any() or a[:, -1].any()):
+        a = a[1:-1, 1:-1]
+    metadata = {"format": "texton-v1"}
+    tail = " ".join(lines[5 + w * h:]).strip()
+    m = re.match(r"Original image:\s*(.*?)\s*\((\d+)\s*x\s*(\d+)\)\s*$", tail)
+    if m:
+        metadata["source"] = m.group(1)
+        metadata["source_shape"] = [int(m.group(3)), int(m.group(2))]
+    if np.array_equal(a[:, :, 0], a[:, :, 1]) and np.array_equal(a[:, :, 0], a[:, :, 2]) and mean[0] == mean[1] == mean[2]:
+        a, mean = a[:, :, :1], mean[:1]
+    return Texton(a.astype(np.float32), mean.astype(np.float32), order, metadata)
+
+
+def _load_exr_texton(path: Path) -> Texton:
+    coeffs, header = read_exr(path)
+    missing = [k for k in ("texton_order", "texton_mean") if k not in header]
+    if missing:
+        raise TextonError(
+            f"{path}: not a texton EXR (missing attribute {', '.join(missing)}); "
+            "an image must be analysed first (warp-texton analyze)"
+        )
+    order = header["texton_order"]
+    if not isinstance(order, int) or order not in ORDERS:
+        raise TextonError(f"{path}: malformed texton EXR: order {order!r} is not one of {ORDERS}")
+    mean = np.asarray(header["texton_mean"], dtype=np.float64).ravel()
+    if mean.shape != (coeffs.shape[2],):
+        raise TextonError(
+            f"{path}: malformed texton EXR: {mean.size} mean values for {coeffs.shape[2]} channels"
+        )
+    metadata = {}
+    raw = header.get("texton_metadata")
+    if isinstance(raw, str):
+        try:
+            metadata = json.loads(raw)
+        except json.JSONDecodeError:
+            raise TextonError(f"{path}: malformed texton EXR: metadata is not JSON") from None
+        if not isinstance(metadata, dict):
+            raise TextonError(f"{path}: malformed texton EXR: metadata is not a JSON object")
+    return Texton(coeffs, mean.astype(np.float32), order, metadata)
+
+
+def load_texton(path) -> Texton:
+    """Read a texton from ``.exr`` (written by :meth:`Texton.save`) or ``.texton``.
+
+    ``.texton`` files from the authors' reference viewer are accepted: their
+    zero frame is removed and three equal channels become one grey channel.
+
+    Raises
+    ------
+    TextonError
+        Missing file, unknown extension, or a malformed file.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise TextonError(f"{path}: no such file")
+    ext = path.suffix.lower()
+    if ext == EXR:
+        return _load_exr_texton(path)
+    if ext == TEXTON_EXT:
+        return _parse_texton_text(path)
+    raise TextonError(f"{path}: unsupported texton extension {ext or '(none)'!r}; use .exr or .texton")
+
+
+def is_texton_path(path) -> bool:
+    """True when ``path`` names a texton file rather than an image."""
+    path = Path(path)
+    ext = path.suffix.lower()
+    if ext == TEXTON_EXT:
+        return True
+    if ext == EXR and path.is_file():
+        try:
+            from .io import _exr_module
+
+            return "texton_order" in _exr_module().File(str(path)).header()
+        except Exception:
+            return False
+    return False
