@@ -33,3 +33,7 @@ __all__ = [
     "read_image",
     "write_image",
 ]
+
+from .synthesis import synthesize, evaluate  # noqa: E402
+
+__all__ += ["synthesize", "evaluate"]

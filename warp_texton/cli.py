@@ -14,6 +14,11 @@ EPILOG_ANALYZE = """examples:
   warp-texton analyze wood.png -o wood.exr
   warp-texton analyze wood.png -o wood.texton --size 32 --order 1
 """
+EPILOG_SYNTHESIZE = """examples:
+  warp-texton synthesize wood.exr -o noise.png --width 1920 --height 1080
+  warp-texton synthesize wood.png -o tile.exr --width 512 --height 512 --period 512 512
+  warp-texton synthesize wood.texton -o far.png --scale 0.25 --rotation 30 --mni 10
+"""
 EPILOG_GAUSSIAN = """examples:
   warp-texton gaussian wood.png -o wood_gaussian.png
   warp-texton gaussian wood.png -o big.exr --width 1024 --height 768 --seed 3
@@ -24,16 +29,17 @@ class _Parser(argparse.ArgumentParser):
     """argparse whose usage errors follow the project's one-line, exit-2 rule."""
 
     def error(self, message):
-        self.exit(2, f"{self.prog}: error: {message}\n")
+        self.exit(2, f"warp-texton: error: {message}\n")
 
 
-def _add_analyze_options(p: argparse.ArgumentParser) -> None:
-    g = p.add_argument_group("analysis options")
+def _add_analyze_options(p: argparse.ArgumentParser, seed: bool = True) -> None:
+    g = p.add_argument_group("analysis options" + ("" if seed else " (when INPUT is an image)"))
     g.add_argument("--size", type=int, default=64, help="texton side (square) or diameter (disk), in texels")
     g.add_argument("--order", type=int, default=1, choices=(0, 1, 3, 5),
                    help="interpolation order: 0 nearest (EUSIPCO SOT), 1 bilinear (CGF), 3/5 B-spline")
     g.add_argument("--iterations", type=int, default=50, help="alternating projections")
-    g.add_argument("--seed", type=int, default=0, help="random seed")
+    if seed:
+        g.add_argument("--seed", type=int, default=0, help="random seed")
     g.add_argument("--support", choices=("square", "disk"), default="square", help="shape of the texton support")
     g.add_argument("--no-periodic", dest="periodic", action="store_false",
                    help="analyse the image itself, not its periodic component")
@@ -47,8 +53,9 @@ def build_parser() -> argparse.ArgumentParser:
         prog="warp-texton",
         description=(
             "Texton noise by example. 'analyze' learns a small texton from an example of a "
-            "Gaussian texture (fabric, wood, stone, sand...); 'gaussian' samples the texture's "
-            "Gaussian model; 'demo' runs everything on a texture shipped with the package."
+            "Gaussian texture (fabric, wood, stone, sand...); 'synthesize' evaluates texton noise "
+            "on a raster of any size; 'gaussian' samples the texture's Gaussian model by FFT; "
+            "'demo' runs everything on a texture shipped with the package."
         ),
         formatter_class=fmt,
     )
@@ -74,6 +81,27 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, help="random seed")
     p.add_argument("--no-periodic", dest="periodic", action="store_false",
                    help="model the image itself, not its periodic component")
+
+    p = sub.add_parser("synthesize", help="texton noise on a raster (Warp kernels)",
+                       description="Evaluate texton noise on a raster with the Warp kernels. INPUT is a "
+                                   "texton (.texton, or an EXR written by 'analyze') or an example image, "
+                                   "which is analysed first with the analysis options.",
+                       epilog=EPILOG_SYNTHESIZE, formatter_class=fmt)
+    p.add_argument("input", help="texton file or example image")
+    p.add_argument("-o", "--output", required=True, help="output image: .png, .jpg or .exr")
+    p.add_argument("--width", type=int, default=512, help="raster width in pixels")
+    p.add_argument("--height", type=int, default=512, help="raster height in pixels")
+    p.add_argument("--mni", type=float, default=30.0, help="mean number of impacts per point")
+    p.add_argument("--seed", type=int, default=0, help="random seed (analysis and noise)")
+    p.add_argument("--scale", type=float, default=1.0, help="pixels per texel")
+    p.add_argument("--rotation", type=float, default=0.0, help="rotation of the noise, degrees")
+    p.add_argument("--offset", type=float, nargs=2, default=(0.0, 0.0), metavar=("X", "Y"),
+                   help="noise position of the raster's top-left corner, texels")
+    p.add_argument("--period", type=float, nargs=2, metavar=("PX", "PY"),
+                   help="make the noise periodic (texels): a seamless tile")
+    p.add_argument("--device", help="cpu, cuda or cuda:N (default: CUDA when available)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress or summary")
+    _add_analyze_options(p, seed=False)
 
     p = sub.add_parser("demo", help="analyse the bundled texture and write pictures",
                        description="Analyse a small CC0 texture shipped with the package and write the "
@@ -112,8 +140,32 @@ def _cmd_gaussian(args) -> None:
     if out.suffix.lower() not in (*PIL_FORMATS, EXR):
         raise TextonError(f"{out}: unsupported extension {out.suffix or '(none)'!r}; use .png, .jpg, .jpeg or .exr")
     u = read_image(args.input)
-    shape = (args.height or u.shape[0], args.width or u.shape[1])
+    shape = (u.shape[0] if args.height is None else args.height, u.shape[1] if args.width is None else args.width)
     write_image(out, gaussian_texture(u, shape=shape, seed=args.seed, periodic=args.periodic))
+
+
+def _cmd_synthesize(args) -> None:
+    from .analysis import analyze
+    from .io import EXR, PIL_FORMATS, read_image, write_image
+    from .synthesis import synthesize
+    from .texton import is_texton_path, load_texton
+
+    out = Path(args.output)
+    if out.suffix.lower() not in (*PIL_FORMATS, EXR):
+        raise TextonError(f"{out}: unsupported extension {out.suffix or '(none)'!r}; use .png, .jpg, .jpeg or .exr")
+    t0 = time.perf_counter()
+    if is_texton_path(args.input):
+        texton = load_texton(args.input)
+    else:
+        texton = analyze(read_image(args.input), size=args.size, order=args.order, iterations=args.iterations,
+                         seed=args.seed, periodic=args.periodic, color_correction=args.color_correction,
+                         support=args.support, progress=not args.quiet)
+    noise = synthesize(texton, shape=(args.height, args.width), mni=args.mni, seed=args.seed, scale=args.scale,
+                       rotation=args.rotation, offset=tuple(args.offset), period=args.period, device=args.device)
+    write_image(out, noise)
+    if not args.quiet:
+        print(f"{out}: {args.width}x{args.height} texton noise, MNI {args.mni:g} "
+              f"({time.perf_counter() - t0:.2f} s)")
 
 
 def _cmd_demo(args) -> None:
@@ -124,7 +176,7 @@ def _cmd_demo(args) -> None:
             print(path)
 
 
-COMMANDS = {"analyze": _cmd_analyze, "gaussian": _cmd_gaussian, "demo": _cmd_demo}
+COMMANDS = {"analyze": _cmd_analyze, "gaussian": _cmd_gaussian, "synthesize": _cmd_synthesize, "demo": _cmd_demo}
 
 
 def main(argv=None) -> int:
@@ -133,16 +185,20 @@ def main(argv=None) -> int:
     if args.command is None:
         parser.print_help()
         return 2
-    warnings.simplefilter("default")
+    saved_format = warnings.formatwarning
     warnings.formatwarning = lambda msg, *a, **k: f"warp-texton: warning: {msg}\n"
     try:
-        COMMANDS[args.command](args)
+        with warnings.catch_warnings():
+            warnings.simplefilter("default")
+            COMMANDS[args.command](args)
     except TextonError as exc:
         print(f"warp-texton: error: {exc}", file=sys.stderr)
         return 2
     except OSError as exc:  # disk full, permission denied... still one line
         print(f"warp-texton: error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
         return 2
+    finally:
+        warnings.formatwarning = saved_format
     return 0
 
 

@@ -23,6 +23,13 @@ PIL_FORMATS = {".png": "PNG", ".jpg": "JPEG", ".jpeg": "JPEG"}
 EXR = ".exr"
 
 
+def _umask() -> int:
+    # os.umask can only be read by setting it; restore it at once.
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
 @contextlib.contextmanager
 def atomic_path(path):
     """Yield a temporary path beside ``path``; rename it to ``path`` on success.
@@ -38,6 +45,8 @@ def atomic_path(path):
     fd, tmp = tempfile.mkstemp(dir=parent, prefix=f".{path.name}.", suffix=".part")
     os.close(fd)
     try:
+        # mkstemp creates the file 0600; give the output the usual permissions.
+        os.chmod(tmp, 0o666 & ~_umask())
         yield tmp
         os.replace(tmp, path)
     except BaseException:
@@ -136,7 +145,7 @@ def read_image(path) -> np.ndarray:
     >>> from warp_texton import read_image
     >>> from warp_texton.demo import demo_texture_path
     >>> read_image(demo_texture_path()).shape
-    (128, 128, 1)
+    (256, 256, 1)
     """
     path = Path(path)
     if not path.exists():

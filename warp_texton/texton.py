@@ -168,6 +168,8 @@ def lag0_covariance(alpha: np.ndarray, order: int) -> np.ndarray:
     out = np.zeros((c, c))
     for dy in range(-k, k + 1):
         for dx in range(-k, k + 1):
+            if abs(dy) >= r or abs(dx) >= s:
+                continue  # no pair at this lag (and the slices below would wrap)
             w = b[k + dy] * b[k + dx]
             # pairs (x, x + τ) that both lie inside the coefficient array
             a0 = alpha[max(0, -dy): r - max(0, dy), max(0, -dx): s - max(0, dx)]
@@ -198,7 +200,9 @@ def _format_texton_text(t: Texton) -> str:
     rows = framed[::-1].reshape(-1, 3)
     lines = ["TEXTON", "1", str(t.order), " ".join(f"{float(v):.9e}" for v in mean), f"{w} {h}"]
     lines.extend(f"{x:.9e} {y:.9e} {z:.9e}" for x, y, z in rows.tolist())
+    # The format is ASCII: a non-ASCII source name must not make the save fail.
     src = str(t.metadata.get("source", "unknown")).replace("\n", " ")
+    src = src.encode("ascii", "replace").decode("ascii")
     src_shape = t.metadata.get("source_shape") or [0, 0]
     lines.append(f"Original image: {src} ({int(src_shape[1])} x {int(src_shape[0])})")
     return "\n".join(lines) + "\n"
@@ -244,7 +248,8 @@ def _parse_texton_text(path: Path) -> Texton:
         vals = np.array(" ".join(body).split(), dtype=np.float64)
     except ValueError:
         raise bad("a coefficient line holds something other than numbers") from None
-    if vals.size != 3 * w * h:
+    # per line too: a 4-value line next to a 2-value one would shift every texel
+    if vals.size != 3 * w * h or any(len(line.split()) != 3 for line in body):
         raise bad(f"expected 3 values on each of {w * h} coefficient lines")
     if not np.isfinite(vals).all():
         raise bad("coefficients must be finite")
@@ -274,7 +279,10 @@ def _load_exr_texton(path: Path) -> Texton:
     order = header["texton_order"]
     if not isinstance(order, int) or order not in ORDERS:
         raise TextonError(f"{path}: malformed texton EXR: order {order!r} is not one of {ORDERS}")
-    mean = np.asarray(header["texton_mean"], dtype=np.float64).ravel()
+    try:
+        mean = np.asarray(header["texton_mean"], dtype=np.float64).ravel()
+    except (TypeError, ValueError):
+        raise TextonError(f"{path}: malformed texton EXR: texton_mean is not a list of numbers") from None
     if mean.shape != (coeffs.shape[2],):
         raise TextonError(
             f"{path}: malformed texton EXR: {mean.size} mean values for {coeffs.shape[2]} channels"

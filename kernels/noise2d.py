@@ -1,0 +1,371 @@
+"""Texton noise in the plane: hashed-cell Poisson process and evaluation kernels.
+
+The plane is cut into cells of cw × ch texels. Cell (cx, cy) draws its impacts
+from a PCG stream seeded by an avalanche hash of (cx, cy, seed): first the
+count (Poisson with mean λ cw ch), then for each impact two uniforms giving its
+position in the cell. A period wraps the *seed* indices only, so the process
+is exactly periodic while positions stay unwrapped. Every kernel that needs a
+cell's impacts draws them in that same order, so all paths agree.
+
+Texton convention: an impact at p adds h(x − p) with h(y) = Σ_k α(k) ψ(y − k),
+coefficient (row i, column j) at y = (j, i). Coefficients are stored with a
+zero margin of PAD texels so that every tap of every order reads in bounds.
+"""
+
+import warp as wp
+
+# Forward evaluation only: no adjoints, which halves compile time.
+wp.set_module_options({"enable_backward": False, "optimization_level": 3})
+
+#: Zero margin around stored coefficients: the widest order (5) reaches 5 past an edge.
+PAD = 5
+
+_M1 = wp.constant(wp.uint32(0x7FEB352D))
+_M2 = wp.constant(wp.uint32(0x846CA68B))
+_GOLDEN = wp.constant(wp.uint32(0x9E3779B9))
+
+
+@wp.struct
+class NoiseParams:
+    cell: wp.vec2  # cell width and height, texels
+    period_cells: wp.vec2i  # cells per period along x and y; 0 = no period
+    lam_cell: float  # mean impact count per cell, λ cw ch
+    seed: wp.uint32
+    exact_poisson: int  # 1: exact Poisson counts; 0: rounded Gaussian approximation
+    order: int  # 0, 1, 3 or 5
+    lo: wp.vec2  # support of h relative to the impact: [lo, hi] per axis
+    hi: wp.vec2
+    lam: float  # λ, impacts per texel²
+    mean: wp.vec3  # m
+    integral: wp.vec3  # ∫h = Σα
+
+
+@wp.func
+def avalanche(x: wp.uint32):
+    # "lowbias32" integer finaliser: every input bit flips each output bit with p ≈ 1/2
+    x = x ^ (x >> wp.uint32(16))
+    x = x * _M1
+    x = x ^ (x >> wp.uint32(15))
+    x = x * _M2
+    x = x ^ (x >> wp.uint32(16))
+    return x
+
+
+@wp.func
+def wrap(i: int, n: int):
+    # index i modulo n (n > 0) with a non-negative result; n == 0 leaves i alone
+    if n <= 0:
+        return i
+    r = i % n
+    if r < 0:
+        r = r + n
+    return r
+
+
+@wp.func
+def cell_state(cx: int, cy: int, p: NoiseParams):
+    sx = wrap(cx, p.period_cells[0])
+    sy = wrap(cy, p.period_cells[1])
+    h = avalanche(p.seed + _GOLDEN)
+    h = avalanche(h ^ wp.uint32(sx))
+    h = avalanche(h ^ wp.uint32(sy))
+    return h
+
+
+@wp.func
+def draw_count(state: wp.uint32, p: NoiseParams):
+    # returns (count, advanced state)
+    s = state
+    n = int(0)
+    if p.exact_poisson != 0:
+        n = int(wp.poisson(s, p.lam_cell))
+    else:
+        g = wp.randn(s)
+        n = int(wp.floor(p.lam_cell + 0.5 + wp.sqrt(p.lam_cell) * g))
+        if n < 0:
+            n = 0
+    return n, s
+
+
+@wp.func
+def bspline_weight(t: float, order: int):
+    # centred B-spline ψ of the given order at t
+    a = wp.abs(t)
+    if order == 0:
+        if t >= -0.5 and t < 0.5:
+            return 1.0
+        return 0.0
+    if order == 1:
+        return wp.max(1.0 - a, 0.0)
+    if order == 3:
+        if a < 1.0:
+            return (4.0 - 6.0 * a * a + 3.0 * a * a * a) / 6.0
+        if a < 2.0:
+            b = 2.0 - a
+            return b * b * b / 6.0
+        return 0.0
+    # order 5: sum of truncated powers, (1/120) Σ_j (-1)^j C(6, j) (a + 3 - j)_+^5
+    s = 0.0
+    c = wp.vec4(1.0, -6.0, 15.0, -20.0)
+    for j in range(4):
+        u = 3.0 - a - float(j)
+        if u > 0.0:
+            s = s + c[j] * u * u * u * u * u
+    return s / 120.0
+
+
+@wp.func
+def texton_value(coeffs: wp.array2d(dtype=wp.vec3), y: wp.vec2, order: int):
+    # h(y) for y inside the support; taps outside the coefficients read the zero margin
+    rows = coeffs.shape[0]
+    cols = coeffs.shape[1]
+    acc = wp.vec3(0.0)
+    if order == 1:
+        fx = wp.floor(y[0])
+        fy = wp.floor(y[1])
+        tx = y[0] - fx
+        ty = y[1] - fy
+        j = wp.clamp(int(fx) + PAD, 0, cols - 2)
+        i = wp.clamp(int(fy) + PAD, 0, rows - 2)
+        top = coeffs[i, j] * (1.0 - tx) + coeffs[i, j + 1] * tx
+        bottom = coeffs[i + 1, j] * (1.0 - tx) + coeffs[i + 1, j + 1] * tx
+        return top * (1.0 - ty) + bottom * ty
+    if order == 0:
+        j = wp.clamp(int(wp.floor(y[0] + 0.5)) + PAD, 0, cols - 1)
+        i = wp.clamp(int(wp.floor(y[1] + 0.5)) + PAD, 0, rows - 1)
+        return coeffs[i, j]
+    # orders 3 and 5: (order + 1) taps per axis around y
+    half = (order + 1) // 2
+    j0 = int(wp.floor(y[0])) - half + 1
+    i0 = int(wp.floor(y[1])) - half + 1
+    for a in range(order + 1):
+        i = i0 + a
+        wy = bspline_weight(y[1] - float(i), order)
+        ii = wp.clamp(i + PAD, 0, rows - 1)
+        row = wp.vec3(0.0)
+        for b in range(order + 1):
+            j = j0 + b
+            wx = bspline_weight(y[0] - float(j), order)
+            row = row + coeffs[ii, wp.clamp(j + PAD, 0, cols - 1)] * wx
+        acc = acc + row * wy
+    return acc
+
+
+@wp.func
+def inside(d: wp.vec2, p: NoiseParams):
+    return d[0] >= p.lo[0] and d[0] <= p.hi[0] and d[1] >= p.lo[1] and d[1] <= p.hi[1]
+
+
+@wp.func
+def normalize(acc: wp.vec3, p: NoiseParams):
+    return p.mean + (acc - p.integral * p.lam) / wp.sqrt(p.lam)
+
+
+# ----------------------------------------------------------------- impacts
+@wp.kernel
+def count_impacts(p: NoiseParams, cell0: wp.vec2i, ncx: int, counts: wp.array(dtype=wp.int32)):
+    """Impact count of every cell of a rectangular block of cells."""
+    t = wp.tid()
+    cx = cell0[0] + t % ncx
+    cy = cell0[1] + t / ncx
+    n, s = draw_count(cell_state(cx, cy, p), p)
+    counts[t] = n
+
+
+@wp.kernel
+def emit_impacts(
+    p: NoiseParams,
+    cell0: wp.vec2i,
+    ncx: int,
+    offsets: wp.array(dtype=wp.int32),
+    impacts: wp.array(dtype=wp.vec2),
+):
+    """Positions of every cell's impacts, relative to the block corner (cell0's corner)."""
+    t = wp.tid()
+    lx = t % ncx
+    ly = t / ncx
+    n, s = draw_count(cell_state(cell0[0] + lx, cell0[1] + ly, p), p)
+    start = offsets[t]
+    stop = wp.min(start + n, offsets[t + 1])
+    for k in range(start, stop):
+        ux = wp.randf(s)
+        uy = wp.randf(s)
+        impacts[k] = wp.vec2((float(lx) + ux) * p.cell[0], (float(ly) + uy) * p.cell[1])
+
+
+# ------------------------------------------------------------------ rasters
+@wp.struct
+class Raster:
+    # pixel (i, j) sits at noise position base + (j + 0.5) * step_x + (i + 0.5) * step_y
+    base: wp.vec2  # relative to the impact origin
+    step_x: wp.vec2
+    step_y: wp.vec2
+    width: int
+    height: int
+
+
+@wp.func
+def pixel_position(r: Raster, i: int, j: int):
+    return r.base + r.step_x * (float(j) + 0.5) + r.step_y * (float(i) + 0.5)
+
+
+@wp.kernel
+def splat_impacts(
+    p: NoiseParams,
+    r: Raster,
+    inv: wp.mat22,
+    coeffs: wp.array2d(dtype=wp.vec3),
+    impacts: wp.array(dtype=wp.vec2),
+    first: int,
+    row0: int,
+    row1: int,
+    acc: wp.array2d(dtype=wp.vec3),
+):
+    """Add each impact's texton to the rows [row0, row1) of ``acc`` (no atomics).
+
+    ``acc`` holds raw sums; ``normalize_raster`` turns them into noise values.
+
+    For the CPU: one launch runs its threads one after another on one core,
+    and concurrent launches own disjoint row bands, so plain writes are safe.
+    ``inv`` maps a noise-space offset to (column, row) pixel offsets.
+    """
+    k = first + wp.tid()
+    q = impacts[k]
+    # pixel-space bounding box of the support [lo, hi] placed at q
+    c = q - r.base
+    b00 = inv * (c + wp.vec2(p.lo[0], p.lo[1]))
+    b01 = inv * (c + wp.vec2(p.hi[0], p.lo[1]))
+    b10 = inv * (c + wp.vec2(p.lo[0], p.hi[1]))
+    b11 = inv * (c + wp.vec2(p.hi[0], p.hi[1]))
+    jmin = wp.min(wp.min(b00[0], b01[0]), wp.min(b10[0], b11[0]))
+    jmax = wp.max(wp.max(b00[0], b01[0]), wp.max(b10[0], b11[0]))
+    imin = wp.min(wp.min(b00[1], b01[1]), wp.min(b10[1], b11[1]))
+    imax = wp.max(wp.max(b00[1], b01[1]), wp.max(b10[1], b11[1]))
+    j_lo = wp.max(int(wp.ceil(jmin - 0.5)), 0)
+    j_hi = wp.min(int(wp.floor(jmax - 0.5)), r.width - 1)
+    i_lo = wp.max(int(wp.ceil(imin - 0.5)), row0)
+    i_hi = wp.min(int(wp.floor(imax - 0.5)), row1 - 1)
+    for i in range(i_lo, i_hi + 1):
+        for j in range(j_lo, j_hi + 1):
+            d = pixel_position(r, i, j) - q
+            if inside(d, p):
+                acc[i, j] = acc[i, j] + texton_value(coeffs, d, p.order)
+
+
+@wp.kernel
+def splat_impacts_grid(
+    base: wp.vec2,
+    coeffs: wp.array2d(dtype=wp.vec3),
+    impacts: wp.array(dtype=wp.vec2),
+    width: int,
+    row0: int,
+    row1: int,
+    acc: wp.array2d(dtype=wp.vec3),
+):
+    """``splat_impacts`` for a bilinear texton on an unrotated raster at scale 1.
+
+    Pixel (i, j) sits at base + (j + ½, i + ½), so an impact's offset to every
+    pixel has the same fractional part: its texton is the coefficient array
+    blended with four fixed weights. The zero margin of ``coeffs`` makes taps
+    past the support vanish, so no support test is needed.
+    """
+    q = impacts[wp.tid()]
+    # d(i, j) = (j + B + fx, i + A + fy): the integer and fractional parts of the offset
+    ox = base[0] + 0.5 - q[0]
+    oy = base[1] + 0.5 - q[1]
+    fbx = wp.floor(ox)
+    fby = wp.floor(oy)
+    fx = ox - fbx
+    fy = oy - fby
+    bx = int(fbx) + PAD
+    ay = int(fby) + PAD
+    rows = coeffs.shape[0]
+    cols = coeffs.shape[1]
+    # pixels whose top-left tap (ay + i, bx + j) lies in [0, rows-1) x [0, cols-1)
+    i_lo = wp.max(-ay, row0)
+    i_hi = wp.min(rows - 2 - ay, row1 - 1)
+    j_lo = wp.max(-bx, 0)
+    j_hi = wp.min(cols - 2 - bx, width - 1)
+    gy = 1.0 - fy
+    gx = 1.0 - fx
+    for i in range(i_lo, i_hi + 1):
+        a = ay + i
+        b = bx + j_lo
+        # blend the two rows once per column; each column serves two pixels
+        left = coeffs[a, b] * gy + coeffs[a + 1, b] * fy
+        for j in range(j_lo, j_hi + 1):
+            b = bx + j + 1
+            right = coeffs[a, b] * gy + coeffs[a + 1, b] * fy
+            acc[i, j] = acc[i, j] + left * gx + right * fx
+            left = right
+
+
+@wp.kernel
+def normalize_raster(p: NoiseParams, row0: int, acc: wp.array2d(dtype=wp.vec3)):
+    i, j = wp.tid()
+    acc[row0 + i, j] = normalize(acc[row0 + i, j], p)
+
+
+@wp.kernel
+def gather_raster(
+    p: NoiseParams,
+    r: Raster,
+    coeffs: wp.array2d(dtype=wp.vec3),
+    impacts: wp.array(dtype=wp.vec2),
+    offsets: wp.array(dtype=wp.int32),
+    ncx: int,
+    ncy: int,
+    out: wp.array2d(dtype=wp.vec3),
+):
+    """One thread per pixel: sum the textons of the impacts of nearby cells (GPU path)."""
+    i, j = wp.tid()
+    x = pixel_position(r, i, j)  # relative to the block origin, i.e. cell0's corner
+    cx_lo = wp.max(int(wp.floor((x[0] - p.hi[0]) / p.cell[0])), 0)
+    cx_hi = wp.min(int(wp.floor((x[0] - p.lo[0]) / p.cell[0])), ncx - 1)
+    cy_lo = wp.max(int(wp.floor((x[1] - p.hi[1]) / p.cell[1])), 0)
+    cy_hi = wp.min(int(wp.floor((x[1] - p.lo[1]) / p.cell[1])), ncy - 1)
+    acc = wp.vec3(0.0)
+    for cy in range(cy_lo, cy_hi + 1):
+        for cx in range(cx_lo, cx_hi + 1):
+            c = cy * ncx + cx
+            for k in range(offsets[c], offsets[c + 1]):
+                d = x - impacts[k]
+                if inside(d, p):
+                    acc = acc + texton_value(coeffs, d, p.order)
+    out[i, j] = normalize(acc, p)
+
+
+# ------------------------------------------------------------------- points
+@wp.kernel
+def evaluate_points(
+    p: NoiseParams,
+    coeffs: wp.array2d(dtype=wp.vec3),
+    points: wp.array(dtype=wp.vec2d),
+    out: wp.array(dtype=wp.vec3),
+):
+    """Noise at arbitrary points (texel units), drawing each nearby cell's impacts.
+
+    Cell indices are found in float64 so that points far from the origin
+    still land in the right cell; offsets inside a cell are small and float32.
+    """
+    t = wp.tid()
+    x = points[t]
+    cw = wp.float64(p.cell[0])
+    ch = wp.float64(p.cell[1])
+    cx_lo = int(wp.floor((x[0] - wp.float64(p.hi[0])) / cw))
+    cx_hi = int(wp.floor((x[0] - wp.float64(p.lo[0])) / cw))
+    cy_lo = int(wp.floor((x[1] - wp.float64(p.hi[1])) / ch))
+    cy_hi = int(wp.floor((x[1] - wp.float64(p.lo[1])) / ch))
+    acc = wp.vec3(0.0)
+    for cy in range(cy_lo, cy_hi + 1):
+        for cx in range(cx_lo, cx_hi + 1):
+            # x relative to this cell's corner
+            rel = wp.vec2(float(x[0] - wp.float64(cx) * cw), float(x[1] - wp.float64(cy) * ch))
+            n, s = draw_count(cell_state(cx, cy, p), p)
+            for k in range(n):
+                ux = wp.randf(s)
+                uy = wp.randf(s)
+                d = rel - wp.vec2(ux * p.cell[0], uy * p.cell[1])
+                if inside(d, p):
+                    acc = acc + texton_value(coeffs, d, p.order)
+    out[t] = normalize(acc, p)

@@ -1,0 +1,394 @@
+"""read_image / write_image: formats, scaling, alpha, atomic writes, errors."""
+
+from __future__ import annotations
+
+import os
+import types
+
+import numpy as np
+import OpenEXR
+import pytest
+from PIL import Image
+
+import warp_texton.io as wio
+from warp_texton import TextonError, read_image, write_image
+
+LOSSY_EXR = {
+    OpenEXR.B44_COMPRESSION,
+    OpenEXR.B44A_COMPRESSION,
+    OpenEXR.DWAA_COMPRESSION,
+    OpenEXR.DWAB_COMPRESSION,
+    OpenEXR.PXR24_COMPRESSION,
+}
+
+
+def parts(folder):
+    """Temporary files an atomic write may leave behind."""
+    return sorted(p.name for p in folder.iterdir() if p.name.endswith(".part"))
+
+
+def assert_nothing_written(path):
+    assert not path.exists()
+    assert parts(path.parent) == []
+
+
+def raw_exr(path, channels, **attributes):
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage, **attributes}
+    OpenEXR.File(header, channels).write(str(path))
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(1234)
+
+
+# ------------------------------------------------------------------ EXR
+class TestExr:
+    @pytest.mark.parametrize("channels", [1, 3])
+    def test_round_trip_is_exact(self, tmp_path, rng, channels):
+        # negative values and values above 1 must survive: EXR is not clipped
+        img = (rng.standard_normal((7, 11, channels)) * 3).astype(np.float32)
+        path = tmp_path / "a.exr"
+        write_image(path, img)
+        back = read_image(path)
+        assert back.dtype == np.float32
+        assert back.shape == img.shape
+        np.testing.assert_array_equal(back, img)
+        assert parts(tmp_path) == []
+
+    @pytest.mark.parametrize("channels, names", [(1, ["Y"]), (3, ["B", "G", "R"])])
+    def test_channel_names_and_pixel_type(self, tmp_path, rng, channels, names):
+        path = tmp_path / "a.exr"
+        write_image(path, rng.random((4, 5, channels)).astype(np.float32))
+        header = OpenEXR.File(str(path)).header()
+        assert sorted(c.name for c in header["channels"]) == names
+        # stored as float32, not half: compare with OpenEXR's own reading
+        pix = OpenEXR.File(str(path)).channels()["Y" if channels == 1 else "RGB"].pixels
+        assert pix.dtype == np.float32
+
+    def test_compression_is_lossless(self, tmp_path, rng):
+        path = tmp_path / "a.exr"
+        write_image(path, rng.random((4, 4, 3)))
+        compression = OpenEXR.File(str(path)).header()["compression"]
+        assert compression not in LOSSY_EXR
+        assert compression != OpenEXR.NO_COMPRESSION  # compressed, losslessly
+
+    def test_float64_input_is_written_as_float32(self, tmp_path):
+        img = np.array([[0.1, 1e10], [-2.5, 1.0 / 3.0]])
+        path = tmp_path / "a.exr"
+        write_image(path, img)
+        np.testing.assert_array_equal(read_image(path)[:, :, 0], img.astype(np.float32))
+
+    def test_separate_channels_from_another_writer(self, tmp_path, rng):
+        # R, G, B written as three separate channels read back as one RGB image
+        r, g, b = (np.ascontiguousarray(rng.random((3, 4), dtype=np.float32)) for _ in range(3))
+        path = tmp_path / "sep.exr"
+        raw_exr(path, {"R": r, "G": g, "B": b})
+        back = read_image(path)
+        np.testing.assert_array_equal(back, np.stack([r, g, b], axis=2))
+
+    def test_half_float_exr(self, tmp_path):
+        y = np.array([[0.5, -1.0], [2.0, 0.25]], dtype=np.float16)
+        path = tmp_path / "half.exr"
+        raw_exr(path, {"Y": y})
+        back = read_image(path)
+        assert back.dtype == np.float32
+        np.testing.assert_array_equal(back[:, :, 0], y.astype(np.float32))
+
+    def test_rgba_exr_drops_alpha(self, tmp_path, rng):
+        rgba = rng.random((3, 4, 4), dtype=np.float32)
+        path = tmp_path / "rgba.exr"
+        raw_exr(path, {"RGBA": rgba})
+        with pytest.warns(UserWarning, match="alpha"):
+            back = read_image(path)
+        np.testing.assert_array_equal(back, rgba[:, :, :3])
+
+    @pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+    def test_non_finite_pixels_refused(self, tmp_path, bad):
+        y = np.ones((4, 4), dtype=np.float32)
+        y[2, 1] = bad
+        path = tmp_path / "nan.exr"
+        raw_exr(path, {"Y": y})
+        with pytest.raises(TextonError, match="NaN or infinite"):
+            read_image(path)
+
+    def test_five_arbitrary_channels_refused(self, tmp_path, rng):
+        path = tmp_path / "five.exr"
+        raw_exr(path, {n: rng.random((4, 4), dtype=np.float32) for n in "abcde"})
+        with pytest.raises(TextonError, match="not an image; expected Y, RGB or RGBA"):
+            read_image(path)
+
+    def test_garbage_exr_refused(self, tmp_path):
+        path = tmp_path / "garbage.exr"
+        path.write_bytes(b"\x76\x2f\x31\x01" + b"not really an exr file" * 10)
+        with pytest.raises(TextonError, match="not a readable EXR file"):
+            read_image(path)
+
+    def test_png_named_exr_refused(self, tmp_path):
+        path = tmp_path / "fake.exr"
+        Image.fromarray(np.zeros((4, 4), np.uint8)).save(path, format="PNG")
+        with pytest.raises(TextonError, match="not a readable EXR file"):
+            read_image(path)
+
+
+# ------------------------------------------------------------------ PNG / JPEG
+class TestPng:
+    def test_8bit_values_exact(self, tmp_path):
+        k = np.arange(256, dtype=np.float64).reshape(16, 16)
+        path = tmp_path / "k.png"
+        write_image(path, (k / 255.0).astype(np.float32))
+        with Image.open(path) as im:
+            assert im.mode == "L"  # 8-bit grey
+            np.testing.assert_array_equal(np.asarray(im), k.astype(np.uint8))
+        back = read_image(path)
+        assert back.shape == (16, 16, 1) and back.dtype == np.float32
+        np.testing.assert_array_equal(back[:, :, 0], (k / 255.0).astype(np.float32))
+
+    def test_8bit_rgb_round_trip(self, tmp_path, rng):
+        k = rng.integers(0, 256, size=(5, 6, 3))
+        path = tmp_path / "rgb.png"
+        write_image(path, k / 255.0)
+        with Image.open(path) as im:
+            assert im.mode == "RGB"
+        np.testing.assert_array_equal(read_image(path), (k / 255.0).astype(np.float32))
+
+    def test_output_is_clipped_and_rounded(self, tmp_path):
+        img = np.array([[-0.5, 0.25, 1.5, 2.0 / 255.0 + 0.4 / 255.0]], dtype=np.float32)
+        path = tmp_path / "clip.png"
+        write_image(path, img)
+        with Image.open(path) as im:
+            np.testing.assert_array_equal(np.asarray(im), [[0, 64, 255, 2]])
+        np.testing.assert_array_equal(
+            read_image(path)[:, :, 0], (np.array([[0, 64, 255, 2]]) / 255.0).astype(np.float32)
+        )
+
+    def test_16bit_png_scaled_by_65535(self, tmp_path):
+        v = np.array([[0, 1, 1000, 32768], [40000, 65534, 65535, 257]], dtype=np.uint16)
+        path = tmp_path / "deep.png"
+        im = Image.fromarray(v)
+        assert im.mode == "I;16"
+        im.save(path)
+        with Image.open(path) as reread:
+            assert reread.mode.startswith("I")  # stored with 16 bits, not reduced to 8
+        back = read_image(path)
+        assert back.shape == (2, 4, 1)
+        np.testing.assert_array_equal(back[:, :, 0], (v / 65535.0).astype(np.float32))
+
+    def test_plain_2d_array_becomes_one_channel(self, tmp_path):
+        path = tmp_path / "g.png"
+        write_image(path, np.full((3, 5), 0.2))
+        assert read_image(path).shape == (3, 5, 1)
+
+    def test_rgba_png_drops_alpha_with_warning(self, tmp_path, rng):
+        rgba = rng.integers(0, 256, size=(4, 5, 4), dtype=np.uint8)
+        path = tmp_path / "rgba.png"
+        Image.fromarray(rgba, mode="RGBA").save(path)
+        with pytest.warns(UserWarning, match="alpha"):
+            back = read_image(path)
+        assert back.shape == (4, 5, 3)
+        # colours are the stored ones, not premultiplied or composited
+        np.testing.assert_array_equal(back, (rgba[:, :, :3] / 255.0).astype(np.float32))
+
+    def test_la_png_drops_alpha_with_warning(self, tmp_path, rng):
+        la = rng.integers(0, 256, size=(4, 5, 2), dtype=np.uint8)
+        path = tmp_path / "la.png"
+        Image.fromarray(la, mode="LA").save(path)
+        with pytest.warns(UserWarning, match="alpha"):
+            back = read_image(path)
+        assert back.shape == (4, 5, 1)
+        np.testing.assert_array_equal(back[:, :, 0], (la[:, :, 0] / 255.0).astype(np.float32))
+
+    def test_rgba_array_written_without_alpha(self, tmp_path, rng):
+        rgba = rng.random((3, 3, 4)).astype(np.float32)
+        path = tmp_path / "w.exr"
+        with pytest.warns(UserWarning, match="alpha"):
+            write_image(path, rgba)
+        np.testing.assert_array_equal(read_image(path), rgba[:, :, :3])
+
+    def test_palette_png(self, tmp_path):
+        palette = [10, 20, 30, 200, 100, 0, 255, 255, 255]
+        idx = np.array([[0, 1, 2], [2, 1, 0]], dtype=np.uint8)
+        im = Image.fromarray(idx, mode="P")
+        im.putpalette(palette + [0] * (768 - len(palette)))
+        path = tmp_path / "pal.png"
+        im.save(path)
+        back = read_image(path)
+        assert back.shape == (2, 3, 3)
+        colours = np.array(palette, dtype=np.float64).reshape(3, 3)
+        np.testing.assert_array_equal(back, (colours[idx] / 255.0).astype(np.float32))
+
+    def test_bilevel_png(self, tmp_path):
+        bits = np.array([[True, False], [False, True]])
+        path = tmp_path / "bits.png"
+        Image.fromarray(bits).convert("1").save(path)
+        np.testing.assert_array_equal(read_image(path)[:, :, 0], bits.astype(np.float32))
+
+    @pytest.mark.parametrize("channels", [1, 3])
+    def test_jpeg_readable(self, tmp_path, channels):
+        y, x = np.mgrid[:16, :24]
+        smooth = 0.2 + 0.6 * (x / 23.0)[:, :, None] * np.ones(channels)
+        smooth = smooth * (0.5 + 0.5 * (y / 15.0))[:, :, None]
+        path = tmp_path / "smooth.jpg"
+        write_image(path, smooth)
+        with Image.open(path) as im:
+            assert im.format == "JPEG"
+        back = read_image(path)
+        assert back.shape == (16, 24, channels)
+        assert np.abs(back - smooth).max() < 4 / 255
+
+    def test_jpeg_written_elsewhere_readable(self, tmp_path):
+        path = tmp_path / "other.jpeg"
+        Image.new("RGB", (8, 6), (255, 0, 0)).save(path, quality=95)
+        back = read_image(path)
+        assert back.shape == (6, 8, 3)
+        np.testing.assert_allclose(back.mean(axis=(0, 1)), [1.0, 0.0, 0.0], atol=3 / 255)
+
+
+# ------------------------------------------------------------------ atomic writes
+class TestAtomicWrite:
+    def test_written_file_has_usual_permissions(self, tmp_path):
+        path = tmp_path / "perm.png"
+        write_image(path, np.zeros((2, 2)))
+        mask = os.umask(0o022)
+        os.umask(mask)
+        # not the 0600 of the temporary file
+        assert os.stat(path).st_mode & 0o777 == 0o666 & ~mask
+
+    @pytest.mark.parametrize("ext", [".png", ".exr"])
+    def test_nan_image_leaves_old_file_intact(self, tmp_path, ext):
+        path = tmp_path / f"out{ext}"
+        write_image(path, np.full((4, 4), 0.5))
+        before = path.read_bytes()
+        bad = np.full((4, 4), 0.5)
+        bad[1, 1] = np.nan
+        with pytest.raises(TextonError, match="NaN or infinite"):
+            write_image(path, bad)
+        assert path.read_bytes() == before
+        assert parts(tmp_path) == []
+
+    def test_unsupported_extension_leaves_old_file_intact(self, tmp_path):
+        path = tmp_path / "old.bmp"
+        path.write_bytes(b"previous content")
+        with pytest.raises(TextonError, match=r"unsupported extension '\.bmp'"):
+            write_image(path, np.zeros((2, 2)))
+        assert path.read_bytes() == b"previous content"
+        assert parts(tmp_path) == []
+
+    def test_failing_png_writer_leaves_old_file_intact(self, tmp_path, monkeypatch):
+        path = tmp_path / "out.png"
+        write_image(path, np.full((4, 4), 0.25))
+        before = path.read_bytes()
+
+        def broken_save(self, fp, *args, **kwargs):
+            with open(fp, "wb") as f:
+                f.write(b"\x89PNG half written")
+            raise OSError(28, "No space left on device")
+
+        monkeypatch.setattr(Image.Image, "save", broken_save)
+        with pytest.raises(OSError, match="No space left"):
+            write_image(path, np.full((4, 4), 0.75))
+        assert path.read_bytes() == before
+        assert parts(tmp_path) == []
+
+    def test_failing_exr_writer_leaves_no_file(self, tmp_path, monkeypatch):
+        class BrokenFile:
+            def __init__(self, header, channels):
+                pass
+
+            def write(self, name):
+                with open(name, "wb") as f:
+                    f.write(b"v/1\x01 partial")
+                raise RuntimeError("disk went away")
+
+        fake = types.SimpleNamespace(
+            File=BrokenFile, ZIP_COMPRESSION=OpenEXR.ZIP_COMPRESSION, scanlineimage=OpenEXR.scanlineimage
+        )
+        monkeypatch.setattr(wio, "_exr_module", lambda: fake)
+        path = tmp_path / "out.exr"
+        with pytest.raises(RuntimeError, match="disk went away"):
+            write_image(path, np.zeros((2, 2)))
+        assert_nothing_written(path)
+
+    def test_missing_folder(self, tmp_path):
+        path = tmp_path / "missing" / "out.png"
+        with pytest.raises(TextonError, match="output folder .* does not exist"):
+            write_image(path, np.zeros((2, 2)))
+        assert not path.parent.exists()
+
+    def test_folder_as_output(self, tmp_path):
+        (tmp_path / "dir.png").mkdir()
+        with pytest.raises(TextonError, match="is a folder"):
+            write_image(tmp_path / "dir.png", np.zeros((2, 2)))
+        assert parts(tmp_path) == []
+
+    def test_no_extension(self, tmp_path):
+        path = tmp_path / "noext"
+        with pytest.raises(TextonError, match=r"unsupported extension '\(none\)'"):
+            write_image(path, np.zeros((2, 2)))
+        assert_nothing_written(path)
+
+    def test_overwrite_replaces_content(self, tmp_path):
+        path = tmp_path / "o.exr"
+        write_image(path, np.zeros((2, 2)))
+        write_image(path, np.ones((3, 2, 3)))
+        np.testing.assert_array_equal(read_image(path), np.ones((3, 2, 3), np.float32))
+        assert parts(tmp_path) == []
+
+
+# ------------------------------------------------------------------ bad input
+class TestReadErrors:
+    def test_missing_file(self, tmp_path):
+        with pytest.raises(TextonError, match="no such file"):
+            read_image(tmp_path / "nope.png")
+
+    def test_folder_instead_of_file(self, tmp_path):
+        (tmp_path / "d.png").mkdir()
+        with pytest.raises(TextonError, match="not a file"):
+            read_image(tmp_path / "d.png")
+
+    def test_text_named_png(self, tmp_path):
+        path = tmp_path / "notes.png"
+        path.write_text("this is not an image\n")
+        with pytest.raises(TextonError, match="not an image that can be read"):
+            read_image(path)
+
+    def test_truncated_png(self, tmp_path, rng):
+        path = tmp_path / "cut.png"
+        Image.fromarray(rng.integers(0, 256, (32, 32), dtype=np.uint8)).save(path)
+        path.write_bytes(path.read_bytes()[:60])
+        with pytest.raises(TextonError, match="not an image that can be read"):
+            read_image(path)
+
+    def test_error_message_names_the_file(self, tmp_path):
+        path = tmp_path / "named.png"
+        path.write_text("x")
+        with pytest.raises(TextonError, match="named.png"):
+            read_image(path)
+
+
+class TestWriteErrors:
+    @pytest.mark.parametrize(
+        "img, match",
+        [
+            (np.zeros((4, 4, 2)), "has 2 channels; expected 1 .*, 3 .* or 4"),
+            (np.zeros((4, 4, 5)), "has 5 channels"),
+            (np.zeros((0, 4)), "empty"),
+            (np.zeros((4, 0, 3)), "empty"),
+            (np.zeros(5), r"expected an image of shape \(H, W\) or \(H, W, C\)"),
+            (np.zeros((2, 2, 2, 1)), "expected an image of shape"),
+            (np.array([["a", "b"]]), "expected a numeric image array"),
+            (np.zeros((2, 2), complex), "complex"),
+        ],
+    )
+    @pytest.mark.parametrize("ext", [".png", ".exr"])
+    def test_bad_arrays(self, tmp_path, img, match, ext):
+        path = tmp_path / f"bad{ext}"
+        with pytest.raises(TextonError, match=match):
+            write_image(path, img)
+        assert_nothing_written(path)
+
+    def test_infinite_pixels(self, tmp_path):
+        path = tmp_path / "inf.exr"
+        with pytest.raises(TextonError, match="1 NaN or infinite"):
+            write_image(path, np.array([[0.0, np.inf]]))
+        assert_nothing_written(path)

@@ -1,0 +1,372 @@
+"""Texton noise on rasters and at points: the host side of kernels/noise2d.py.
+
+g(x) = m + (Σ_j h(x − x_j) − λ ∫h) / √λ with x_j a Poisson process of
+intensity λ = MNI / area(supp h) (CGF eq. (1)-(2), §3.3), generated cell by
+cell from hashed seeds (CGF §8) so that any window, at any position, on any
+device, shows the same noise.
+
+Rasters: the impacts of the cells under the raster are drawn once (a count
+pass, a prefix sum, an emit pass). On the CPU each thread then *splats* every
+impact's texton into the band of rows it owns, so no pixel ever tests
+impacts that miss it; on CUDA one thread per pixel gathers the impacts of its
+neighbouring cells. Points: each point draws the impacts of its neighbouring
+cells itself.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._checks import check_positive, check_seed, check_shape
+from .errors import TextonError
+from .texton import Texton
+
+#: Default cell side as a fraction of the texton support side (CGF §8).
+CELL_FACTOR = 0.6
+POISSON_MODES = ("exact", "gaussian")
+#: Refuse rasters whose cell block would exceed this many cells (a tiny scale
+#: makes one pixel cover huge areas of the noise).
+MAX_CELLS = 1 << 26
+
+
+def _warp():
+    """Warp, initialised without its greeting or the native "no CUDA driver" note."""
+    import warp as wp
+
+    if not getattr(_warp, "done", False):
+        wp.config.log_level = wp.LOG_WARNING
+        # The driver note is printed by native code: silence file descriptor 2 meanwhile.
+        saved = os.dup(2)
+        try:
+            with open(os.devnull, "wb") as null:
+                os.dup2(null.fileno(), 2)
+                wp.init()
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+        _warp.done = True
+    return wp
+
+
+def resolve_device(device=None) -> str:
+    """"cuda" when available for ``None``, else "cpu"; names are checked."""
+    wp = _warp()
+    if device is None:
+        return "cuda:0" if wp.is_cuda_available() else "cpu"
+    try:
+        return str(wp.get_device(device))
+    except Exception:
+        names = ", ".join(str(d) for d in wp.get_devices())
+        raise TextonError(f"device: unknown device {device!r}; available: {names}") from None
+
+
+@dataclass(frozen=True)
+class NoiseSetup:
+    """Everything the kernels need that follows from (texton, mni, seed, options)."""
+
+    lam: float
+    cell: tuple[float, float]
+    period_cells: tuple[int, int]
+    lo: tuple[float, float]
+    hi: tuple[float, float]
+    coeffs: np.ndarray  # (r + 2 PAD, s + 2 PAD, 3) float32
+
+    @property
+    def lam_cell(self) -> float:
+        return self.lam * self.cell[0] * self.cell[1]
+
+
+def noise_setup(texton: Texton, mni: float, period=None, cell_factor: float = CELL_FACTOR) -> NoiseSetup:
+    """Intensity, cell grid and support box of the noise of ``texton``."""
+    _warp()  # configure Warp before the kernel module imports it
+    from .kernels.noise2d import PAD
+
+    if not isinstance(texton, Texton):
+        raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
+    mni = check_positive(mni, "mni")
+    cell_factor = check_positive(cell_factor, "cell_factor")
+    r, s = texton.size
+    k = texton.order
+    reach = 0.5 if k == 0 else (k + 1) / 2.0  # ψ is supported on [-reach, reach]
+    lo = (-reach, -reach)
+    hi = (s - 1 + reach, r - 1 + reach)
+    side = cell_factor * max(hi[0] - lo[0], hi[1] - lo[1])
+    if period is None:
+        cell = (side, side)
+        period_cells = (0, 0)
+    else:
+        px, py = _check_period(period)
+        nx = max(1, round(px / side))
+        ny = max(1, round(py / side))
+        cell = (px / nx, py / ny)
+        period_cells = (nx, ny)
+    coeffs = np.zeros((r + 2 * PAD, s + 2 * PAD, 3), np.float32)
+    coeffs[PAD:PAD + r, PAD:PAD + s, : texton.channels] = texton.coeffs
+    return NoiseSetup(mni / texton.support_area, cell, period_cells, lo, hi, coeffs)
+
+
+def _check_period(period) -> tuple[float, float]:
+    try:
+        px, py = period
+    except (TypeError, ValueError):
+        raise TextonError(f"period must be a pair (Px, Py) of positive numbers, got {period!r}") from None
+    return check_positive(px, "period[0]"), check_positive(py, "period[1]")
+
+
+def _params(wp, texton: Texton, setup: NoiseSetup, seed: int, poisson: str):
+    from .kernels.noise2d import NoiseParams
+
+    if poisson not in POISSON_MODES:
+        raise TextonError(f"poisson must be one of {', '.join(POISSON_MODES)}, got {poisson!r}")
+    p = NoiseParams()
+    p.cell = wp.vec2(*setup.cell)
+    p.period_cells = wp.vec2i(*setup.period_cells)
+    p.lam_cell = setup.lam_cell
+    p.seed = wp.uint32(seed)
+    p.exact_poisson = 1 if poisson == "exact" else 0
+    p.order = texton.order
+    p.lo = wp.vec2(*setup.lo)
+    p.hi = wp.vec2(*setup.hi)
+    p.lam = setup.lam
+    mean = np.zeros(3)
+    mean[: texton.channels] = texton.mean
+    integral = np.zeros(3)
+    integral[: texton.channels] = texton.integral
+    p.mean = wp.vec3(*mean)
+    p.integral = wp.vec3(*integral)
+    return p
+
+
+def _threads() -> int:
+    return max(1, os.cpu_count() or 1)
+
+
+def _raster_geometry(shape, scale, rotation, offset):
+    """Pixel (i, j) ↦ x = offset + R(rotation) ((j + ½)/scale, (i + ½)/scale)."""
+    scale = check_positive(scale, "scale")
+    try:
+        rotation = float(rotation)
+        ox, oy = (float(v) for v in offset)
+    except (TypeError, ValueError):
+        raise TextonError(f"rotation must be a number and offset a pair (x, y), got {rotation!r}, {offset!r}") from None
+    if not (math.isfinite(rotation) and math.isfinite(ox) and math.isfinite(oy)):
+        raise TextonError("rotation and offset must be finite")
+    th = math.radians(rotation)
+    rot = np.array([[math.cos(th), -math.sin(th)], [math.sin(th), math.cos(th)]])
+    step = rot / scale  # columns: noise step per pixel along x (j) and along y (i)
+    return np.array([ox, oy]), step
+
+
+def synthesize(
+    texton: Texton,
+    shape=(512, 512),
+    mni: float = 30.0,
+    seed: int = 0,
+    scale: float = 1.0,
+    rotation: float = 0.0,
+    offset=(0.0, 0.0),
+    period=None,
+    device=None,
+    *,
+    poisson: str = "exact",
+    cell_factor: float = CELL_FACTOR,
+) -> np.ndarray:
+    """Texton noise on an H × W raster.
+
+    Pixel (i, j) is the noise at x = offset + R(rotation) · ((j + ½)/scale, (i + ½)/scale)
+    in texel units, so ``scale`` is pixels per texel and ``rotation`` (degrees)
+    turns the noise. Any window of the infinite noise can be made, and windows
+    whose offsets differ by their width join without a seam.
+
+    Parameters
+    ----------
+    texton : Texton
+    shape : (height, width)
+    mni : float
+        Mean number of impacts per point; λ = mni / texton.support_area.
+    seed : int
+        In [0, 2**32).
+    scale, rotation, offset
+        The raster's placement in the noise (see above).
+    period : (Px, Py), optional
+        Make the noise exactly periodic with these periods (texel units):
+        ``synthesize(t, (H, W), period=(W, H))`` is a seamless tile.
+    device : str, optional
+        "cpu", "cuda", "cuda:N"; default CUDA when available, else CPU.
+    poisson : {"exact", "gaussian"}
+        Cell counts exactly Poisson, or the rounded Gaussian approximation of
+        the authors' viewer.
+    cell_factor : float
+        Cell side relative to the texton support side (CGF §8 uses ~0.6).
+
+    Returns
+    -------
+    float32 array (height, width, C)
+
+    References
+    ----------
+    CGF eq. (1)-(2), §3.3, §4, §8.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from warp_texton import Texton, synthesize
+    >>> t = Texton(np.random.default_rng(0).standard_normal((8, 8, 1)) / 8, [0.5])
+    >>> synthesize(t, (32, 48), device="cpu").shape
+    (32, 48, 1)
+    """
+    h, w = check_shape(shape)
+    seed = check_seed(seed)
+    setup = noise_setup(texton, mni, period, cell_factor)
+    origin, step = _raster_geometry((h, w), scale, rotation, offset)
+    device = resolve_device(device)
+    wp = _warp()
+    from .kernels import noise2d as K
+
+    p = _params(wp, texton, setup, seed, poisson)
+    cw, ch = setup.cell
+    # Noise-space bounding box of the raster, grown by the support: the block of cells to draw.
+    corners = origin[:, None] + step @ np.array([[0, w, 0, w], [0, 0, h, h]], dtype=np.float64)
+    x0, x1 = corners[0].min() - setup.hi[0], corners[0].max() - setup.lo[0]
+    y0, y1 = corners[1].min() - setup.hi[1], corners[1].max() - setup.lo[1]
+    cx0, cy0 = math.floor(x0 / cw), math.floor(y0 / ch)
+    ncx, ncy = math.floor(x1 / cw) - cx0 + 1, math.floor(y1 / ch) - cy0 + 1
+    if ncx * ncy > MAX_CELLS:
+        raise TextonError(
+            f"scale {scale} makes this {h}x{w} raster cover {ncx * ncy} noise cells "
+            f"(at most {MAX_CELLS}); use a larger scale or a smaller raster"
+        )
+    with wp.ScopedDevice(device):
+        impacts, offsets = _draw_block(wp, K, p, (cx0, cy0), ncx, ncy)
+        raster = K.Raster()
+        # positions relative to the block corner, computed in float64 before rounding
+        base = origin - np.array([cx0 * cw, cy0 * ch])
+        raster.base = wp.vec2(*base)
+        raster.step_x = wp.vec2(*step[:, 0])
+        raster.step_y = wp.vec2(*step[:, 1])
+        raster.width = w
+        raster.height = h
+        coeffs = wp.array(setup.coeffs, dtype=wp.vec3)
+        if wp.get_device(device).is_cpu:
+            # calloc'd pages are zeroed lazily, by the threads that first touch them
+            host = np.zeros((h, w, 3), np.float32)
+            out = wp.array(host, dtype=wp.vec3, copy=False)
+            inv = np.linalg.inv(step)
+            n = impacts.shape[0]
+            bands = np.linspace(0, h, min(h, 2 * _threads()) + 1).astype(int)
+            on_grid = texton.order == 1 and np.array_equal(step, np.eye(2))
+
+            def splat(band):
+                r0, r1 = band
+                if r1 <= r0:
+                    return
+                if n and on_grid:
+                    wp.launch(K.splat_impacts_grid, dim=n, inputs=[raster.base, coeffs, impacts, w, r0, r1, out])
+                elif n:
+                    wp.launch(K.splat_impacts, dim=n,
+                              inputs=[p, raster, wp.mat22(*inv.ravel()), coeffs, impacts, 0, r0, r1, out])
+                wp.launch(K.normalize_raster, dim=(r1 - r0, w), inputs=[p, r0, out])
+
+            wp.load_module(K, device=device)
+            with ThreadPoolExecutor(_threads()) as pool:
+                list(pool.map(splat, zip(bands[:-1], bands[1:])))
+            result = host
+        else:
+            out = wp.empty((h, w), dtype=wp.vec3)
+            wp.launch(K.gather_raster, dim=(h, w),
+                      inputs=[p, raster, coeffs, impacts, offsets, ncx, ncy, out])
+            result = out.numpy()
+    return np.ascontiguousarray(result[:, :, : texton.channels])
+
+
+def _draw_block(wp, K, p, cell0, ncx: int, ncy: int):
+    """Impacts of the ncx × ncy cells from cell0, grouped by cell, with offsets."""
+    n_cells = ncx * ncy
+    counts = wp.zeros(n_cells + 1, dtype=wp.int32)
+    wp.launch(K.count_impacts, dim=n_cells, inputs=[p, wp.vec2i(*cell0), ncx, counts])
+    offsets = wp.zeros(n_cells + 1, dtype=wp.int32)
+    wp.utils.array_scan(counts, offsets, inclusive=False)
+    total = int(offsets[n_cells: n_cells + 1].numpy()[0])
+    impacts = wp.zeros(max(total, 1), dtype=wp.vec2)
+    if total:
+        wp.launch(K.emit_impacts, dim=n_cells, inputs=[p, wp.vec2i(*cell0), ncx, offsets, impacts])
+    return impacts[:total] if total else impacts[:0], offsets
+
+
+def evaluate(
+    texton: Texton,
+    points,
+    mni: float = 30.0,
+    seed: int = 0,
+    device=None,
+    *,
+    period=None,
+    poisson: str = "exact",
+    cell_factor: float = CELL_FACTOR,
+) -> np.ndarray:
+    """Texton noise at arbitrary points.
+
+    Parameters
+    ----------
+    texton : Texton
+    points : array (N, 2)
+        Positions (x, y) in texel units, x to the right, y down.
+    mni, seed, device, period, poisson, cell_factor
+        As in :func:`synthesize`; the same values give the same noise, so
+        ``synthesize(t, ...)[i, j]`` equals ``evaluate`` at that pixel's position.
+
+    Returns
+    -------
+    float32 array (N, C)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from warp_texton import Texton, evaluate
+    >>> t = Texton(np.ones((4, 4, 1)) / 4, [0.5])
+    >>> evaluate(t, [[0.5, 0.5], [1e6, -3.25]], device="cpu").shape
+    (2, 1)
+    """
+    try:
+        pts = np.asarray(points, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise TextonError("points must be an array of shape (N, 2) of numbers") from None
+    if pts.ndim != 2 or pts.shape[1] != 2:
+        raise TextonError(f"points must have shape (N, 2), got {pts.shape}")
+    if not np.isfinite(pts).all():
+        raise TextonError(f"points contain {int((~np.isfinite(pts)).sum())} NaN or infinite values")
+    seed = check_seed(seed)
+    setup = noise_setup(texton, mni, period, cell_factor)
+    device = resolve_device(device)
+    wp = _warp()
+    from .kernels import noise2d as K
+
+    p = _params(wp, texton, setup, seed, poisson)
+    n = pts.shape[0]
+    with wp.ScopedDevice(device):
+        coeffs = wp.array(setup.coeffs, dtype=wp.vec3)
+        out = np.zeros((n, 3), np.float32)
+        if n:
+            if wp.get_device(device).is_cpu:
+                wp.load_module(K, device=device)
+                chunks = np.array_split(np.arange(n), min(n, 4 * _threads()))
+
+                def run(idx):
+                    if idx.size:
+                        res = wp.zeros(idx.size, dtype=wp.vec3)
+                        wp.launch(K.evaluate_points, dim=idx.size,
+                                  inputs=[p, coeffs, wp.array(pts[idx], dtype=wp.vec2d), res])
+                        out[idx] = res.numpy()
+
+                with ThreadPoolExecutor(_threads()) as pool:
+                    list(pool.map(run, chunks))
+            else:
+                res = wp.zeros(n, dtype=wp.vec3)
+                wp.launch(K.evaluate_points, dim=n, inputs=[p, coeffs, wp.array(pts, dtype=wp.vec2d), res])
+                out = res.numpy()
+    return np.ascontiguousarray(out[:, : texton.channels])
