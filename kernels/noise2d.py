@@ -252,6 +252,39 @@ def splat_impacts(
                 acc[i, j] = acc[i, j] + texton_value(coeffs, d, p.order)
 
 
+# One footprint row of a grid splat, as a flat unit-stride loop over the 3·count
+# floats of the row: with restrict pointers the compiler vectorises it, which
+# Warp's strided array indexing does not allow. Rows of `acc` and `coeffs`
+# must be contiguous (the host allocates them so).
+_SPLAT_ROW = """
+float* __restrict dst = (float*)((char*)acc.data + (size_t)i * acc.strides[0]) + 3 * j;
+const float* __restrict top = (const float*)((const char*)coeffs.data + (size_t)a * coeffs.strides[0]) + 3 * b;
+const float* __restrict bot = (const float*)((const char*)coeffs.data + (size_t)(a + 1) * coeffs.strides[0]) + 3 * b;
+const int n = 3 * count;
+for (int t = 0; t < n; ++t) {
+    const float left = gy * top[t] + fy * bot[t];
+    const float right = gy * top[t + 3] + fy * bot[t + 3];
+    dst[t] += gx * left + fx * right;
+}
+"""
+
+
+@wp.func_native(_SPLAT_ROW)
+def splat_row(
+    acc: wp.array2d(dtype=wp.vec3),
+    i: int,
+    j: int,
+    coeffs: wp.array2d(dtype=wp.vec3),
+    a: int,
+    b: int,
+    count: int,
+    gy: float,
+    fy: float,
+    gx: float,
+    fx: float,
+): ...
+
+
 @wp.kernel
 def splat_impacts_grid(
     base: wp.vec2,
@@ -286,18 +319,10 @@ def splat_impacts_grid(
     i_hi = wp.min(rows - 2 - ay, row1 - 1)
     j_lo = wp.max(-bx, 0)
     j_hi = wp.min(cols - 2 - bx, width - 1)
-    gy = 1.0 - fy
-    gx = 1.0 - fx
-    for i in range(i_lo, i_hi + 1):
-        a = ay + i
-        b = bx + j_lo
-        # blend the two rows once per column; each column serves two pixels
-        left = coeffs[a, b] * gy + coeffs[a + 1, b] * fy
-        for j in range(j_lo, j_hi + 1):
-            b = bx + j + 1
-            right = coeffs[a, b] * gy + coeffs[a + 1, b] * fy
-            acc[i, j] = acc[i, j] + left * gx + right * fx
-            left = right
+    count = j_hi - j_lo + 1
+    if count > 0:
+        for i in range(i_lo, i_hi + 1):
+            splat_row(acc, i, j_lo, coeffs, ay + i, bx + j_lo, count, 1.0 - fy, fy, 1.0 - fx, fx)
 
 
 @wp.kernel
