@@ -1,0 +1,85 @@
+"""Shared fixtures: real example textures and exact samples of known Gaussian models.
+
+The ADSN helper draws u = m + k ⊛ W on a circular grid (EUSIPCO §2.2), so a test
+knows the true kernel k behind an image and can compare what the analysis finds
+with the truth rather than with a single noisy periodogram.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+TEXTURE_NAMES = ("grass", "gravel", "brick")
+
+
+def draw_adsn(kernel, shape, mean=0.5, seed=0) -> np.ndarray:
+    """One sample of the circular ADSN m + k ⊛ W on an ``shape`` = (H, W) grid.
+
+    ``kernel`` is (r, s) or (r, s, C), zero-padded to the grid; all channels are
+    convolved with one shared standard white noise W (so the colour cross-spectra
+    are k̂_c k̂_d*), and ``mean`` (scalar or per channel) is added. Returns float64
+    (H, W, C); the exact spectrum of the model is |fft2(k, s=shape)|².
+    """
+    k = np.asarray(kernel, dtype=np.float64)
+    if k.ndim == 2:
+        k = k[:, :, None]
+    w = np.random.default_rng(seed).standard_normal(shape)
+    k_hat = np.fft.fft2(k, s=shape, axes=(0, 1))
+    g = np.fft.ifft2(k_hat * np.fft.fft2(w)[:, :, None], axes=(0, 1)).real
+    return g + np.broadcast_to(np.asarray(mean, dtype=np.float64), (k.shape[2],))
+
+
+@pytest.fixture(scope="session")
+def adsn_sampler():
+    """The :func:`draw_adsn` helper, for tests that need samples of a known model."""
+    return draw_adsn
+
+
+def _skimage_texture(name: str) -> np.ndarray:
+    data = pytest.importorskip("skimage.data")
+    img = np.asarray(getattr(data, name)(), dtype=np.float32) / 255.0
+    assert img.ndim == 2 and img.min() >= 0.0 and img.max() <= 1.0
+    return img
+
+
+@pytest.fixture(scope="session")
+def grass_image() -> np.ndarray:
+    """``skimage.data.grass()``: 512 × 512 grey float32 in [0, 1]."""
+    return _skimage_texture("grass")
+
+
+@pytest.fixture(scope="session")
+def gravel_image() -> np.ndarray:
+    """``skimage.data.gravel()``: 512 × 512 grey float32 in [0, 1]."""
+    return _skimage_texture("gravel")
+
+
+@pytest.fixture(scope="session")
+def brick_image() -> np.ndarray:
+    """``skimage.data.brick()``: 512 × 512 grey float32 in [0, 1]."""
+    return _skimage_texture("brick")
+
+
+@pytest.fixture(scope="session", params=TEXTURE_NAMES)
+def real_texture(request):
+    """Each real texture in turn, as ``(name, image)``."""
+    return request.param, request.getfixturevalue(f"{request.param}_image")
+
+
+@pytest.fixture(scope="session")
+def grey_kernel() -> np.ndarray:
+    """A known 8 × 8 grey ADSN kernel (white, scaled by 0.2), shape (8, 8, 1)."""
+    return 0.2 * np.random.default_rng(1).standard_normal((8, 8, 1))
+
+
+@pytest.fixture(scope="session")
+def color_kernel() -> np.ndarray:
+    """A known 8 × 8 RGB kernel whose channels are strongly correlated.
+
+    Independent white kernels mixed by a lower-triangular matrix: the channels
+    share most of their structure (as the channels of a photograph do) but the
+    3 × 3 lag-0 covariance is full rank, and each channel has its own phases.
+    """
+    mix = np.array([[1.0, 0.0, 0.0], [0.8, 0.6, 0.0], [0.5, 0.3, 0.8]])
+    return 0.2 * np.random.default_rng(2).standard_normal((8, 8, 3)) @ mix.T
