@@ -340,10 +340,12 @@ def gather_raster(
     offsets: wp.array(dtype=wp.int32),
     ncx: int,
     ncy: int,
+    row0: int,
     out: wp.array2d(dtype=wp.vec3),
 ):
-    """One thread per pixel: sum the textons of the impacts of nearby cells (GPU path)."""
+    """One thread per pixel of rows row0…: sum the textons of the impacts of nearby cells."""
     i, j = wp.tid()
+    i = i + row0
     x = pixel_position(r, i, j)  # relative to the block origin, i.e. cell0's corner
     cx_lo = wp.max(int(wp.floor((x[0] - p.hi[0]) / p.cell[0])), 0)
     cx_hi = wp.min(int(wp.floor((x[0] - p.lo[0]) / p.cell[0])), ncx - 1)

@@ -29,9 +29,21 @@ from .texton import Texton
 #: Default cell side as a fraction of the texton support side (CGF §8).
 CELL_FACTOR = 0.6
 POISSON_MODES = ("exact", "gaussian")
+#: Raster strategies: "splat" (each impact adds its texton to the pixels it
+#: covers; CPU default) and "gather" (each pixel sums nearby impacts; CUDA default).
+METHODS = ("auto", "splat", "gather")
 #: Refuse rasters whose cell block would exceed this many cells (a tiny scale
 #: makes one pixel cover huge areas of the noise).
 MAX_CELLS = 1 << 26
+#: Refuse cell grids where one point must visit more cells than this (a tiny
+#: period or cell_factor), or where a cell holds more impacts than MAX_CELL_MEAN
+#: on average (a huge cell_factor): both would hang or overflow the kernels.
+MAX_CELLS_PER_POINT = 4096
+MAX_CELL_MEAN = 1.0e5
+#: Cell indices are int32 in the kernels: positions must stay below this many cells.
+MAX_CELL_INDEX = 1 << 30
+#: The block's impacts are indexed by int32 offsets.
+MAX_IMPACTS = 1 << 30
 
 
 def _warp():
@@ -105,9 +117,34 @@ def noise_setup(texton: Texton, mni: float, period=None, cell_factor: float = CE
         ny = max(1, round(py / side))
         cell = (px / nx, py / ny)
         period_cells = (nx, ny)
+    # The kernels hold the cell side in float32: use that same value on the host,
+    # so that host-placed blocks and kernel-placed cells coincide far from the origin.
+    cell = tuple(float(np.float32(c)) for c in cell)
+    lam = mni / texton.support_area
+    per_point = (math.ceil((hi[0] - lo[0]) / cell[0]) + 1) * (math.ceil((hi[1] - lo[1]) / cell[1]) + 1)
+    if per_point > MAX_CELLS_PER_POINT:
+        raise TextonError(
+            f"cells of {cell[0]:.3g} x {cell[1]:.3g} texels are too small for a texton support of "
+            f"{hi[0] - lo[0]:g} x {hi[1] - lo[1]:g}: each point would visit {per_point} cells "
+            f"(at most {MAX_CELLS_PER_POINT}); use a larger cell_factor or period"
+        )
+    if lam * cell[0] * cell[1] > MAX_CELL_MEAN:
+        raise TextonError(
+            f"cell_factor {cell_factor:g} makes cells hold {lam * cell[0] * cell[1]:.3g} impacts on average "
+            f"(at most {MAX_CELL_MEAN:g}); use a smaller cell_factor (default {CELL_FACTOR})"
+        )
     coeffs = np.zeros((r + 2 * PAD, s + 2 * PAD, 3), np.float32)
     coeffs[PAD:PAD + r, PAD:PAD + s, : texton.channels] = texton.coeffs
-    return NoiseSetup(mni / texton.support_area, cell, period_cells, lo, hi, coeffs)
+    return NoiseSetup(lam, cell, period_cells, lo, hi, coeffs)
+
+
+def _check_cell_range(lo: float, hi: float, cell: float, what: str) -> None:
+    """Positions whose cell indices would not fit the kernels' int32 are refused."""
+    if max(abs(lo), abs(hi)) / cell >= MAX_CELL_INDEX:
+        raise TextonError(
+            f"{what} reach {max(abs(lo), abs(hi)):.3g} texels from the origin; the noise is defined "
+            f"within ±{MAX_CELL_INDEX * cell:.3g} texels (2**30 cells)"
+        )
 
 
 def _check_period(period) -> tuple[float, float]:
@@ -158,7 +195,11 @@ def _raster_geometry(shape, scale, rotation, offset):
         raise TextonError("rotation and offset must be finite")
     th = math.radians(rotation)
     rot = np.array([[math.cos(th), -math.sin(th)], [math.sin(th), math.cos(th)]])
-    step = rot / scale  # columns: noise step per pixel along x (j) and along y (i)
+    with np.errstate(over="ignore"):
+        step = rot / scale  # columns: noise step per pixel along x (j) and along y (i)
+    h, w = shape
+    if not np.isfinite(step).all() or not np.isfinite(step * max(h, w)).all():
+        raise TextonError(f"scale {scale!r} is too small: pixel positions overflow")
     return np.array([ox, oy]), step
 
 
@@ -175,6 +216,7 @@ def synthesize(
     *,
     poisson: str = "exact",
     cell_factor: float = CELL_FACTOR,
+    method: str = "auto",
 ) -> np.ndarray:
     """Texton noise on an H × W raster.
 
@@ -203,6 +245,10 @@ def synthesize(
         the authors' viewer.
     cell_factor : float
         Cell side relative to the texton support side (CGF §8 uses ~0.6).
+    method : {"auto", "splat", "gather"}
+        How the raster is computed; both give the same noise. "auto" splats
+        on the CPU (threads own row bands) and gathers on CUDA (a thread per
+        pixel).
 
     Returns
     -------
@@ -225,21 +271,36 @@ def synthesize(
     setup = noise_setup(texton, mni, period, cell_factor)
     origin, step = _raster_geometry((h, w), scale, rotation, offset)
     device = resolve_device(device)
+    if method not in METHODS:
+        raise TextonError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
     wp = _warp()
     from .kernels import noise2d as K
 
     p = _params(wp, texton, setup, seed, poisson)
+    on_cpu = wp.get_device(device).is_cpu
+    if method == "auto":
+        method = "splat" if on_cpu else "gather"
+    if method == "splat" and not on_cpu:
+        raise TextonError('method "splat" runs on the CPU only (its launches must not overlap); use "gather"')
     cw, ch = setup.cell
     # Noise-space bounding box of the raster, grown by the support: the block of cells to draw.
     corners = origin[:, None] + step @ np.array([[0, w, 0, w], [0, 0, h, h]], dtype=np.float64)
     x0, x1 = corners[0].min() - setup.hi[0], corners[0].max() - setup.lo[0]
     y0, y1 = corners[1].min() - setup.hi[1], corners[1].max() - setup.lo[1]
+    _check_cell_range(x0, x1, cw, "the raster's positions")
+    _check_cell_range(y0, y1, ch, "the raster's positions")
     cx0, cy0 = math.floor(x0 / cw), math.floor(y0 / ch)
     ncx, ncy = math.floor(x1 / cw) - cx0 + 1, math.floor(y1 / ch) - cy0 + 1
     if ncx * ncy > MAX_CELLS:
         raise TextonError(
             f"scale {scale} makes this {h}x{w} raster cover {ncx * ncy} noise cells "
             f"(at most {MAX_CELLS}); use a larger scale or a smaller raster"
+        )
+    expected = setup.lam * ncx * ncy * cw * ch
+    if expected + 10 * math.sqrt(expected) > MAX_IMPACTS:
+        raise TextonError(
+            f"this raster needs about {expected:.3g} impacts (at most {MAX_IMPACTS}); "
+            "use a lower mni, a larger scale or a smaller raster"
         )
     with wp.ScopedDevice(device):
         impacts, offsets = _draw_block(wp, K, p, (cx0, cy0), ncx, ncy)
@@ -252,34 +313,41 @@ def synthesize(
         raster.width = w
         raster.height = h
         coeffs = wp.array(setup.coeffs, dtype=wp.vec3)
-        if wp.get_device(device).is_cpu:
+        bands = np.linspace(0, h, min(h, 2 * _threads()) + 1).astype(int)
+        bands = [(r0, r1) for r0, r1 in zip(bands[:-1], bands[1:]) if r1 > r0]
+        if on_cpu:
             # calloc'd pages are zeroed lazily, by the threads that first touch them
             host = np.zeros((h, w, 3), np.float32)
             out = wp.array(host, dtype=wp.vec3, copy=False)
-            inv = np.linalg.inv(step)
-            n = impacts.shape[0]
-            bands = np.linspace(0, h, min(h, 2 * _threads()) + 1).astype(int)
-            on_grid = texton.order == 1 and np.array_equal(step, np.eye(2))
-
-            def splat(band):
-                r0, r1 = band
-                if r1 <= r0:
-                    return
-                if n and on_grid:
-                    wp.launch(K.splat_impacts_grid, dim=n, inputs=[raster.base, coeffs, impacts, w, r0, r1, out])
-                elif n:
-                    wp.launch(K.splat_impacts, dim=n,
-                              inputs=[p, raster, wp.mat22(*inv.ravel()), coeffs, impacts, 0, r0, r1, out])
-                wp.launch(K.normalize_raster, dim=(r1 - r0, w), inputs=[p, r0, out])
-
-            wp.load_module(K, device=device)
-            with ThreadPoolExecutor(_threads()) as pool:
-                list(pool.map(splat, zip(bands[:-1], bands[1:])))
             result = host
         else:
             out = wp.empty((h, w), dtype=wp.vec3)
-            wp.launch(K.gather_raster, dim=(h, w),
-                      inputs=[p, raster, coeffs, impacts, offsets, ncx, ncy, out])
+        if method == "splat":
+            inv = wp.mat22(*np.linalg.inv(step).ravel())
+            n = impacts.shape[0]
+            on_grid = texton.order == 1 and np.array_equal(step, np.eye(2))
+
+            def run(band):
+                r0, r1 = band
+                if n and on_grid:
+                    wp.launch(K.splat_impacts_grid, dim=n, inputs=[raster.base, coeffs, impacts, w, r0, r1, out])
+                elif n:
+                    wp.launch(K.splat_impacts, dim=n, inputs=[p, raster, inv, coeffs, impacts, 0, r0, r1, out])
+                wp.launch(K.normalize_raster, dim=(r1 - r0, w), inputs=[p, r0, out])
+        else:
+
+            def run(band):
+                r0, r1 = band
+                wp.launch(K.gather_raster, dim=(r1 - r0, w),
+                          inputs=[p, raster, coeffs, impacts, offsets, ncx, ncy, r0, out])
+
+        if on_cpu:
+            # one CPU launch runs on one thread; Warp releases the GIL during it
+            wp.load_module(K, device=device)
+            with ThreadPoolExecutor(_threads()) as pool:
+                list(pool.map(run, bands))
+        else:
+            run((0, h))
             result = out.numpy()
     return np.ascontiguousarray(result[:, :, : texton.channels])
 
@@ -342,6 +410,9 @@ def evaluate(
         raise TextonError(f"points contain {int((~np.isfinite(pts)).sum())} NaN or infinite values")
     seed = check_seed(seed)
     setup = noise_setup(texton, mni, period, cell_factor)
+    if pts.size:
+        _check_cell_range(pts[:, 0].min() - setup.hi[0], pts[:, 0].max() - setup.lo[0], setup.cell[0], "points")
+        _check_cell_range(pts[:, 1].min() - setup.hi[1], pts[:, 1].max() - setup.lo[1], setup.cell[1], "points")
     device = resolve_device(device)
     wp = _warp()
     from .kernels import noise2d as K
