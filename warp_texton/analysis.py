@@ -23,7 +23,7 @@ import scipy.fft as sfft
 from ._checks import as_image, check_int, check_seed
 from .bspline import ORDERS, bhat
 from .errors import TextonError
-from .gaussian import normalized_kernel, relative_model_error
+from .gaussian import normalized_kernel, relative_model_error_half
 from .texton import Texton, lag0_covariance
 
 SUPPORTS = ("square", "disk")
@@ -214,13 +214,23 @@ def analyze(
         "support": support,
     }
     texton = Texton(alpha, mean.astype(np.float32), order, metadata)
-    texton.metadata["model_error"] = _rme(t, texton)
+    texton.metadata["model_error"] = _rme(t_hat.transpose(1, 2, 0), texton, n)
     return texton
 
 
-def _rme(t: np.ndarray, texton: Texton) -> float:
-    tu_hat = sfft.fft2(t, axes=(0, 1), workers=_WORKERS)
-    return relative_model_error(tu_hat, texton.spectrum(t.shape[:2]))
+def _texton_half_spectrum(texton: Texton, shape: tuple[int, int]) -> np.ndarray:
+    """α̂ √b̂ on the rfft half-plane of an M × N grid, (M, N//2 + 1, C)."""
+    m, n = shape
+    a_hat = sfft.rfft2(texton.coeffs.astype(np.float64), s=shape, axes=(0, 1), workers=_WORKERS)
+    return a_hat * np.sqrt(bhat(shape, texton.order))[:, : n // 2 + 1, None]
+
+
+def _rme(tu_half: np.ndarray, texton: Texton, n: int) -> float:
+    """RME from u's half-plane spectrum (M, N//2 + 1, C) on an M × n grid."""
+    shape = (tu_half.shape[0], n)
+    if texton.size[0] > shape[0] or texton.size[1] > shape[1]:
+        raise TextonError(f"a {texton.size[0]}x{texton.size[1]} texton does not fit on a {shape[0]}x{shape[1]} grid")
+    return relative_model_error_half(tu_half, _texton_half_spectrum(texton, shape), n)
 
 
 def model_error(u, texton: Texton, periodic: bool | None = None) -> float:
@@ -251,4 +261,4 @@ def model_error(u, texton: Texton, periodic: bool | None = None) -> float:
         raise TextonError(
             f"u has {t.shape[2]} channels but the texton has {texton.channels}; they must match"
         )
-    return _rme(t, texton)
+    return _rme(sfft.rfft2(t, axes=(0, 1), workers=_WORKERS), texton, t.shape[1])
