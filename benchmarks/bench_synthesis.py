@@ -28,9 +28,8 @@ import scipy.fft as sfft
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
-from bench_analysis import git_commit, machine_info, make_texture, write_atomic  # noqa: E402
+from common import git_commit, git_dirty, machine_info, make_texture, write_atomic  # noqa: E402
 
-import warp_texton  # noqa: E402
 from warp_texton import analyze, evaluate, synthesize  # noqa: E402
 from warp_texton.bspline import bhat  # noqa: E402
 from warp_texton.synthesis import resolve_device  # noqa: E402
@@ -94,6 +93,7 @@ def run(args) -> dict:
         "benchmark": "synthesis",
         "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
         "git_commit": git_commit(),
+        "git_dirty": git_dirty(),
         "machine": machine_info(),
         "device": device,
         "warp": __import__("warp").config.version,
@@ -110,7 +110,8 @@ def markdown(report: dict) -> str:
         f"# Texton noise vs FFT synthesis ({report['date']})",
         "",
         f"Machine: {m['processor']}, {m['usable_cpus']} usable cores, Python {m['python']}, "
-        f"Warp {report['warp']}, device `{report['device']}`, commit `{(report['git_commit'] or '?')[:10]}`.",
+        f"Warp {report['warp']}, device `{report['device']}`, commit `{(report['git_commit'] or '?')[:10]}`"
+        f"{' (uncommitted changes)' if report['git_dirty'] else ''}.",
         f"Texton {p['texton'][0]}x{p['texton'][1]} RGB, order {p['order']}, MNI {p['mni']:g}; "
         f"best of {p['repeat']} interleaved runs (median in brackets).",
         "",

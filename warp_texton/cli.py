@@ -25,6 +25,15 @@ EPILOG_GAUSSIAN = """examples:
 """
 
 
+class _Formatter(argparse.RawDescriptionHelpFormatter, argparse.ArgumentDefaultsHelpFormatter):
+    """Keeps the hand-wrapped descriptions and examples, and shows each option's default."""
+
+    def _get_help_string(self, action):
+        if action.default is None or isinstance(action.default, bool):
+            return action.help  # nothing useful to show
+        return super()._get_help_string(action)
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse whose usage errors follow the project's one-line, exit-2 rule."""
 
@@ -48,7 +57,7 @@ def _add_analyze_options(p: argparse.ArgumentParser, seed: bool = True) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    fmt = argparse.RawDescriptionHelpFormatter
+    fmt = _Formatter
     parser = _Parser(
         prog="warp-texton",
         description=(

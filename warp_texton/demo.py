@@ -19,8 +19,11 @@ def demo_texture_path() -> Path:
 
 
 def texton_preview(texton: Texton):
-    """The texton as a viewable image: mean + coefficients scaled to the input's
-    contrast (coefficients carry the 1/√(MN) normalisation of t_u)."""
+    """The texton as a viewable image: mean + α·√(r s).
+
+    An r × s texton whose noise has the input's variance has coefficients of
+    order σ/√(r s); scaling by √(r s) brings them back to the input's contrast.
+    """
     import numpy as np
 
     return texton.mean + texton.coeffs * np.sqrt(texton.size[0] * texton.size[1])

@@ -157,7 +157,7 @@ class Texton:
 
     def __repr__(self) -> str:
         r, s = self.size
-        return f"Texton({r}x{s}, channels={self.channels}, order={self.order}, mean={np.round(self.mean, 4).tolist()})"
+        return f"Texton({r}x{s}, channels={self.channels}, order={self.order}, mean={[round(float(v), 4) for v in self.mean]})"
 
 
 def lag0_covariance(alpha: np.ndarray, order: int) -> np.ndarray:
