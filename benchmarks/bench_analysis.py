@@ -75,9 +75,11 @@ def baseline_analyze(u: np.ndarray, size: int, order: int, iterations: int, seed
     mask = np.zeros((m, n, 1))
     mask[:size, :size] = 1.0
 
-    alpha = np.fft.ifft2(target * full_phase((m, n), seed)[:, :, None], axes=(0, 1)).real * mask
-    for _ in range(iterations - 1):
-        a_hat = np.fft.fft2(alpha, axes=(0, 1))
+    # the same start as the package: the white noise's phase, in every channel, projected
+    a_hat = np.repeat(full_phase((m, n), seed)[:, :, None], c, axis=2)
+    for it in range(iterations):
+        if it:
+            a_hat = np.fft.fft2(alpha, axes=(0, 1))
         # angle(0) = 0 gives phase 1 where the product vanishes (EUSIPCO eq. (2)
         # sets 0 there); the target is ~0 at such frequencies, so it does not matter.
         phase = np.exp(1j * np.angle(np.sum(a_hat * target_conj, axis=2, keepdims=True)))

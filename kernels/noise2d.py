@@ -115,9 +115,9 @@ def bspline_weight(t: float, order: int):
 
 
 @wp.func
-def texton_value(coeffs: wp.array2d(dtype=wp.vec3), y: wp.vec2, order: int):
-    # h(y) for y inside the support; taps outside the coefficients read the zero margin
-    rows = coeffs.shape[0]
+def texton_value(coeffs: wp.array2d(dtype=wp.vec3), row0: int, rows: int, y: wp.vec2, order: int):
+    # h(y) for y inside the support, for the texton stored in rows [row0, row0 + rows)
+    # of a stack; taps outside the coefficients read the zero margin
     cols = coeffs.shape[1]
     acc = wp.vec3(0.0)
     if order == 1:
@@ -126,13 +126,13 @@ def texton_value(coeffs: wp.array2d(dtype=wp.vec3), y: wp.vec2, order: int):
         tx = y[0] - fx
         ty = y[1] - fy
         j = wp.clamp(int(fx) + PAD, 0, cols - 2)
-        i = wp.clamp(int(fy) + PAD, 0, rows - 2)
+        i = row0 + wp.clamp(int(fy) + PAD, 0, rows - 2)
         top = coeffs[i, j] * (1.0 - tx) + coeffs[i, j + 1] * tx
         bottom = coeffs[i + 1, j] * (1.0 - tx) + coeffs[i + 1, j + 1] * tx
         return top * (1.0 - ty) + bottom * ty
     if order == 0:
         j = wp.clamp(int(wp.floor(y[0] + 0.5)) + PAD, 0, cols - 1)
-        i = wp.clamp(int(wp.floor(y[1] + 0.5)) + PAD, 0, rows - 1)
+        i = row0 + wp.clamp(int(wp.floor(y[1] + 0.5)) + PAD, 0, rows - 1)
         return coeffs[i, j]
     # orders 3 and 5: (order + 1) taps per axis around y
     half = (order + 1) // 2
@@ -141,7 +141,7 @@ def texton_value(coeffs: wp.array2d(dtype=wp.vec3), y: wp.vec2, order: int):
     for a in range(order + 1):
         i = i0 + a
         wy = bspline_weight(y[1] - float(i), order)
-        ii = wp.clamp(i + PAD, 0, rows - 1)
+        ii = row0 + wp.clamp(i + PAD, 0, rows - 1)
         row = wp.vec3(0.0)
         for b in range(order + 1):
             j = j0 + b
@@ -193,6 +193,21 @@ def emit_impacts(
         impacts[k] = wp.vec2((float(lx) + ux) * p.cell[0], (float(ly) + uy) * p.cell[1])
 
 
+@wp.kernel
+def emit_signs(p: NoiseParams, cell0: wp.vec2i, ncx: int, offsets: wp.array(dtype=wp.int32),
+               signs: wp.array(dtype=float)):
+    """Random signs ε = ±1 of every impact (mixed noise, CGF §7).
+
+    Hashed from the cell's seed and the impact's rank in its cell, apart from
+    the position stream, so plain and mixed noise place the same impacts.
+    """
+    t = wp.tid()
+    h = cell_state(cell0[0] + t % ncx, cell0[1] + t / ncx, p)
+    for k in range(offsets[t], offsets[t + 1]):
+        bit = avalanche(h ^ (wp.uint32(k - offsets[t] + 1) * _GOLDEN)) >> wp.uint32(31)
+        signs[k] = 1.0 - 2.0 * float(bit)
+
+
 # ------------------------------------------------------------------ rasters
 @wp.struct
 class Raster:
@@ -209,6 +224,51 @@ def pixel_position(r: Raster, i: int, j: int):
     return r.base + r.step_x * (float(j) + 0.5) + r.step_y * (float(i) + 0.5)
 
 
+@wp.struct
+class Marks:
+    # Mixed noise: impact k adds signs[k] · h_{labels[k]}; textons are stacked
+    # in the coefficient array, `rows` rows each. Plain noise: marked = 0.
+    marked: int
+    rows: int
+    labels: wp.array(dtype=wp.int32)
+    signs: wp.array(dtype=float)
+
+
+@wp.func
+def mark_of(m: Marks, k: int):
+    # (first coefficient row of the impact's texton, its sign)
+    if m.marked == 0:
+        return 0, 1.0
+    return m.labels[k] * m.rows, m.signs[k]
+
+
+@wp.kernel
+def label_impacts(
+    impacts: wp.array(dtype=wp.vec2),
+    r: Raster,
+    inv: wp.mat22,
+    strips: int,
+    regions: int,
+    rho: wp.array2d(dtype=float),
+    labels: wp.array(dtype=wp.int32),
+):
+    """The texton of each impact: the region of the raster its centre falls in.
+
+    ``strips`` = 1: ``regions`` vertical strips across the raster's width;
+    otherwise the nearest pixel of the ρ map (clamped at the border) picks
+    texton round(ρ (regions − 1)).
+    """
+    k = wp.tid()
+    pix = inv * (impacts[k] - r.base)  # (column, row) + ½
+    if strips != 0:
+        lab = int(wp.floor(pix[0] / float(r.width) * float(regions)))
+    else:
+        j = wp.clamp(int(wp.floor(pix[0])), 0, rho.shape[1] - 1)
+        i = wp.clamp(int(wp.floor(pix[1])), 0, rho.shape[0] - 1)
+        lab = int(wp.floor(rho[i, j] * float(regions - 1) + 0.5))
+    labels[k] = wp.clamp(lab, 0, regions - 1)
+
+
 @wp.kernel
 def splat_impacts(
     p: NoiseParams,
@@ -216,7 +276,7 @@ def splat_impacts(
     inv: wp.mat22,
     coeffs: wp.array2d(dtype=wp.vec3),
     impacts: wp.array(dtype=wp.vec2),
-    first: int,
+    marks: Marks,
     row0: int,
     row1: int,
     acc: wp.array2d(dtype=wp.vec3),
@@ -229,8 +289,9 @@ def splat_impacts(
     and concurrent launches own disjoint row bands, so plain writes are safe.
     ``inv`` maps a noise-space offset to (column, row) pixel offsets.
     """
-    k = first + wp.tid()
+    k = wp.tid()
     q = impacts[k]
+    t0, sign = mark_of(marks, k)
     # pixel-space bounding box of the support [lo, hi] placed at q
     c = q - r.base
     b00 = inv * (c + wp.vec2(p.lo[0], p.lo[1]))
@@ -249,7 +310,7 @@ def splat_impacts(
         for j in range(j_lo, j_hi + 1):
             d = pixel_position(r, i, j) - q
             if inside(d, p):
-                acc[i, j] = acc[i, j] + texton_value(coeffs, d, p.order)
+                acc[i, j] = acc[i, j] + texton_value(coeffs, t0, marks.rows, d, p.order) * sign
 
 
 # One footprint row of a grid splat, as a flat unit-stride loop over the 3·count
@@ -290,6 +351,7 @@ def splat_impacts_grid(
     base: wp.vec2,
     coeffs: wp.array2d(dtype=wp.vec3),
     impacts: wp.array(dtype=wp.vec2),
+    marks: Marks,
     width: int,
     row0: int,
     row1: int,
@@ -302,7 +364,9 @@ def splat_impacts_grid(
     blended with four fixed weights. The zero margin of ``coeffs`` makes taps
     past the support vanish, so no support test is needed.
     """
-    q = impacts[wp.tid()]
+    k = wp.tid()
+    q = impacts[k]
+    t0, sign = mark_of(marks, k)
     # d(i, j) = (j + B + fx, i + A + fy): the integer and fractional parts of the offset
     ox = base[0] + 0.5 - q[0]
     oy = base[1] + 0.5 - q[1]
@@ -312,7 +376,7 @@ def splat_impacts_grid(
     fy = oy - fby
     bx = int(fbx) + PAD
     ay = int(fby) + PAD
-    rows = coeffs.shape[0]
+    rows = marks.rows
     cols = coeffs.shape[1]
     # pixels whose top-left tap (ay + i, bx + j) lies in [0, rows-1) x [0, cols-1)
     i_lo = wp.max(-ay, row0)
@@ -322,7 +386,8 @@ def splat_impacts_grid(
     count = j_hi - j_lo + 1
     if count > 0:
         for i in range(i_lo, i_hi + 1):
-            splat_row(acc, i, j_lo, coeffs, ay + i, bx + j_lo, count, 1.0 - fy, fy, 1.0 - fx, fx)
+            splat_row(acc, i, j_lo, coeffs, t0 + ay + i, bx + j_lo, count,
+                      (1.0 - fy) * sign, fy * sign, 1.0 - fx, fx)
 
 
 @wp.kernel
@@ -338,6 +403,7 @@ def gather_raster(
     coeffs: wp.array2d(dtype=wp.vec3),
     impacts: wp.array(dtype=wp.vec2),
     offsets: wp.array(dtype=wp.int32),
+    marks: Marks,
     ncx: int,
     ncy: int,
     row0: int,
@@ -358,7 +424,8 @@ def gather_raster(
             for k in range(offsets[c], offsets[c + 1]):
                 d = x - impacts[k]
                 if inside(d, p):
-                    acc = acc + texton_value(coeffs, d, p.order)
+                    t0, sign = mark_of(marks, k)
+                    acc = acc + texton_value(coeffs, t0, marks.rows, d, p.order) * sign
     out[i, j] = normalize(acc, p)
 
 
@@ -394,5 +461,5 @@ def evaluate_points(
                 uy = wp.randf(s)
                 d = rel - wp.vec2(ux * p.cell[0], uy * p.cell[1])
                 if inside(d, p):
-                    acc = acc + texton_value(coeffs, d, p.order)
+                    acc = acc + texton_value(coeffs, 0, coeffs.shape[0], d, p.order)
     out[t] = normalize(acc, p)

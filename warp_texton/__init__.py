@@ -37,3 +37,7 @@ __all__ = [
 from .synthesis import synthesize, evaluate  # noqa: E402
 
 __all__ += ["synthesize", "evaluate"]
+
+from .mixing import mix_textons, synthesize_mixed  # noqa: E402
+
+__all__ += ["mix_textons", "synthesize_mixed"]

@@ -49,8 +49,10 @@ def initial_phase(shape: tuple[int, int], seed: int) -> np.ndarray:
     """Random phase e^{iψ} on the rfft half-plane of an M × N grid.
 
     ψ is the phase of the DFT of a standard white noise drawn from ``seed``:
-    uniform and Hermitian-symmetric, as EUSIPCO Algorithm 2 and CGF Algorithm 1
-    start from. The same (shape, seed) always gives the same start.
+    uniform and Hermitian-symmetric. The alternating projections start by
+    projecting this noise (the same in every channel) onto the target, as
+    CGF Algorithm 1 does; its result is the target modulus with a uniform
+    random phase, EUSIPCO Algorithm 2's start. Same (shape, seed), same start.
     """
     w = np.random.default_rng(seed).standard_normal(shape)
     w_hat = sfft.rfft2(w, workers=_WORKERS)
@@ -169,11 +171,42 @@ def analyze(
             f"at least 2*size-1 = {2 * size - 1} (or choose size <= {(min(m, n) + 1) // 2})"
         )
     mean, t = normalized_kernel(u, periodic=periodic)
+    t_hat = sfft.rfft2(t, axes=(0, 1), workers=_WORKERS)
+    flat = t.reshape(-1, c)
+    texton = texton_from_spectrum(
+        t_hat, n, mean, size, order, iterations, seed,
+        covariance=flat.T @ flat if color_correction else None, support=support, progress=progress,
+    )
+    texton.metadata.update(periodic=bool(periodic))
+    return texton
 
+
+def texton_from_spectrum(
+    t_hat: np.ndarray,
+    n: int,
+    mean,
+    size: int,
+    order: int,
+    iterations: int,
+    seed: int,
+    covariance: np.ndarray | None = None,
+    support: str = "square",
+    progress: bool = False,
+) -> Texton:
+    """The alternating projections for a model given by its kernel spectrum.
+
+    ``t_hat`` is the rfft half-plane (M, n//2 + 1, C) of a real kernel t on an
+    M × n grid (for an image, t_u); the texton's model |α̂|² b̂ approaches |t̂|²
+    on that grid. ``covariance`` (C × C), when given, is the lag-0 colour
+    covariance the colour correction enforces. Arguments are trusted: the
+    public entry points check them.
+    """
+    m = t_hat.shape[0]
+    c = t_hat.shape[2]
+    mask = support_mask(size, support)
     nc = n // 2 + 1
-    t_cf = np.ascontiguousarray(t.transpose(2, 0, 1))  # channel-first (C, M, N)
-    t_hat = sfft.rfft2(t_cf, workers=_WORKERS)
-    target = (t_hat / np.sqrt(bhat((m, n), order))[None, :, :nc]).astype(np.complex64)
+    t_cf = np.ascontiguousarray(t_hat.transpose(2, 0, 1))  # channel-first (C, M, Nc)
+    target = (t_cf / np.sqrt(bhat((m, n), order))[None, :, :nc]).astype(np.complex64)
     target_conj = np.conj(target)
     mask_f = mask.astype(np.float32)
 
@@ -187,7 +220,11 @@ def analyze(
         from tqdm.auto import tqdm
 
         bar = tqdm(total=iterations, desc="analyze", unit="it", leave=False)
-    alpha = restrict(target * initial_phase((m, n), seed).astype(np.complex64)[None])
+    # CGF Algorithm 1 starts from white noise and projects it: the first iterate
+    # is the target with a random phase relative to the target's own phase, so
+    # targets that differ by a phase factor (e.g. τ_0 in mixing) give one texton.
+    noise = np.broadcast_to(initial_phase((m, n), seed).astype(np.complex64)[None], target.shape)
+    alpha = restrict(_spectral_projection(noise, target, target_conj))
     if bar is not None:
         bar.update()
     for _ in range(iterations - 1):
@@ -200,21 +237,19 @@ def analyze(
         bar.close()
 
     alpha = np.ascontiguousarray(alpha.transpose(1, 2, 0), dtype=np.float32)
-    if color_correction:
-        flat = t.reshape(-1, c)
-        alpha = correct_colors(alpha, order, flat.T @ flat) * mask[:, :, None]
+    if covariance is not None:
+        alpha = correct_colors(alpha, order, covariance) * mask[:, :, None]
     metadata = {
         "source_shape": [m, n],
         "size": size,
         "order": order,
         "iterations": iterations,
         "seed": seed,
-        "periodic": bool(periodic),
-        "color_correction": bool(color_correction),
+        "color_correction": covariance is not None,
         "support": support,
     }
-    texton = Texton(alpha, mean.astype(np.float32), order, metadata)
-    texton.metadata["model_error"] = _rme(t_hat.transpose(1, 2, 0), texton, n)
+    texton = Texton(alpha, np.asarray(mean, dtype=np.float32), order, metadata)
+    texton.metadata["model_error"] = _rme(t_hat, texton, n)
     return texton
 
 

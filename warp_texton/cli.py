@@ -8,6 +8,8 @@ import time
 import warnings
 from pathlib import Path
 
+import numpy as np
+
 from .errors import TextonError
 
 EPILOG_ANALYZE = """examples:
@@ -18,6 +20,10 @@ EPILOG_SYNTHESIZE = """examples:
   warp-texton synthesize wood.exr -o noise.png --width 1920 --height 1080
   warp-texton synthesize wood.png -o tile.exr --width 512 --height 512 --period 512 512
   warp-texton synthesize wood.texton -o far.png --scale 0.25 --rotation 30 --mni 10
+"""
+EPILOG_MIX = """examples:
+  warp-texton mix wood.png marble.png -o mix.png --steps 21 --width 2048 --height 256
+  warp-texton mix wood.exr marble.texton -o mix.exr --map mask.png
 """
 EPILOG_GAUSSIAN = """examples:
   warp-texton gaussian wood.png -o wood_gaussian.png
@@ -63,7 +69,7 @@ def build_parser() -> argparse.ArgumentParser:
         description=(
             "Texton noise by example. 'analyze' learns a small texton from an example of a "
             "Gaussian texture (fabric, wood, stone, sand...); 'synthesize' evaluates texton noise "
-            "on a raster of any size; 'gaussian' samples the texture's Gaussian model by FFT; "
+            "on a raster of any size; 'mix' blends two textures; 'gaussian' samples the texture's Gaussian model by FFT; "
             "'demo' runs everything on a texture shipped with the package."
         ),
         formatter_class=fmt,
@@ -108,6 +114,25 @@ def build_parser() -> argparse.ArgumentParser:
                    help="noise position of the raster's top-left corner, texels")
     p.add_argument("--period", type=float, nargs=2, metavar=("PX", "PY"),
                    help="make the noise periodic (texels): a seamless tile")
+    p.add_argument("--device", help="cpu, cuda or cuda:N (default: CUDA when available)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress or summary")
+    _add_analyze_options(p, seed=False)
+
+    p = sub.add_parser("mix", help="progressive mix of two textures (texton noise)",
+                       description="Mix two textures along the optimal-transport path between their Gaussian "
+                                   "models (CGF §7): textons for --steps values of rho from A to B, then "
+                                   "spatially varying texton noise, across the width in strips or driven "
+                                   "by a grey map (black = A, white = B). A and B are images or textons.",
+                       epilog=EPILOG_MIX, formatter_class=fmt)
+    p.add_argument("a", metavar="A", help="first texture: image or texton")
+    p.add_argument("b", metavar="B", help="second texture: image or texton")
+    p.add_argument("-o", "--output", required=True, help="output image: .png, .jpg or .exr")
+    p.add_argument("--steps", type=int, default=21, help="number of textons from A to B (>= 2)")
+    p.add_argument("--map", help="grey image of rho in [0, 1] (black = A, white = B); default: strips")
+    p.add_argument("--width", type=int, help="raster width (default: the map's, else 1024)")
+    p.add_argument("--height", type=int, help="raster height (default: the map's, else 256)")
+    p.add_argument("--mni", type=float, default=30.0, help="mean number of impacts per point")
+    p.add_argument("--seed", type=int, default=0, help="random seed (analysis and noise)")
     p.add_argument("--device", help="cpu, cuda or cuda:N (default: CUDA when available)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress or summary")
     _add_analyze_options(p, seed=False)
@@ -177,6 +202,44 @@ def _cmd_synthesize(args) -> None:
               f"({time.perf_counter() - t0:.2f} s)")
 
 
+def _load_texture(path):
+    from .io import read_image
+    from .texton import is_texton_path, load_texton
+
+    return load_texton(path) if is_texton_path(path) else read_image(path)
+
+
+def _cmd_mix(args) -> None:
+    from .io import EXR, PIL_FORMATS, read_image, write_image
+    from .mixing import mix_textons, synthesize_mixed
+
+    out = Path(args.output)
+    if out.suffix.lower() not in (*PIL_FORMATS, EXR):
+        raise TextonError(f"{out}: unsupported extension {out.suffix or '(none)'!r}; use .png, .jpg, .jpeg or .exr")
+    if args.steps < 2:
+        raise TextonError(f"--steps must be at least 2, got {args.steps}")
+    weights = "strips"
+    if args.map is not None:
+        rho = read_image(args.map)
+        weights = rho.mean(axis=2)
+        shape = (weights.shape[0] if args.height is None else args.height,
+                 weights.shape[1] if args.width is None else args.width)
+        if shape != weights.shape:
+            raise TextonError(f"--map is {weights.shape[1]}x{weights.shape[0]}; --width/--height must match it "
+                              f"(got {shape[1]}x{shape[0]})")
+    else:
+        shape = (256 if args.height is None else args.height, 1024 if args.width is None else args.width)
+    t0 = time.perf_counter()
+    textons = mix_textons(_load_texture(args.a), _load_texture(args.b), np.linspace(0.0, 1.0, args.steps),
+                          size=args.size, order=args.order, seed=args.seed, iterations=args.iterations,
+                          periodic=args.periodic, color_correction=args.color_correction,
+                          support=args.support, progress=not args.quiet)
+    noise = synthesize_mixed(textons, weights, shape, mni=args.mni, seed=args.seed, device=args.device)
+    write_image(out, noise)
+    if not args.quiet:
+        print(f"{out}: {shape[1]}x{shape[0]} mix of {args.steps} textons ({time.perf_counter() - t0:.2f} s)")
+
+
 def _cmd_demo(args) -> None:
     from .demo import run_demo
 
@@ -185,7 +248,13 @@ def _cmd_demo(args) -> None:
             print(path)
 
 
-COMMANDS = {"analyze": _cmd_analyze, "gaussian": _cmd_gaussian, "synthesize": _cmd_synthesize, "demo": _cmd_demo}
+COMMANDS = {
+    "analyze": _cmd_analyze,
+    "gaussian": _cmd_gaussian,
+    "synthesize": _cmd_synthesize,
+    "mix": _cmd_mix,
+    "demo": _cmd_demo,
+}
 
 
 def main(argv=None) -> int:

@@ -271,12 +271,32 @@ def synthesize(
     setup = noise_setup(texton, mni, period, cell_factor)
     origin, step = _raster_geometry((h, w), scale, rotation, offset)
     device = resolve_device(device)
-    if method not in METHODS:
-        raise TextonError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
     wp = _warp()
+    p = _params(wp, texton, setup, seed, poisson)
+    out = _raster(wp, p, setup, setup.coeffs, texton.order, (h, w), origin, step, device, method, scale)
+    return np.ascontiguousarray(out[:, :, : texton.channels])
+
+
+@dataclass(frozen=True)
+class _Regions:
+    """How mixed noise picks each impact's texton (see kernels.noise2d.label_impacts)."""
+
+    count: int  # number of stacked textons
+    rho: np.ndarray | None  # (H, W) float32 ρ map, or None for vertical strips
+
+
+def _raster(wp, p, setup: NoiseSetup, coeffs: np.ndarray, order: int, shape, origin, step, device,
+            method: str, scale, regions: _Regions | None = None) -> np.ndarray:
+    """Evaluate the noise of ``p`` on a raster: (H, W, 3) float32 of normalised values.
+
+    ``coeffs`` holds one padded texton, or ``regions.count`` of them stacked
+    along the rows for mixed noise (then values are Σ ε h / √λ, without mean).
+    """
     from .kernels import noise2d as K
 
-    p = _params(wp, texton, setup, seed, poisson)
+    h, w = shape
+    if method not in METHODS:
+        raise TextonError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
     on_cpu = wp.get_device(device).is_cpu
     if method == "auto":
         method = "splat" if on_cpu else "gather"
@@ -304,6 +324,7 @@ def synthesize(
         )
     with wp.ScopedDevice(device):
         impacts, offsets = _draw_block(wp, K, p, (cx0, cy0), ncx, ncy)
+        n = impacts.shape[0]
         raster = K.Raster()
         # positions relative to the block corner, computed in float64 before rounding
         base = origin - np.array([cx0 * cw, cy0 * ch])
@@ -312,7 +333,23 @@ def synthesize(
         raster.step_y = wp.vec2(*step[:, 1])
         raster.width = w
         raster.height = h
-        coeffs = wp.array(setup.coeffs, dtype=wp.vec3)
+        inv = wp.mat22(*np.linalg.inv(step).ravel())
+        stack = wp.array(coeffs.reshape(-1, coeffs.shape[-2], 3), dtype=wp.vec3)
+        marks = K.Marks()
+        marks.rows = coeffs.shape[-3]
+        if regions is None:
+            marks.marked = 0
+            marks.labels = wp.zeros(1, dtype=wp.int32)
+            marks.signs = wp.zeros(1, dtype=float)
+        else:
+            marks.marked = 1
+            marks.labels = wp.zeros(max(n, 1), dtype=wp.int32)
+            marks.signs = wp.zeros(max(n, 1), dtype=float)
+            rho = regions.rho if regions.rho is not None else np.zeros((1, 1), np.float32)
+            if n:
+                wp.launch(K.emit_signs, dim=ncx * ncy, inputs=[p, wp.vec2i(cx0, cy0), ncx, offsets, marks.signs])
+                wp.launch(K.label_impacts, dim=n, inputs=[impacts, raster, inv, int(regions.rho is None),
+                                                          regions.count, wp.array(rho, dtype=float), marks.labels])
         bands = np.linspace(0, h, min(h, 2 * _threads()) + 1).astype(int)
         bands = [(r0, r1) for r0, r1 in zip(bands[:-1], bands[1:]) if r1 > r0]
         if on_cpu:
@@ -323,23 +360,22 @@ def synthesize(
         else:
             out = wp.empty((h, w), dtype=wp.vec3)
         if method == "splat":
-            inv = wp.mat22(*np.linalg.inv(step).ravel())
-            n = impacts.shape[0]
-            on_grid = texton.order == 1 and np.array_equal(step, np.eye(2))
+            on_grid = order == 1 and np.array_equal(step, np.eye(2))
 
             def run(band):
                 r0, r1 = band
                 if n and on_grid:
-                    wp.launch(K.splat_impacts_grid, dim=n, inputs=[raster.base, coeffs, impacts, w, r0, r1, out])
+                    wp.launch(K.splat_impacts_grid, dim=n,
+                              inputs=[raster.base, stack, impacts, marks, w, r0, r1, out])
                 elif n:
-                    wp.launch(K.splat_impacts, dim=n, inputs=[p, raster, inv, coeffs, impacts, 0, r0, r1, out])
+                    wp.launch(K.splat_impacts, dim=n, inputs=[p, raster, inv, stack, impacts, marks, r0, r1, out])
                 wp.launch(K.normalize_raster, dim=(r1 - r0, w), inputs=[p, r0, out])
         else:
 
             def run(band):
                 r0, r1 = band
                 wp.launch(K.gather_raster, dim=(r1 - r0, w),
-                          inputs=[p, raster, coeffs, impacts, offsets, ncx, ncy, r0, out])
+                          inputs=[p, raster, stack, impacts, offsets, marks, ncx, ncy, r0, out])
 
         if on_cpu:
             # one CPU launch runs on one thread; Warp releases the GIL during it
@@ -349,7 +385,7 @@ def synthesize(
         else:
             run((0, h))
             result = out.numpy()
-    return np.ascontiguousarray(result[:, :, : texton.channels])
+    return result
 
 
 def _draw_block(wp, K, p, cell0, ncx: int, ncy: int):
