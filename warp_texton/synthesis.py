@@ -70,6 +70,9 @@ def resolve_device(device=None) -> str:
     wp = _warp()
     if device is None:
         return "cuda:0" if wp.is_cuda_available() else "cpu"
+    if str(device).startswith("cuda") and not wp.is_cuda_available():
+        names = ", ".join(str(d) for d in wp.get_devices())
+        raise TextonError(f"device: {device!r} asked for, but no CUDA device is available; available: {names}")
     try:
         return str(wp.get_device(device))
     except Exception:
