@@ -41,3 +41,7 @@ __all__ += ["synthesize", "evaluate"]
 from .mixing import mix_textons, synthesize_mixed  # noqa: E402
 
 __all__ += ["mix_textons", "synthesize_mixed"]
+
+from .surface import Camera, render_mesh, surface_noise, tangent_frames, texture_mesh  # noqa: E402
+
+__all__ += ["Camera", "render_mesh", "surface_noise", "tangent_frames", "texture_mesh"]
