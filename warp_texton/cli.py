@@ -25,6 +25,10 @@ EPILOG_MIX = """examples:
   warp-texton mix wood.png marble.png -o mix.png --steps 21 --width 2048 --height 256
   warp-texton mix wood.exr marble.texton -o mix.exr --map mask.png
 """
+EPILOG_SURFACE = """examples:
+  warp-texton surface scans/*.ply --texton wood.exr --out-dir textured --render 512x512
+  warp-texton surface @meshes.txt --texton wood.texton --out-dir out --texel-size 0.002 --format glb --jobs 2
+"""
 EPILOG_GAUSSIAN = """examples:
   warp-texton gaussian wood.png -o wood_gaussian.png
   warp-texton gaussian wood.png -o big.exr --width 1024 --height 768 --seed 3
@@ -137,6 +141,27 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-q", "--quiet", action="store_true", help="no progress or summary")
     _add_analyze_options(p, seed=False)
 
+    p = sub.add_parser("surface", help="texture meshes with surface noise (batch)",
+                       description="Colour the vertices of meshes with surface texton noise (CGF §6), no UVs "
+                                   "needed, and optionally render each one. Outputs are named after each "
+                                   "input's stem; finished outputs are skipped unless --overwrite. One bad "
+                                   "mesh is reported and the others still finish; the exit status is 1 if any "
+                                   "failed.",
+                       epilog=EPILOG_SURFACE, formatter_class=fmt)
+    p.add_argument("meshes", nargs="+", metavar="MESH", help="mesh files, glob patterns, or @list.txt")
+    p.add_argument("--texton", required=True, help="texton file (.exr or .texton)")
+    p.add_argument("--out-dir", required=True, help="folder for the outputs (created if missing)")
+    p.add_argument("--texel-size", type=float, help="world units per texel (default: bounding-box diagonal / 256)")
+    p.add_argument("--mni", type=float, default=60.0, help="mean number of impacts per point")
+    p.add_argument("--seed", type=int, default=0, help="random seed")
+    p.add_argument("--max-edge", type=float, help="subdivide until no edge is longer than this many texels")
+    p.add_argument("--render", metavar="WxH", help="also write a PNG render of this size, e.g. 512x512")
+    p.add_argument("--format", choices=("ply", "obj", "glb"), default="ply", help="mesh output format")
+    p.add_argument("--overwrite", action="store_true", help="redo meshes whose outputs exist")
+    p.add_argument("--jobs", type=int, default=1, help="meshes processed at once")
+    p.add_argument("--device", help="cpu, cuda or cuda:N (default: CUDA when available)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+
     p = sub.add_parser("demo", help="analyse the bundled texture and write pictures",
                        description="Analyse a small CC0 texture shipped with the package and write the "
                                    "input, its Gaussian version, the texton (and the noise) as PNG and EXR.",
@@ -240,6 +265,38 @@ def _cmd_mix(args) -> None:
         print(f"{out}: {shape[1]}x{shape[0]} mix of {args.steps} textons ({time.perf_counter() - t0:.2f} s)")
 
 
+def _cmd_surface(args) -> int:
+    from .batch import SurfaceJob, expand_meshes, run_batch
+    from .synthesis import resolve_device
+    from .texton import load_texton
+
+    load_texton(args.texton)  # a bad texton fails the whole batch, once
+    render = None
+    if args.render is not None:
+        try:
+            w, h = (int(v) for v in args.render.lower().split("x"))
+        except ValueError:
+            raise TextonError(f"--render must be WIDTHxHEIGHT, e.g. 512x512, got {args.render!r}") from None
+        render = (h, w)
+    if args.jobs < 1:
+        raise TextonError(f"--jobs must be at least 1, got {args.jobs}")
+    if args.texel_size is not None and not args.texel_size > 0:
+        raise TextonError(f"--texel-size must be > 0, got {args.texel_size}")
+    device = resolve_device(args.device)
+    meshes = expand_meshes(args.meshes)
+    out = Path(args.out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    jobs = [SurfaceJob(m, args.texton, str(out), args.texel_size, args.mni, args.seed, args.max_edge, render,
+                       args.format, args.overwrite, device) for m in meshes]
+    results = run_batch(jobs, jobs_in_parallel=args.jobs, progress=not args.quiet)
+    counts = {s: sum(r.status == s for r in results) for s in ("done", "skipped", "failed")}
+    for r in results:
+        if r.status == "failed" and args.quiet:
+            print(f"warp-texton: error: {r.message}", file=sys.stderr)
+    print(f"{counts['done']} done, {counts['skipped']} skipped, {counts['failed']} failed", file=sys.stderr)
+    return 1 if counts["failed"] else 0
+
+
 def _cmd_demo(args) -> None:
     from .demo import run_demo
 
@@ -253,6 +310,7 @@ COMMANDS = {
     "gaussian": _cmd_gaussian,
     "synthesize": _cmd_synthesize,
     "mix": _cmd_mix,
+    "surface": _cmd_surface,
     "demo": _cmd_demo,
 }
 
@@ -268,7 +326,7 @@ def main(argv=None) -> int:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("default")
-            COMMANDS[args.command](args)
+            status = COMMANDS[args.command](args)
     except TextonError as exc:
         print(f"warp-texton: error: {exc}", file=sys.stderr)
         return 2
@@ -277,7 +335,7 @@ def main(argv=None) -> int:
         return 2
     finally:
         warnings.formatwarning = saved_format
-    return 0
+    return status or 0
 
 
 if __name__ == "__main__":
