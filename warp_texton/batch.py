@@ -101,6 +101,7 @@ def run_surface_job(job: SurfaceJob) -> JobResult:
     if not job.overwrite and all(p.exists() for p in outputs):
         return JobResult(job.mesh, "skipped", "outputs exist (use --overwrite)", [str(p) for p in outputs])
     try:
+        Path(job.out_dir).mkdir(parents=True, exist_ok=True)  # on a cluster worker too
         texton = load_texton(job.texton)
         mesh = _load_mesh(job.mesh)
         if job.texel_size is None:
@@ -122,6 +123,8 @@ def run_surface_job(job: SurfaceJob) -> JobResult:
             write_image(outputs[1], img)
     except TextonError as exc:
         return JobResult(job.mesh, "failed", str(exc))
+    except OSError as exc:
+        return JobResult(job.mesh, "failed", f"{exc.filename or job.mesh}: {exc.strerror or exc}")
     except Exception as exc:  # a broken file must not stop the batch
         return JobResult(job.mesh, "failed", f"{job.mesh}: {type(exc).__name__}: {exc}")
     return JobResult(job.mesh, "done", "", [str(p) for p in outputs])
