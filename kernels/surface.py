@@ -173,9 +173,13 @@ def render_surface(
     f = q.face
     n = (vertex_normals[indices[3 * f]] * q.u + vertex_normals[indices[3 * f + 1]] * q.v
          + vertex_normals[indices[3 * f + 2]] * (1.0 - q.u - q.v))
+    # smooth normals, except across creases: where the interpolated normal leaves
+    # the face's by more than 30°, the face normal keeps flat faces flat
     if wp.length(n) < 1.0e-6:
         n = q.normal
     n = wp.normalize(n)
+    if wp.dot(n, q.normal) < 0.866:
+        n = q.normal
     y = cam.origin + d * q.t
     u1, u2 = tangent_frame(n, p.up, p.side)
     colour = surface_value(p, coeffs, y, u1, u2, n)

@@ -337,14 +337,14 @@ class Camera:
     fov: float = 35.0
 
     @classmethod
-    def framing(cls, mesh, direction=(1.0, -1.3, 0.9), fov: float = 35.0, up=UP) -> "Camera":
+    def framing(cls, mesh, direction=(1.0, -1.3, 0.9), fov: float = 35.0, up=UP, zoom: float = 1.0) -> "Camera":
         """A camera looking at the mesh's bounding-box centre from ``direction``,
-        far enough for its bounding sphere to fit the view."""
+        far enough for its bounding sphere to fit the view (``zoom`` > 1 moves closer)."""
         lo, hi = np.asarray(mesh.bounds, dtype=np.float64)
         centre = (lo + hi) / 2.0
         radius = max(np.linalg.norm(hi - lo) / 2.0, 1e-9)
         d = _direction(direction, "direction")
-        dist = radius / math.sin(math.radians(fov) / 2.0) * 1.05
+        dist = radius / math.sin(math.radians(fov) / 2.0) * 1.05 / check_positive(zoom, "zoom")
         return cls(tuple(centre + d * dist), tuple(centre), tuple(up), fov)
 
 
@@ -366,8 +366,8 @@ def render_mesh(
     """Ray-cast ``mesh`` with surface texton noise and simple diffuse shading.
 
     Each pixel's ray hits the mesh (``wp.Mesh`` BVH, ``wp.mesh_query_ray``);
-    the noise is evaluated at the hit with the interpolated vertex normal and
-    the frame rule, then shaded by 0.3 + 0.7 |⟨n, light⟩|. Missed pixels get
+    the noise is evaluated at the hit with the interpolated vertex normal (the
+    face normal across creases sharper than 30°) and the frame rule, then shaded by 0.3 + 0.7 |⟨n, light⟩|. Missed pixels get
     ``background``.
 
     Parameters
