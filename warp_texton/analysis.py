@@ -163,7 +163,7 @@ def analyze(
     order = check_int(order, "order", choices=ORDERS)
     iterations = check_int(iterations, "iterations", minimum=1)
     seed = check_seed(seed)
-    mask = support_mask(size, support)
+    support_mask(size, support)  # checks the support's name before any work
     m, n, c = u.shape
     if min(m, n) < 2 * size - 1:
         raise TextonError(
@@ -202,7 +202,6 @@ def texton_from_spectrum(
     public entry points check them.
     """
     m = t_hat.shape[0]
-    c = t_hat.shape[2]
     mask = support_mask(size, support)
     nc = n // 2 + 1
     t_cf = np.ascontiguousarray(t_hat.transpose(2, 0, 1))  # channel-first (C, M, Nc)

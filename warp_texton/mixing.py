@@ -13,13 +13,11 @@ interpolated per pixel.
 
 from __future__ import annotations
 
-import numbers
-
 import numpy as np
 import scipy.fft as sfft
 
 from ._checks import as_image, check_int, check_positive, check_seed, check_shape
-from .analysis import SUPPORTS, support_mask, texton_from_spectrum, _texton_half_spectrum, _unit
+from .analysis import support_mask, texton_from_spectrum, _texton_half_spectrum, _unit
 from .bspline import ORDERS
 from .errors import TextonError
 from .gaussian import normalized_kernel

@@ -15,13 +15,12 @@ support). Frames follow one rule (see :func:`tangent_frames`) unless given.
 from __future__ import annotations
 
 import math
-import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
 
-from ._checks import check_int, check_positive, check_seed
+from ._checks import check_positive, check_seed
 from .errors import TextonError
 from .texton import Texton
 
@@ -191,7 +190,7 @@ def surface_noise(
     >>> surface_noise(t, p, p, texel_size=0.01, device="cpu").shape
     (5, 1)
     """
-    from .synthesis import _threads, _warp, resolve_device
+    from .synthesis import _warp, map_points, resolve_device
 
     if not isinstance(texton, Texton):
         raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
@@ -217,27 +216,19 @@ def surface_noise(
     from .kernels import surface as K
 
     p = _surface_params(wp, texton, setup, seed, poisson, up, side)
-    n = pts.shape[0]
-    out = np.zeros((n, 3), np.float32)
     with wp.ScopedDevice(device):
         coeffs = wp.array(setup.coeffs, dtype=wp.vec3)
+        dummy = wp.zeros(1, dtype=wp.vec3)
 
-        def run(idx):
-            if not idx.size:
-                return
+        def launch(idx):
             res = wp.zeros(idx.size, dtype=wp.vec3)
-            tarr = wp.array(tan[idx] if use_tangents else np.zeros((1, 3)), dtype=wp.vec3)
+            tarr = wp.array(tan[idx], dtype=wp.vec3) if use_tangents else dummy
             wp.launch(K.evaluate_surface, dim=idx.size,
                       inputs=[p, coeffs, wp.array(pos[idx], dtype=wp.vec3), wp.array(nrm[idx], dtype=wp.vec3),
                               tarr, int(use_tangents), res])
-            out[idx] = res.numpy()
+            return res.numpy()
 
-        if n and wp.get_device(device).is_cpu:
-            wp.load_module(K, device=device)
-            with ThreadPoolExecutor(_threads()) as pool:
-                list(pool.map(run, np.array_split(np.arange(n), min(n, 4 * _threads()))))
-        elif n:
-            run(np.arange(n))
+        out = map_points(wp, K, device, pts.shape[0], launch)
     return np.ascontiguousarray(out[:, : texton.channels])
 
 

@@ -391,6 +391,30 @@ def _raster(wp, p, setup: NoiseSetup, coeffs: np.ndarray, order: int, shape, ori
     return result
 
 
+def map_points(wp, module, device, n: int, launch) -> np.ndarray:
+    """Run ``launch(indices) -> (len, 3) array`` over n points, into an (n, 3) array.
+
+    On the CPU the points are split into chunks launched from a thread pool (one
+    CPU launch runs on one thread; Warp releases the GIL meanwhile); on CUDA
+    there is one launch.
+    """
+    out = np.zeros((n, 3), np.float32)
+    if not n:
+        return out
+    if not wp.get_device(device).is_cpu:
+        out[:] = launch(np.arange(n))
+        return out
+    wp.load_module(module, device=device)
+
+    def run(idx):
+        if idx.size:
+            out[idx] = launch(idx)
+
+    with ThreadPoolExecutor(_threads()) as pool:
+        list(pool.map(run, np.array_split(np.arange(n), min(n, 4 * _threads()))))
+    return out
+
+
 def _draw_block(wp, K, p, cell0, ncx: int, ncy: int):
     """Impacts of the ncx × ncy cells from cell0, grouped by cell, with offsets."""
     n_cells = ncx * ncy
@@ -457,26 +481,13 @@ def evaluate(
     from .kernels import noise2d as K
 
     p = _params(wp, texton, setup, seed, poisson)
-    n = pts.shape[0]
     with wp.ScopedDevice(device):
         coeffs = wp.array(setup.coeffs, dtype=wp.vec3)
-        out = np.zeros((n, 3), np.float32)
-        if n:
-            if wp.get_device(device).is_cpu:
-                wp.load_module(K, device=device)
-                chunks = np.array_split(np.arange(n), min(n, 4 * _threads()))
 
-                def run(idx):
-                    if idx.size:
-                        res = wp.zeros(idx.size, dtype=wp.vec3)
-                        wp.launch(K.evaluate_points, dim=idx.size,
-                                  inputs=[p, coeffs, wp.array(pts[idx], dtype=wp.vec2d), res])
-                        out[idx] = res.numpy()
+        def launch(idx):
+            res = wp.zeros(idx.size, dtype=wp.vec3)
+            wp.launch(K.evaluate_points, dim=idx.size, inputs=[p, coeffs, wp.array(pts[idx], dtype=wp.vec2d), res])
+            return res.numpy()
 
-                with ThreadPoolExecutor(_threads()) as pool:
-                    list(pool.map(run, chunks))
-            else:
-                res = wp.zeros(n, dtype=wp.vec3)
-                wp.launch(K.evaluate_points, dim=n, inputs=[p, coeffs, wp.array(pts, dtype=wp.vec2d), res])
-                out = res.numpy()
+        out = map_points(wp, K, device, pts.shape[0], launch)
     return np.ascontiguousarray(out[:, : texton.channels])
