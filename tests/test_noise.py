@@ -862,3 +862,12 @@ class TestErrors:
     def test_huge_cell_factor(self):
         with pytest.raises(TextonError, match="cell_factor"):
             synthesize(T1, (8, 8), cell_factor=1e5, device=CPU)
+
+
+def test_all_zero_texton_is_refused_with_a_clear_error():
+    # λ = mni / area(supp h) is undefined for h = 0: say so instead of dividing by zero
+    zero = Texton(np.zeros((8, 8, 1)), [0.5], 1)
+    with pytest.raises(TextonError, match="every coefficient is zero"):
+        synthesize(zero, (8, 8), device="cpu")
+    with pytest.raises(TextonError, match="every coefficient is zero"):
+        evaluate(zero, [[0.5, 0.5]], device="cpu")

@@ -67,19 +67,19 @@ def periodic_component(u) -> np.ndarray:
     return (u - s).astype(np.float32)
 
 
-def normalized_kernel(u, periodic: bool = True) -> tuple[np.ndarray, np.ndarray]:
+def normalized_kernel(u, periodic: bool = True, name: str = "u") -> tuple[np.ndarray, np.ndarray]:
     """Mean m and kernel t_u = (u − m)/√(MN) of the Gaussian model of u (EUSIPCO eq. (3)).
 
     With ``periodic`` the periodic component of u is used (CGF §4.2). Raises
     :class:`TextonError` for an image without variance.
     """
-    u = as_image(u)
+    u = as_image(u, name)
     mean = u.reshape(-1, u.shape[2]).astype(np.float64).mean(axis=0)
     if periodic:
         u = periodic_component(u)
     t = (u.astype(np.float64) - mean) / np.sqrt(u.shape[0] * u.shape[1])
     if not np.any(np.abs(t) > 1e-12 * max(1.0, float(np.abs(mean).max()))):
-        raise TextonError("u: the image is constant; there is no variance to model")
+        raise TextonError(f"{name}: the image is constant; there is no variance to model")
     return mean, t
 
 

@@ -33,7 +33,9 @@ def barycentre_spectrum(tu_hat: np.ndarray, tv_hat: np.ndarray, rho: float) -> n
     on the OT geodesic: d(t_u, τ_ρ) = ρ d(t_u, t_v), d(τ_ρ, t_v) = (1 − ρ) d(t_u, t_v)
     for the distance of EUSIPCO eq. (1).
     """
-    phase = _unit(np.sum(np.conj(tu_hat) * tv_hat, axis=-1))
+    cross = np.sum(np.conj(tu_hat) * tv_hat, axis=-1)
+    # where the product vanishes any unit phase is a geodesic: keep t̂_u as it is
+    phase = np.where(cross != 0, _unit(cross), 1.0)
     return (1.0 - rho) * tu_hat * phase[..., None] + rho * tv_hat
 
 
@@ -57,13 +59,18 @@ def _as_rgb(a: np.ndarray, c: int) -> np.ndarray:
 def _model(x, grid, name: str, periodic: bool):
     """(mean, half spectrum, lag-0 covariance) of an image or a texton on ``grid``."""
     if isinstance(x, Texton):
+        if x.size[0] > grid[0] or x.size[1] > grid[1]:
+            raise TextonError(
+                f"{name}: a {x.size[0]}x{x.size[1]} texton does not fit the {grid[0]}x{grid[1]} grid of the "
+                "other image; mix it with a larger image, or with a texton"
+            )
         t_hat = _texton_half_spectrum(x, grid)
         cov = x.covariance()
         return x.mean.astype(np.float64), t_hat, cov
     u = as_image(x, name)
     m, n = grid
     h0, w0 = (u.shape[0] - m) // 2, (u.shape[1] - n) // 2
-    mean, t = normalized_kernel(u[h0:h0 + m, w0:w0 + n], periodic=periodic)
+    mean, t = normalized_kernel(u[h0:h0 + m, w0:w0 + n], periodic=periodic, name=name)
     flat = t.reshape(-1, t.shape[2])
     return mean, sfft.rfft2(t, axes=(0, 1), workers=_WORKERS), flat.T @ flat
 
@@ -93,7 +100,9 @@ def mix_textons(
         Mixing parameters: 0 gives u's model, 1 gives v's.
     size, order, seed, iterations, periodic, color_correction, support
         As in :func:`warp_texton.analyze`. Every ρ starts from the same white
-        noise (the seed), so textons change smoothly with ρ.
+        noise (the seed), so the textons are comparable across ρ; they are a
+        continuous function of ρ, though after many iterations a step of 0.05
+        can move them as far as a change of seed (the projections are not convex).
     progress : bool
         Show a progress bar over the ρ values.
 
@@ -243,24 +252,26 @@ def synthesize_mixed(
     >>> synthesize_mixed(ts, "strips", (32, 64), device="cpu").shape
     (32, 64, 1)
     """
-    from .synthesis import _Regions, _params, _raster, _raster_geometry, _warp, noise_setup, resolve_device
+    from .synthesis import _Regions, _params, _raster, _raster_geometry, _warp, noise_setup, padded_coeffs, resolve_device
 
     textons = _check_textons(textons)
     h, w = check_shape(shape)
     rho = _check_weights(weights, (h, w))
     seed = check_seed(seed)
     mni = check_positive(mni, "mni")
-    setup = noise_setup(textons[0], mni)
+    # one λ for every texton: that of the widest support (zero textons are allowed in a mix)
+    widest = max(textons, key=lambda t: t.support_area)
+    setup = noise_setup(widest, mni)
     origin, step = _raster_geometry((h, w), scale, 0.0, offset)
     device = resolve_device(device)
     wp = _warp()
-    p = _params(wp, textons[0], setup, seed, "exact")
+    p = _params(wp, widest, setup, seed, "exact")
     p.mean = wp.vec3(0.0, 0.0, 0.0)
     p.integral = wp.vec3(0.0, 0.0, 0.0)  # the random signs make the sum zero-mean
     pad_rows, pad_cols = setup.coeffs.shape[:2]
     stack = np.zeros((len(textons), pad_rows, pad_cols, 3), np.float32)
     for k, t in enumerate(textons):
-        stack[k] = noise_setup(t, mni).coeffs
+        stack[k] = padded_coeffs(t)
     out = _raster(wp, p, setup, stack, textons[0].order, (h, w), origin, step, device, method, scale,
                   regions=_Regions(len(textons), rho))
     c = textons[0].channels

@@ -99,12 +99,12 @@ class NoiseSetup:
 def noise_setup(texton: Texton, mni: float, period=None, cell_factor: float = CELL_FACTOR) -> NoiseSetup:
     """Intensity, cell grid and support box of the noise of ``texton``."""
     _warp()  # configure Warp before the kernel module imports it
-    from .kernels.noise2d import PAD
-
     if not isinstance(texton, Texton):
         raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
     mni = check_positive(mni, "mni")
     cell_factor = check_positive(cell_factor, "cell_factor")
+    if texton.support_area == 0:
+        raise TextonError("texton: every coefficient is zero, so its noise is the constant mean; nothing to synthesize")
     r, s = texton.size
     k = texton.order
     reach = 0.5 if k == 0 else (k + 1) / 2.0  # ψ is supported on [-reach, reach]
@@ -136,9 +136,18 @@ def noise_setup(texton: Texton, mni: float, period=None, cell_factor: float = CE
             f"cell_factor {cell_factor:g} makes cells hold {lam * cell[0] * cell[1]:.3g} impacts on average "
             f"(at most {MAX_CELL_MEAN:g}); use a smaller cell_factor (default {CELL_FACTOR})"
         )
+    return NoiseSetup(lam, cell, period_cells, lo, hi, padded_coeffs(texton))
+
+
+def padded_coeffs(texton: Texton) -> np.ndarray:
+    """The coefficients as the kernels read them: (r + 2 PAD, s + 2 PAD, 3) float32,
+    a zero margin of PAD texels around, unused channels zero."""
+    from .kernels.noise2d import PAD
+
+    r, s = texton.size
     coeffs = np.zeros((r + 2 * PAD, s + 2 * PAD, 3), np.float32)
     coeffs[PAD:PAD + r, PAD:PAD + s, : texton.channels] = texton.coeffs
-    return NoiseSetup(lam, cell, period_cells, lo, hi, coeffs)
+    return coeffs
 
 
 def _check_cell_range(lo: float, hi: float, cell: float, what: str) -> None:
