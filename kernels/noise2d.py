@@ -252,7 +252,10 @@ def label_impacts(
     rho: wp.array2d(dtype=float),
     labels: wp.array(dtype=wp.int32),
 ):
-    """The texton of each impact: the region of the raster its centre falls in.
+    """The texton of each impact: the region of the raster its position falls in
+    (CGF §7: 1{x_j ∈ D_r}). Textons hang from their impact at coefficient (0, 0),
+    so a texture's region appears about half a texton right of and below its
+    region in the map.
 
     ``strips`` = 1: ``regions`` vertical strips across the raster's width;
     otherwise the nearest pixel of the ρ map (clamped at the border) picks

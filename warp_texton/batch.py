@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import glob
 import io
+import sys
+import uuid
 from concurrent.futures import Executor, ThreadPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -91,8 +93,13 @@ def _load_mesh(path: str):
     return mesh
 
 
-def run_surface_job(job: SurfaceJob) -> JobResult:
-    """Run one job; never raises for a bad mesh (the result says why)."""
+def run_surface_job(job: SurfaceJob, token: str | None = None) -> JobResult:
+    """Run one job; never raises for a bad mesh (the result says why).
+
+    ``token`` is ignored: :func:`run_batch` passes a fresh one with every
+    submission so that executors that cache results of equal calls (Dask's
+    pure tasks) always run the job, whose inputs may have changed on disk.
+    """
     from .io import atomic_path, write_image
     from .surface import render_mesh, texture_mesh
     from .texton import load_texton
@@ -115,11 +122,13 @@ def run_surface_job(job: SurfaceJob) -> JobResult:
                                 device=job.device)
         buf = io.BytesIO()
         textured.export(buf, file_type=job.fmt)
-        with atomic_path(outputs[0]) as tmp:
-            Path(tmp).write_bytes(buf.getvalue())
-        if job.render is not None:
+        img = None
+        if job.render is not None:  # computed before anything is written: all outputs or none
             img = render_mesh(mesh, texton, job.render, texel_size=texel, mni=job.mni, seed=job.seed,
                               device=job.device)
+        with atomic_path(outputs[0]) as tmp:
+            Path(tmp).write_bytes(buf.getvalue())
+        if img is not None:
             write_image(outputs[1], img)
     except TextonError as exc:
         return JobResult(job.mesh, "failed", str(exc))
@@ -128,6 +137,19 @@ def run_surface_job(job: SurfaceJob) -> JobResult:
     except Exception as exc:  # a broken file must not stop the batch
         return JobResult(job.mesh, "failed", f"{job.mesh}: {type(exc).__name__}: {exc}")
     return JobResult(job.mesh, "done", "", [str(p) for p in outputs])
+
+
+def check_unique_outputs(jobs) -> None:
+    """Refuse batches where two meshes would write the same output file
+    (same file name in different folders)."""
+    seen: dict[Path, str] = {}
+    for job in jobs:
+        for out in job.outputs():
+            if out in seen and seen[out] != job.mesh:
+                raise TextonError(
+                    f"{seen[out]} and {job.mesh} would both write {out}; rename one or use separate --out-dir runs"
+                )
+            seen[out] = job.mesh
 
 
 def run_batch(jobs, executor: Executor | None = None, jobs_in_parallel: int = 1, progress: bool = False):
@@ -146,7 +168,7 @@ def run_batch(jobs, executor: Executor | None = None, jobs_in_parallel: int = 1,
 
         bar = tqdm(total=len(jobs), desc="surface", unit="mesh")
     try:
-        futures = {executor.submit(run_surface_job, job): k for k, job in enumerate(jobs)}
+        futures = {executor.submit(run_surface_job, job, uuid.uuid4().hex): k for k, job in enumerate(jobs)}
         results: list[JobResult | None] = [None] * len(jobs)
         for fut in as_completed(futures):
             k = futures[fut]
@@ -157,7 +179,7 @@ def run_batch(jobs, executor: Executor | None = None, jobs_in_parallel: int = 1,
             if bar is not None:
                 bar.update()
                 if results[k].status == "failed":
-                    bar.write(f"warp-texton: error: {results[k].message}")
+                    bar.write(f"warp-texton: error: {results[k].message}", file=sys.stderr)
     finally:
         if bar is not None:
             bar.close()

@@ -266,7 +266,8 @@ def _cmd_mix(args) -> None:
 
 
 def _cmd_surface(args) -> int:
-    from .batch import SurfaceJob, expand_meshes, run_batch
+    from ._checks import check_positive, check_seed, check_shape
+    from .batch import SurfaceJob, check_unique_outputs, expand_meshes, run_batch
     from .synthesis import resolve_device
     from .texton import load_texton
 
@@ -280,14 +281,22 @@ def _cmd_surface(args) -> int:
         render = (h, w)
     if args.jobs < 1:
         raise TextonError(f"--jobs must be at least 1, got {args.jobs}")
-    if args.texel_size is not None and not args.texel_size > 0:
-        raise TextonError(f"--texel-size must be > 0, got {args.texel_size}")
+    # options are checked once, here, rather than failing every mesh
+    if render is not None:
+        check_shape(render, "--render")
+    check_positive(args.mni, "--mni")
+    check_seed(args.seed)
+    if args.texel_size is not None:
+        check_positive(args.texel_size, "--texel-size")
+    if args.max_edge is not None:
+        check_positive(args.max_edge, "--max-edge")
     device = resolve_device(args.device)
     meshes = expand_meshes(args.meshes)
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
     jobs = [SurfaceJob(m, args.texton, str(out), args.texel_size, args.mni, args.seed, args.max_edge, render,
                        args.format, args.overwrite, device) for m in meshes]
+    check_unique_outputs(jobs)
     results = run_batch(jobs, jobs_in_parallel=args.jobs, progress=not args.quiet)
     counts = {s: sum(r.status == s for r in results) for s in ("done", "skipped", "failed")}
     for r in results:

@@ -131,7 +131,10 @@ def mix_textons(
     iterations = check_int(iterations, "iterations", minimum=1)
     seed = check_seed(seed)
     support_mask(size, support)  # validates the name
-    shapes = [as_image(x, name).shape for x, name in ((u, "u"), (v, "v")) if not isinstance(x, Texton)]
+    # images are converted once (an RGBA input warns once)
+    u = u if isinstance(u, Texton) else as_image(u, "u")
+    v = v if isinstance(v, Texton) else as_image(v, "v")
+    shapes = [x.shape for x in (u, v) if not isinstance(x, Texton)]
     if shapes:
         grid = (min(s[0] for s in shapes), min(s[1] for s in shapes))
     else:
@@ -231,6 +234,9 @@ def synthesize_mixed(
     textons : sequence of Texton
         R textons of one size, order and channel count (e.g. from :func:`mix_textons`).
     weights : "strips" or array (H, W) of ρ in [0, 1]
+        Regions are read at each impact's position (CGF §7); since a texton
+        hangs from its impact by its corner, textures appear about half a
+        texton right of and below their regions.
         "strips": R vertical strips across the raster, as in CGF Fig. 5; the
         mean goes linearly from the first texton's to the last's. A map: each
         impact takes texton round(ρ (R − 1)) at the nearest pixel; the mean at

@@ -206,8 +206,14 @@ def surface_noise(
         tan = _points(tangents, "tangents")
         if tan.shape != pts.shape:
             raise TextonError(f"tangents has shape {tan.shape}; it must match points {pts.shape}")
+        raw = np.linalg.norm(tan, axis=1)
         tan = tan - nrm * np.sum(tan * nrm, axis=1)[:, None]
-        tan = _unit_rows(tan, "tangents")  # a tangent parallel to its normal is refused
+        flat = np.flatnonzero(np.linalg.norm(tan, axis=1) <= 1e-9 * np.maximum(raw, 1e-300))
+        if flat.size:
+            what = "has zero length" if raw[flat[0]] == 0 else "is parallel to its normal"
+            raise TextonError(f"tangents[{flat[0]}] {what} ({flat.size} such rows); a tangent must have a "
+                              "component in the tangent plane")
+        tan = tan / np.linalg.norm(tan, axis=1)[:, None]
     pos = pts / texel
     if pos.size and np.abs(pos).max() / setup.cell >= 2 ** 30:
         raise TextonError("points lie too far from the origin for this texel_size (more than 2**30 cells)")
@@ -248,13 +254,14 @@ def _check_mesh(mesh):
     return mesh
 
 
-def vertex_normals(mesh) -> np.ndarray:
-    """Area-weighted vertex normals; vertices touched only by zero-area faces
-    (or by none) take the normal of the nearest... simply ``UP``, a defined value."""
+def vertex_normals(mesh, up=UP) -> np.ndarray:
+    """Unit vertex normals from trimesh (face normals averaged, weighted by the
+    corner angles). Vertices that touch only zero-area faces, or none, have no
+    normal: they take ``up``, so that every vertex gets a defined colour."""
     n = np.asarray(mesh.vertex_normals, dtype=np.float64).copy()
     length = np.linalg.norm(n, axis=1)
     bad = ~np.isfinite(length) | (length < 1e-12)
-    n[bad] = UP
+    n[bad] = _direction(up, "up")
     return n / np.linalg.norm(n, axis=1)[:, None]
 
 
@@ -300,7 +307,9 @@ def texture_mesh(
     if max_edge is not None:
         edge = check_positive(max_edge, "max_edge") * texel
         lengths = np.linalg.norm(vertices[faces[:, [1, 2, 0]]] - vertices[faces], axis=2)
-        factor = np.ceil(lengths.max(axis=1) / edge) ** 2  # faces per face after splitting
+        # trimesh halves edges: a face whose longest edge is L splits 4^k ways, 2^k ≥ L / edge
+        halvings = np.ceil(np.log2(np.maximum(lengths.max(axis=1) / edge, 1.0)))
+        factor = 4.0 ** halvings  # an upper bound on the faces each face becomes
         if factor.sum() > max_faces:
             raise TextonError(
                 f"max_edge {max_edge:g} texels would make about {int(factor.sum())} faces (at most {max_faces}); "
@@ -308,7 +317,8 @@ def texture_mesh(
             )
         vertices, faces = trimesh.remesh.subdivide_to_size(vertices, faces, max_edge=edge, max_iter=64)
     out = trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
-    colours = surface_noise(texton, vertices, vertex_normals(out), texel, mni, seed, device=device, up=up, side=side)
+    colours = surface_noise(texton, vertices, vertex_normals(out, up), texel, mni, seed, device=device, up=up,
+                            side=side)
     if colours.shape[1] == 1:
         colours = np.repeat(colours, 3, axis=1)
     rgba = np.empty((len(vertices), 4), np.uint8)
@@ -415,12 +425,18 @@ def render_mesh(
     c.tan_half_fov = math.tan(math.radians(fov) / 2.0)
     c.aspect = w / h
     c.light = wp.vec3(*_direction(light, "light"))
-    c.background = wp.vec3(*np.asarray(background, dtype=np.float64).reshape(3))
+    try:
+        bg = np.asarray(background, dtype=np.float64).reshape(3)
+    except (TypeError, ValueError):
+        raise TextonError(f"background must be an RGB triple, got {background!r}") from None
+    if not np.isfinite(bg).all():
+        raise TextonError(f"background must be finite, got {background!r}")
+    c.background = wp.vec3(*bg)
     with wp.ScopedDevice(device):
         points = wp.array(np.asarray(mesh.vertices, dtype=np.float64) / texel, dtype=wp.vec3)
         indices = wp.array(np.asarray(mesh.faces, dtype=np.int32).reshape(-1), dtype=wp.int32)
         wmesh = wp.Mesh(points=points, indices=indices)
-        normals = wp.array(vertex_normals(mesh), dtype=wp.vec3)
+        normals = wp.array(vertex_normals(mesh, up), dtype=wp.vec3)
         coeffs = wp.array(setup.coeffs, dtype=wp.vec3)
         out = wp.zeros((h, w), dtype=wp.vec3)
 

@@ -1,0 +1,465 @@
+"""Batch surface texturing: ``warp-texton surface`` and :mod:`warp_texton.batch`.
+
+Small real meshes (trimesh icospheres and a torus) are written to a temporary folder
+with one broken file beside them. The command runs in-process through
+``warp_texton.cli.main``; the same jobs also run on a local Dask cluster (an optional
+extra, skipped when absent) and must give the same files as the thread pool.
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import re
+import warnings
+from concurrent.futures import Executor, Future
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+from PIL import Image
+
+from warp_texton import Texton, TextonError, texture_mesh
+from warp_texton.batch import JobResult, SurfaceJob, expand_meshes, run_batch, run_surface_job
+from warp_texton.cli import main
+
+MEAN = (0.3, 0.5, 0.7)
+SUMMARY = re.compile(r"^(\d+) done, (\d+) skipped, (\d+) failed$")
+OLD = 1_000_000_000  # an mtime (2001) that no run of the tests can produce
+
+
+@pytest.fixture(autouse=True)
+def _restore_warning_format(monkeypatch):
+    # main() installs its own one-line warning format; keep it out of other tests.
+    monkeypatch.setattr(warnings, "formatwarning", warnings.formatwarning)
+
+
+@pytest.fixture
+def texton_path(tmp_path):
+    """An 8 × 8 RGB texton of order 1; its noise has sd ≈ 0.08 around MEAN."""
+    a = np.random.default_rng(3).standard_normal((8, 8, 3))
+    t = Texton(a, MEAN, 1)
+    t = Texton(a * 0.08 / np.sqrt(np.diag(t.covariance()))[None, None, :], MEAN, 1)
+    path = tmp_path / "wood.exr"
+    t.save(path)
+    return path
+
+
+@pytest.fixture
+def mesh_dir(tmp_path):
+    """ball.ply (icosphere, 2 subdivisions), ring.obj (torus) and bad.ply (broken)."""
+    d = tmp_path / "in"
+    d.mkdir()
+    trimesh.creation.icosphere(subdivisions=2).export(d / "ball.ply")
+    trimesh.creation.torus(1.0, 0.3, major_sections=24, minor_sections=12).export(d / "ring.obj")
+    (d / "bad.ply").write_text("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nend_header\n1 2\n")
+    return d
+
+
+def run(argv):
+    """main(argv) -> exit status, whether it returns or exits through argparse."""
+    try:
+        return main([str(a) for a in argv])
+    except SystemExit as exc:
+        return exc.code
+
+
+def surface(mesh_dir, texton_path, out, *meshes, extra=()):
+    names = meshes or ("ball.ply", "ring.obj")
+    return run(["surface", *(mesh_dir / m for m in names), "--texton", texton_path, "--out-dir", out,
+                "--device", "cpu", *extra])
+
+
+def summary(err: str):
+    last = err.strip().splitlines()[-1]
+    m = SUMMARY.match(last)
+    assert m, f"no summary line at the end of stderr: {last!r}"
+    return tuple(int(v) for v in m.groups())
+
+
+def parts(folder) -> list[str]:
+    return sorted(p.name for p in Path(folder).rglob("*") if ".part" in p.name)
+
+
+def load(path) -> trimesh.Trimesh:
+    return trimesh.load(str(path), force="mesh", process=False)
+
+
+def expected_colours(mesh_path, texton_path, seed=0, mni=60.0):
+    """What a job computes: texel = bounding-box diagonal / 256, then texture_mesh."""
+    from warp_texton import load_texton
+
+    mesh = load(mesh_path)
+    lo, hi = mesh.bounds
+    texel = float(np.linalg.norm(hi - lo)) / 256.0
+    out = texture_mesh(mesh, load_texton(texton_path), texel, mni=mni, seed=seed, device="cpu")
+    return np.asarray(out.visual.vertex_colors)
+
+
+# --------------------------------------------------------------------------- #
+# expand_meshes                                                               #
+# --------------------------------------------------------------------------- #
+class TestExpandMeshes:
+    def test_plain_paths_keep_order_without_duplicates(self):
+        assert expand_meshes(["b.ply", "a.ply", "b.ply", "c.obj", "a.ply"]) == ["b.ply", "a.ply", "c.obj"]
+
+    def test_globs_are_sorted_and_unmatched_patterns_kept(self, tmp_path):
+        for name in ("c.ply", "a.ply", "b.obj", "sub/d.ply"):
+            (tmp_path / name).parent.mkdir(exist_ok=True)
+            (tmp_path / name).write_text("x")
+        got = expand_meshes([str(tmp_path / "*.ply"), str(tmp_path / "none*.ply"), str(tmp_path / "a.ply")])
+        assert got == [str(tmp_path / "a.ply"), str(tmp_path / "c.ply"), str(tmp_path / "none*.ply")]
+        got = expand_meshes([str(tmp_path / "**" / "*.ply")])
+        assert got == sorted(str(tmp_path / n) for n in ("a.ply", "c.ply", "sub/d.ply"))
+
+    def test_list_files(self, tmp_path):
+        for name in ("x.ply", "y.ply", "z.obj"):
+            (tmp_path / name).write_text("x")
+        inner = tmp_path / "inner.txt"
+        inner.write_text(f"{tmp_path / 'z.obj'}\n")
+        listing = tmp_path / "list.txt"
+        listing.write_text(
+            "# meshes to texture\n"
+            "\n"
+            f"  {tmp_path / 'y.ply'}  \n"
+            f"{tmp_path / '*.ply'}\n"
+            "   # an indented comment\n"
+            f"@{inner}\n"
+            "missing.ply\n"
+        )
+        got = expand_meshes([f"@{listing}", str(tmp_path / "x.ply")])
+        assert got == [str(tmp_path / "y.ply"), str(tmp_path / "x.ply"), str(tmp_path / "z.obj"), "missing.ply"]
+
+    def test_missing_list_file(self, tmp_path):
+        with pytest.raises(TextonError, match=r"nolist\.txt: cannot read the mesh list"):
+            expand_meshes([f"@{tmp_path / 'nolist.txt'}"])
+
+
+# --------------------------------------------------------------------------- #
+# Jobs                                                                        #
+# --------------------------------------------------------------------------- #
+class TestJobs:
+    def test_outputs_are_named_after_the_stem(self):
+        job = SurfaceJob("scans/bunny.ply", "wood.exr", "out")
+        assert job.outputs() == [Path("out/bunny.ply")]
+        job = SurfaceJob("scans/bunny.obj", "wood.exr", "out", render=(16, 24), fmt="glb")
+        assert job.outputs() == [Path("out/bunny.glb"), Path("out/bunny.png")]
+
+    def test_job_is_picklable(self):
+        # jobs travel to process pools and cluster workers
+        job = SurfaceJob("a.ply", "t.exr", "out", texel_size=0.1, render=(8, 8), fmt="obj", device="cpu")
+        assert pickle.loads(pickle.dumps(job)) == job
+        res = JobResult("a.ply", "failed", "why")
+        assert pickle.loads(pickle.dumps(res)) == res
+
+    def test_done_skipped_overwrite(self, tmp_path, mesh_dir, texton_path):
+        out = tmp_path / "out"
+        job = SurfaceJob(str(mesh_dir / "ball.ply"), str(texton_path), str(out), render=(12, 20), device="cpu")
+        res = run_surface_job(job)
+        assert res.status == "done" and res.message == ""
+        assert res.outputs == [str(out / "ball.ply"), str(out / "ball.png")]
+        with Image.open(out / "ball.png") as im:
+            assert im.size == (20, 12)
+        mesh_bytes = (out / "ball.ply").read_bytes()
+        for p in job.outputs():
+            os.utime(p, (OLD, OLD))
+        res = run_surface_job(job)
+        assert res.status == "skipped" and "--overwrite" in res.message
+        assert all(p.stat().st_mtime == OLD for p in job.outputs())
+        res = run_surface_job(SurfaceJob(**{**job.__dict__, "overwrite": True}))
+        assert res.status == "done"
+        assert all(p.stat().st_mtime != OLD for p in job.outputs())
+        assert (out / "ball.ply").read_bytes() == mesh_bytes  # same seed, same file
+        assert parts(out) == []
+
+    def test_missing_render_is_redone(self, tmp_path, mesh_dir, texton_path):
+        out = tmp_path / "out"
+        job = SurfaceJob(str(mesh_dir / "ball.ply"), str(texton_path), str(out), device="cpu")
+        assert run_surface_job(job).status == "done"
+        # asking for a render too: the PNG is missing, so the job runs again
+        assert run_surface_job(SurfaceJob(**{**job.__dict__, "render": (8, 8)})).status == "done"
+        assert (out / "ball.png").is_file()
+
+    @pytest.mark.parametrize(
+        "name, content, match",
+        [
+            ("missing.ply", None, r"missing\.ply: no such file"),
+            ("bad.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nend_header\n1 2\n",
+             r"bad\.ply: not a mesh that trimesh can read"),
+            ("cloud.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                          "property float z\nend_header\n0 0 0\n1 0 0\n0 1 0\n", r"cloud\.ply: .*no triangles"),
+            ("empty.obj", "", r"empty\.obj: "),
+            ("folder.ply", "DIR", r"folder\.ply: no such file"),
+        ],
+    )
+    def test_bad_meshes_fail_without_output(self, tmp_path, texton_path, name, content, match):
+        path = tmp_path / name
+        if content == "DIR":
+            path.mkdir()
+        elif content is not None:
+            path.write_text(content)
+        out = tmp_path / "out"
+        job = SurfaceJob(str(path), str(texton_path), str(out), render=(8, 8), device="cpu")
+        res = run_surface_job(job)
+        assert res.status == "failed" and res.outputs == []
+        assert re.search(match, res.message), res.message
+        assert "\n" not in res.message
+        assert not any(p.exists() for p in job.outputs())
+        assert parts(tmp_path) == []
+
+    def test_bad_texton_fails_the_job(self, tmp_path, mesh_dir):
+        (tmp_path / "t.texton").write_text("NOT A TEXTON\n")
+        res = run_surface_job(SurfaceJob(str(mesh_dir / "ball.ply"), str(tmp_path / "t.texton"), str(tmp_path / "o")))
+        assert res.status == "failed" and "t.texton" in res.message
+
+    def test_failed_overwrite_keeps_the_previous_output(self, tmp_path, mesh_dir, texton_path):
+        out = tmp_path / "out"
+        job = SurfaceJob(str(mesh_dir / "ball.ply"), str(texton_path), str(out), overwrite=True, device="cpu")
+        assert run_surface_job(job).status == "done"
+        before = (out / "ball.ply").read_bytes()
+        (mesh_dir / "ball.ply").write_text("ply\ngarbage\n")
+        res = run_surface_job(job)
+        assert res.status == "failed"
+        assert (out / "ball.ply").read_bytes() == before
+        assert parts(out) == []
+
+
+class TestRunBatch:
+    def test_results_in_job_order_and_parallel_equals_serial(self, tmp_path, mesh_dir, texton_path):
+        names = ("ring.obj", "bad.ply", "ball.ply")
+
+        def jobs(out):
+            return [SurfaceJob(str(mesh_dir / n), str(texton_path), str(tmp_path / out), device="cpu") for n in names]
+
+        serial = run_batch(jobs("serial"))
+        parallel = run_batch(jobs("parallel"), jobs_in_parallel=3)
+        for res in (serial, parallel):
+            assert [r.mesh for r in res] == [str(mesh_dir / n) for n in names]
+            assert [r.status for r in res] == ["done", "failed", "done"]
+        for stem in ("ring", "ball"):
+            a = (tmp_path / "serial" / f"{stem}.ply").read_bytes()
+            assert a == (tmp_path / "parallel" / f"{stem}.ply").read_bytes()
+
+    def test_an_executor_failure_is_a_failed_result(self, tmp_path, mesh_dir, texton_path):
+        class LostWorkers(Executor):
+            def submit(self, fn, *args, **kwargs):
+                f = Future()
+                f.set_exception(RuntimeError("worker lost"))
+                return f
+
+        jobs = [SurfaceJob(str(mesh_dir / "ball.ply"), str(texton_path), str(tmp_path / "o"))]
+        (res,) = run_batch(jobs, executor=LostWorkers())
+        assert res.status == "failed" and res.message == "RuntimeError: worker lost"
+        assert res.mesh == str(mesh_dir / "ball.ply")
+
+
+# --------------------------------------------------------------------------- #
+# The command line                                                            #
+# --------------------------------------------------------------------------- #
+class TestCli:
+    @pytest.mark.parametrize("fmt", ["ply", "obj", "glb"])
+    def test_outputs_in_each_format(self, tmp_path, mesh_dir, texton_path, capsys, fmt):
+        out = tmp_path / "out"
+        status = surface(mesh_dir, texton_path, out, extra=["--format", fmt, "-q"])
+        captured = capsys.readouterr()
+        assert status == 0, captured.err
+        assert summary(captured.err) == (2, 0, 0)
+        assert sorted(p.name for p in out.iterdir()) == sorted([f"ball.{fmt}", f"ring.{fmt}"])
+        for stem, src in (("ball", "ball.ply"), ("ring", "ring.obj")):
+            mesh = load(out / f"{stem}.{fmt}")
+            source = load(mesh_dir / src)
+            assert mesh.visual.kind == "vertex"
+            c = np.asarray(mesh.visual.vertex_colors)
+            assert c.shape == (len(source.vertices), 4)
+            np.testing.assert_allclose(mesh.vertices, source.vertices, atol=1e-6)
+            np.testing.assert_array_equal(c, expected_colours(mesh_dir / src, texton_path))
+            # the texton's mean colour: 162 (ball) or 288 (ring) vertices ≥ 20 texels apart
+            # (independent), sd 0.08 each: 5 sd of the mean ≤ 0.032 ≪ the 0.2 between channels
+            assert np.all(np.abs(c[:, :3].mean(axis=0) / 255 - MEAN) < 5 * 0.08 / np.sqrt(len(c)) + 0.5 / 255)
+        assert parts(out) == []
+
+    def test_render_has_the_asked_size(self, tmp_path, mesh_dir, texton_path, capsys):
+        out = tmp_path / "out"
+        assert surface(mesh_dir, texton_path, out, extra=["--render", "24x16", "-q"]) == 0
+        for stem in ("ball", "ring"):
+            with Image.open(out / f"{stem}.png") as im:
+                assert im.size == (24, 16) and im.mode == "RGB"
+                px = np.asarray(im)
+            assert np.all(px[0, 0] == round(0.92 * 255))  # background in the corner
+            assert np.any(np.any(px != round(0.92 * 255), axis=2))  # and the mesh somewhere
+        assert summary(capsys.readouterr().err) == (2, 0, 0)
+
+    def test_one_bad_mesh_others_finish(self, tmp_path, mesh_dir, texton_path, capsys):
+        out = tmp_path / "out"
+        status = surface(mesh_dir, texton_path, out, "ball.ply", "bad.ply", "ring.obj", extra=["-q"])
+        captured = capsys.readouterr()
+        assert status == 1
+        assert summary(captured.err) == (2, 0, 1)
+        errors = [ln for ln in captured.err.splitlines() if ln.startswith("warp-texton: error:")]
+        assert len(errors) == 1 and "bad.ply" in errors[0], captured.err
+        assert "Traceback" not in captured.err + captured.out
+        assert sorted(p.name for p in out.iterdir()) == ["ball.ply", "ring.ply"]
+        assert parts(out) == []
+
+    def test_rerun_skips_and_overwrite_redoes(self, tmp_path, mesh_dir, texton_path, capsys):
+        out = tmp_path / "out"
+        assert surface(mesh_dir, texton_path, out, extra=["-q", "--render", "8x8"]) == 0
+        capsys.readouterr()
+        files = sorted(out.iterdir())
+        assert len(files) == 4
+        content = {p: p.read_bytes() for p in files}
+        for p in files:
+            os.utime(p, (OLD, OLD))
+        assert surface(mesh_dir, texton_path, out, extra=["-q", "--render", "8x8"]) == 0
+        assert summary(capsys.readouterr().err) == (0, 2, 0)
+        assert all(p.stat().st_mtime == OLD for p in files)
+        assert surface(mesh_dir, texton_path, out, extra=["-q", "--render", "8x8", "--overwrite"]) == 0
+        assert summary(capsys.readouterr().err) == (2, 0, 0)
+        assert all(p.stat().st_mtime != OLD for p in files)
+        assert all(p.read_bytes() == content[p] for p in files)  # deterministic
+        assert parts(out) == []
+
+    def test_list_files_and_globs(self, tmp_path, mesh_dir, texton_path, capsys):
+        listing = tmp_path / "meshes.txt"
+        listing.write_text(f"# two meshes\n{mesh_dir / 'ball.ply'}\n\n{mesh_dir / 'ring.*'}\n{mesh_dir / 'ball.ply'}\n")
+        out = tmp_path / "out"
+        status = run(["surface", f"@{listing}", str(mesh_dir / "*.obj"), str(mesh_dir / "nothing*.ply"),
+                      "--texton", texton_path, "--out-dir", out, "--device", "cpu", "-q"])
+        captured = capsys.readouterr()
+        assert status == 1  # the unmatched pattern is reported as a missing file
+        assert summary(captured.err) == (2, 0, 1)
+        assert re.search(r"error: .*nothing\*\.ply: no such file", captured.err), captured.err
+        assert sorted(p.name for p in out.iterdir()) == ["ball.ply", "ring.ply"]
+
+    def test_progress_bar_and_summary(self, tmp_path, mesh_dir, texton_path, capsys):
+        assert surface(mesh_dir, texton_path, tmp_path / "out") == 0
+        err = capsys.readouterr().err
+        assert "surface" in err and "2/2" in err  # the bar counts meshes
+        assert summary(err) == (2, 0, 0)
+
+    def test_options_reach_the_jobs(self, tmp_path, mesh_dir, texton_path, capsys):
+        a, b, c = tmp_path / "a", tmp_path / "b", tmp_path / "c"
+        assert surface(mesh_dir, texton_path, a, "ball.ply", extra=["-q", "--seed", "1"]) == 0
+        assert surface(mesh_dir, texton_path, b, "ball.ply", extra=["-q", "--seed", "2", "--jobs", "2"]) == 0
+        ca, cb = (np.asarray(load(d / "ball.ply").visual.vertex_colors) for d in (a, b))
+        np.testing.assert_array_equal(ca, expected_colours(mesh_dir / "ball.ply", texton_path, seed=1))
+        assert np.mean(ca != cb) > 0.5
+        assert surface(mesh_dir, texton_path, c, "ball.ply",
+                       extra=["-q", "--texel-size", "0.01", "--max-edge", "8", "--mni", "40"]) == 0
+        mesh = load(c / "ball.ply")
+        v, f = np.asarray(mesh.vertices), np.asarray(mesh.faces)
+        assert len(v) > 162 and np.linalg.norm(v[f[:, [1, 2, 0]]] - v[f], axis=2).max() <= 0.08 * (1 + 1e-6)
+
+    def test_jobs_in_parallel_give_the_same_files(self, tmp_path, mesh_dir, texton_path, capsys):
+        one, two = tmp_path / "one", tmp_path / "two"
+        assert surface(mesh_dir, texton_path, one, extra=["-q"]) == 0
+        assert surface(mesh_dir, texton_path, two, extra=["-q", "--jobs", "2"]) == 0
+        for name in ("ball.ply", "ring.ply"):
+            assert (one / name).read_bytes() == (two / name).read_bytes()
+
+    @pytest.mark.parametrize(
+        "extra, match",
+        [
+            (["--render", "abc"], r"--render must be WIDTHxHEIGHT"),
+            (["--render", "16"], r"--render must be WIDTHxHEIGHT"),
+            (["--render", "16x16x2"], r"--render must be WIDTHxHEIGHT"),
+            (["--jobs", "0"], r"--jobs must be at least 1"),
+            (["--texel-size", "0"], r"--texel-size must be a finite number > 0"),
+            (["--texel-size", "nan"], r"--texel-size must be a finite number > 0"),
+            (["--format", "stl"], r"invalid choice: 'stl'"),
+            (["--jobs", "two"], r"invalid int value"),
+            (["--device", "tpu"], r"device"),
+        ],
+    )
+    def test_usage_errors(self, tmp_path, mesh_dir, texton_path, capsys, extra, match):
+        out = tmp_path / "out"
+        status = surface(mesh_dir, texton_path, out, extra=extra)
+        captured = capsys.readouterr()
+        assert status == 2
+        lines = captured.err.splitlines()
+        assert len(lines) == 1, captured.err
+        assert re.match(r"^warp-texton(?: surface)?: error: \S", lines[0]), lines[0]
+        assert re.search(match, lines[0]), lines[0]
+        assert "Traceback" not in captured.err + captured.out
+        assert not out.exists() or list(out.iterdir()) == []
+
+    @pytest.mark.parametrize("texton", ["missing.exr", "broken.texton", "image.png"])
+    def test_bad_texton_is_one_error(self, tmp_path, mesh_dir, capsys, texton):
+        (tmp_path / "broken.texton").write_text("TEXTON\n1\n")
+        Image.fromarray(np.zeros((4, 4), np.uint8)).save(tmp_path / "image.png")
+        out = tmp_path / "out"
+        status = surface(mesh_dir, tmp_path / texton, out)
+        captured = capsys.readouterr()
+        assert status == 2
+        lines = captured.err.splitlines()
+        assert len(lines) == 1 and lines[0].startswith("warp-texton: error: ") and texton in lines[0], captured.err
+        assert not out.exists()
+
+    def test_missing_list_is_one_error(self, tmp_path, texton_path, capsys):
+        out = tmp_path / "out"
+        status = run(["surface", f"@{tmp_path / 'nolist.txt'}", "--texton", texton_path, "--out-dir", out])
+        err = capsys.readouterr().err
+        assert status == 2 and err.count("\n") == 1 and "cannot read the mesh list" in err
+        assert not out.exists()
+
+    @pytest.mark.parametrize("size", ["0x16", "16x-4"])
+    def test_non_positive_render_size_is_a_usage_error(self, tmp_path, mesh_dir, texton_path, capsys, size):
+        out = tmp_path / "out"
+        status = surface(mesh_dir, texton_path, out, "ball.ply", extra=["--render", size, "-q"])
+        err = capsys.readouterr().err
+        assert status == 2 and "--render" in err, err
+        assert not (out / "ball.ply").exists()
+
+    def test_error_lines_go_to_stderr_with_the_progress_bar(self, tmp_path, mesh_dir, texton_path, capsys):
+        status = surface(mesh_dir, texton_path, tmp_path / "out", "ball.ply", "bad.ply")
+        captured = capsys.readouterr()
+        assert status == 1
+        assert "warp-texton: error:" not in captured.out, captured.out
+        # the bar is cleared with a carriage return before the line: a terminal shows it at column 0
+        assert re.search(r"(^|\r)warp-texton: error: .*bad\.ply", captured.err, re.M), captured.err
+
+
+# --------------------------------------------------------------------------- #
+# Dask                                                                        #
+# --------------------------------------------------------------------------- #
+@pytest.fixture
+def dask_client():
+    distributed = pytest.importorskip("dask.distributed")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+        yield client
+
+
+def test_dask_cluster_gives_the_same_files(tmp_path, mesh_dir, texton_path, dask_client):
+    names = ("ball.ply", "bad.ply", "ring.obj")
+
+    def jobs(out):
+        return [SurfaceJob(str(mesh_dir / n), str(texton_path), str(tmp_path / out), render=(12, 12),
+                           device="cpu") for n in names]
+
+    local = run_batch(jobs("threads"), jobs_in_parallel=2)
+    remote = run_batch(jobs("dask"), executor=dask_client.get_executor())
+    assert [(r.mesh, r.status, r.message) for r in remote] == [(r.mesh, r.status, r.message) for r in local]
+    assert [r.status for r in remote] == ["done", "failed", "done"]
+    assert [r.outputs for r in remote] == [[o.replace("threads", "dask") for o in r.outputs] for r in local]
+    files = sorted(p.name for p in (tmp_path / "threads").iterdir())
+    assert files == sorted(p.name for p in (tmp_path / "dask").iterdir()) == [
+        "ball.ply", "ball.png", "ring.ply", "ring.png"]
+    for name in files:
+        assert (tmp_path / "threads" / name).read_bytes() == (tmp_path / "dask" / name).read_bytes()
+    assert parts(tmp_path) == []
+
+
+def test_dask_reruns_a_job_whose_input_changed(tmp_path, mesh_dir, texton_path, dask_client):
+    out = tmp_path / "out"
+    job = SurfaceJob(str(mesh_dir / "ball.ply"), str(texton_path), str(out), overwrite=True, device="cpu")
+    # a result of this very job still alive on the cluster, e.g. from an earlier batch of the session
+    held = dask_client.submit(run_surface_job, job)
+    assert held.result().status == "done"
+    os.utime(out / "ball.ply", (OLD, OLD))
+    trimesh.creation.icosphere(subdivisions=3).export(mesh_dir / "ball.ply")  # the input changes
+    (res,) = run_batch([job], executor=dask_client.get_executor())
+    assert res.status == "done"
+    assert (out / "ball.ply").stat().st_mtime != OLD, "the job was not run: the output is stale"
+    assert len(load(out / "ball.ply").vertices) == 642
