@@ -1,0 +1,572 @@
+"""The CPU/GPU benchmark runner: ``python -m benchmarks``.
+
+Times, on each device asked for, the texton analysis, 2-D texton noise
+(``synthesize``), filtering, surface noise and mixing, with the peers measured
+in the same run and interleaved with texton noise so that all see the same
+machine load (see ``peers.py``):
+
+* the FFT sample of the same Gaussian model (the spectral method) and the
+  discrete spot noise (``warp_texton.dsn``), NumPy on the host;
+* Warp's built-in Perlin noise ``wp.pnoise``, the cost floor of a procedural
+  noise, on the same device;
+* a naive per-pixel texton noise (``evaluate`` at every pixel centre, no
+  shared impacts), to show what drawing the impacts once per raster gains.
+
+Two parameter sets: ``--quick`` (CI smoke run: 256² and 512², MNI 30, texton
+32², one run each) and the full one (256² to 3840×2160, MNI 5 to 60, textons
+16² to 128², best of 5). Writes ``runner.json`` (machine, devices, Warp
+version, date, git commit, every timing), ``runner.md`` (tables) and PNG plots
+of time against output size, MNI and texton size into ``--out``.
+
+    python -m benchmarks                       # full run, every device, benchmarks/results/runner/
+    python -m benchmarks --quick --out /tmp/b  # smoke run (CI)
+    python -m benchmarks --device cuda:0
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as _dt
+import importlib.util
+import json
+import os
+import statistics
+import sys
+import tempfile
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .common import git_commit, git_dirty, machine_info, make_texture, write_atomic
+
+HERE = Path(__file__).resolve().parent
+DEFAULT_OUT = HERE / "results" / "runner"
+
+#: Method names, in table order; HOST methods run on NumPy whatever the device.
+TEXTON = "texton noise"
+NAIVE = "naive per-pixel"
+FFT = "FFT sample"
+DSN = "DSN"
+PERLIN = "wp.pnoise"
+METHODS = (TEXTON, NAIVE, PERLIN, FFT, DSN)
+HOST_METHODS = (FFT, DSN)
+#: Surface noise needs more impacts than the plane (CGF §6); the package default.
+SURFACE_MNI = 60.0
+
+
+@dataclass(frozen=True)
+class Suite:
+    """One parameter set. Shapes are (height, width)."""
+
+    name: str
+    sizes: tuple  # output sizes at (ref_mni, ref_texton)
+    mnis: tuple  # MNI sweep at (ref_shape, ref_texton)
+    texton_sizes: tuple  # texton sweep at (ref_shape, ref_mni); also the analysis sizes
+    ref_shape: tuple
+    ref_mni: float
+    ref_texton: int
+    repeat: int
+    image_side: int  # side of the RGB test texture the textons are analysed from
+    naive_max_pixels: int  # the naive per-pixel peer is skipped above this
+    mix_steps: int
+    mix_sizes: tuple
+    surface_subdivisions: int  # icosphere: 3 → 642 vertices, 6 → 40 962
+    surface_render: tuple  # (height, width) of the surface render
+
+
+QUICK = Suite(
+    name="quick", sizes=((256, 256), (512, 512)), mnis=(30.0,), texton_sizes=(32,),
+    ref_shape=(512, 512), ref_mni=30.0, ref_texton=32, repeat=1, image_side=256,
+    naive_max_pixels=512 * 512, mix_steps=5, mix_sizes=((256, 256),),
+    surface_subdivisions=3, surface_render=(128, 128),
+)
+FULL = Suite(
+    name="full", sizes=((256, 256), (512, 512), (1024, 1024), (2048, 2048), (2160, 3840)),
+    mnis=(5.0, 10.0, 30.0, 60.0), texton_sizes=(16, 32, 64, 128),
+    ref_shape=(1024, 1024), ref_mni=30.0, ref_texton=64, repeat=5, image_side=512,
+    naive_max_pixels=1024 * 1024, mix_steps=21, mix_sizes=((1024, 1024), (2160, 3840)),
+    surface_subdivisions=6, surface_render=(1024, 1024),
+)
+
+
+@dataclass
+class Report:
+    """What a run measured, and what it could not."""
+
+    rows: list = field(default_factory=list)
+    skipped: list = field(default_factory=list)
+
+    def add(self, **row):
+        self.rows.append(row)
+
+    def skip(self, case: str, reason: str):
+        print(f"  skipped {case}: {reason}", flush=True)
+        self.skipped.append({"case": case, "reason": reason})
+
+
+def timings(times: list[float]) -> dict:
+    return {"best_s": min(times), "median_s": statistics.median(times), "runs": len(times),
+            "times_s": [round(t, 6) for t in times]}
+
+
+def interleaved(methods: dict, repeat: int, caps: dict | None = None) -> dict:
+    """Best-of-``repeat`` timings of each callable, taking turns so that all see the same load.
+
+    One untimed call of each first (kernel loading, FFT plans, first-touch
+    pages). ``caps`` limits the timed runs of slow methods.
+    """
+    caps = caps or {}
+    for fn in methods.values():
+        fn()
+    times = {name: [] for name in methods}
+    for r in range(repeat):
+        for name, fn in methods.items():
+            if r < caps.get(name, repeat):
+                t0 = time.perf_counter()
+                fn()
+                times[name].append(time.perf_counter() - t0)
+    return {name: timings(t) for name, t in times.items()}
+
+
+def resolve_devices(spec: str) -> list[str]:
+    """``all`` → the CPU and every CUDA device present; else one checked device name."""
+    from warp_texton.synthesis import _warp, resolve_device
+
+    if spec != "all":
+        return [resolve_device(spec)]
+    wp = _warp()
+    return ["cpu"] + [f"cuda:{k}" for k in range(wp.get_cuda_device_count())]
+
+
+def device_info(device: str) -> dict:
+    from warp_texton.synthesis import _warp
+
+    d = _warp().get_device(device)
+    info = {"name": device, "description": getattr(d, "name", device)}
+    if d.is_cpu:
+        info["threads"] = os.cpu_count()
+    else:
+        info["memory_gib"] = round(getattr(d, "total_memory", 0) / 2**30, 1)
+        info["arch"] = getattr(d, "arch", None)
+    return info
+
+
+# ---------------------------------------------------------------- cases
+
+
+def analysis_case(suite: Suite, u: np.ndarray, report: Report) -> dict:
+    """``analyze`` of the test texture at each texton size (host, NumPy); returns the textons."""
+    from warp_texton import analyze
+
+    textons = {}
+    print(f"analysis of a {suite.image_side}² RGB texture", flush=True)
+    for size in sorted(set(suite.texton_sizes) | {suite.ref_texton}):
+        def fn(size=size):
+            textons[size] = analyze(u, size=size, seed=0)
+
+        t = interleaved({"analysis": fn}, suite.repeat)["analysis"]
+        report.add(case="analysis", method="analyze", device="host", texton=size,
+                   image=[suite.image_side, suite.image_side, 3], **t)
+        print(f"  texton {size}²: {t['best_s']:.3f} s", flush=True)
+    return textons
+
+
+def synthesis_cases(suite: Suite) -> list[dict]:
+    """The (shape, mni, texton) points of the three sweeps, each once, with the sweeps it belongs to."""
+    points = {}
+    for shape in suite.sizes:
+        points.setdefault((tuple(shape), suite.ref_mni, suite.ref_texton), []).append("size")
+    for mni in suite.mnis:
+        points.setdefault((tuple(suite.ref_shape), mni, suite.ref_texton), []).append("mni")
+    for t in suite.texton_sizes:
+        points.setdefault((tuple(suite.ref_shape), suite.ref_mni, t), []).append("texton")
+    return [{"shape": s, "mni": m, "texton": t, "sweeps": sw} for (s, m, t), sw in points.items()]
+
+
+def synthesis_case(suite: Suite, textons: dict, device: str, host_too: bool, report: Report) -> None:
+    """2-D texton noise and its peers at every point of the sweeps, on one device."""
+    from . import peers
+
+    print(f"2-D synthesis on {device}", flush=True)
+    for case in synthesis_cases(suite):
+        shape, mni, texton = case["shape"], case["mni"], textons[case["texton"]]
+        h, w = shape
+        methods = {TEXTON: peers.TextonNoise(texton, shape, mni, device)}
+        if h * w <= suite.naive_max_pixels or device != "cpu":  # slow on the CPU only
+            methods[NAIVE] = peers.NaivePerPixel(texton, shape, mni, device)
+        methods[PERLIN] = peers.PerlinRaster(shape, texton.channels, device)
+        if host_too:
+            methods[FFT] = peers.FFTSample(texton, shape)
+            methods[DSN] = peers.DSNSample(texton, shape, mni)
+        # the naive path is 30-60x slower: fewer runs keep the suite short
+        results = interleaved(methods, suite.repeat, caps={NAIVE: min(suite.repeat, 2)})
+        parts = []
+        for name, t in results.items():
+            report.add(case="synthesis", method=name, device="host" if name in HOST_METHODS else device,
+                       shape=list(shape), mni=mni, texton=case["texton"], channels=texton.channels,
+                       sweeps=case["sweeps"], mpix_per_s=h * w / t["best_s"] / 1e6, **t)
+            parts.append(f"{name} {t['best_s']:.4f}")
+        if NAIVE not in methods and "size" in case["sweeps"]:
+            note = f"{w}x{h} is above {suite.naive_max_pixels} pixels"
+            report.skip(f"naive per-pixel {w}x{h} on {device}", f"{note}; it is slow")
+        print(f"  {w}x{h} MNI {mni:g} texton {case['texton']}²: " + ", ".join(parts) + " s", flush=True)
+
+
+def mixing_case(suite: Suite, u: np.ndarray, device: str, textons_cache: dict, report: Report) -> None:
+    """``synthesize_mixed`` over ``mix_steps`` textons in strips vs ``synthesize`` with one."""
+    from warp_texton import mix_textons, synthesize, synthesize_mixed
+
+    print(f"mixing on {device}", flush=True)
+    if "mix" not in textons_cache:
+        v = np.ascontiguousarray(u.transpose(1, 0, 2)[:, :, ::-1])  # the same material turned 90°
+        t0 = time.perf_counter()
+        textons_cache["mix"] = mix_textons(u, v, np.linspace(0.0, 1.0, suite.mix_steps),
+                                           size=suite.ref_texton, seed=0)
+        seconds = time.perf_counter() - t0
+        report.add(case="mixing", method="mix_textons", device="host", steps=suite.mix_steps,
+                   texton=suite.ref_texton, **timings([seconds]))
+        print(f"  mix_textons, {suite.mix_steps} textons of {suite.ref_texton}²: {seconds:.2f} s", flush=True)
+    textons = textons_cache["mix"]
+    for shape in suite.mix_sizes:
+        h, w = shape
+        methods = {
+            "synthesize_mixed": lambda: synthesize_mixed(textons, "strips", shape, mni=suite.ref_mni,
+                                                         seed=1, device=device),
+            "synthesize": lambda: synthesize(textons[len(textons) // 2], shape, mni=suite.ref_mni,
+                                             seed=1, device=device),
+        }
+        results = interleaved(methods, suite.repeat)
+        for name, t in results.items():
+            report.add(case="mixing", method=name, device=device, shape=list(shape), mni=suite.ref_mni,
+                       steps=suite.mix_steps, texton=suite.ref_texton, mpix_per_s=h * w / t["best_s"] / 1e6, **t)
+        ratio = results["synthesize_mixed"]["best_s"] / results["synthesize"]["best_s"]
+        print(f"  {w}x{h}: mixed {results['synthesize_mixed']['best_s']:.4f} s, "
+              f"plain {results['synthesize']['best_s']:.4f} s, ratio {ratio:.2f}", flush=True)
+
+
+def filtering_case(suite: Suite, textons: dict, device: str, report: Report) -> None:
+    """HOOK (issue 4): anti-aliased filtering of the noise for the viewing distance.
+
+    Skipped until ``warp_texton`` has a filtering API; when it does, time a
+    filtered plane in perspective here (and add it to the tables).
+    """
+    if importlib.util.find_spec("warp_texton.filtering") is None:
+        report.skip(f"filtering on {device}", "warp_texton has no filtering yet (issue 4)")
+    else:
+        report.skip(f"filtering on {device}", "warp_texton.filtering exists but the runner has no case "
+                    "for it yet: add one in benchmarks/runner.py:filtering_case")
+
+
+def surface_case(suite: Suite, textons: dict, device: str, report: Report) -> None:
+    """Surface noise on meshes (CGF §6): ``surface_noise`` points per second at
+    MNI 60 at the vertices of an icosphere, and one ``render_mesh`` frame.
+
+    HOOK: skipped, with the reason printed, when ``warp_texton.surface`` is
+    absent or its calls fail (its API is young); the run goes on.
+    """
+    if importlib.util.find_spec("warp_texton.surface") is None:
+        report.skip(f"surface on {device}", "warp_texton.surface does not exist (surface noise on meshes)")
+        return
+    try:
+        import trimesh
+
+        from warp_texton import surface
+
+        texton = textons[suite.ref_texton]
+        # unit sphere, 128 texels per unit: about 800 texels round the equator
+        mesh = trimesh.creation.icosphere(subdivisions=suite.surface_subdivisions, radius=1.0)
+        texel = 1.0 / 128.0
+        vertices, normals = mesh.vertices, mesh.vertex_normals
+        nv = len(vertices)
+        print(f"surface on {device}: icosphere of {nv} vertices, render {suite.surface_render[1]}x"
+              f"{suite.surface_render[0]}", flush=True)
+        methods = {
+            "surface_noise": lambda: surface.surface_noise(texton, vertices, normals, texel, mni=SURFACE_MNI,
+                                                           seed=1, device=device),
+            "render_mesh": lambda: surface.render_mesh(mesh, texton, suite.surface_render, texel,
+                                                       mni=SURFACE_MNI, seed=1, device=device),
+        }
+        results = interleaved(methods, suite.repeat)
+    except Exception as exc:  # the hook must not end the run: say why and go on
+        report.skip(f"surface on {device}", f"warp_texton.surface is there but a call failed: "
+                    f"{type(exc).__name__}: {exc}")
+        return
+    t = results["surface_noise"]
+    report.add(case="surface", method="surface_noise", device=device, vertices=nv, mni=SURFACE_MNI,
+               texton=suite.ref_texton, mpoints_per_s=nv / t["best_s"] / 1e6, **t)
+    h, w = suite.surface_render
+    r = results["render_mesh"]
+    report.add(case="surface", method="render_mesh", device=device, vertices=nv, mni=SURFACE_MNI,
+               texton=suite.ref_texton, shape=[h, w], mpix_per_s=h * w / r["best_s"] / 1e6, **r)
+    print(f"  surface_noise: {t['best_s']:.4f} s ({nv / t['best_s'] / 1e6:.2f} Mpoints/s); "
+          f"render_mesh {w}x{h}: {r['best_s']:.4f} s", flush=True)
+
+
+# ---------------------------------------------------------------- the run
+
+
+def run(suite: Suite, devices: list[str]) -> dict:
+    import warp
+
+    commit, dirty = git_commit(), git_dirty()  # the checkout as the code was imported
+    start = time.perf_counter()
+    report = Report()
+    u = make_texture(suite.image_side)
+    textons = analysis_case(suite, u, report)
+    cache = {}
+    for k, device in enumerate(devices):
+        synthesis_case(suite, textons, device, host_too=(k == 0), report=report)
+        filtering_case(suite, textons, device, report)
+        surface_case(suite, textons, device, report)
+        mixing_case(suite, u, device, cache, report)
+    machine = machine_info()
+    machine["threads"] = os.cpu_count()
+    return {
+        "benchmark": "runner",
+        "suite": suite.name,
+        "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "git_commit": commit,
+        "git_dirty": dirty,
+        "machine": machine,
+        "warp": warp.config.version,
+        "devices": [device_info(d) for d in devices],
+        "parameters": {**asdict(suite), "texture": "skimage grass/gravel/brick mixed to RGB (CC0)",
+                       "order": 1, "seed": 1},
+        "seconds": round(time.perf_counter() - start, 1),
+        "results": report.rows,
+        "skipped": report.skipped,
+    }
+
+
+# ---------------------------------------------------------------- output
+
+
+def _find(rows, **match):
+    for r in rows:
+        if all(r.get(k) == v for k, v in match.items()):
+            return r
+    return None
+
+
+def _cell(row) -> str:
+    if row is None:
+        return "—"
+    return f"{row['best_s']:.4f} ({row['median_s']:.4f})" if row["runs"] > 1 else f"{row['best_s']:.4f}"
+
+
+def _method_device(method: str, device: str) -> str:
+    return "host" if method in HOST_METHODS else device
+
+
+def markdown(report: dict) -> str:
+    m, p, rows = report["machine"], report["parameters"], report["results"]
+    devices = ", ".join(
+        f"`{d['name']}` ({d['description']}" + (f", {d['threads']} threads)" if "threads" in d else
+                                                f", {d['memory_gib']} GiB)") for d in report["devices"])
+    commit = (report["git_commit"] or "unknown")[:10]
+    if p["repeat"] == 1:
+        runs = "one timed run each"
+    else:
+        runs = (f"best of {p['repeat']} interleaved runs, median in brackets "
+                f"(naive per-pixel: best of {min(p['repeat'], 2)})")
+    lines = [
+        f"# warp-texton benchmark runner, {p['name']} suite",
+        "",
+        f"{report['date']}; commit `{commit}`{' (uncommitted changes)' if report['git_dirty'] else ''}; "
+        f"{m['processor']}, {m['usable_cpus']} usable CPUs, {m['platform']}; Python {m['python']}, "
+        f"NumPy {m['numpy']}, SciPy {m['scipy']}, Warp {report['warp']}, warp-texton {m['warp_texton']}. "
+        f"Devices: {devices}. The whole run took {report['seconds']:.0f} s.",
+        "",
+        f"Textons analysed from a {p['image_side']}² RGB test texture ({p['texture']}), order 1; "
+        f"rasters RGB. Times in seconds after one untimed call of each method: {runs}. FFT sample and DSN "
+        "run on the host (NumPy) whatever the device. Every method returns the finished raster in host memory.",
+    ]
+    ref_h, ref_w = p["ref_shape"]
+    for d in report["devices"]:
+        dev = d["name"]
+
+        def get(method, **kw):
+            return _find(rows, case="synthesis", method=method, device=_method_device(method, dev), **kw)
+
+        lines += ["", f"## Texton noise and peers by output size on `{dev}` "
+                  f"(MNI {p['ref_mni']:g}, texton {p['ref_texton']}²)", "",
+                  "| output | " + " | ".join(METHODS) + " | texton noise Mpix/s | noise / FFT |",
+                  "|---|" + "---:|" * (len(METHODS) + 2)]
+        for h, w in p["sizes"]:
+            kw = dict(shape=[h, w], mni=p["ref_mni"], texton=p["ref_texton"])
+            cells = [get(mt, **kw) for mt in METHODS]
+            tn, ff = cells[0], cells[3]
+            ratio = f"{tn['best_s'] / ff['best_s']:.2f}" if tn and ff else "—"
+            rate = f"{tn['mpix_per_s']:.0f}" if tn else "—"
+            lines.append(f"| {w}×{h} | " + " | ".join(_cell(c) for c in cells) + f" | {rate} | {ratio} |")
+        if len(p["mnis"]) > 1:
+            lines += ["", f"### By MNI at {ref_w}×{ref_h} (texton {p['ref_texton']}²) on `{dev}`", "",
+                      "| MNI | " + " | ".join(METHODS) + " |", "|---|" + "---:|" * len(METHODS)]
+            for mni in p["mnis"]:
+                kw = dict(shape=[ref_h, ref_w], mni=mni, texton=p["ref_texton"])
+                lines.append(f"| {mni:g} | " + " | ".join(_cell(get(mt, **kw)) for mt in METHODS) + " |")
+        if len(p["texton_sizes"]) > 1:
+            lines += ["", f"### By texton size at {ref_w}×{ref_h} (MNI {p['ref_mni']:g}) on `{dev}`", "",
+                      "| texton | " + " | ".join(METHODS) + " |", "|---|" + "---:|" * len(METHODS)]
+            for t in p["texton_sizes"]:
+                kw = dict(shape=[ref_h, ref_w], mni=p["ref_mni"], texton=t)
+                lines.append(f"| {t}² | " + " | ".join(_cell(get(mt, **kw)) for mt in METHODS) + " |")
+    lines += ["", f"## Analysis (`analyze`, {p['image_side']}² RGB, 50 iterations, host)", "",
+              "| texton | time (s) |", "|---|---:|"]
+    for r in rows:
+        if r["case"] == "analysis":
+            lines.append(f"| {r['texton']}² | {_cell(r)} |")
+    mix = [r for r in rows if r["case"] == "mixing"]
+    if mix:
+        first = mix[0]
+        lines += ["", f"## Mixing ({first['steps']} textons of {first['texton']}² in strips, MNI {p['ref_mni']:g})",
+                  "", f"`mix_textons` for the {first['steps']} textons: {first['best_s']:.2f} s (host).", "",
+                  "| device | output | `synthesize_mixed` | `synthesize` (one texton) | ratio |",
+                  "|---|---|---:|---:|---:|"]
+        for r in mix:
+            if r["method"] == "synthesize_mixed":
+                plain = _find(mix, method="synthesize", device=r["device"], shape=r["shape"])
+                h, w = r["shape"]
+                lines.append(f"| `{r['device']}` | {w}×{h} | {_cell(r)} | {_cell(plain)} | "
+                             f"{r['best_s'] / plain['best_s']:.2f} |")
+    surf = [r for r in rows if r["case"] == "surface"]
+    if surf:
+        lines += ["", f"## Surface noise (MNI {SURFACE_MNI:g}, texton {p['ref_texton']}², unit icosphere, "
+                  "128 texels per unit)", "", "| device | what | time (s) | rate |", "|---|---|---:|---:|"]
+        for r in surf:
+            if r["method"] == "surface_noise":
+                lines.append(f"| `{r['device']}` | `surface_noise`, {r['vertices']} vertices | {_cell(r)} | "
+                             f"{r['mpoints_per_s']:.2f} Mpoints/s |")
+            else:
+                h, w = r["shape"]
+                lines.append(f"| `{r['device']}` | `render_mesh`, {w}×{h} | {_cell(r)} | "
+                             f"{r['mpix_per_s']:.1f} Mpix/s |")
+    if report["skipped"]:
+        lines += ["", "## Not measured", ""]
+        lines += [f"* {s['case']}: {s['reason']}." for s in report["skipped"]]
+    return "\n".join(lines) + "\n"
+
+
+def _save_figure(fig, path: Path) -> None:
+    """``fig.savefig`` through a temporary file in the same folder."""
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".png")
+    os.close(fd)
+    try:
+        fig.savefig(tmp, dpi=110)
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def plots(report: dict, out: Path) -> list[Path]:
+    """Log-log time against output pixels, and time against MNI and texton size at the reference size."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    p, rows = report["parameters"], report["results"]
+    ref = list(p["ref_shape"])
+    colours = dict(zip(METHODS, plt.rcParams["axes.prop_cycle"].by_key()["color"]))
+    styles = ["-", "--", ":", "-."]
+    title_tail = f"{report['machine']['processor']}, {report['date'][:10]}"
+    figures = [
+        ("time_vs_size.png", "size", "output size (megapixels)",
+         lambda r: r["shape"][0] * r["shape"][1] / 1e6,
+         f"MNI {p['ref_mni']:g}, texton {p['ref_texton']}², RGB", True),
+        ("time_vs_mni.png", "mni", "MNI (mean number of impacts per point)", lambda r: r["mni"],
+         f"{ref[1]}×{ref[0]}, texton {p['ref_texton']}², RGB", False),
+        ("time_vs_texton.png", "texton", "texton side (texels)", lambda r: r["texton"],
+         f"{ref[1]}×{ref[0]}, MNI {p['ref_mni']:g}, RGB", True),
+    ]
+    written = []
+    for name, sweep, xlabel, xof, subtitle, logx in figures:
+        fig, ax = plt.subplots(figsize=(7, 4.5))
+        for k, d in enumerate(report["devices"]):
+            for method in METHODS:
+                dev = _method_device(method, d["name"])
+                if dev == "host" and k > 0:
+                    continue
+                pts = sorted((xof(r), r["best_s"]) for r in rows
+                             if r["case"] == "synthesis" and r["method"] == method and r["device"] == dev
+                             and sweep in r["sweeps"])
+                if pts:
+                    xs, ys = zip(*pts)
+                    label = f"{method} ({dev})"
+                    ax.plot(xs, ys, styles[k % len(styles)], marker="o", color=colours[method], label=label)
+        ax.set_yscale("log")
+        if logx:
+            ax.set_xscale("log", base=2 if sweep == "texton" else 10)
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel("time (s), best of runs")
+        ax.set_title(f"{subtitle}\n{title_tail}", fontsize=9)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        path = out / name
+        _save_figure(fig, path)
+        plt.close(fig)
+        written.append(path)
+    return written
+
+
+class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Show defaults, except the None and False that mean "see the help text" or "off"."""
+
+    def _get_help_string(self, action):
+        if action.default is None or action.default is False:
+            return action.help
+        return super()._get_help_string(action)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m benchmarks",
+        description="Time texton analysis, 2-D texton noise, filtering, surface noise and mixing against "
+                    "their peers (FFT sample, discrete spot noise, wp.pnoise, naive per-pixel texton noise).",
+        formatter_class=_HelpFormatter,
+    )
+    parser.add_argument("--device", default="all",
+                        help="cpu, cuda, cuda:N, or all (the CPU and every CUDA device present)")
+    parser.add_argument("--quick", action="store_true",
+                        help="CI-sized smoke run: 256² and 512², MNI 30, texton 32², one run each")
+    parser.add_argument("--out", type=Path, default=None,
+                        help="folder for runner.json, runner.md and the plots; default benchmarks/results/runner "
+                             "for a full run, a new temporary folder for --quick")
+    parser.add_argument("--repeat", type=int, default=None,
+                        help="timed runs of each method (best is reported); default 5, 1 with --quick")
+    args = parser.parse_args(argv)
+    suite = QUICK if args.quick else FULL
+    if args.repeat is not None:
+        if args.repeat < 1:
+            parser.error("--repeat must be at least 1")
+        suite = Suite(**{**asdict(suite), "repeat": args.repeat})
+    from warp_texton import TextonError
+
+    try:
+        devices = resolve_devices(args.device)
+    except TextonError as exc:
+        print(f"python -m benchmarks: error: {exc}", file=sys.stderr)
+        return 2
+    if args.device == "all" and devices == ["cpu"]:
+        print("no CUDA device present: measuring the CPU only", flush=True)
+    out = args.out
+    if out is None:
+        out = Path(tempfile.mkdtemp(prefix="warp-texton-bench-")) if args.quick else DEFAULT_OUT
+    out.mkdir(parents=True, exist_ok=True)
+    print(f"{suite.name} suite on {', '.join(devices)}; writing into {out}", flush=True)
+
+    report = run(suite, devices)
+    text = markdown(report)
+    print()
+    print(text, end="")
+    write_atomic(out / "runner.json", json.dumps(report, indent=2) + "\n")
+    write_atomic(out / "runner.md", text)
+    written = [out / "runner.json", out / "runner.md", *plots(report, out)]
+    print("\nwrote " + ", ".join(str(p) for p in written))
+    return 0
