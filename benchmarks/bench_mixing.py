@@ -11,9 +11,7 @@ noise.
 
 from __future__ import annotations
 
-import argparse
 import datetime as _dt
-import json
 import statistics
 import sys
 import time
@@ -24,7 +22,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
-from common import git_commit, git_dirty, machine_info, make_texture, write_atomic  # noqa: E402
+from common import git_commit, git_dirty, machine_info, make_texture, run_main  # noqa: E402
 
 from warp_texton import mix_textons, synthesize, synthesize_mixed  # noqa: E402
 from warp_texton.synthesis import resolve_device  # noqa: E402
@@ -98,27 +96,8 @@ def markdown(report: dict) -> str:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0],
-                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    parser.add_argument("--quick", action="store_true", help="small smoke run (CI)")
-    parser.add_argument("--repeat", type=int, default=7, help="interleaved runs per size")
-    parser.add_argument("--steps", type=int, default=21, help="number of mixed textons")
-    parser.add_argument("--mni", type=float, default=30.0, help="mean number of impacts")
-    parser.add_argument("--size", type=int, default=64, help="texton side")
-    parser.add_argument("--device", default="cpu", help="cpu, cuda or cuda:N")
-    parser.add_argument("--out", type=Path, default=HERE / "results", help="folder for JSON and Markdown")
-    args = parser.parse_args(argv)
-    if args.quick:
-        args.repeat = min(args.repeat, 2)
-    report = run(args)
-    text = markdown(report)
-    print(text)
-    if not args.quick or args.out != HERE / "results":
-        args.out.mkdir(parents=True, exist_ok=True)
-        name = "mixing" if report["device"] == "cpu" else "mixing_" + report["device"].replace(":", "")
-        write_atomic(args.out / f"{name}.json", json.dumps(report, indent=2) + "\n")
-        write_atomic(args.out / f"{name}.md", text)
-    return 0
+    return run_main(__doc__, "mixing", run, markdown, argv,
+                    extra_args=lambda p: p.add_argument("--steps", type=int, default=21, help="number of mixed textons"))
 
 
 if __name__ == "__main__":

@@ -10,9 +10,7 @@ Measures ``surface_noise`` throughput (points per second) at the vertices of a
 
 from __future__ import annotations
 
-import argparse
 import datetime as _dt
-import json
 import statistics
 import sys
 import time
@@ -21,7 +19,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
-from common import git_commit, git_dirty, machine_info, make_texture, write_atomic  # noqa: E402
+from common import git_commit, git_dirty, machine_info, make_texture, run_main  # noqa: E402
 
 import trimesh  # noqa: E402
 
@@ -96,26 +94,7 @@ def markdown(report: dict) -> str:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0],
-                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    parser.add_argument("--quick", action="store_true", help="small smoke run (CI)")
-    parser.add_argument("--repeat", type=int, default=5, help="runs per measurement")
-    parser.add_argument("--mni", type=float, default=60.0, help="mean number of impacts")
-    parser.add_argument("--size", type=int, default=64, help="texton side")
-    parser.add_argument("--device", default="cpu", help="cpu, cuda or cuda:N")
-    parser.add_argument("--out", type=Path, default=HERE / "results", help="folder for JSON and Markdown")
-    args = parser.parse_args(argv)
-    if args.quick:
-        args.repeat = min(args.repeat, 2)
-    report = run(args)
-    text = markdown(report)
-    print(text)
-    if not args.quick or args.out != HERE / "results":
-        args.out.mkdir(parents=True, exist_ok=True)
-        name = "surface" if report["device"] == "cpu" else "surface_" + report["device"].replace(":", "")
-        write_atomic(args.out / f"{name}.json", json.dumps(report, indent=2) + "\n")
-        write_atomic(args.out / f"{name}.md", text)
-    return 0
+    return run_main(__doc__, "surface", run, markdown, argv, repeat=5, mni=60.0)
 
 
 if __name__ == "__main__":

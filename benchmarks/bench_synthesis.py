@@ -14,9 +14,7 @@ itself, nothing shared) to show what sharing the impacts gains.
 
 from __future__ import annotations
 
-import argparse
 import datetime as _dt
-import json
 import statistics
 import sys
 import time
@@ -28,7 +26,7 @@ import scipy.fft as sfft
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
-from common import git_commit, git_dirty, machine_info, make_texture, write_atomic  # noqa: E402
+from common import git_commit, git_dirty, machine_info, make_texture, run_main  # noqa: E402
 
 from warp_texton import analyze, evaluate, synthesize  # noqa: E402
 from warp_texton.bspline import bhat  # noqa: E402
@@ -130,26 +128,7 @@ def markdown(report: dict) -> str:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0],
-                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    parser.add_argument("--quick", action="store_true", help="small smoke run (CI)")
-    parser.add_argument("--repeat", type=int, default=7, help="interleaved runs per size")
-    parser.add_argument("--mni", type=float, default=30.0, help="mean number of impacts")
-    parser.add_argument("--size", type=int, default=64, help="texton side")
-    parser.add_argument("--device", default="cpu", help="cpu, cuda or cuda:N")
-    parser.add_argument("--out", type=Path, default=HERE / "results", help="folder for JSON and Markdown")
-    args = parser.parse_args(argv)
-    if args.quick:
-        args.repeat = min(args.repeat, 2)
-    report = run(args)
-    text = markdown(report)
-    print(text)
-    if not args.quick or args.out != HERE / "results":
-        args.out.mkdir(parents=True, exist_ok=True)
-        name = "synthesis" if report["device"] == "cpu" else "synthesis_" + report["device"].replace(":", "")
-        write_atomic(args.out / f"{name}.json", json.dumps(report, indent=2) + "\n")
-        write_atomic(args.out / f"{name}.md", text)
-    return 0
+    return run_main(__doc__, "synthesis", run, markdown, argv)
 
 
 if __name__ == "__main__":

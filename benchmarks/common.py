@@ -3,6 +3,8 @@ atomic result files and the colour test texture."""
 
 from __future__ import annotations
 
+import argparse
+import json
 import os
 import platform
 import subprocess
@@ -100,3 +102,37 @@ def write_atomic(path: Path, text: str) -> None:
         except OSError:
             pass
         raise
+
+
+def run_main(doc: str, name: str, run, markdown, argv=None, *, repeat: int = 7, mni: float = 30.0,
+             extra_args=None) -> int:
+    """The command line shared by the bench_*.py scripts.
+
+    Options --quick (smoke run: at most 2 repeats, nothing written unless --out
+    is given), --repeat, --mni, --size, --device and --out, plus whatever
+    ``extra_args(parser)`` adds; then ``run(args)`` makes the report and
+    ``markdown(report)`` its table, printed and written as ``name``.json/.md
+    (suffixed with the device when it is not the CPU).
+    """
+    parser = argparse.ArgumentParser(description=doc.splitlines()[0],
+                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    parser.add_argument("--quick", action="store_true", help="small smoke run (CI)")
+    parser.add_argument("--repeat", type=int, default=repeat, help="runs per measurement")
+    parser.add_argument("--mni", type=float, default=mni, help="mean number of impacts")
+    parser.add_argument("--size", type=int, default=64, help="texton side")
+    parser.add_argument("--device", default="cpu", help="cpu, cuda or cuda:N")
+    parser.add_argument("--out", type=Path, default=HERE / "results", help="folder for JSON and Markdown")
+    if extra_args is not None:
+        extra_args(parser)
+    args = parser.parse_args(argv)
+    if args.quick:
+        args.repeat = min(args.repeat, 2)
+    report = run(args)
+    text = markdown(report)
+    print(text)
+    if not args.quick or args.out != HERE / "results":
+        args.out.mkdir(parents=True, exist_ok=True)
+        stem = name if report["device"] == "cpu" else f"{name}_" + report["device"].replace(":", "")
+        write_atomic(args.out / f"{stem}.json", json.dumps(report, indent=2) + "\n")
+        write_atomic(args.out / f"{stem}.md", text)
+    return 0
