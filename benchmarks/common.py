@@ -64,8 +64,12 @@ def git_commit() -> str | None:
 
 
 def git_dirty() -> bool | None:
-    """Whether tracked files differ from HEAD (the commit alone does not say what ran)."""
-    status = _git("status", "--porcelain", "--untracked-files=no")
+    """Whether tracked files differ from HEAD (the commit alone does not say what ran).
+
+    Result files are left out: a run that rewrites benchmarks/results/ does not
+    make the code it measures any different.
+    """
+    status = _git("status", "--porcelain", "--untracked-files=no", "--", ".", ":(exclude)benchmarks/results")
     return None if status is None else bool(status)
 
 
