@@ -69,7 +69,7 @@ def git_dirty() -> bool | None:
     Result files are left out: a run that rewrites benchmarks/results/ does not
     make the code it measures any different.
     """
-    status = _git("status", "--porcelain", "--untracked-files=no", "--", ".", ":(exclude)benchmarks/results")
+    status = _git("status", "--porcelain", "--untracked-files=no", "--", ":(top)", ":(top,exclude)benchmarks/results")
     return None if status is None else bool(status)
 
 
