@@ -11,7 +11,6 @@ noise.
 
 from __future__ import annotations
 
-import datetime as _dt
 import statistics
 import sys
 import time
@@ -22,7 +21,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
-from common import git_commit, git_dirty, machine_info, make_texture, run_main  # noqa: E402
+from common import machine_line, make_texture, report_header, run_main  # noqa: E402
 
 from warp_texton import mix_textons, synthesize, synthesize_mixed  # noqa: E402
 from warp_texton.synthesis import resolve_device  # noqa: E402
@@ -58,13 +57,7 @@ def run(args) -> dict:
         print(f"  {shape[1]}x{shape[0]}: mixed {row['mixed']['best_s']:.3f} s, plain {row['plain']['best_s']:.3f} s, "
               f"ratio {row['ratio_best']:.2f}", flush=True)
     return {
-        "benchmark": "mixing",
-        "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-        "git_commit": git_commit(),
-        "git_dirty": git_dirty(),
-        "machine": machine_info(),
-        "device": device,
-        "warp": __import__("warp").config.version,
+        **report_header("mixing", device),
         "parameters": {"textons": args.steps, "texton": list(textons[0].size), "channels": textons[0].channels,
                        "mni": args.mni, "repeat": args.repeat, "quick": args.quick},
         "mix_textons_seconds": t_mix_analysis,
@@ -73,13 +66,11 @@ def run(args) -> dict:
 
 
 def markdown(report: dict) -> str:
-    m, p = report["machine"], report["parameters"]
+    p = report["parameters"]
     lines = [
         f"# Mixed vs plain texton noise ({report['date']})",
         "",
-        f"Machine: {m['processor']}, {m['usable_cpus']} usable cores, Python {m['python']}, Warp {report['warp']}, "
-        f"device `{report['device']}`, commit `{(report['git_commit'] or '?')[:10]}`"
-        f"{' (uncommitted changes)' if report['git_dirty'] else ''}.",
+        machine_line(report),
         f"{p['textons']} RGB textons of {p['texton'][0]}x{p['texton'][1]} in strips vs one texton, MNI {p['mni']:g}; "
         f"best of {p['repeat']} interleaved runs (median in brackets). "
         f"`mix_textons` for the {p['textons']} textons took {report['mix_textons_seconds']:.2f} s.",

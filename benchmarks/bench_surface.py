@@ -10,7 +10,6 @@ Measures ``surface_noise`` throughput (points per second) at the vertices of a
 
 from __future__ import annotations
 
-import datetime as _dt
 import statistics
 import sys
 import time
@@ -19,7 +18,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
-from common import git_commit, git_dirty, machine_info, make_texture, run_main  # noqa: E402
+from common import machine_line, make_texture, report_header, run_main  # noqa: E402
 
 import trimesh  # noqa: E402
 
@@ -54,13 +53,7 @@ def run(args) -> dict:
     print(f"  surface_noise: {n} points in {points['best_s']:.3f} s ({n / points['best_s']:,.0f} points/s)")
     print(f"  render_mesh {shape[1]}x{shape[0]}: {render['best_s']:.3f} s")
     return {
-        "benchmark": "surface",
-        "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-        "git_commit": git_commit(),
-        "git_dirty": git_dirty(),
-        "machine": machine_info(),
-        "device": device,
-        "warp": __import__("warp").config.version,
+        **report_header("surface", device),
         "parameters": {"texton": list(texton.size), "channels": texton.channels, "mni": args.mni,
                        "vertices": n, "faces": len(mesh.faces), "texel_size": texel,
                        "render_shape": list(shape), "repeat": args.repeat, "quick": args.quick},
@@ -71,15 +64,13 @@ def run(args) -> dict:
 
 
 def markdown(report: dict) -> str:
-    m, p = report["machine"], report["parameters"]
+    p = report["parameters"]
     s, t, r = report["surface_noise"], report["texture_mesh"], report["render_mesh"]
     h, w = p["render_shape"]
     return "\n".join([
         f"# Surface texton noise ({report['date']})",
         "",
-        f"Machine: {m['processor']}, {m['usable_cpus']} usable cores, Python {m['python']}, Warp {report['warp']}, "
-        f"device `{report['device']}`, commit `{(report['git_commit'] or '?')[:10]}`"
-        f"{' (uncommitted changes)' if report['git_dirty'] else ''}.",
+        machine_line(report),
         f"RGB texton {p['texton'][0]}x{p['texton'][1]}, MNI {p['mni']:g}; torus of {p['vertices']} vertices, "
         f"{p['faces']} faces; best of {p['repeat']} runs (median in brackets).",
         "",

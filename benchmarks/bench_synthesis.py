@@ -14,7 +14,6 @@ itself, nothing shared) to show what sharing the impacts gains.
 
 from __future__ import annotations
 
-import datetime as _dt
 import statistics
 import sys
 import time
@@ -26,7 +25,7 @@ import scipy.fft as sfft
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
-from common import git_commit, git_dirty, machine_info, make_texture, run_main  # noqa: E402
+from common import machine_line, make_texture, report_header, run_main  # noqa: E402
 
 from warp_texton import analyze, evaluate, synthesize  # noqa: E402
 from warp_texton.bspline import bhat  # noqa: E402
@@ -88,13 +87,7 @@ def run(args) -> dict:
         naive = {"shape": [h, w], "seconds": time.perf_counter() - t0}
         print(f"  naive per-pixel 1024x1024: {naive['seconds']:.3f} s", flush=True)
     return {
-        "benchmark": "synthesis",
-        "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-        "git_commit": git_commit(),
-        "git_dirty": git_dirty(),
-        "machine": machine_info(),
-        "device": device,
-        "warp": __import__("warp").config.version,
+        **report_header("synthesis", device),
         "parameters": {"texton": list(texton.size), "channels": texton.channels, "order": texton.order,
                        "mni": args.mni, "repeat": args.repeat, "quick": args.quick},
         "results": rows,
@@ -103,13 +96,11 @@ def run(args) -> dict:
 
 
 def markdown(report: dict) -> str:
-    m, p = report["machine"], report["parameters"]
+    p = report["parameters"]
     lines = [
         f"# Texton noise vs FFT synthesis ({report['date']})",
         "",
-        f"Machine: {m['processor']}, {m['usable_cpus']} usable cores, Python {m['python']}, "
-        f"Warp {report['warp']}, device `{report['device']}`, commit `{(report['git_commit'] or '?')[:10]}`"
-        f"{' (uncommitted changes)' if report['git_dirty'] else ''}.",
+        machine_line(report),
         f"Texton {p['texton'][0]}x{p['texton'][1]} RGB, order {p['order']}, MNI {p['mni']:g}; "
         f"best of {p['repeat']} interleaved runs (median in brackets).",
         "",

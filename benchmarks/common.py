@@ -4,6 +4,7 @@ atomic result files and the colour test texture."""
 from __future__ import annotations
 
 import argparse
+import datetime as _dt
 import json
 import os
 import platform
@@ -140,3 +141,26 @@ def run_main(doc: str, name: str, run, markdown, argv=None, *, repeat: int = 7, 
         write_atomic(args.out / f"{stem}.json", json.dumps(report, indent=2) + "\n")
         write_atomic(args.out / f"{stem}.md", text)
     return 0
+
+
+def report_header(benchmark: str, device: str) -> dict:
+    """The fields every result file starts with: what ran, where, when, from which commit."""
+    import warp
+
+    return {
+        "benchmark": benchmark,
+        "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "git_commit": git_commit(),
+        "git_dirty": git_dirty(),
+        "machine": machine_info(),
+        "device": device,
+        "warp": warp.config.version,
+    }
+
+
+def machine_line(report: dict) -> str:
+    """The Markdown sentence naming the machine, software and commit of a report."""
+    m = report["machine"]
+    dirty = " (uncommitted changes)" if report.get("git_dirty") else ""
+    return (f"Machine: {m['processor']}, {m['usable_cpus']} usable cores, Python {m['python']}, "
+            f"Warp {report['warp']}, device `{report['device']}`, commit `{(report['git_commit'] or '?')[:10]}`{dirty}.")
