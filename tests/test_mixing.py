@@ -24,11 +24,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 import scipy.ndimage as ndi
-import scipy.signal as sps
 from PIL import Image
 
+from texton_models import block_zscores, expected_periodogram, model_covariance
 from warp_texton import Texton, TextonError, analyze, mix_textons, read_image, synthesize, synthesize_mixed
-from warp_texton.bspline import bspline, sampled_autocorrelation
+from warp_texton.bspline import bspline
 from warp_texton.cli import main
 from warp_texton.gaussian import normalized_kernel, ot_distance, relative_model_error
 from warp_texton.mixing import barycentre_spectrum
@@ -101,55 +101,6 @@ def rel_diff(a: Texton, b: Texton) -> float:
 # --------------------------------------------------------------------------- #
 # The exact second-order model of (mixed) texton noise                        #
 # --------------------------------------------------------------------------- #
-def model_covariance(texton: Texton) -> np.ndarray:
-    """C[a, b][dy, dx] = E[(g_a(x) − m_a)(g_b(x + τ) − m_b)] on integer lags τ = (dx, dy).
-
-    C_ab = R_ab * b with R_ab(d) = Σ_k α_a(k) α_b(k + d) and b the sampled ψ * ψ (CGF §4.1);
-    random signs do not change it (E ε² = 1). Lag 0 sits at the centre of each array.
-    """
-    a = texton.coeffs.astype(np.float64)
-    b1 = sampled_autocorrelation(texton.order)
-    c = texton.channels
-    return np.array([[sps.convolve(sps.correlate(a[:, :, j], a[:, :, i], mode="full", method="direct"),
-                                   np.outer(b1, b1), mode="full", method="direct")
-                      for j in range(c)] for i in range(c)])
-
-
-def expected_periodogram(cov: np.ndarray, size: int) -> np.ndarray:
-    """E |DFT(g − m)|² / L² of an L × L window = DFT of C times the Fejér (triangle) window."""
-    n = cov.shape[0] // 2
-    lags = np.arange(-n, n + 1)
-    fejer = 1.0 - np.abs(lags) / size
-    arr = np.zeros((size, size))
-    arr[np.ix_(lags % size, lags % size)] = cov * fejer[:, None] * fejer[None, :]
-    return np.fft.fft2(arr).real
-
-
-def self_conjugate(size: int) -> np.ndarray:
-    f = np.arange(size)
-    s = (f == 0) | (2 * f == size)
-    return s[:, None] & s[None, :]
-
-
-def blocks(a: np.ndarray, b: int) -> np.ndarray:
-    n = a.shape[0] // b
-    return a.reshape(n, b, n, b).sum(axis=(1, 3))
-
-
-def block_zscores(measured, model, windows, b):
-    """z-scores of the b × b block sums of a mean periodogram over K independent windows.
-
-    Each periodogram value is exponential (variance E², 2E² at self-conjugate ξ) and distinct
-    Fourier frequencies of a window are nearly uncorrelated, so a block sum has variance
-    Σ v_f E_f² / K. (The shot noise's fourth cumulant adds ~|supp h| / (L² MNI) < 1e-3.)
-    """
-    v = np.where(self_conjugate(model.shape[0]), 2.0, 1.0)
-    e = blocks(model, b)
-    sd = np.sqrt(blocks(v * model**2, b) / windows)
-    m = blocks(measured, b)
-    return (m - e) / e, (m - e) / sd, sd / e
-
-
 class NodeModel:
     """h of a texton on Gauss–Legendre nodes of cells of side 1/sub covering supp h.
 

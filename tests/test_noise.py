@@ -22,11 +22,11 @@ import sys
 import numpy as np
 import pytest
 import scipy.ndimage as ndi
-import scipy.signal as sps
 
 import warp_texton
+from texton_models import block_zscores, expected_periodogram, model_covariance, self_conjugate, texton_on_nodes
 from warp_texton import Texton, TextonError, evaluate, synthesize
-from warp_texton.bspline import bspline, sampled_autocorrelation
+from warp_texton.bspline import bspline
 
 CPU = "cpu"
 ORDERS = (0, 1, 3, 5)
@@ -64,73 +64,8 @@ def anisotropic_texton(order=1, seed=4) -> Texton:
     return Texton(0.3 * a + 0.02, [0.5], order)
 
 
-def model_covariance(texton: Texton) -> np.ndarray:
-    """C[a, b][dy, dx] = E[(g_a(x) − m_a)(g_b(x + τ) − m_b)] on integer lags τ = (dx, dy).
-
-    C_ab = R_ab * b with R_ab(d) = Σ_k α_a(k) α_b(k + d) and b = b₁ ⊗ b₁ the sampled
-    ψ * ψ (CGF §4.1). Lag 0 sits at the centre of each (2r − 1 + 2k) × (2s − 1 + 2k) array.
-    """
-    a = texton.coeffs.astype(np.float64)
-    b1 = sampled_autocorrelation(texton.order)
-    b2 = np.outer(b1, b1)
-    c = texton.channels
-    out = []
-    for i in range(c):
-        row = []
-        for j in range(c):
-            r_ab = sps.correlate(a[:, :, j], a[:, :, i], mode="full", method="direct")
-            row.append(sps.convolve(r_ab, b2, mode="full", method="direct"))
-        out.append(row)
-    return np.array(out)
-
-
-def texton_on_nodes(texton: Texton):
-    """h on Gauss–Legendre nodes of the unit cells covering supp h, with their weights.
-
-    h is a polynomial of degree ≤ k per axis on each cell (knots on the integers for odd
-    k, on the half-integers for k = 0), so 2k + 1 nodes per axis integrate h⁴ exactly.
-    Returns h (P, Q, C), weights (P, Q) and the nodes per cell n: node p lies in cell p // n
-    at the same relative position for every cell, which lets integrals over [0, 1)² of
-    periodised functions be computed by folding.
-    """
-    a = texton.coeffs.astype(np.float64)
-    r, s, _ = a.shape
-    k = texton.order
-    n = 2 * k + 1
-    x, w = np.polynomial.legendre.leggauss(n)
-    x, w = (x + 1) / 2, w / 2
-
-    def axis(count):
-        edges = -(k + 1) / 2 + np.arange(count + k)
-        y = (edges[:, None] + x[None, :]).ravel()
-        return bspline(y[:, None] - np.arange(count)[None, :], k), np.tile(w, count + k)
-
-    by, wy = axis(r)
-    bx, wx = axis(s)
-    h = np.einsum("pi,ijc,qj->pqc", by, a, bx)
-    return h, wy[:, None] * wx[None, :], n
-
-
 def lam(texton: Texton, mni: float) -> float:
     return mni / texton.support_area
-
-
-def expected_periodogram(cov: np.ndarray, size: int) -> np.ndarray:
-    """E |DFT(g − m)|² / L² = Σ_τ C(τ)(1 − |τx|/L)(1 − |τy|/L) e^{−2iπ⟨ξ, τ⟩/L}."""
-    n = cov.shape[0] // 2
-    assert cov.shape == (2 * n + 1, 2 * n + 1) and 2 * n < size
-    lags = np.arange(-n, n + 1)
-    fejer = 1.0 - np.abs(lags) / size
-    arr = np.zeros((size, size))
-    arr[np.ix_(lags % size, lags % size)] = cov * fejer[:, None] * fejer[None, :]
-    return np.fft.fft2(arr).real
-
-
-def self_conjugate(size: int) -> np.ndarray:
-    """Frequencies ξ ≡ −ξ (mod L): their periodogram is χ²₁ (variance 2 E²), not χ²₂."""
-    f = np.arange(size)
-    s = (f == 0) | (2 * f == size)
-    return s[:, None] & s[None, :]
 
 
 def window_periodograms(raster: np.ndarray, mean: float, size: int, stride: int) -> np.ndarray:
@@ -145,27 +80,6 @@ def window_periodograms(raster: np.ndarray, mean: float, size: int, stride: int)
             acc += np.abs(np.fft.fft2(g[y:y + size, x:x + size])) ** 2
             count += 1
     return acc / (count * size * size), count
-
-
-def blocks(a: np.ndarray, b: int) -> np.ndarray:
-    n = a.shape[0] // b
-    return a.reshape(n, b, n, b).sum(axis=(1, 3))
-
-
-def block_zscores(measured, model, windows, b):
-    """Relative deviation and z-score of each b × b block of the mean periodogram.
-
-    Over K independent windows each periodogram value is an exponential variable
-    (χ²₂/2, variance E²; χ²₁ at self-conjugate ξ, variance 2E²), and distinct Fourier
-    frequencies of one window are nearly uncorrelated, so a block sum of the mean
-    periodogram has variance Σ_f v_f E_f² / K. (The non-Gaussian part of texton noise
-    adds a fourth-cumulant term of relative size ~|supp h| / (L² MNI) < 1e-3.)
-    """
-    v = np.where(self_conjugate(model.shape[0]), 2.0, 1.0)
-    e = blocks(model, b)
-    sd = np.sqrt(blocks(v * model**2, b) / windows)
-    m = blocks(measured, b)
-    return (m - e) / e, (m - e) / sd, sd / e
 
 
 def pixel_points(shape, scale=1.0, rotation=0.0, offset=(0.0, 0.0)) -> np.ndarray:

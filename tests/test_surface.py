@@ -29,12 +29,12 @@ import numpy as np
 import pytest
 import scipy.ndimage as ndi
 import scipy.optimize as so
-import scipy.signal as sps
 import trimesh
 from scipy.spatial import cKDTree
 
+from texton_models import block_zscores, expected_periodogram, model_covariance, texton_on_nodes
 from warp_texton import Camera, Texton, TextonError, render_mesh, surface_noise, tangent_frames, texture_mesh
-from warp_texton.bspline import bspline, sampled_autocorrelation
+from warp_texton.bspline import bspline
 from warp_texton.surface import UP, vertex_normals
 
 CPU = "cpu"
@@ -83,74 +83,11 @@ def noise_sd(t: Texton) -> float:
     return float(np.sqrt(np.diag(t.covariance()).mean()))
 
 
-def texton_nodes(t: Texton):
-    """h on Gauss–Legendre nodes of the unit cells covering supp h, and their weights.
-
-    h is a polynomial of degree ≤ k per axis on each cell (knots on the integers for odd
-    k), so 2k + 1 nodes per axis integrate h⁴ exactly. Returns h (P, Q, C) and w (P, Q).
-    """
-    a = t.coeffs.astype(np.float64)
-    r, s, _ = a.shape
-    k = t.order
-    n = 2 * k + 1
-    x, w = np.polynomial.legendre.leggauss(n)
-    x, w = (x + 1) / 2, w / 2
-
-    def axis(count):
-        edges = -(k + 1) / 2 + np.arange(count + k)
-        y = (edges[:, None] + x[None, :]).ravel()
-        return bspline(y[:, None] - np.arange(count)[None, :], k), np.tile(w, count + k)
-
-    by, wy = axis(r)
-    bx, wx = axis(s)
-    return np.einsum("pi,ijc,qj->pqc", by, a, bx), wy[:, None] * wx[None, :]
-
-
 def fourth_cumulant(t: Texton, mni: float) -> np.ndarray:
     """κ_ab = cum(g_a, g_a, g_b, g_b) = λ ∫w⁴ ∫h_a² h_b² / (λ r/3)² = 9 ∫h_a² h_b² / (5 λ r)."""
-    h, w = texton_nodes(t)
+    h, w = texton_on_nodes(t)[:2]
     h2 = h**2
     return 9.0 * np.einsum("pq,pqa,pqb->ab", w, h2, h2) / (5.0 * surface_lam(t, mni) * support_side(t))
-
-
-def model_covariance(t: Texton) -> np.ndarray:
-    """Grey C[dy, dx] = ((α ⋆ α̃) * b)(τ) on integer lags, lag 0 at the centre."""
-    a = t.coeffs[:, :, 0].astype(np.float64)
-    b1 = sampled_autocorrelation(t.order)
-    r_aa = sps.correlate(a, a, mode="full", method="direct")
-    return sps.convolve(r_aa, np.outer(b1, b1), mode="full", method="direct")
-
-
-def expected_periodogram(cov: np.ndarray, size: int) -> np.ndarray:
-    """E |DFT(g − m)|² / L² = Σ_τ C(τ)(1 − |τx|/L)(1 − |τy|/L) e^{−2iπ⟨ξ, τ⟩/L}."""
-    ny, nx = cov.shape[0] // 2, cov.shape[1] // 2
-    assert 2 * max(ny, nx) < size
-    ly, lx = np.arange(-ny, ny + 1), np.arange(-nx, nx + 1)
-    arr = np.zeros((size, size))
-    arr[np.ix_(ly % size, lx % size)] = cov * np.outer(1 - np.abs(ly) / size, 1 - np.abs(lx) / size)
-    return np.fft.fft2(arr).real
-
-
-def block_zscores(measured, model, windows, b):
-    """Relative deviation and z-score of each b × b block of a mean periodogram.
-
-    Over K independent windows a periodogram value is exponential (variance E²; χ²₁ with
-    variance 2E² at the self-conjugate ξ ≡ −ξ), distinct Fourier frequencies are nearly
-    uncorrelated, so a block sum has variance Σ v_f E_f² / K.
-    """
-    size = model.shape[0]
-    f = np.arange(size)
-    sc = (f == 0) | (2 * f == size)
-    v = np.where(sc[:, None] & sc[None, :], 2.0, 1.0)
-
-    def blocks(x):
-        n = size // b
-        return x.reshape(n, b, n, b).sum(axis=(1, 3))
-
-    e = blocks(model)
-    sd = np.sqrt(blocks(v * model**2) / windows)
-    m = blocks(measured)
-    return (m - e) / e, (m - e) / sd, sd / e
 
 
 def frame_grid(origin, u1, u2, n_side, spacing):
@@ -385,7 +322,7 @@ class TestProposition3:
         t = random_texton((6, 10), seed=13)
         assert support_side(t) == 11 and t.support_area == 77
         mni = 3.0
-        h, w = texton_nodes(t)
+        h, w = texton_on_nodes(t)[:2]
         h2 = np.sum(w * h[:, :, 0] ** 2)
         np.testing.assert_allclose(h2, t.covariance()[0, 0], rtol=1e-6)
         expected = 9 * np.sum(w * h[:, :, 0] ** 4) / (5 * surface_lam(t, mni) * support_side(t) * h2**2)
@@ -482,7 +419,7 @@ class TestPlaneSpectrum:
                     acc += np.abs(np.fft.fft2(g[y:y + L, x:x + L])) ** 2
                     windows += 1
         measured = acc / (windows * L * L)
-        cov = model_covariance(t)
+        cov = model_covariance(t)[0, 0]
         model = expected_periodogram(cov, L)
         rel, z, rel_sd = block_zscores(measured, model, windows, BLOCK)
         assert windows == 192
