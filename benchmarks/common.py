@@ -9,13 +9,13 @@ import json
 import os
 import platform
 import subprocess
-import tempfile
 from pathlib import Path
 
 import numpy as np
 import scipy
 
 import warp_texton
+from warp_texton.io import atomic_path
 
 HERE = Path(__file__).resolve().parent
 
@@ -92,21 +92,9 @@ def machine_info() -> dict:
 
 
 def write_atomic(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file in the same folder."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-        mask = os.umask(0o022)  # mkstemp creates 0600; give the usual mode
-        os.umask(mask)
-        os.chmod(tmp, 0o666 & ~mask)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+    """Write ``text`` to ``path`` atomically (the package's ``atomic_path``)."""
+    with atomic_path(path) as tmp:
+        Path(tmp).write_text(text, encoding="utf-8")
 
 
 def run_main(doc: str, name: str, run, markdown, argv=None, *, repeat: int = 7, mni: float = 30.0,

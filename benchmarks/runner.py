@@ -39,6 +39,8 @@ from pathlib import Path
 
 import numpy as np
 
+from warp_texton.io import atomic_path
+
 from .common import git_commit, git_dirty, machine_info, make_texture, write_atomic
 
 HERE = Path(__file__).resolve().parent
@@ -449,20 +451,6 @@ def markdown(report: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _save_figure(fig, path: Path) -> None:
-    """``fig.savefig`` through a temporary file in the same folder."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".png")
-    os.close(fd)
-    try:
-        fig.savefig(tmp, dpi=110)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
 def plots(report: dict, out: Path) -> list[Path]:
     """Log-log time against output pixels, and time against MNI and texton size at the reference size."""
     import matplotlib
@@ -509,7 +497,8 @@ def plots(report: dict, out: Path) -> list[Path]:
         ax.legend(fontsize=8)
         fig.tight_layout()
         path = out / name
-        _save_figure(fig, path)
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=110, format="png")
         plt.close(fig)
         written.append(path)
     return written

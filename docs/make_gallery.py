@@ -19,10 +19,8 @@ fixed seeds (CUDA gives the same noise).
 from __future__ import annotations
 
 import importlib.util
-import os
 import struct
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -31,6 +29,7 @@ import numpy as np
 from warp_texton import (analyze, gaussian_texture, mix_textons, synthesize, synthesize_mixed,
                          write_image)
 from warp_texton.demo import texton_preview
+from warp_texton.io import atomic_path
 
 HERE = Path(__file__).resolve().parent
 OUT = HERE / "images" / "gallery"
@@ -67,19 +66,6 @@ def read_gpat(path: Path) -> np.ndarray:
     pixels = np.frombuffer(data, np.uint8, count=width * height * bpp, offset=header_size)
     pixels = pixels.reshape(height, width, bpp)[:, :, : 1 if bpp <= 2 else 3]
     return pixels.astype(np.float32) / 255.0
-
-
-def write_text_atomic(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
 
 
 def centre_crop(u: np.ndarray, side: int) -> np.ndarray:
@@ -266,7 +252,8 @@ def main() -> int:
               f"analysis {s['panels']['seconds']:.2f} s", flush=True)
     mixing = mixing_panels(by_name)
     surface = surface_panel(by_name)
-    write_text_atomic(PAGE, page(sources, mixing, surface))
+    with atomic_path(PAGE) as tmp:
+        Path(tmp).write_text(page(sources, mixing, surface), encoding="utf-8")
     total = sum(p.stat().st_size for p in OUT.glob("*.png"))
     print(f"wrote {PAGE} and {len(list(OUT.glob('*.png')))} images ({total / 1e6:.2f} MB) in {OUT}")
     return 0

@@ -14,13 +14,13 @@ the input) is cropped to NOISE_WIDTH × PANEL. The crops keep the file small.
 from __future__ import annotations
 
 import argparse
-import os
 import tempfile
 from pathlib import Path
 
 from PIL import Image
 
 from warp_texton.demo import run_demo
+from warp_texton.io import atomic_path
 
 PANEL = 192  # height of every panel, a multiple of the texton side
 NOISE_WIDTH = 2 * PANEL  # the noise panel is wider: the noise has any size
@@ -65,17 +65,8 @@ def main() -> None:
         run_demo(tmp, seed=args.seed, progress=False)
         strip = compose(Path(tmp))
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    fd, part = tempfile.mkstemp(dir=args.out.parent, prefix=f".{args.out.name}.", suffix=".part")
-    os.close(fd)
-    try:
+    with atomic_path(args.out) as part:
         strip.save(part, format="PNG", optimize=True)
-        mask = os.umask(0o022)  # mkstemp made the file 0600; use the usual mode
-        os.umask(mask)
-        os.chmod(part, 0o666 & ~mask)
-        os.replace(part, args.out)
-    except BaseException:
-        Path(part).unlink(missing_ok=True)
-        raise
     print(f"{args.out}: {strip.width}x{strip.height}, {args.out.stat().st_size // 1024} KiB")
 
 
