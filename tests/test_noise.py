@@ -24,7 +24,7 @@ import pytest
 import scipy.ndimage as ndi
 
 import warp_texton
-from texton_models import block_zscores, expected_periodogram, model_covariance, self_conjugate, texton_on_nodes
+from texton_models import isolated_bumps, block_zscores, expected_periodogram, model_covariance, self_conjugate, texton_on_nodes
 from warp_texton import Texton, TextonError, evaluate, synthesize
 from warp_texton.bspline import bspline
 
@@ -265,18 +265,10 @@ class TestImpactShape:
         # g = m + (f − λΣα)/√λ: where no impact reaches, g = m − √λ Σα exactly
         f = (g - 0.5) * math.sqrt(lam_) + lam_ * alpha.sum()
         assert np.all(f > -1e-6)
-        labels, count = ndi.label(f > 1e-7)
         margin = 2 * q  # the B-spline tails below the threshold are < 2 texels long
         checked = 0
-        background = np.ones(f.shape, bool)
-        for idx, box in enumerate(ndi.find_objects(labels), start=1):
-            y0, y1 = box[0].start - margin, box[0].stop + margin
-            x0, x1 = box[1].start - margin, box[1].stop + margin
-            background[max(y0, 0):y1, max(x0, 0):x1] = False
-            if y0 < 0 or x0 < 0 or y1 > f.shape[0] or x1 > f.shape[1]:
-                continue
-            if np.any((labels[y0:y1, x0:x1] != 0) & (labels[y0:y1, x0:x1] != idx)):
-                continue  # another bump nearby
+        boxes, background, count = isolated_bumps(f, 1e-7, margin)
+        for y0, y1, x0, x1 in boxes:
             patch = f[y0:y1, x0:x1]
             mass = patch.sum() / q**2  # ∫h = Σα for one impact: exact on a 1/q grid (ψ̂(q n) = 0)
             if mass > 1.5 * alpha.sum():

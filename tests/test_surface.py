@@ -32,7 +32,7 @@ import scipy.optimize as so
 import trimesh
 from scipy.spatial import cKDTree
 
-from texton_models import block_zscores, expected_periodogram, model_covariance, texton_on_nodes
+from texton_models import isolated_bumps, block_zscores, expected_periodogram, model_covariance, texton_on_nodes
 from warp_texton import Camera, Texton, TextonError, render_mesh, surface_noise, tangent_frames, texture_mesh
 from warp_texton.bspline import bspline
 from warp_texton.surface import UP, vertex_normals
@@ -359,18 +359,10 @@ class TestProposition3:
         g = g[:, 0].reshape(gx.shape).astype(np.float64)
         f = (g - 0.5) * math.sqrt(lam * r / 3) + lam * r / 2 * alpha.sum()  # the raw sum
         assert np.all(f > -1e-6)
-        labels, count = ndi.label(f > 1e-6)
         margin = 2 * q
         checked = 0
-        background = np.ones(f.shape, bool)
-        for idx, box in enumerate(ndi.find_objects(labels), start=1):
-            y0, y1 = box[0].start - margin, box[0].stop + margin
-            x0, x1 = box[1].start - margin, box[1].stop + margin
-            background[max(y0, 0):y1, max(x0, 0):x1] = False
-            if y0 < 0 or x0 < 0 or y1 > f.shape[0] or x1 > f.shape[1]:
-                continue
-            if np.any((labels[y0:y1, x0:x1] != 0) & (labels[y0:y1, x0:x1] != idx)):
-                continue
+        boxes, background, count = isolated_bumps(f, 1e-6, margin)
+        for y0, y1, x0, x1 in boxes:
             patch = f[y0:y1, x0:x1]
             weight = patch.sum() / q**2 / alpha.sum()  # ∫ w h = w Σα, exact on a 1/q grid
             if not 0.05 < weight <= 1.0 + 1e-4:

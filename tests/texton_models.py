@@ -9,6 +9,7 @@ h on Gauss–Legendre nodes for exact integrals of its powers.
 from __future__ import annotations
 
 import numpy as np
+import scipy.ndimage as ndi
 import scipy.signal as sps
 
 from warp_texton import Texton
@@ -97,3 +98,27 @@ def block_zscores(measured, model, windows, b):
     sd = np.sqrt(blocks(v * model**2, b) / windows)
     m = blocks(measured, b)
     return (m - e) / e, (m - e) / sd, sd / e
+
+
+def isolated_bumps(f: np.ndarray, threshold: float, margin: int):
+    """Boxes around the isolated bumps of a sparse field ``f`` (one impact each, at low MNI).
+
+    Bumps are the connected parts of ``f > threshold``; each box is the bump's
+    bounding box grown by ``margin`` pixels (to hold the sub-threshold tails).
+    Boxes that leave the raster or hold part of another bump are left out.
+    Returns the boxes (y0, y1, x0, x1), the mask of pixels outside every grown
+    box (where no impact reaches), and the number of bumps.
+    """
+    labels, count = ndi.label(f > threshold)
+    background = np.ones(f.shape, bool)
+    boxes = []
+    for idx, box in enumerate(ndi.find_objects(labels), start=1):
+        y0, y1 = box[0].start - margin, box[0].stop + margin
+        x0, x1 = box[1].start - margin, box[1].stop + margin
+        background[max(y0, 0):y1, max(x0, 0):x1] = False
+        if y0 < 0 or x0 < 0 or y1 > f.shape[0] or x1 > f.shape[1]:
+            continue
+        if np.any((labels[y0:y1, x0:x1] != 0) & (labels[y0:y1, x0:x1] != idx)):
+            continue  # another bump nearby
+        boxes.append((y0, y1, x0, x1))
+    return boxes, background, count
