@@ -91,6 +91,8 @@ class SurfaceSetup:
     lam: float
     cell: float
     coeffs: np.ndarray
+    lo: tuple[float, float]  # texton support box, texton coordinates
+    hi: tuple[float, float]
 
 
 def surface_setup(texton: Texton, mni: float, cell_factor: float = CELL_FACTOR) -> SurfaceSetup:
@@ -105,16 +107,15 @@ def surface_setup(texton: Texton, mni: float, cell_factor: float = CELL_FACTOR) 
         raise TextonError(f"cell_factor {cell_factor:g} is too small: each point would visit {per_point} cells")
     if lam * cell ** 3 > 1e5:
         raise TextonError(f"cell_factor {cell_factor:g} is too large: cells would hold {lam * cell ** 3:.3g} impacts")
-    return SurfaceSetup(r, lam, cell, base.coeffs)
+    return SurfaceSetup(r, lam, cell, base.coeffs, base.lo, base.hi)
 
 
 def _surface_params(wp, texton: Texton, setup: SurfaceSetup, seed: int, poisson: str, up, side):
     from .kernels.surface import SurfaceParams
-    from .synthesis import POISSON_MODES, noise_setup
+    from .synthesis import POISSON_MODES
 
     if poisson not in POISSON_MODES:
         raise TextonError(f"poisson must be one of {', '.join(POISSON_MODES)}, got {poisson!r}")
-    base = noise_setup(texton, 1.0)
     p = SurfaceParams()
     p.cell = setup.cell
     p.lam_cell = setup.lam * setup.cell ** 3
@@ -122,9 +123,9 @@ def _surface_params(wp, texton: Texton, setup: SurfaceSetup, seed: int, poisson:
     p.exact_poisson = 1 if poisson == "exact" else 0
     p.order = texton.order
     p.half = setup.r / 2.0
-    p.centre = wp.vec2((base.lo[0] + base.hi[0]) / 2.0, (base.lo[1] + base.hi[1]) / 2.0)
-    p.lo = wp.vec2(*base.lo)
-    p.hi = wp.vec2(*base.hi)
+    p.centre = wp.vec2((setup.lo[0] + setup.hi[0]) / 2.0, (setup.lo[1] + setup.hi[1]) / 2.0)
+    p.lo = wp.vec2(*setup.lo)
+    p.hi = wp.vec2(*setup.hi)
     c = texton.channels
     integral = np.zeros(3)
     integral[:c] = texton.integral
