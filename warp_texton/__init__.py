@@ -45,3 +45,7 @@ __all__ += ["mix_textons", "synthesize_mixed"]
 from .surface import Camera, render_mesh, surface_noise, tangent_frames, texture_mesh  # noqa: E402
 
 __all__ += ["Camera", "render_mesh", "surface_noise", "tangent_frames", "texture_mesh"]
+
+from .filtering import render_plane  # noqa: E402
+
+__all__ += ["render_plane"]

@@ -20,6 +20,12 @@ EPILOG_SYNTHESIZE = """examples:
   warp-texton synthesize wood.exr -o noise.png --width 1920 --height 1080
   warp-texton synthesize wood.png -o tile.exr --width 512 --height 512 --period 512 512
   warp-texton synthesize wood.texton -o far.png --scale 0.25 --rotation 30 --mni 10
+  warp-texton synthesize wood.texton -o far_aa.png --scale 0.1 --filter anisotropic
+"""
+EPILOG_PLANE = """examples:
+  warp-texton render-plane wood.exr -o plane.png --width 1024 --height 1024
+  warp-texton render-plane wood.texton -o plane_mip.png --filter mip --tilt 80 --texel-size 0.002
+  warp-texton render-plane wood.exr -o reference.exr --filter supersample --supersample 20
 """
 EPILOG_MIX = """examples:
   warp-texton mix wood.png marble.png -o mix.png --steps 21 --width 2048 --height 256
@@ -66,6 +72,18 @@ def _add_analyze_options(p: argparse.ArgumentParser, seed: bool = True) -> None:
                    help="skip the colour-covariance correction")
 
 
+def _add_filter_options(p: argparse.ArgumentParser, default: str) -> None:
+    from .filtering import FILTERS, MAX_ANISO, SUPERSAMPLE
+
+    p.add_argument("--filter", choices=FILTERS, default=default,
+                   help="anti-aliasing for each pixel's footprint: MIP-mapped or anisotropic lookups "
+                        "of the texton, or the supersampled reference")
+    p.add_argument("--supersample", type=int, default=SUPERSAMPLE,
+                   help="samples per pixel side for --filter supersample")
+    p.add_argument("--max-aniso", type=int, default=MAX_ANISO,
+                   help="most lookups along a footprint's major axis for --filter anisotropic")
+
+
 def build_parser() -> argparse.ArgumentParser:
     fmt = _Formatter
     parser = _Parser(
@@ -73,7 +91,7 @@ def build_parser() -> argparse.ArgumentParser:
         description=(
             "Texton noise by example. 'analyze' learns a small texton from an example of a "
             "Gaussian texture (fabric, wood, stone, sand...); 'synthesize' evaluates texton noise "
-            "on a raster of any size; 'mix' blends two textures; 'gaussian' samples the texture's Gaussian model by FFT; "
+            "on a raster of any size; 'render-plane' shows it on a ground plane in perspective, anti-aliased; 'mix' blends two textures; 'gaussian' samples the texture's Gaussian model by FFT; "
             "'demo' runs everything on a texture shipped with the package."
         ),
         formatter_class=fmt,
@@ -118,6 +136,28 @@ def build_parser() -> argparse.ArgumentParser:
                    help="noise position of the raster's top-left corner, texels")
     p.add_argument("--period", type=float, nargs=2, metavar=("PX", "PY"),
                    help="make the noise periodic (texels): a seamless tile")
+    _add_filter_options(p, default="none")
+    p.add_argument("--device", help="cpu, cuda or cuda:N (default: CUDA when available)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress or summary")
+    _add_analyze_options(p, seed=False)
+
+    p = sub.add_parser("render-plane", help="an infinite textured ground plane in perspective",
+                       description="Render an infinite ground plane covered with texton noise, seen in "
+                                   "perspective (CGF Fig. 3), with the texton filtered for each pixel's "
+                                   "footprint (CGF section 5). INPUT is a texton file or an example image.",
+                       epilog=EPILOG_PLANE, formatter_class=fmt)
+    p.add_argument("input", help="texton file or example image")
+    p.add_argument("-o", "--output", required=True, help="output image: .png, .jpg or .exr")
+    p.add_argument("--width", type=int, default=512, help="image width in pixels")
+    p.add_argument("--height", type=int, default=512, help="image height in pixels")
+    p.add_argument("--camera-height", type=float, default=1.0, help="camera height above the plane, world units")
+    p.add_argument("--tilt", type=float, default=70.0,
+                   help="degrees between the view direction and straight down (0: straight down)")
+    p.add_argument("--fov", type=float, default=40.0, help="vertical field of view, degrees")
+    p.add_argument("--texel-size", type=float, default=0.002, help="world units per texel")
+    p.add_argument("--mni", type=float, default=30.0, help="mean number of impacts per point")
+    p.add_argument("--seed", type=int, default=0, help="random seed (analysis and noise)")
+    _add_filter_options(p, default="anisotropic")
     p.add_argument("--device", help="cpu, cuda or cuda:N (default: CUDA when available)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress or summary")
     _add_analyze_options(p, seed=False)
@@ -203,27 +243,58 @@ def _cmd_gaussian(args) -> None:
     write_image(out, gaussian_texture(u, shape=shape, seed=args.seed, periodic=args.periodic))
 
 
-def _cmd_synthesize(args) -> None:
-    from .analysis import analyze
-    from .io import EXR, PIL_FORMATS, read_image, write_image
-    from .synthesis import synthesize
-    from .texton import is_texton_path, load_texton
+def _check_output(path) -> Path:
+    from .io import EXR, PIL_FORMATS
 
-    out = Path(args.output)
+    out = Path(path)
     if out.suffix.lower() not in (*PIL_FORMATS, EXR):
         raise TextonError(f"{out}: unsupported extension {out.suffix or '(none)'!r}; use .png, .jpg, .jpeg or .exr")
-    t0 = time.perf_counter()
+    return out
+
+
+def _texton_of(args):
+    """The texton file named by args.input, or the texton of that example image."""
+    from .analysis import analyze
+    from .io import read_image
+    from .texton import is_texton_path, load_texton
+
     if is_texton_path(args.input):
-        texton = load_texton(args.input)
-    else:
-        texton = analyze(read_image(args.input), size=args.size, order=args.order, iterations=args.iterations,
-                         seed=args.seed, periodic=args.periodic, color_correction=args.color_correction,
-                         support=args.support, progress=not args.quiet)
+        return load_texton(args.input)
+    return analyze(read_image(args.input), size=args.size, order=args.order, iterations=args.iterations,
+                   seed=args.seed, periodic=args.periodic, color_correction=args.color_correction,
+                   support=args.support, progress=not args.quiet)
+
+
+def _cmd_synthesize(args) -> None:
+    from .io import write_image
+    from .synthesis import synthesize
+
+    out = _check_output(args.output)
+    t0 = time.perf_counter()
+    texton = _texton_of(args)
     noise = synthesize(texton, shape=(args.height, args.width), mni=args.mni, seed=args.seed, scale=args.scale,
-                       rotation=args.rotation, offset=tuple(args.offset), period=args.period, device=args.device)
+                       rotation=args.rotation, offset=tuple(args.offset), period=args.period, device=args.device,
+                       filter=args.filter, supersample=args.supersample, max_aniso=args.max_aniso)
     write_image(out, noise)
     if not args.quiet:
         print(f"{out}: {args.width}x{args.height} texton noise, MNI {args.mni:g} "
+              f"({time.perf_counter() - t0:.2f} s)")
+
+
+def _cmd_render_plane(args) -> None:
+    from .filtering import render_plane
+    from .io import write_image
+
+    out = _check_output(args.output)
+    t0 = time.perf_counter()
+    texton = _texton_of(args)
+    image = render_plane(texton, (args.height, args.width), height=args.camera_height, tilt=args.tilt,
+                         fov=args.fov, texel_size=args.texel_size, mni=args.mni, seed=args.seed,
+                         filter=args.filter, supersample=args.supersample, device=args.device,
+                         max_aniso=args.max_aniso, progress=not args.quiet)
+    write_image(out, image)
+    if not args.quiet:
+        print(f"{out}: {args.width}x{args.height} plane, filter {args.filter}, MNI {args.mni:g} "
               f"({time.perf_counter() - t0:.2f} s)")
 
 
@@ -318,6 +389,7 @@ COMMANDS = {
     "analyze": _cmd_analyze,
     "gaussian": _cmd_gaussian,
     "synthesize": _cmd_synthesize,
+    "render-plane": _cmd_render_plane,
     "mix": _cmd_mix,
     "surface": _cmd_surface,
     "demo": _cmd_demo,

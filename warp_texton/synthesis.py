@@ -24,6 +24,8 @@ import numpy as np
 
 from ._checks import check_positive, check_seed, check_shape
 from .errors import TextonError
+from .filtering import (MAX_ANISO, SUPERSAMPLE, check_filter, check_filter_options, check_jacobian,
+                        filtered_raster, needs_filtering)
 from .texton import Texton
 
 #: Default cell side as a fraction of the texton support side (CGF §8).
@@ -229,6 +231,10 @@ def synthesize(
     poisson: str = "exact",
     cell_factor: float = CELL_FACTOR,
     method: str = "auto",
+    jacobian=None,
+    filter: str = "none",
+    supersample: int = SUPERSAMPLE,
+    max_aniso: int = MAX_ANISO,
 ) -> np.ndarray:
     """Texton noise on an H × W raster.
 
@@ -261,6 +267,23 @@ def synthesize(
         How the raster is computed; both give the same noise. "auto" splats
         on the CPU (threads own row bands) and gathers on CUDA (a thread per
         pixel).
+    jacobian : array (2, 2) or (height, width, 2, 2), optional
+        Each pixel's footprint in texel space: columns are the texel-space
+        steps of one pixel to the right and one pixel down. Default: the
+        raster's own steps, R(rotation) / scale. Only the filters read it.
+    filter : {"none", "mip", "anisotropic", "supersample"}
+        Anti-aliasing for the footprint (CGF §5): "mip" looks the texton up
+        in a MIP pyramid at the footprint's major length, "anisotropic" also
+        averages up to ``max_aniso`` lookups along its major axis, "supersample" averages
+        ``supersample``² jittered evaluations over the footprint (the
+        reference). Where no footprint is larger than a texel, "mip" and
+        "anisotropic" are exactly "none". Footprints past the coarsest level
+        fade to the texton mean.
+    supersample : int
+        Samples per pixel side for ``filter="supersample"``.
+    max_aniso : int
+        Most lookups along a footprint's major axis for "anisotropic"; past
+        that anisotropy the level rises instead.
 
     Returns
     -------
@@ -268,7 +291,7 @@ def synthesize(
 
     References
     ----------
-    CGF eq. (1)-(2), §3.3, §4, §8.
+    CGF eq. (1)-(2), §3.3, §4, §5, §8.
 
     Examples
     --------
@@ -282,11 +305,27 @@ def synthesize(
     seed = check_seed(seed)
     setup = noise_setup(texton, mni, period, cell_factor)
     origin, step = _raster_geometry((h, w), scale, rotation, offset)
+    filter = check_filter(filter)
+    J = None if jacobian is None else check_jacobian(jacobian, (h, w))
+    supersample, max_aniso = check_filter_options(supersample, max_aniso)
     device = resolve_device(device)
     wp = _warp()
     p = _params(wp, texton, setup, seed, poisson)
+    if needs_filtering(step if J is None else J, filter, max_aniso):
+        _check_cell_range(*_raster_reach(origin, step, (h, w), setup, 0), setup.cell[0], "the raster's positions")
+        _check_cell_range(*_raster_reach(origin, step, (h, w), setup, 1), setup.cell[1], "the raster's positions")
+        out = filtered_raster(wp, p, texton, setup, (h, w), origin, step, J, device, filter, supersample, seed,
+                              max_aniso)
+        return np.ascontiguousarray(out[:, :, : texton.channels])
     out = _raster(wp, p, setup, setup.coeffs, texton.order, (h, w), origin, step, device, method, scale)
     return np.ascontiguousarray(out[:, :, : texton.channels])
+
+
+def _raster_reach(origin, step, shape, setup: NoiseSetup, axis: int):
+    """Smallest and largest texel coordinate (along ``axis``) whose cells the raster reads."""
+    h, w = shape
+    corners = origin[:, None] + step @ np.array([[0, w, 0, w], [0, 0, h, h]], dtype=np.float64)
+    return corners[axis].min() - setup.hi[axis], corners[axis].max() - setup.lo[axis]
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,196 @@
+"""Anti-aliased texton noise: MIP-mapped and anisotropic filtering of the texton (CGF §5).
+
+Texton noise is a sum of shifted textons, so averaging the noise over a
+pixel's footprint F is the noise of the filtered texton h ∗ 1_F / |F| with the
+same impacts. The kernels here replace h by a prefiltered texton from a MIP
+pyramid: level ℓ holds 2^ℓ × 2^ℓ block means of the coefficients, and
+
+    h_ℓ(y) = Σ_k α_ℓ(k) ψ((y − o_ℓ) / 2^ℓ − k),   o_ℓ = (2^ℓ − 1) / 2,
+
+so ∫h_ℓ = ∫h at every level. Each pixel blends two levels (trilinear) and, for
+"anisotropic", averages N such lookups placed along the major axis of its
+footprint. Every lookup sums the impacts over the whole support of h_ℓ, so the
+expected value of the sum is λ ∫h exactly and the filtered noise keeps the
+texton mean.
+"""
+
+import warp as wp
+
+from .noise2d import NoiseParams, cell_state, draw_count, texton_value
+
+wp.set_module_options({"enable_backward": False, "optimization_level": 3})
+
+#: filter modes
+MIP = wp.constant(1)
+ANISOTROPIC = wp.constant(2)
+
+
+@wp.struct
+class Pyramid:
+    # Level ℓ: padded coefficients in rows [row0[ℓ], row0[ℓ] + rows[ℓ]) of `coeffs`
+    # (a common width, zeros past each level's columns); its texels are 2^ℓ wide
+    # (`step`), its coefficient (0, 0) sits at `origin`, and h_ℓ vanishes outside
+    # the box [lo, hi] relative to the impact.
+    coeffs: wp.array2d(dtype=wp.vec3)
+    row0: wp.array(dtype=wp.int32)
+    rows: wp.array(dtype=wp.int32)
+    step: wp.array(dtype=float)
+    origin: wp.array(dtype=float)
+    lo: wp.array(dtype=wp.vec2)
+    hi: wp.array(dtype=wp.vec2)
+    levels: int  # real levels; level `levels` stands for the mean (h ≡ 0 after normalising)
+    order: int
+
+
+@wp.struct
+class Filter:
+    mode: int  # MIP or ANISOTROPIC
+    max_aniso: int  # most lookups along the major axis
+    lod_bias: float  # added to log2 of the lookup width
+
+
+@wp.func
+def level_value(pyr: Pyramid, lvl: int, d: wp.vec2):
+    # h_ℓ(d), zero outside its support box
+    lo = pyr.lo[lvl]
+    hi = pyr.hi[lvl]
+    if d[0] < lo[0] or d[0] > hi[0] or d[1] < lo[1] or d[1] > hi[1]:
+        return wp.vec3(0.0)
+    s = pyr.step[lvl]
+    o = pyr.origin[lvl]
+    y = wp.vec2((d[0] - o) / s, (d[1] - o) / s)
+    return texton_value(pyr.coeffs, pyr.row0[lvl], pyr.rows[lvl], y, pyr.order)
+
+
+@wp.func
+def footprint_axes(J: wp.mat22):
+    # Principal axes of the footprint J [-½, ½]²: its covariance is J Jᵀ / 12.
+    # Returns (major length σ1, minor length σ2, unit major direction).
+    m00 = J[0, 0] * J[0, 0] + J[0, 1] * J[0, 1]
+    m01 = J[0, 0] * J[1, 0] + J[0, 1] * J[1, 1]
+    m11 = J[1, 0] * J[1, 0] + J[1, 1] * J[1, 1]
+    half = 0.5 * (m00 + m11)
+    disc = wp.sqrt(wp.max(0.25 * (m00 - m11) * (m00 - m11) + m01 * m01, 0.0))
+    l1 = half + disc
+    l2 = wp.max(half - disc, 0.0)
+    # eigenvector of l1: pick the better conditioned of the two forms
+    u = wp.vec2(1.0, 0.0)
+    a = wp.vec2(m01, l1 - m00)
+    b = wp.vec2(l1 - m11, m01)
+    na = wp.length(a)
+    nb = wp.length(b)
+    if na >= nb and na > 0.0:
+        u = a / na
+    elif nb > 0.0:
+        u = b / nb
+    return wp.sqrt(l1), wp.sqrt(l2), u
+
+
+@wp.func
+def lookup_range(d0: wp.vec2, stride: wp.vec2, n: int, lo: wp.vec2, hi: wp.vec2):
+    # the q in [0, n) with lo <= d0 + q stride <= hi on both axes, as (first, last);
+    # empty when last < first
+    a = 0.0
+    b = float(n - 1)
+    for axis in range(2):
+        s = stride[axis]
+        if s > 0.0:
+            a = wp.max(a, (lo[axis] - d0[axis]) / s)
+            b = wp.min(b, (hi[axis] - d0[axis]) / s)
+        elif s < 0.0:
+            a = wp.max(a, (hi[axis] - d0[axis]) / s)
+            b = wp.min(b, (lo[axis] - d0[axis]) / s)
+    return int(wp.ceil(a - 1.0e-5)), int(wp.floor(b + 1.0e-5))
+
+
+@wp.kernel
+def filtered_points(
+    p: NoiseParams,
+    pyr: Pyramid,
+    f: Filter,
+    points: wp.array(dtype=wp.vec2d),
+    jac: wp.array(dtype=wp.mat22),
+    jac_stride: int,
+    out: wp.array(dtype=wp.vec3),
+):
+    """Filtered noise at points (texel units) with footprints ``jac[t * jac_stride]``.
+
+    Columns of a footprint are the texel-space steps of one pixel along its
+    two axes. The lookup width w is the footprint's major length ("mip"), or
+    max(minor, major / N) with N = min(⌈major / minor⌉, max_aniso) lookups
+    spaced along the major axis ("anisotropic"); the level is log2(w) + bias,
+    blended linearly between two levels. Past the last level the noise fades
+    to its mean.
+    """
+    t = wp.tid()
+    x = points[t]
+    J = jac[t * jac_stride]
+    major, minor, axis = footprint_axes(J)
+    n = int(1)
+    width = major
+    if f.mode == ANISOTROPIC:
+        if major > minor * float(f.max_aniso):
+            n = f.max_aniso
+        elif minor > 0.0:
+            n = int(wp.ceil(major / minor - 1.0e-4))
+        n = wp.max(n, 1)
+        width = wp.max(minor, major / float(n))
+    lod = 0.0
+    if width > 0.0:
+        lod = wp.max(wp.log2(width) + f.lod_bias, 0.0)
+    l0 = int(wp.floor(lod))
+    frac = lod - float(l0)
+    if l0 >= pyr.levels:
+        out[t] = p.mean
+        return
+    l1 = wp.min(l0 + 1, pyr.levels - 1)
+    w0 = 1.0 - frac
+    w1 = frac
+    real = 1.0  # weight of the real levels; the rest goes to the mean
+    if l0 + 1 >= pyr.levels:
+        w1 = 0.0
+        real = w0
+    if frac == 0.0:
+        w1 = 0.0
+    if w1 == 0.0:
+        l1 = l0  # one level: keep its (smaller) box
+    # lookups at x + δ_k, δ_k = axis · major · ((k + ½)/n − ½)
+    spread = axis * (major * (0.5 - 0.5 / float(n)))
+    first = -spread
+    stride = wp.vec2(0.0)
+    if n > 1:
+        stride = spread * (2.0 / float(n - 1))
+    # impacts that any lookup can see: the union of the level boxes, grown by the spread
+    box_lo = wp.min(pyr.lo[l0], pyr.lo[l1])
+    box_hi = wp.max(pyr.hi[l0], pyr.hi[l1])
+    ext = wp.vec2(wp.abs(spread[0]), wp.abs(spread[1]))
+    lo = box_lo - ext
+    hi = box_hi + ext
+    cw = wp.float64(p.cell[0])
+    ch = wp.float64(p.cell[1])
+    cx_lo = int(wp.floor((x[0] - wp.float64(hi[0])) / cw))
+    cx_hi = int(wp.floor((x[0] - wp.float64(lo[0])) / cw))
+    cy_lo = int(wp.floor((x[1] - wp.float64(hi[1])) / ch))
+    cy_hi = int(wp.floor((x[1] - wp.float64(lo[1])) / ch))
+    acc = wp.vec3(0.0)
+    for cy in range(cy_lo, cy_hi + 1):
+        for cx in range(cx_lo, cx_hi + 1):
+            rel = wp.vec2(float(x[0] - wp.float64(cx) * cw), float(x[1] - wp.float64(cy) * ch))
+            count, s = draw_count(cell_state(cx, cy, p), p)
+            for k in range(count):
+                ux = wp.randf(s)
+                uy = wp.randf(s)
+                d = rel - wp.vec2(ux * p.cell[0], uy * p.cell[1])
+                if d[0] >= lo[0] and d[0] <= hi[0] and d[1] >= lo[1] and d[1] <= hi[1]:
+                    # lookups q with d + first + q stride inside the coarser level's box
+                    d0 = d + first
+                    q0, q1 = lookup_range(d0, stride, n, box_lo, box_hi)
+                    dk = d0 + stride * float(q0)
+                    for q in range(q0, q1 + 1):
+                        v = level_value(pyr, l0, dk) * w0
+                        if w1 > 0.0:
+                            v = v + level_value(pyr, l1, dk) * w1
+                        acc = acc + v
+                        dk = dk + stride
+    acc = acc / float(n)
+    out[t] = p.mean + (acc - p.integral * (p.lam * real)) / wp.sqrt(p.lam)
