@@ -249,16 +249,48 @@ def mixing_case(suite: Suite, u: np.ndarray, device: str, textons_cache: dict, r
 
 
 def filtering_case(suite: Suite, textons: dict, device: str, report: Report) -> None:
-    """HOOK (issue 4): anti-aliased filtering of the noise for the viewing distance.
+    """Anti-aliased noise on a plane in perspective (CGF §5): ``render_plane`` with
+    "none", "mip" and "anisotropic" at the reference size, the view of
+    bench_filtering.py, and each filter's RMSE against an 8×8 supersampled
+    reference on every 8th row and column of the far half.
 
-    Skipped until ``warp_texton`` has a filtering API; when it does, time a
-    filtered plane in perspective here (and add it to the tables).
+    HOOK: skipped, with the reason printed, when ``warp_texton.filtering`` is
+    absent or its calls fail; the run goes on.
     """
     if importlib.util.find_spec("warp_texton.filtering") is None:
-        report.skip(f"filtering on {device}", "warp_texton has no filtering yet (issue 4)")
-    else:
-        report.skip(f"filtering on {device}", "warp_texton.filtering exists but the runner has no case "
-                    "for it yet: add one in benchmarks/runner.py:filtering_case")
+        report.skip(f"filtering on {device}", "warp_texton has no filtering module")
+        return
+    try:
+        from .bench_filtering import far_half_sample, plane_view
+
+        from warp_texton.filtering import plane_pixels
+
+        texton = textons[suite.ref_texton]
+        side = suite.ref_shape[0]
+        view = plane_view(side)
+        every = np.arange(side * side)
+        kw = dict(mni=suite.ref_mni, seed=1, device=device)
+        print(f"filtering on {device}: plane {side}x{side}", flush=True)
+        sample = far_half_sample(view, 8)
+        ref = plane_pixels(texton, view, sample, filter="supersample", supersample=8, **kw)
+        images = {}
+
+        def render(f):
+            images[f] = plane_pixels(texton, view, every, filter=f, **kw)
+
+        methods = {f: (lambda f=f: render(f)) for f in ("none", "mip", "anisotropic")}
+        results = interleaved(methods, suite.repeat)
+    except Exception as exc:  # the hook must not end the run: say why and go on
+        report.skip(f"filtering on {device}", f"warp_texton.filtering is there but a call failed: "
+                    f"{type(exc).__name__}: {exc}")
+        return
+    err = {f: float(np.sqrt(np.mean((images[f][sample] - ref) ** 2))) for f in methods}
+    for f, t in results.items():
+        report.add(case="filtering", method=f, device=device, shape=[side, side], mni=suite.ref_mni,
+                   texton=suite.ref_texton, cost=t["best_s"] / results["none"]["best_s"],
+                   error_ratio=err[f] / err["none"], **t)
+        print(f"  {f}: {t['best_s']:.4f} s (x{t['best_s'] / results['none']['best_s']:.2f}), "
+              f"error x{err[f] / err['none']:.3f} of unfiltered", flush=True)
 
 
 def surface_case(suite: Suite, textons: dict, device: str, report: Report) -> None:
@@ -433,6 +465,15 @@ def markdown(report: dict) -> str:
                 h, w = r["shape"]
                 lines.append(f"| `{r['device']}` | {w}×{h} | {_cell(r)} | {_cell(plain)} | "
                              f"{r['best_s'] / plain['best_s']:.2f} |")
+    filt = [r for r in rows if r["case"] == "filtering"]
+    if filt:
+        h, w = filt[0]["shape"]
+        lines += ["", f"## Filtering (plane in perspective, {w}×{h}, MNI {p['ref_mni']:g}, texton "
+                  f"{p['ref_texton']}²; error against an 8×8 supersampled far half)", "",
+                  "| device | filter | time (s) | cost vs none | error vs none |", "|---|---|---:|---:|---:|"]
+        for r in filt:
+            lines.append(f"| `{r['device']}` | {r['method']} | {_cell(r)} | {r['cost']:.2f} | "
+                         f"{r['error_ratio']:.3f} |")
     surf = [r for r in rows if r["case"] == "surface"]
     if surf:
         lines += ["", f"## Surface noise (MNI {SURFACE_MNI:g}, texton {p['ref_texton']}², unit icosphere, "
