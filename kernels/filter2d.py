@@ -50,16 +50,13 @@ class Filter:
 
 
 @wp.func
-def level_value(pyr: Pyramid, lvl: int, d: wp.vec2):
-    # h_ℓ(d), zero outside its support box
-    lo = pyr.lo[lvl]
-    hi = pyr.hi[lvl]
+def lookup(coeffs: wp.array2d(dtype=wp.vec3), row0: int, rows: int, inv_step: float, origin: float,
+           lo: wp.vec2, hi: wp.vec2, d: wp.vec2, order: int):
+    # h_ℓ(d) for the level stored in rows [row0, row0 + rows), zero outside its box [lo, hi]
     if d[0] < lo[0] or d[0] > hi[0] or d[1] < lo[1] or d[1] > hi[1]:
         return wp.vec3(0.0)
-    s = pyr.step[lvl]
-    o = pyr.origin[lvl]
-    y = wp.vec2((d[0] - o) / s, (d[1] - o) / s)
-    return texton_value(pyr.coeffs, pyr.row0[lvl], pyr.rows[lvl], y, pyr.order)
+    y = wp.vec2((d[0] - origin) * inv_step, (d[1] - origin) * inv_step)
+    return texton_value(coeffs, row0, rows, y, order)
 
 
 @wp.func
@@ -172,6 +169,19 @@ def filtered_points(
     cx_hi = int(wp.floor((x[0] - wp.float64(lo[0])) / cw))
     cy_lo = int(wp.floor((x[1] - wp.float64(hi[1])) / ch))
     cy_hi = int(wp.floor((x[1] - wp.float64(lo[1])) / ch))
+    # the two levels' parameters, read once
+    r0a = pyr.row0[l0]
+    na = pyr.rows[l0]
+    ia = 1.0 / pyr.step[l0]
+    oa = pyr.origin[l0]
+    loa = pyr.lo[l0]
+    hia = pyr.hi[l0]
+    r0b = pyr.row0[l1]
+    nb = pyr.rows[l1]
+    ib = 1.0 / pyr.step[l1]
+    ob = pyr.origin[l1]
+    lob = pyr.lo[l1]
+    hib = pyr.hi[l1]
     acc = wp.vec3(0.0)
     for cy in range(cy_lo, cy_hi + 1):
         for cx in range(cx_lo, cx_hi + 1):
@@ -187,9 +197,9 @@ def filtered_points(
                     q0, q1 = lookup_range(d0, stride, n, box_lo, box_hi)
                     dk = d0 + stride * float(q0)
                     for q in range(q0, q1 + 1):
-                        v = level_value(pyr, l0, dk) * w0
+                        v = lookup(pyr.coeffs, r0a, na, ia, oa, loa, hia, dk, pyr.order) * w0
                         if w1 > 0.0:
-                            v = v + level_value(pyr, l1, dk) * w1
+                            v = v + lookup(pyr.coeffs, r0b, nb, ib, ob, lob, hib, dk, pyr.order) * w1
                         acc = acc + v
                         dk = dk + stride
     acc = acc / float(n)
