@@ -104,10 +104,12 @@ def run(args) -> dict:
         bands.append(entry)
     sweep = []
     if not args.quick:
-        for f, kw in [("mip", {"lod_bias": 0.0}), ("mip", {"lod_bias": -0.4}), ("mip", {}),
-                      ("mip", {"lod_bias": -1.2}), ("anisotropic", {"max_aniso": 2}),
-                      ("anisotropic", {"max_aniso": 4}), ("anisotropic", {}),
-                      ("anisotropic", {"max_aniso": 16}), ("anisotropic", {"lod_bias": 0.0})]:
+        second_moment = -0.5 * np.log2(3.0)
+        for f, kw in [("mip", {"lod_bias": 0.0}), ("mip", {"lod_bias": second_moment}), ("mip", {"lod_bias": -1.0}),
+                      ("mip", {}), ("mip", {"lod_bias": -1.6}), ("anisotropic", {"lod_bias": 0.0}),
+                      ("anisotropic", {"lod_bias": -0.4}), ("anisotropic", {}),
+                      ("anisotropic", {"lod_bias": second_moment}), ("anisotropic", {"max_aniso": 2}),
+                      ("anisotropic", {"max_aniso": 4}), ("anisotropic", {"max_aniso": 16})]:
             best = []
             for _ in range(2):
                 t0 = time.perf_counter()
@@ -118,7 +120,7 @@ def run(args) -> dict:
             t_none = time.perf_counter() - t0
             e = float(np.sqrt(np.mean((img[sample] - ref) ** 2)))
             entry = {"filter": f, "max_aniso": kw.get("max_aniso", MAX_ANISO),
-                     "lod_bias": kw.get("lod_bias", LOD_BIAS), "error_ratio": e / rmse["none"],
+                     "lod_bias": kw.get("lod_bias", LOD_BIAS[f]), "error_ratio": e / rmse["none"],
                      "cost": min(best) / min(t_none, min(times["none"]))}
             sweep.append(entry)
             print(f"  sweep {f} max_aniso {entry['max_aniso']} bias {entry['lod_bias']:.2f}: "

@@ -26,10 +26,13 @@ FILTERS = ("none", "mip", "anisotropic", "supersample")
 #: Most lookups along a footprint's major axis ("anisotropic"); past this
 #: anisotropy the level rises instead, as GPU anisotropic filtering does.
 MAX_ANISO = 8
-#: Added to log2 of a lookup's width to pick its level. A level-ℓ lookup
-#: blurs like a box of width √3 · 2^ℓ (block mean then bilinear tent), so
-#: log2(width) − log2(√3) matches the pixel box's second moment.
-LOD_BIAS = -0.5 * math.log2(3.0)
+#: Added to log2 of a lookup's width to pick its level, per filter. A level-ℓ
+#: lookup blurs like a box of width √3 · 2^ℓ (block mean, then the bilinear
+#: tent), so −log2 √3 ≈ −0.79 would match the pixel box's second moment. The
+#: defaults are the optima measured on the plane benchmark with two textures
+#: (docs/benchmarks.md): "mip" sits lower because its single lookup takes the
+#: major axis as its width and so over-blurs along the minor one.
+LOD_BIAS = {"mip": -1.3, "anisotropic": -0.6}
 #: Default samples per pixel side for ``filter="supersample"``.
 SUPERSAMPLE = 20
 #: Bounds on ``supersample`` and ``max_aniso`` (a pixel's work grows with them).
@@ -131,7 +134,7 @@ def check_jacobian(jacobian, shape) -> np.ndarray:
     return np.clip(J, -MAX_FOOTPRINT, MAX_FOOTPRINT)
 
 
-def footprint_levels(J: np.ndarray, filter: str, max_aniso: int = MAX_ANISO, lod_bias: float = LOD_BIAS):
+def footprint_levels(J: np.ndarray, filter: str, max_aniso: int = MAX_ANISO, lod_bias: float | None = None):
     """Lookups per pixel and MIP level (before clamping at 0) that ``filter``
     picks for footprints ``J`` (..., 2, 2); the kernels make the same choice."""
     m = np.einsum("...ij,...kj->...ik", J, J)
@@ -147,7 +150,7 @@ def footprint_levels(J: np.ndarray, filter: str, max_aniso: int = MAX_ANISO, lod
         n = np.maximum(np.nan_to_num(n, nan=1.0), 1).astype(int)
         width = np.maximum(minor, major / n)
     with np.errstate(divide="ignore"):
-        lod = np.log2(width) + lod_bias
+        lod = np.log2(width) + (LOD_BIAS[filter] if lod_bias is None else lod_bias)
     return n, lod
 
 
@@ -164,7 +167,7 @@ def needs_filtering(J: np.ndarray, filter: str, max_aniso: int = MAX_ANISO) -> b
 
 # --------------------------------------------------------------- evaluation
 def filtered_points(wp, p, texton: Texton, setup, positions, device, filter: str, *,
-                    max_aniso: int = MAX_ANISO, lod_bias: float = LOD_BIAS) -> np.ndarray:
+                    max_aniso: int = MAX_ANISO, lod_bias: float | None = None) -> np.ndarray:
     """(N, 3) filtered noise at N points; ``positions(idx) -> (pts (n, 2) f64, J (n or 1, 2, 2))``."""
     from .kernels import filter2d as F
     from .synthesis import map_points
@@ -172,7 +175,7 @@ def filtered_points(wp, p, texton: Texton, setup, positions, device, filter: str
     f = F.Filter()
     f.mode = 1 if filter == "mip" else 2
     f.max_aniso = int(max_aniso)
-    f.lod_bias = float(lod_bias)
+    f.lod_bias = float(LOD_BIAS[filter] if lod_bias is None else lod_bias)
     n = positions.count
     with wp.ScopedDevice(device):
         pyr = _pyramid_struct(wp, texton)
@@ -409,7 +412,7 @@ def render_plane(
 
 def plane_pixels(texton: Texton, view: PlaneView, pixels, mni: float = 30.0, seed: int = 0,
                  filter: str = "anisotropic", supersample: int = SUPERSAMPLE, device=None, *,
-                 progress: bool = False, max_aniso: int = MAX_ANISO, lod_bias: float = LOD_BIAS) -> np.ndarray:
+                 progress: bool = False, max_aniso: int = MAX_ANISO, lod_bias: float | None = None) -> np.ndarray:
     """(N, C) values of the flat pixel indices ``pixels`` of :func:`render_plane`'s image
     (benchmarks compare filters on a subset of pixels this way)."""
     from .synthesis import MAX_CELL_INDEX, _params, _warp, noise_setup, resolve_device
