@@ -36,7 +36,8 @@ sys.path.insert(0, str(HERE))
 from common import machine_line, make_texture, report_header, run_main  # noqa: E402
 
 from warp_texton import analyze  # noqa: E402
-from warp_texton.filtering import LOD_BIAS, MAX_ANISO, PlaneView, plane_pixels  # noqa: E402
+from warp_texton.filtering import (FADE_ENERGY, LOD_BIAS, MAX_ANISO, PlaneView, kept_levels,  # noqa: E402
+                                   level_energies, plane_pixels)
 from warp_texton.synthesis import resolve_device  # noqa: E402
 
 #: The view: camera height, tilt and field of view (degrees), texel size at 1024 rows.
@@ -104,34 +105,39 @@ def run(args) -> dict:
         bands.append(entry)
     sweep = []
     if not args.quick:
-        second_moment = -0.5 * np.log2(3.0)
-        for f, kw in [("mip", {"lod_bias": 0.0}), ("mip", {"lod_bias": second_moment}), ("mip", {"lod_bias": -1.0}),
-                      ("mip", {}), ("mip", {"lod_bias": -1.6}), ("anisotropic", {"lod_bias": 0.0}),
-                      ("anisotropic", {"lod_bias": -0.4}), ("anisotropic", {}),
-                      ("anisotropic", {"lod_bias": second_moment}), ("anisotropic", {"max_aniso": 2}),
-                      ("anisotropic", {"max_aniso": 4}), ("anisotropic", {"max_aniso": 16})]:
-            best = []
-            for _ in range(2):
+        second_moment = -0.5 * float(np.log2(3.0))
+        settings = [("mip", {"lod_bias": 0.0}), ("mip", {"lod_bias": second_moment}), ("mip", {"lod_bias": -1.0}),
+                    ("mip", {}), ("mip", {"lod_bias": -1.6}), ("mip", {"fade_energy": 0.1}),
+                    ("mip", {"fade_energy": 0.0}), ("anisotropic", {"lod_bias": 0.0}),
+                    ("anisotropic", {"lod_bias": second_moment}), ("anisotropic", {"lod_bias": -0.4}),
+                    ("anisotropic", {}), ("anisotropic", {"fade_energy": 0.1}),
+                    ("anisotropic", {"fade_energy": 0.0}), ("anisotropic", {"max_aniso": 2}),
+                    ("anisotropic", {"max_aniso": 4}), ("anisotropic", {"max_aniso": 16})]
+        for f, kw in settings:
+            t_f, t_none = [], []
+            for _ in range(2):  # interleaved with the unfiltered render
                 t0 = time.perf_counter()
                 img = plane_pixels(texton, view, everything, filter=f, **common, **kw)
-                best.append(time.perf_counter() - t0)
-            t0 = time.perf_counter()
-            plane_pixels(texton, view, everything, filter="none", **common)
-            t_none = time.perf_counter() - t0
+                t_f.append(time.perf_counter() - t0)
+                t0 = time.perf_counter()
+                plane_pixels(texton, view, everything, filter="none", **common)
+                t_none.append(time.perf_counter() - t0)
             e = float(np.sqrt(np.mean((img[sample] - ref) ** 2)))
             entry = {"filter": f, "max_aniso": kw.get("max_aniso", MAX_ANISO),
-                     "lod_bias": kw.get("lod_bias", LOD_BIAS[f]), "error_ratio": e / rmse["none"],
-                     "cost": min(best) / min(t_none, min(times["none"]))}
+                     "lod_bias": kw.get("lod_bias", LOD_BIAS[f]), "fade_energy": kw.get("fade_energy", FADE_ENERGY),
+                     "error_ratio": e / rmse["none"], "cost": min(t_f) / min(t_none)}
             sweep.append(entry)
-            print(f"  sweep {f} max_aniso {entry['max_aniso']} bias {entry['lod_bias']:.2f}: "
-                  f"error x{entry['error_ratio']:.3f}, cost x{entry['cost']:.2f}", flush=True)
+            print(f"  sweep {f} max_aniso {entry['max_aniso']} bias {entry['lod_bias']:.2f} fade "
+                  f"{entry['fade_energy']:g}: error x{entry['error_ratio']:.3f}, cost x{entry['cost']:.2f}", flush=True)
     return {
         **report_header("filtering", device),
         "parameters": {"texton": list(texton.size), "channels": texton.channels, "order": texton.order,
                        "mni": args.mni, "repeat": args.repeat, "quick": args.quick, "shape": [h, w],
                        "view": {**VIEW, "texel_size": view.texel_size}, "reference_samples": n_ref,
                        "reference_pixels": int(sample.size), "reference_seconds": t_ref, "sigma": sigma,
-                       "max_aniso": MAX_ANISO, "lod_bias": LOD_BIAS},
+                       "max_aniso": MAX_ANISO, "lod_bias": LOD_BIAS, "fade_energy": FADE_ENERGY,
+                       "level_energies": [float(e) for e in level_energies(texton)],
+                       "kept_levels": kept_levels(texton)},
         "results": rows,
         "bands": bands,
         "sweep": sweep,
@@ -166,12 +172,16 @@ def markdown(report: dict) -> str:
         lines.append(f"| {b['rows'][0]}–{b['rows'][1]} | {b['reference']:.2e} | {b['none']:.2e} | "
                      f"{b['mip']:.2e} | {b['anisotropic']:.2e} |")
     if report["sweep"]:
-        lines += ["", "Settings sweep (error and cost relative to the unfiltered render):", "",
-                  "| filter | max_aniso | level bias | error vs none | cost vs none |", "|---|---|---|---|---|"]
+        energies = ", ".join(f"{e:.3g}" for e in p["level_energies"])
+        lines += ["", "Settings sweep (error and cost relative to the unfiltered render, best of 2 interleaved "
+                  f"runs each). Level energies ∫h_ℓ²/∫h² of this texton: {energies}; the default fade "
+                  f"({p['fade_energy']:g}) keeps {p['kept_levels']} levels, fade 0 keeps them all.", "",
+                  "| filter | max_aniso | level bias | fade | error vs none | cost vs none |",
+                  "|---|---|---|---|---|---|"]
         for s in report["sweep"]:
             aniso = s["max_aniso"] if s["filter"] == "anisotropic" else "–"
-            lines.append(f"| {s['filter']} | {aniso} | {s['lod_bias']:.2f} | {s['error_ratio']:.3f} | "
-                         f"{s['cost']:.2f} |")
+            lines.append(f"| {s['filter']} | {aniso} | {s['lod_bias']:.2f} | {s['fade_energy']:g} | "
+                         f"{s['error_ratio']:.3f} | {s['cost']:.2f} |")
     return "\n".join(lines) + "\n"
 
 

@@ -33,6 +33,14 @@ MAX_ANISO = 8
 #: (docs/benchmarks.md): "mip" sits lower because its single lookup takes the
 #: major axis as its width and so over-blurs along the minor one.
 LOD_BIAS = {"mip": -1.3, "anisotropic": -0.6}
+#: The pyramid ends at the first level whose noise keeps less than this
+#: fraction of the texton noise's variance (∫h_ℓ² / ∫h²); past that level the
+#: filtered noise fades to its mean. The coarse levels of a textured texton
+#: carry little variance but cost the most (the widest supports, the most
+#: lookups): on the plane benchmark, ending at 0.25 instead of at the 1 × 1
+#: level keeps the anisotropic error within 0.01 σ-relative units for 40 % of
+#: the time (docs/benchmarks.md). Smooth textures keep all their levels.
+FADE_ENERGY = 0.25
 #: Default samples per pixel side for ``filter="supersample"``.
 SUPERSAMPLE = 20
 #: Bounds on ``supersample`` and ``max_aniso`` (a pixel's work grows with them).
@@ -62,7 +70,26 @@ def texton_pyramid(texton: Texton) -> list[np.ndarray]:
     return [lv.astype(np.float32) for lv in levels]
 
 
-def _pyramid_struct(wp, texton: Texton):
+def level_energies(texton: Texton, levels=None) -> np.ndarray:
+    """∫h_ℓ² / ∫h² for every MIP level (summed over channels): the variance the
+    noise of level ℓ keeps. ∫h_ℓ² = 4^ℓ Σ_τ b(τ) Σ_x α_ℓ(x) α_ℓ(x + τ)."""
+    from .texton import lag0_covariance
+
+    levels = texton_pyramid(texton) if levels is None else levels
+    e = np.array([4.0 ** ell * np.trace(np.atleast_2d(lag0_covariance(a.astype(np.float64), texton.order)))
+                  for ell, a in enumerate(levels)])
+    return e / e[0] if e[0] > 0 else np.ones_like(e)
+
+
+def kept_levels(texton: Texton, levels=None, fade_energy: float = FADE_ENERGY) -> int:
+    """How many MIP levels the filters use: up to and including the first level
+    whose energy is below ``fade_energy`` (all of them if none is)."""
+    e = level_energies(texton, levels)
+    below = np.flatnonzero(e < fade_energy)
+    return int(below[0]) + 1 if below.size else len(e)
+
+
+def _pyramid_struct(wp, texton: Texton, fade_energy: float = FADE_ENERGY):
     from .kernels.filter2d import Pyramid
     from .kernels.noise2d import PAD
 
@@ -91,7 +118,7 @@ def _pyramid_struct(wp, texton: Texton):
     pyr.origin = wp.array(np.array(origin, np.float32), dtype=float)
     pyr.lo = wp.array(np.array(lo, np.float32), dtype=wp.vec2)
     pyr.hi = wp.array(np.array(hi, np.float32), dtype=wp.vec2)
-    pyr.levels = len(levels)
+    pyr.levels = kept_levels(texton, levels, fade_energy)
     pyr.order = k
     return pyr
 
@@ -167,7 +194,8 @@ def needs_filtering(J: np.ndarray, filter: str, max_aniso: int = MAX_ANISO) -> b
 
 # --------------------------------------------------------------- evaluation
 def filtered_points(wp, p, texton: Texton, setup, positions, device, filter: str, *,
-                    max_aniso: int = MAX_ANISO, lod_bias: float | None = None) -> np.ndarray:
+                    max_aniso: int = MAX_ANISO, lod_bias: float | None = None,
+                    fade_energy: float = FADE_ENERGY) -> np.ndarray:
     """(N, 3) filtered noise at N points; ``positions(idx) -> (pts (n, 2) f64, J (n or 1, 2, 2))``."""
     from .kernels import filter2d as F
     from .synthesis import map_points
@@ -178,7 +206,7 @@ def filtered_points(wp, p, texton: Texton, setup, positions, device, filter: str
     f.lod_bias = float(LOD_BIAS[filter] if lod_bias is None else lod_bias)
     n = positions.count
     with wp.ScopedDevice(device):
-        pyr = _pyramid_struct(wp, texton)
+        pyr = _pyramid_struct(wp, texton, fade_energy)
 
         def launch(idx):
             pts, J = positions(idx)
@@ -412,7 +440,8 @@ def render_plane(
 
 def plane_pixels(texton: Texton, view: PlaneView, pixels, mni: float = 30.0, seed: int = 0,
                  filter: str = "anisotropic", supersample: int = SUPERSAMPLE, device=None, *,
-                 progress: bool = False, max_aniso: int = MAX_ANISO, lod_bias: float | None = None) -> np.ndarray:
+                 progress: bool = False, max_aniso: int = MAX_ANISO, lod_bias: float | None = None,
+                 fade_energy: float = FADE_ENERGY) -> np.ndarray:
     """(N, C) values of the flat pixel indices ``pixels`` of :func:`render_plane`'s image
     (benchmarks compare filters on a subset of pixels this way)."""
     from .synthesis import MAX_CELL_INDEX, _params, _warp, noise_setup, resolve_device
@@ -450,5 +479,5 @@ def plane_pixels(texton: Texton, view: PlaneView, pixels, mni: float = 30.0, see
             return centre[idx[sel]], J[sel]
 
         out[idx] = filtered_points(wp, p, texton, setup, _Positions(idx.size, positions), device, filter,
-                                   max_aniso=max_aniso, lod_bias=lod_bias)
+                                   max_aniso=max_aniso, lod_bias=lod_bias, fade_energy=fade_energy)
     return out[:, : texton.channels]
