@@ -73,7 +73,7 @@ def _add_analyze_options(p: argparse.ArgumentParser, seed: bool = True) -> None:
 
 
 def _add_filter_options(p: argparse.ArgumentParser, default: str) -> None:
-    from .filtering import FILTERS, MAX_ANISO, SUPERSAMPLE
+    from .filtering import FADE_ENERGY, FILTERS, MAX_ANISO, SUPERSAMPLE
 
     p.add_argument("--filter", choices=FILTERS, default=default,
                    help="anti-aliasing for each pixel's footprint: MIP-mapped or anisotropic lookups "
@@ -82,6 +82,9 @@ def _add_filter_options(p: argparse.ArgumentParser, default: str) -> None:
                    help="samples per pixel side for --filter supersample")
     p.add_argument("--max-aniso", type=int, default=MAX_ANISO,
                    help="most lookups along a footprint's major axis for --filter anisotropic")
+    p.add_argument("--fade-energy", type=float, default=FADE_ENERGY,
+                   help="end the MIP pyramid at the first level keeping less than this fraction of the "
+                        "variance; larger footprints fade to the mean (0 keeps every level)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -274,7 +277,8 @@ def _cmd_synthesize(args) -> None:
     texton = _texton_of(args)
     noise = synthesize(texton, shape=(args.height, args.width), mni=args.mni, seed=args.seed, scale=args.scale,
                        rotation=args.rotation, offset=tuple(args.offset), period=args.period, device=args.device,
-                       filter=args.filter, supersample=args.supersample, max_aniso=args.max_aniso)
+                       filter=args.filter, supersample=args.supersample, max_aniso=args.max_aniso,
+                       fade_energy=args.fade_energy)
     write_image(out, noise)
     if not args.quiet:
         print(f"{out}: {args.width}x{args.height} texton noise, MNI {args.mni:g} "
@@ -291,7 +295,7 @@ def _cmd_render_plane(args) -> None:
     image = render_plane(texton, (args.height, args.width), height=args.camera_height, tilt=args.tilt,
                          fov=args.fov, texel_size=args.texel_size, mni=args.mni, seed=args.seed,
                          filter=args.filter, supersample=args.supersample, device=args.device,
-                         max_aniso=args.max_aniso, progress=not args.quiet)
+                         max_aniso=args.max_aniso, fade_energy=args.fade_energy, progress=not args.quiet)
     write_image(out, image)
     if not args.quiet:
         print(f"{out}: {args.width}x{args.height} plane, filter {args.filter}, MNI {args.mni:g} "

@@ -141,6 +141,17 @@ def check_filter_options(supersample, max_aniso) -> tuple[int, int]:
     return n, a
 
 
+def check_fade_energy(fade_energy) -> float:
+    """A number in [0, 1]."""
+    try:
+        e = float(fade_energy)
+    except (TypeError, ValueError):
+        raise TextonError(f"fade_energy must be a number in [0, 1], got {fade_energy!r}") from None
+    if not 0.0 <= e <= 1.0:
+        raise TextonError(f"fade_energy must be in [0, 1] (0 keeps every MIP level), got {fade_energy!r}")
+    return e
+
+
 def check_jacobian(jacobian, shape) -> np.ndarray:
     """A constant (2, 2) or per-pixel (H, W, 2, 2) footprint, as float64.
 
@@ -280,7 +291,8 @@ class _Positions:
 
 
 def filtered_raster(wp, p, texton: Texton, setup, shape, origin, step, J, device, filter: str,
-                    supersample: int, seed: int, max_aniso: int = MAX_ANISO) -> np.ndarray:
+                    supersample: int, seed: int, max_aniso: int = MAX_ANISO,
+                    fade_energy: float = FADE_ENERGY) -> np.ndarray:
     """(H, W, 3) raster of ``synthesis.synthesize`` with a filter other than "none"."""
     h, w = shape
 
@@ -309,7 +321,7 @@ def filtered_raster(wp, p, texton: Texton, setup, shape, origin, step, J, device
         return centres(idx), (flat if flat.shape[0] == 1 else flat[idx])
 
     vals = filtered_points(wp, p, texton, setup, _Positions(h * w, positions), device, filter,
-                           max_aniso=max_aniso)
+                           max_aniso=max_aniso, fade_energy=fade_energy)
     return vals.reshape(h, w, 3)
 
 
@@ -387,6 +399,7 @@ def render_plane(
     device=None,
     *,
     max_aniso: int = MAX_ANISO,
+    fade_energy: float = FADE_ENERGY,
     progress: bool = False,
 ) -> np.ndarray:
     """An infinite ground plane textured with texton noise, seen in perspective (CGF Fig. 3).
@@ -415,13 +428,17 @@ def render_plane(
     device : str, optional
     max_aniso : int
         Most lookups along a footprint's major axis for "anisotropic".
+    fade_energy : float
+        The MIP pyramid ends at the first level whose noise keeps less than
+        this fraction of the variance; larger footprints fade to the mean.
+        0 keeps every level (slower at a distance, a little more accurate).
     progress : bool
         Show a progress bar while supersampling.
 
     Returns
     -------
     float32 array (height, width, C); pixels that see no plane (above the
-    horizon, or beyond ±2**30 noise cells) hold the texton mean.
+    horizon, or beyond ±2**29 noise cells) hold the texton mean.
 
     Examples
     --------
@@ -434,7 +451,7 @@ def render_plane(
     view = PlaneView(shape, height, tilt, fov, texel_size)
     h, w = view.shape
     out = plane_pixels(texton, view, np.arange(h * w), mni, seed, filter, supersample, device,
-                       progress=progress, max_aniso=max_aniso)
+                       progress=progress, max_aniso=max_aniso, fade_energy=fade_energy)
     return np.ascontiguousarray(out.reshape(h, w, -1))
 
 
@@ -449,6 +466,7 @@ def plane_pixels(texton: Texton, view: PlaneView, pixels, mni: float = 30.0, see
     filter = check_filter(filter)
     seed = check_seed(seed)
     n, max_aniso = check_filter_options(supersample, max_aniso)
+    fade_energy = check_fade_energy(fade_energy)
     setup = noise_setup(texton, mni)
     device = resolve_device(device)
     wp = _warp()

@@ -24,8 +24,8 @@ import numpy as np
 
 from ._checks import check_positive, check_seed, check_shape
 from .errors import TextonError
-from .filtering import (MAX_ANISO, SUPERSAMPLE, check_filter, check_filter_options, check_jacobian,
-                        filtered_raster, needs_filtering)
+from .filtering import (FADE_ENERGY, MAX_ANISO, SUPERSAMPLE, check_fade_energy, check_filter,
+                        check_filter_options, check_jacobian, filtered_raster, needs_filtering)
 from .texton import Texton
 
 #: Default cell side as a fraction of the texton support side (CGF §8).
@@ -235,6 +235,7 @@ def synthesize(
     filter: str = "none",
     supersample: int = SUPERSAMPLE,
     max_aniso: int = MAX_ANISO,
+    fade_energy: float = FADE_ENERGY,
 ) -> np.ndarray:
     """Texton noise on an H × W raster.
 
@@ -284,6 +285,10 @@ def synthesize(
     max_aniso : int
         Most lookups along a footprint's major axis for "anisotropic"; past
         that anisotropy the level rises instead.
+    fade_energy : float
+        The MIP pyramid ends at the first level whose noise keeps less than
+        this fraction of the variance; larger footprints fade to the mean
+        (0 keeps every level).
 
     Returns
     -------
@@ -308,6 +313,7 @@ def synthesize(
     filter = check_filter(filter)
     J = None if jacobian is None else check_jacobian(jacobian, (h, w))
     supersample, max_aniso = check_filter_options(supersample, max_aniso)
+    fade_energy = check_fade_energy(fade_energy)
     device = resolve_device(device)
     wp = _warp()
     p = _params(wp, texton, setup, seed, poisson)
@@ -315,7 +321,7 @@ def synthesize(
         _check_cell_range(*_raster_reach(origin, step, (h, w), setup, 0), setup.cell[0], "the raster's positions")
         _check_cell_range(*_raster_reach(origin, step, (h, w), setup, 1), setup.cell[1], "the raster's positions")
         out = filtered_raster(wp, p, texton, setup, (h, w), origin, step, J, device, filter, supersample, seed,
-                              max_aniso)
+                              max_aniso, fade_energy)
         return np.ascontiguousarray(out[:, :, : texton.channels])
     out = _raster(wp, p, setup, setup.coeffs, texton.order, (h, w), origin, step, device, method, scale)
     return np.ascontiguousarray(out[:, :, : texton.channels])
