@@ -8,7 +8,7 @@ seamless colour pattern Wood/walnut (128 × 128, GPL-3+), read from its
 For each texture: the input, a sample of its Gaussian model
 (``gaussian_texture``), its texton (``texton_preview``), texton noise at MNI 5,
 10 and 30, and a 2 × 2 tiling of a periodic tile. Then, as the package has
-them: a filtered plane (not yet: issue 4), a surface render (``render_mesh``),
+them: a filtered plane (rendered by make_filtering_images.py), a surface render (``render_mesh``),
 a mixing strip (``mix_textons`` + ``synthesize_mixed``, grass → brick in 21
 steps) and a mix driven by a ρ map. Everything runs on the CPU device with
 fixed seeds (CUDA gives the same noise).
@@ -44,6 +44,22 @@ DEVICE = "cpu"
 #: GIMP patterns are small; refuse files that claim absurd sizes.
 GPAT_MAX_SIDE = 8192
 
+
+#: The "Filtered plane" section: its pictures come from docs/make_filtering_images.py.
+FILTERED_PLANE = [
+    "An infinite ground plane in perspective (`render_plane`, CGF §5 and Fig. 3), the view of "
+    "`benchmarks/bench_filtering.py`: 1024 × 1024, camera tilted 70° from straight down, field of view 40°, "
+    "horizon at the top edge; texton 64² of the benchmark texture, MNI 30, seed 1. Close-ups enlarged 3× of "
+    "a far window (top row) and a middle one (bottom row), left to right: unfiltered, `\"mip\"`, "
+    "`\"anisotropic\"`, and the 20 × 20 supersampled reference. The four share one contrast stretch "
+    "(mean ± 3σ).",
+    "",
+    "![filtered plane close-ups](images/filtering/closeups.png)",
+    "",
+    "Whole renders: [unfiltered](images/filtering/plane_none.png), [mip](images/filtering/plane_mip.png), "
+    "[anisotropic](images/filtering/plane_anisotropic.png), [reference](images/filtering/plane_reference.png) "
+    "(made by `docs/make_filtering_images.py`; errors and times in [benchmarks.md](benchmarks.md)).",
+]
 
 def read_gpat(path: Path) -> np.ndarray:
     """A GIMP pattern (``.pat``) as a float32 (H, W, C) image in [0, 1], C = 1 or 3.
@@ -228,8 +244,7 @@ def page(sources: list[dict], mixing, surface) -> str:
             "|---|---|---|",
             "| " + " | ".join(image(f[f"mni{m}"]) for m in MNIS) + " |",
         ]
-    lines += ["", "## Filtered plane", "",
-              "Not yet: anti-aliased filtering of the noise for the viewing distance is planned (issue 4)."]
+    lines += ["", "## Filtered plane", ""] + FILTERED_PLANE
     lines += ["", "## Surface", ""]
     if surface:
         lines += [image(surface), "", surface[0]]
