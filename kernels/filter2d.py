@@ -63,9 +63,14 @@ def lookup(coeffs: wp.array2d(dtype=wp.vec3), row0: int, rows: int, inv_step: fl
 def footprint_axes(J: wp.mat22):
     # Principal axes of the footprint J [-½, ½]²: its covariance is J Jᵀ / 12.
     # Returns (major length σ1, minor length σ2, unit major direction).
-    m00 = J[0, 0] * J[0, 0] + J[0, 1] * J[0, 1]
-    m01 = J[0, 0] * J[1, 0] + J[0, 1] * J[1, 1]
-    m11 = J[1, 0] * J[1, 0] + J[1, 1] * J[1, 1]
+    # J is scaled to a largest entry of 1 first, so that squares cannot overflow.
+    s = wp.max(wp.max(wp.abs(J[0, 0]), wp.abs(J[0, 1])), wp.max(wp.abs(J[1, 0]), wp.abs(J[1, 1])))
+    if s == 0.0:
+        return 0.0, 0.0, wp.vec2(1.0, 0.0)
+    K = J / s
+    m00 = K[0, 0] * K[0, 0] + K[0, 1] * K[0, 1]
+    m01 = K[0, 0] * K[1, 0] + K[0, 1] * K[1, 1]
+    m11 = K[1, 0] * K[1, 0] + K[1, 1] * K[1, 1]
     half = 0.5 * (m00 + m11)
     disc = wp.sqrt(wp.max(0.25 * (m00 - m11) * (m00 - m11) + m01 * m01, 0.0))
     l1 = half + disc
@@ -80,7 +85,7 @@ def footprint_axes(J: wp.mat22):
         u = a / na
     elif nb > 0.0:
         u = b / nb
-    return wp.sqrt(l1), wp.sqrt(l2), u
+    return s * wp.sqrt(l1), s * wp.sqrt(l2), u
 
 
 @wp.func
@@ -135,11 +140,13 @@ def filtered_points(
     lod = 0.0
     if width > 0.0:
         lod = wp.max(wp.log2(width) + f.lod_bias, 0.0)
-    l0 = int(wp.floor(lod))
-    frac = lod - float(l0)
-    if l0 >= pyr.levels:
+    # past the kept levels (or not finite): the mean; compared as floats before
+    # any int conversion
+    if lod >= float(pyr.levels) or wp.isnan(lod):
         out[t] = p.mean
         return
+    l0 = int(wp.floor(lod))
+    frac = lod - float(l0)
     l1 = wp.min(l0 + 1, pyr.levels - 1)
     w0 = 1.0 - frac
     w1 = frac

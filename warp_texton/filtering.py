@@ -143,6 +143,8 @@ def check_filter_options(supersample, max_aniso) -> tuple[int, int]:
 
 def check_fade_energy(fade_energy) -> float:
     """A number in [0, 1]."""
+    if isinstance(fade_energy, bool):
+        raise TextonError(f"fade_energy must be a number in [0, 1], got {fade_energy!r}")
     try:
         e = float(fade_energy)
     except (TypeError, ValueError):
@@ -246,33 +248,62 @@ def point_values(wp, p, coeffs: np.ndarray, pts: np.ndarray, device) -> np.ndarr
         return map_points(wp, K, device, pts.shape[0], launch)
 
 
-def supersampled(wp, p, coeffs, subpixels, n_pixels: int, n: int, seed: int, device,
-                 progress: bool = False) -> np.ndarray:
-    """(n_pixels, 3) averages of n × n stratified jittered evaluations per pixel.
+def subpixel_jitter(seed: int, pixels: np.ndarray, n: int) -> np.ndarray:
+    """(len(pixels), n², 2) stratified sub-pixel offsets in [0, 1)²: cell (a, b) of
+    an n × n grid, jittered by a hash of (seed, pixel, sample), so that a pixel's
+    samples do not depend on which other pixels are computed with it."""
+    cells = (np.stack(np.meshgrid(np.arange(n), np.arange(n), indexing="xy"), -1).reshape(-1, 2)).astype(np.float64)
+    key = (np.asarray(pixels, np.uint64)[:, None, None] * np.uint64(n * n * 2)
+           + np.arange(n * n, dtype=np.uint64)[None, :, None] * np.uint64(2)
+           + np.arange(2, dtype=np.uint64)[None, None, :])
+    u = _splitmix64(key ^ _splitmix64(np.uint64(seed) + np.uint64(0x5EED)))
+    return (cells[None] + (u >> np.uint64(11)).astype(np.float64) * 2.0 ** -53) / n
 
-    ``subpixels(idx, offsets) -> (len(idx), n², 2)`` texel positions of the
-    sub-pixel offsets (n², 2) in [0, 1)² of pixels ``idx``; ``None`` marks
-    sub-pixels that see no noise (they count as the mean).
+
+def _splitmix64(x):
+    """The SplitMix64 finaliser, elementwise on uint64 (wrapping arithmetic)."""
+    with np.errstate(over="ignore"):
+        x = np.asarray(x, np.uint64) + np.uint64(0x9E3779B97F4A7C15)
+        x = (x ^ (x >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+        x = (x ^ (x >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+        return x ^ (x >> np.uint64(31))
+
+
+def supersampled(wp, p, coeffs, subpixels, pixels: np.ndarray, n: int, seed: int, device, limit: float,
+                 progress: bool = False) -> np.ndarray:
+    """(len(pixels), 3) averages of n × n stratified jittered evaluations per pixel.
+
+    ``subpixels(sel, offsets) -> (len(sel), n², 2)`` gives the texel positions
+    of the sub-pixel offsets (len(sel), n², 2) in [0, 1)² of ``pixels[sel]``;
+    NaN marks sub-pixels that see no noise. Those, and sub-pixels beyond
+    ±``limit`` texels (whose cells the kernels cannot index), count as the mean.
     """
-    rng = np.random.default_rng([seed, 0x5EED])
-    grid = (np.stack(np.meshgrid(np.arange(n), np.arange(n), indexing="xy"), -1).reshape(-1, 2) + 0.5) / n
-    out = np.zeros((n_pixels, 3), np.float32)
+    pixels = np.asarray(pixels)
+    out = np.zeros((pixels.size, 3), np.float32)
     per = max(1, _BATCH // (n * n))
-    chunks = range(0, n_pixels, per)
+    chunks = range(0, pixels.size, per)
     if progress:
         from tqdm.auto import tqdm
 
         chunks = tqdm(chunks, desc="supersample", unit="batch", leave=False)
     for start in chunks:
-        idx = np.arange(start, min(start + per, n_pixels))
-        jitter = (rng.random((n * n, 2)) - 0.5) / n
-        pts = subpixels(idx, grid + jitter).reshape(-1, 2)
-        good = np.isfinite(pts).all(axis=1)
+        sel = np.arange(start, min(start + per, pixels.size))
+        with np.errstate(invalid="ignore"):
+            pts = subpixels(sel, subpixel_jitter(seed, pixels[sel], n)).reshape(-1, 2)
+            good = (np.abs(pts) < limit).all(axis=1)  # False for NaN too
         vals = np.empty((pts.shape[0], 3), np.float32)
         vals[~good] = p_mean(p)
         vals[good] = point_values(wp, p, coeffs, np.ascontiguousarray(pts[good]), device)
-        out[idx] = vals.reshape(idx.size, n * n, 3).mean(axis=1)
+        out[sel] = vals.reshape(sel.size, n * n, 3).mean(axis=1)
     return out
+
+
+def cell_limit(setup) -> float:
+    """Texel coordinates beyond ±this are left to the mean: their cells (and those
+    of the supports around them) would not fit the kernels' int32 cell indices."""
+    from .synthesis import MAX_CELL_INDEX
+
+    return 0.5 * MAX_CELL_INDEX * min(setup.cell)
 
 
 def p_mean(p) -> np.ndarray:
@@ -304,15 +335,15 @@ def filtered_raster(wp, p, texton: Texton, setup, shape, origin, step, J, device
         steps = step if J is None else J
 
         def subpixels(idx, offsets):
-            i, j = np.divmod(idx, w)
             Jp = steps if steps.ndim == 2 else steps.reshape(-1, 2, 2)[idx]
             base = centres(idx)[:, None, :]
-            rel = offsets - 0.5  # (n², 2) in pixel units
+            rel = offsets - 0.5  # (len(idx), n², 2) in pixel units
             if Jp.ndim == 2:
                 return base + rel @ Jp.T
-            return base + np.einsum("pab,sb->psa", Jp, rel)
+            return base + np.einsum("pab,psb->psa", Jp, rel)
 
-        vals = supersampled(wp, p, setup.coeffs, subpixels, h * w, supersample, seed, device)
+        vals = supersampled(wp, p, setup.coeffs, subpixels, np.arange(h * w), supersample, seed, device,
+                            cell_limit(setup))
         return vals.reshape(h, w, 3)
     foot = (step if J is None else J)
     flat = foot.reshape(-1, 2, 2)
@@ -340,7 +371,7 @@ class PlaneView:
 
     def __init__(self, shape, height, tilt, fov, texel_size):
         self.shape = check_shape(shape)
-        self.height = check_positive(height, "height")
+        self.height = check_positive(height, "height (the camera's height above the plane)")
         self.texel_size = check_positive(texel_size, "texel_size")
         try:
             tilt, fov = float(tilt), float(fov)
@@ -461,7 +492,7 @@ def plane_pixels(texton: Texton, view: PlaneView, pixels, mni: float = 30.0, see
                  fade_energy: float = FADE_ENERGY) -> np.ndarray:
     """(N, C) values of the flat pixel indices ``pixels`` of :func:`render_plane`'s image
     (benchmarks compare filters on a subset of pixels this way)."""
-    from .synthesis import MAX_CELL_INDEX, _params, _warp, noise_setup, resolve_device
+    from .synthesis import _params, _warp, noise_setup, resolve_device
 
     filter = check_filter(filter)
     seed = check_seed(seed)
@@ -475,7 +506,7 @@ def plane_pixels(texton: Texton, view: PlaneView, pixels, mni: float = 30.0, see
     ii, jj = np.divmod(np.asarray(pixels, np.int64), w)
     centre = view.texels(ii + 0.5, jj + 0.5)
     # positions whose cells the kernels could not index see the mean
-    limit = 0.5 * MAX_CELL_INDEX * min(setup.cell)
+    limit = cell_limit(setup)
     hit = np.isfinite(centre).all(axis=1) & (np.abs(centre) < limit).all(axis=1)
     out = np.empty((ii.size, 3), np.float32)
     out[:] = p_mean(p)
@@ -485,11 +516,10 @@ def plane_pixels(texton: Texton, view: PlaneView, pixels, mni: float = 30.0, see
     elif filter == "supersample":
 
         def subpixels(sel, offsets):
-            q = view.texels(ii[idx[sel], None] + offsets[None, :, 1], jj[idx[sel], None] + offsets[None, :, 0])
-            q[~(np.abs(q) < limit).all(axis=-1)] = np.nan
-            return q
+            return view.texels(ii[idx[sel], None] + offsets[..., 1], jj[idx[sel], None] + offsets[..., 0])
 
-        out[idx] = supersampled(wp, p, setup.coeffs, subpixels, idx.size, n, seed, device, progress)
+        pix = np.asarray(pixels, np.int64)[idx]
+        out[idx] = supersampled(wp, p, setup.coeffs, subpixels, pix, n, seed, device, limit, progress)
     else:
         J = view.footprints(ii[idx] + 0.5, jj[idx] + 0.5)
 

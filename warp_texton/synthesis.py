@@ -277,9 +277,11 @@ def synthesize(
         in a MIP pyramid at the footprint's major length, "anisotropic" also
         averages up to ``max_aniso`` lookups along its major axis, "supersample" averages
         ``supersample``² jittered evaluations over the footprint (the
-        reference). Where no footprint is larger than a texel, "mip" and
-        "anisotropic" are exactly "none". Footprints past the coarsest level
-        fade to the texton mean.
+        reference). Where every footprint needs a single lookup of the
+        unfiltered texton (up to about 2.5 texels for "mip", 1.5 for round
+        footprints with "anisotropic"), "mip" and "anisotropic" are exactly
+        "none". Footprints past the last kept MIP level fade to the texton
+        mean; supersamples beyond the noise's cell range count as the mean.
     supersample : int
         Samples per pixel side for ``filter="supersample"``.
     max_aniso : int
