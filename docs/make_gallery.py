@@ -56,7 +56,7 @@ FILTERED_PLANE = [
     "",
     "![filtered plane close-ups](images/filtering/closeups.png)",
     "",
-    "Whole renders: [unfiltered](images/filtering/plane_none.png), [mip](images/filtering/plane_mip.png), "
+    "Far halves of the renders: [unfiltered](images/filtering/plane_none.png), [mip](images/filtering/plane_mip.png), "
     "[anisotropic](images/filtering/plane_anisotropic.png), [reference](images/filtering/plane_reference.png) "
     "(made by `docs/make_filtering_images.py`; errors and times in [benchmarks.md](benchmarks.md)).",
 ]

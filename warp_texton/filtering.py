@@ -37,10 +37,11 @@ LOD_BIAS = {"mip": -1.3, "anisotropic": -0.6}
 #: fraction of the texton noise's variance (∫h_ℓ² / ∫h²); past that level the
 #: filtered noise fades to its mean. The coarse levels of a textured texton
 #: carry little variance but cost the most (the widest supports, the most
-#: lookups): on the plane benchmark, ending at 0.25 instead of at the 1 × 1
-#: level keeps the anisotropic error within 0.01 σ-relative units for 40 % of
-#: the time (docs/benchmarks.md). Smooth textures keep all their levels.
-FADE_ENERGY = 0.25
+#: lookups). On the plane benchmark, 0.1 instead of keeping every level costs
+#: 0.002 in error for about a fifth of the time; 0.25 saves more but flattens
+#: a band of the far field that still has visible grain (docs/model.md §13).
+#: Smooth textures keep all their levels.
+FADE_ENERGY = 0.1
 #: Default samples per pixel side for ``filter="supersample"``.
 SUPERSAMPLE = 20
 #: Bounds on ``supersample`` and ``max_aniso`` (a pixel's work grows with them).
