@@ -437,19 +437,29 @@ def reference_kept_levels(t: Texton, fade_energy: float) -> int:
 
 
 class TestFade:
-    """By default the pyramid ends at the first level whose noise keeps less than FADE_ENERGY of
-    the variance; from there the noise fades linearly in lod to the mean, reached one level on."""
+    """The pyramid ends at the first level whose noise keeps less than ``fade_energy`` of the
+    variance; from there the noise fades linearly in lod to the mean, reached one level on.
+    FADE is a threshold that ends these textons' pyramids early (the default may not)."""
+
+    FADE = 0.25
+
+    def test_default_is_fade_energy(self):
+        t = var_texton(1)
+        w = width_for(len(reference_pyramid(t)) - 1.5, "mip")
+        kw = dict(seed=4, filter="mip", device=CPU, scale=1.0 / w, jacobian=w * np.eye(2))
+        np.testing.assert_array_equal(synthesize(t, (16, 16), **kw),
+                                      synthesize(t, (16, 16), fade_energy=filtering.FADE_ENERGY, **kw))
 
     def test_variance_fades_from_the_first_weak_level(self):
         t = var_texton(1)
         levels = reference_pyramid(t)
-        k = reference_kept_levels(t, filtering.FADE_ENERGY)
+        k = reference_kept_levels(t, self.FADE)
         assert 1 < k < len(levels)  # the rule ends this texton's pyramid early
         lod = k - 0.5
         w = width_for(lod, "mip")
         faded = filtered_moments(levels, 1, lookup_terms(k, lod))[1][0]  # ¼ ∫h_{k−1}²
         full = filtered_moments(levels, 1, lookup_terms(len(levels), lod))[1][0]
-        for fade, expected in ((filtering.FADE_ENERGY, faded), (0.0, full)):
+        for fade, expected in ((self.FADE, faded), (0.0, full)):
             v, se = variance_over_seeds(t, "mip", w * np.eye(2), w, fade_energy=fade)
             assert abs(v - expected) < 5 * se, (fade, v, expected, se)
         assert abs(full - faded) > 0.3 * full
@@ -462,7 +472,7 @@ class TestFade:
         a[:, :, 1] = 0.03 * a[:, :, 1] + 0.08  # smooth: keeps its energy at coarse levels
         t = Texton(a, [0.2, 0.5, 0.8], 1)
         sd = noise_sd(t)
-        for fade in (filtering.FADE_ENERGY, 0.5):
+        for fade in (self.FADE, 0.5):
             k = reference_kept_levels(t, fade)
             assert 1 < k < len(reference_pyramid(t))
             kw = dict(seed=4, filter=filter, fade_energy=fade, device=CPU)
