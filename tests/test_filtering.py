@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-import warp_texton
+from devices import needs_cuda
 from texton_models import model_covariance
 from warp_texton import Texton, TextonError, read_image, render_plane, synthesize
 from warp_texton import filtering
@@ -985,18 +985,9 @@ class TestCli:
 # --------------------------------------------------------------------------- #
 # 11. CUDA                                                                    #
 # --------------------------------------------------------------------------- #
-def _cuda_available() -> bool:
-    try:
-        warp_texton.synthesis._warp()
-        import warp
-
-        return warp.is_cuda_available()
-    except Exception:
-        return False
-
 
 @pytest.mark.cuda
-@pytest.mark.skipif(not _cuda_available(), reason="needs a CUDA device")
+@needs_cuda
 class TestCuda:
     @pytest.mark.parametrize("filter", (*FILTERED, "supersample"))
     @pytest.mark.parametrize("order", (0, 1, 3))

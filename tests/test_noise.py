@@ -24,6 +24,7 @@ import pytest
 import scipy.ndimage as ndi
 
 import warp_texton
+from devices import needs_cuda
 from texton_models import isolated_bumps, block_zscores, expected_periodogram, model_covariance, self_conjugate, texton_on_nodes
 from warp_texton import Texton, TextonError, evaluate, synthesize
 from warp_texton.bspline import bspline
@@ -566,18 +567,9 @@ class TestConsistency:
 # --------------------------------------------------------------------------- #
 # 5. CUDA                                                                     #
 # --------------------------------------------------------------------------- #
-def _cuda_available() -> bool:
-    try:
-        warp_texton.synthesis._warp()
-        import warp
-
-        return warp.is_cuda_available()
-    except Exception:
-        return False
-
 
 @pytest.mark.cuda
-@pytest.mark.skipif(not _cuda_available(), reason="needs a CUDA device")
+@needs_cuda
 class TestCuda:
     @pytest.mark.parametrize("order", ORDERS)
     @pytest.mark.parametrize("scale, rotation, offset", GEOMETRIES)

@@ -32,6 +32,7 @@ import scipy.optimize as so
 import trimesh
 from scipy.spatial import cKDTree
 
+from devices import needs_cuda
 from texton_models import isolated_bumps, block_zscores, expected_periodogram, model_covariance, texton_on_nodes
 from warp_texton import Camera, Texton, TextonError, render_mesh, surface_noise, tangent_frames, texture_mesh
 from warp_texton.bspline import bspline
@@ -855,17 +856,9 @@ class TestRealMeshes:
 # --------------------------------------------------------------------------- #
 # 9. CUDA                                                                     #
 # --------------------------------------------------------------------------- #
-def _cuda_available() -> bool:
-    try:
-        import warp_texton.synthesis as S
-
-        return S._warp().is_cuda_available()
-    except Exception:
-        return False
-
 
 @pytest.mark.cuda
-@pytest.mark.skipif(not _cuda_available(), reason="needs a CUDA device")
+@needs_cuda
 class TestCuda:
     def test_surface_noise_cpu_equals_cuda(self):
         t = random_texton(channels=3, seed=40)
