@@ -16,7 +16,7 @@ texton mean.
 
 import warp as wp
 
-from .noise2d import NoiseParams, cell_state, draw_count, texton_value
+from .noise2d import NoiseParams, cell_span, cell_state, draw_count, texton_value
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
 
@@ -47,6 +47,12 @@ class Filter:
     mode: int  # MIP or ANISOTROPIC
     max_aniso: int  # most lookups along the major axis
     lod_bias: float  # added to log2 of the lookup width
+
+
+@wp.func
+def level_params(pyr: Pyramid, lvl: int):
+    # (first row, rows, 1 / texel side, origin, box lo, box hi) of level lvl
+    return pyr.row0[lvl], pyr.rows[lvl], 1.0 / pyr.step[lvl], pyr.origin[lvl], pyr.lo[lvl], pyr.hi[lvl]
 
 
 @wp.func
@@ -172,23 +178,10 @@ def filtered_points(
     hi = box_hi + ext
     cw = wp.float64(p.cell[0])
     ch = wp.float64(p.cell[1])
-    cx_lo = int(wp.floor((x[0] - wp.float64(hi[0])) / cw))
-    cx_hi = int(wp.floor((x[0] - wp.float64(lo[0])) / cw))
-    cy_lo = int(wp.floor((x[1] - wp.float64(hi[1])) / ch))
-    cy_hi = int(wp.floor((x[1] - wp.float64(lo[1])) / ch))
+    cx_lo, cx_hi, cy_lo, cy_hi = cell_span(x, lo, hi, p.cell)
     # the two levels' parameters, read once
-    r0a = pyr.row0[l0]
-    na = pyr.rows[l0]
-    ia = 1.0 / pyr.step[l0]
-    oa = pyr.origin[l0]
-    loa = pyr.lo[l0]
-    hia = pyr.hi[l0]
-    r0b = pyr.row0[l1]
-    nb = pyr.rows[l1]
-    ib = 1.0 / pyr.step[l1]
-    ob = pyr.origin[l1]
-    lob = pyr.lo[l1]
-    hib = pyr.hi[l1]
+    r0a, na, ia, oa, loa, hia = level_params(pyr, l0)
+    r0b, nb, ib, ob, lob, hib = level_params(pyr, l1)
     acc = wp.vec3(0.0)
     for cy in range(cy_lo, cy_hi + 1):
         for cx in range(cx_lo, cx_hi + 1):

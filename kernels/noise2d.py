@@ -433,6 +433,16 @@ def gather_raster(
 
 
 # ------------------------------------------------------------------- points
+@wp.func
+def cell_span(x: wp.vec2d, lo: wp.vec2, hi: wp.vec2, cell: wp.vec2):
+    # the cells (cx_lo, cx_hi, cy_lo, cy_hi) that hold the impacts q with x − q in
+    # [lo, hi], found in float64 so that points far from the origin land right
+    cw = wp.float64(cell[0])
+    ch = wp.float64(cell[1])
+    return (int(wp.floor((x[0] - wp.float64(hi[0])) / cw)), int(wp.floor((x[0] - wp.float64(lo[0])) / cw)),
+            int(wp.floor((x[1] - wp.float64(hi[1])) / ch)), int(wp.floor((x[1] - wp.float64(lo[1])) / ch)))
+
+
 @wp.kernel
 def evaluate_points(
     p: NoiseParams,
@@ -449,10 +459,7 @@ def evaluate_points(
     x = points[t]
     cw = wp.float64(p.cell[0])
     ch = wp.float64(p.cell[1])
-    cx_lo = int(wp.floor((x[0] - wp.float64(p.hi[0])) / cw))
-    cx_hi = int(wp.floor((x[0] - wp.float64(p.lo[0])) / cw))
-    cy_lo = int(wp.floor((x[1] - wp.float64(p.hi[1])) / ch))
-    cy_hi = int(wp.floor((x[1] - wp.float64(p.lo[1])) / ch))
+    cx_lo, cx_hi, cy_lo, cy_hi = cell_span(x, p.lo, p.hi, p.cell)
     acc = wp.vec3(0.0)
     for cy in range(cy_lo, cy_hi + 1):
         for cx in range(cx_lo, cx_hi + 1):

@@ -72,6 +72,16 @@ def _add_analyze_options(p: argparse.ArgumentParser, seed: bool = True) -> None:
                    help="skip the colour-covariance correction")
 
 
+def _add_noise_image_options(p: argparse.ArgumentParser, what: str) -> None:
+    """INPUT, -o, the image size, MNI and seed of the commands that write noise images."""
+    p.add_argument("input", help="texton file or example image")
+    p.add_argument("-o", "--output", required=True, help="output image: .png, .jpg or .exr")
+    p.add_argument("--width", type=int, default=512, help=f"{what} width in pixels")
+    p.add_argument("--height", type=int, default=512, help=f"{what} height in pixels")
+    p.add_argument("--mni", type=float, default=30.0, help="mean number of impacts per point")
+    p.add_argument("--seed", type=int, default=0, help="random seed (analysis and noise)")
+
+
 def _add_filter_options(p: argparse.ArgumentParser, default: str) -> None:
     from .filtering import FADE_ENERGY, FILTERS, MAX_ANISO, SUPERSAMPLE
 
@@ -127,12 +137,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "texton (.texton, or an EXR written by 'analyze') or an example image, "
                                    "which is analysed first with the analysis options.",
                        epilog=EPILOG_SYNTHESIZE, formatter_class=fmt)
-    p.add_argument("input", help="texton file or example image")
-    p.add_argument("-o", "--output", required=True, help="output image: .png, .jpg or .exr")
-    p.add_argument("--width", type=int, default=512, help="raster width in pixels")
-    p.add_argument("--height", type=int, default=512, help="raster height in pixels")
-    p.add_argument("--mni", type=float, default=30.0, help="mean number of impacts per point")
-    p.add_argument("--seed", type=int, default=0, help="random seed (analysis and noise)")
+    _add_noise_image_options(p, "raster")
     p.add_argument("--scale", type=float, default=1.0, help="pixels per texel")
     p.add_argument("--rotation", type=float, default=0.0, help="rotation of the noise, degrees")
     p.add_argument("--offset", type=float, nargs=2, default=(0.0, 0.0), metavar=("X", "Y"),
@@ -149,17 +154,12 @@ def build_parser() -> argparse.ArgumentParser:
                                    "perspective (CGF Fig. 3), with the texton filtered for each pixel's "
                                    "footprint (CGF section 5). INPUT is a texton file or an example image.",
                        epilog=EPILOG_PLANE, formatter_class=fmt)
-    p.add_argument("input", help="texton file or example image")
-    p.add_argument("-o", "--output", required=True, help="output image: .png, .jpg or .exr")
-    p.add_argument("--width", type=int, default=512, help="image width in pixels")
-    p.add_argument("--height", type=int, default=512, help="image height in pixels")
+    _add_noise_image_options(p, "image")
     p.add_argument("--camera-height", type=float, default=1.0, help="camera height above the plane, world units")
     p.add_argument("--tilt", type=float, default=70.0,
                    help="degrees between the view direction and straight down (0: straight down)")
     p.add_argument("--fov", type=float, default=40.0, help="vertical field of view, degrees")
     p.add_argument("--texel-size", type=float, default=0.002, help="world units per texel")
-    p.add_argument("--mni", type=float, default=30.0, help="mean number of impacts per point")
-    p.add_argument("--seed", type=int, default=0, help="random seed (analysis and noise)")
     _add_filter_options(p, default="anisotropic")
     p.add_argument("--device", help="cpu, cuda or cuda:N (default: CUDA when available)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress or summary")
