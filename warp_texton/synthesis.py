@@ -25,7 +25,7 @@ import numpy as np
 from ._checks import check_positive, check_seed, check_shape
 from .errors import TextonError
 from .filtering import (FADE_ENERGY, MAX_ANISO, SUPERSAMPLE, check_fade_energy, check_filter,
-                        check_filter_options, check_jacobian, filtered_raster, needs_filtering)
+                        check_filter_options, check_jacobian, filtered_raster, needs_filtering, point_values)
 from .texton import Texton
 
 #: Default cell side as a fraction of the texton support side (CGF §8).
@@ -534,16 +534,6 @@ def evaluate(
         _check_cell_range(pts[:, 1].min() - setup.hi[1], pts[:, 1].max() - setup.lo[1], setup.cell[1], "points")
     device = resolve_device(device)
     wp = _warp()
-    from .kernels import noise2d as K
-
     p = _params(wp, texton, setup, seed, poisson)
-    with wp.ScopedDevice(device):
-        coeffs = wp.array(setup.coeffs, dtype=wp.vec3)
-
-        def launch(idx):
-            res = wp.zeros(idx.size, dtype=wp.vec3)
-            wp.launch(K.evaluate_points, dim=idx.size, inputs=[p, coeffs, wp.array(pts[idx], dtype=wp.vec2d), res])
-            return res.numpy()
-
-        out = map_points(wp, K, device, pts.shape[0], launch)
+    out = point_values(wp, p, setup.coeffs, pts, device)
     return np.ascontiguousarray(out[:, : texton.channels])
