@@ -298,6 +298,10 @@ def test_demo_writes_everything(tmp_path, capsys):
     assert read_image(out / "texton_preview.exr").shape == (64, 64, u.shape[2])
     if "noise.exr" in names:  # written when the synthesis kernels are part of the build
         assert read_image(out / "noise.exr").shape == (512, 512, u.shape[2])
+        plane = read_image(out / "plane.exr")
+        assert plane.shape == (512, 512, u.shape[2])
+        # filtered towards the horizon: the far rows vary far less than the near ones
+        assert plane[:64].var() < 0.2 * plane[-64:].var()
 
 
 def test_demo_lists_what_it_writes(tmp_path, capsys):

@@ -30,7 +30,8 @@ def texton_preview(texton: Texton):
 
 
 def run_demo(out_dir, size: int = 64, seed: int = 0, progress: bool = True) -> list[Path]:
-    """Write input, Gaussian version, texton (+ noise when available) to ``out_dir``.
+    """Write input, Gaussian version, texton (+ noise and a plane view when
+    available) to ``out_dir``.
 
     Returns the paths written, PNG and EXR for each picture plus the texton
     itself as ``texton.exr`` and ``texton.texton``.
@@ -50,7 +51,10 @@ def run_demo(out_dir, size: int = 64, seed: int = 0, progress: bool = True) -> l
     except ImportError:  # the noise kernels are not part of this build
         synthesize = None
     if synthesize is not None:
+        from .filtering import render_plane
+
         pictures["noise"] = synthesize(texton, shape=(512, 512), seed=seed)
+        pictures["plane"] = render_plane(texton, (512, 512), seed=seed)
     written = []
     for name, img in pictures.items():
         for ext in (".png", ".exr"):
