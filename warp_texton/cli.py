@@ -236,23 +236,12 @@ def _cmd_analyze(args) -> None:
 
 def _cmd_gaussian(args) -> None:
     from .gaussian import gaussian_texture
-    from .io import PIL_FORMATS, EXR, read_image, write_image
+    from .io import check_image_path, read_image, write_image
 
-    out = Path(args.output)
-    if out.suffix.lower() not in (*PIL_FORMATS, EXR):
-        raise TextonError(f"{out}: unsupported extension {out.suffix or '(none)'!r}; use .png, .jpg, .jpeg or .exr")
+    out = check_image_path(args.output)
     u = read_image(args.input)
     shape = (u.shape[0] if args.height is None else args.height, u.shape[1] if args.width is None else args.width)
     write_image(out, gaussian_texture(u, shape=shape, seed=args.seed, periodic=args.periodic))
-
-
-def _check_output(path) -> Path:
-    from .io import EXR, PIL_FORMATS
-
-    out = Path(path)
-    if out.suffix.lower() not in (*PIL_FORMATS, EXR):
-        raise TextonError(f"{out}: unsupported extension {out.suffix or '(none)'!r}; use .png, .jpg, .jpeg or .exr")
-    return out
 
 
 def _texton_of(args):
@@ -269,10 +258,10 @@ def _texton_of(args):
 
 
 def _cmd_synthesize(args) -> None:
-    from .io import write_image
+    from .io import check_image_path, write_image
     from .synthesis import synthesize
 
-    out = _check_output(args.output)
+    out = check_image_path(args.output)
     t0 = time.perf_counter()
     texton = _texton_of(args)
     noise = synthesize(texton, shape=(args.height, args.width), mni=args.mni, seed=args.seed, scale=args.scale,
@@ -287,9 +276,9 @@ def _cmd_synthesize(args) -> None:
 
 def _cmd_render_plane(args) -> None:
     from .filtering import render_plane
-    from .io import write_image
+    from .io import check_image_path, write_image
 
-    out = _check_output(args.output)
+    out = check_image_path(args.output)
     t0 = time.perf_counter()
     texton = _texton_of(args)
     image = render_plane(texton, (args.height, args.width), height=args.camera_height, tilt=args.tilt,
@@ -310,12 +299,10 @@ def _load_texture(path):
 
 
 def _cmd_mix(args) -> None:
-    from .io import EXR, PIL_FORMATS, read_image, write_image
+    from .io import check_image_path, read_image, write_image
     from .mixing import mix_textons, synthesize_mixed
 
-    out = Path(args.output)
-    if out.suffix.lower() not in (*PIL_FORMATS, EXR):
-        raise TextonError(f"{out}: unsupported extension {out.suffix or '(none)'!r}; use .png, .jpg, .jpeg or .exr")
+    out = check_image_path(args.output)
     if args.steps < 2:
         raise TextonError(f"--steps must be at least 2, got {args.steps}")
     weights = "strips"

@@ -167,6 +167,16 @@ def read_image(path) -> np.ndarray:
     return as_image(a, str(path))
 
 
+def check_image_path(path) -> Path:
+    """``path`` as a Path if its extension is one ``write_image`` writes (checked
+    before long work, so that a bad name fails at once)."""
+    path = Path(path)
+    ext = path.suffix.lower()
+    if ext != EXR and ext not in PIL_FORMATS:
+        raise TextonError(f"{path}: unsupported extension {ext or '(none)'!r}; use .png, .jpg, .jpeg or .exr")
+    return path
+
+
 def write_image(path, img) -> None:
     """Write an image atomically: EXR as float32 (lossless), PNG/JPEG as 8 bits.
 
@@ -178,10 +188,8 @@ def write_image(path, img) -> None:
     TextonError
         For an unsupported extension, a missing folder, or a bad image.
     """
-    path = Path(path)
+    path = check_image_path(path)
     ext = path.suffix.lower()
-    if ext != EXR and ext not in PIL_FORMATS:
-        raise TextonError(f"{path}: unsupported extension {ext or '(none)'!r}; use .png, .jpg, .jpeg or .exr")
     img = as_image(img, "img")
     if ext == EXR:
         write_exr(path, img)

@@ -320,8 +320,7 @@ def synthesize(
     wp = _warp()
     p = _params(wp, texton, setup, seed, poisson)
     if needs_filtering(step if J is None else J, filter, max_aniso):
-        _check_cell_range(*_raster_reach(origin, step, (h, w), setup, 0), setup.cell[0], "the raster's positions")
-        _check_cell_range(*_raster_reach(origin, step, (h, w), setup, 1), setup.cell[1], "the raster's positions")
+        _raster_reach(origin, step, (h, w), setup)
         out = filtered_raster(wp, p, texton, setup, (h, w), origin, step, J, device, filter, supersample, seed,
                               max_aniso, fade_energy)
         return np.ascontiguousarray(out[:, :, : texton.channels])
@@ -329,11 +328,16 @@ def synthesize(
     return np.ascontiguousarray(out[:, :, : texton.channels])
 
 
-def _raster_reach(origin, step, shape, setup: NoiseSetup, axis: int):
-    """Smallest and largest texel coordinate (along ``axis``) whose cells the raster reads."""
+def _raster_reach(origin, step, shape, setup: NoiseSetup):
+    """(x0, x1, y0, y1): the texel box whose cells the raster reads (its corners'
+    box grown by the support), refused where cell indices would not fit int32."""
     h, w = shape
     corners = origin[:, None] + step @ np.array([[0, w, 0, w], [0, 0, h, h]], dtype=np.float64)
-    return corners[axis].min() - setup.hi[axis], corners[axis].max() - setup.lo[axis]
+    x0, x1 = corners[0].min() - setup.hi[0], corners[0].max() - setup.lo[0]
+    y0, y1 = corners[1].min() - setup.hi[1], corners[1].max() - setup.lo[1]
+    _check_cell_range(x0, x1, setup.cell[0], "the raster's positions")
+    _check_cell_range(y0, y1, setup.cell[1], "the raster's positions")
+    return x0, x1, y0, y1
 
 
 @dataclass(frozen=True)
@@ -363,11 +367,7 @@ def _raster(wp, p, setup: NoiseSetup, coeffs: np.ndarray, order: int, shape, ori
         raise TextonError('method "splat" runs on the CPU only (its launches must not overlap); use "gather"')
     cw, ch = setup.cell
     # Noise-space bounding box of the raster, grown by the support: the block of cells to draw.
-    corners = origin[:, None] + step @ np.array([[0, w, 0, w], [0, 0, h, h]], dtype=np.float64)
-    x0, x1 = corners[0].min() - setup.hi[0], corners[0].max() - setup.lo[0]
-    y0, y1 = corners[1].min() - setup.hi[1], corners[1].max() - setup.lo[1]
-    _check_cell_range(x0, x1, cw, "the raster's positions")
-    _check_cell_range(y0, y1, ch, "the raster's positions")
+    x0, x1, y0, y1 = _raster_reach(origin, step, (h, w), setup)
     cx0, cy0 = math.floor(x0 / cw), math.floor(y0 / ch)
     ncx, ncy = math.floor(x1 / cw) - cx0 + 1, math.floor(y1 / ch) - cy0 + 1
     if ncx * ncy > MAX_CELLS:
