@@ -16,11 +16,13 @@ texton mean.
 
 import warp as wp
 
-from .noise2d import NoiseParams, cell_span, cell_state, draw_count, texton_value
+from .impacts import cell_walk
+from .noise2d import NoiseParams, texton_value
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
 
-#: filter modes
+#: Filter modes (``Filter.mode``): one lookup per level at the footprint's major
+#: length, or up to ``max_aniso`` lookups along its major axis.
 MIP = wp.constant(1)
 ANISOTROPIC = wp.constant(2)
 
@@ -49,20 +51,36 @@ class Filter:
     lod_bias: float  # added to log2 of the lookup width
 
 
+@wp.struct
+class Level:
+    # one MIP level, as a lookup reads it
+    row0: int  # first row in the coefficient stack
+    rows: int
+    inv_step: float  # 1 / texel side
+    origin: float  # position of coefficient (0, 0)
+    lo: wp.vec2  # h_ℓ vanishes outside [lo, hi] relative to the impact
+    hi: wp.vec2
+
+
 @wp.func
 def level_params(pyr: Pyramid, lvl: int):
-    # (first row, rows, 1 / texel side, origin, box lo, box hi) of level lvl
-    return pyr.row0[lvl], pyr.rows[lvl], 1.0 / pyr.step[lvl], pyr.origin[lvl], pyr.lo[lvl], pyr.hi[lvl]
+    lv = Level()
+    lv.row0 = pyr.row0[lvl]
+    lv.rows = pyr.rows[lvl]
+    lv.inv_step = 1.0 / pyr.step[lvl]
+    lv.origin = pyr.origin[lvl]
+    lv.lo = pyr.lo[lvl]
+    lv.hi = pyr.hi[lvl]
+    return lv
 
 
 @wp.func
-def lookup(coeffs: wp.array2d(dtype=wp.vec3), row0: int, rows: int, inv_step: float, origin: float,
-           lo: wp.vec2, hi: wp.vec2, d: wp.vec2, order: int):
-    # h_ℓ(d) for the level stored in rows [row0, row0 + rows), zero outside its box [lo, hi]
-    if d[0] < lo[0] or d[0] > hi[0] or d[1] < lo[1] or d[1] > hi[1]:
+def lookup(coeffs: wp.array2d(dtype=wp.vec3), lv: Level, d: wp.vec2, order: int):
+    # h_ℓ(d), zero outside the level's box
+    if d[0] < lv.lo[0] or d[0] > lv.hi[0] or d[1] < lv.lo[1] or d[1] > lv.hi[1]:
         return wp.vec3(0.0)
-    y = wp.vec2((d[0] - origin) * inv_step, (d[1] - origin) * inv_step)
-    return texton_value(coeffs, row0, rows, y, order)
+    y = wp.vec2((d[0] - lv.origin) * lv.inv_step, (d[1] - lv.origin) * lv.inv_step)
+    return texton_value(coeffs, lv.row0, lv.rows, y, order)
 
 
 @wp.func
@@ -109,6 +127,42 @@ def lookup_range(d0: wp.vec2, stride: wp.vec2, n: int, lo: wp.vec2, hi: wp.vec2)
             a = wp.max(a, (hi[axis] - d0[axis]) / s)
             b = wp.min(b, (lo[axis] - d0[axis]) / s)
     return int(wp.ceil(a - 1.0e-5)), int(wp.floor(b + 1.0e-5))
+
+
+@wp.struct
+class PyramidLookup:
+    # one pixel's lookups: levels a and b blended with weights w0, w1, at the
+    # offsets first + q stride (q < n) from each impact
+    coeffs: wp.array2d(dtype=wp.vec3)
+    order: int
+    a: Level
+    b: Level
+    w0: float
+    w1: float
+    first: wp.vec2
+    stride: wp.vec2
+    n: int
+    box_lo: wp.vec2  # the union of the two levels' boxes
+    box_hi: wp.vec2
+
+
+@wp.func
+def add_lookups(c: PyramidLookup, d: wp.vec2, acc: wp.vec3):
+    # the lookups q with d + first + q stride inside the coarser level's box
+    d0 = d + c.first
+    q0, q1 = lookup_range(d0, c.stride, c.n, c.box_lo, c.box_hi)
+    dk = d0 + c.stride * float(q0)
+    for q in range(q0, q1 + 1):
+        v = lookup(c.coeffs, c.a, dk, c.order) * c.w0
+        if c.w1 > 0.0:
+            v = v + lookup(c.coeffs, c.b, dk, c.order) * c.w1
+        acc = acc + v
+        dk = dk + c.stride
+    return acc
+
+
+#: Σ over the impacts q with x − q in [lo, hi] of the pixel's lookups (see impacts.cell_walk).
+sum_lookups = cell_walk(add_lookups, "sum_lookups")
 
 
 @wp.kernel
@@ -176,31 +230,18 @@ def filtered_points(
     ext = wp.vec2(wp.abs(spread[0]), wp.abs(spread[1]))
     lo = box_lo - ext
     hi = box_hi + ext
-    cw = wp.float64(p.cell[0])
-    ch = wp.float64(p.cell[1])
-    cx_lo, cx_hi, cy_lo, cy_hi = cell_span(x, lo, hi, p.cell)
-    # the two levels' parameters, read once
-    r0a, na, ia, oa, loa, hia = level_params(pyr, l0)
-    r0b, nb, ib, ob, lob, hib = level_params(pyr, l1)
-    acc = wp.vec3(0.0)
-    for cy in range(cy_lo, cy_hi + 1):
-        for cx in range(cx_lo, cx_hi + 1):
-            rel = wp.vec2(float(x[0] - wp.float64(cx) * cw), float(x[1] - wp.float64(cy) * ch))
-            count, s = draw_count(cell_state(cx, cy, p), p)
-            for k in range(count):
-                ux = wp.randf(s)
-                uy = wp.randf(s)
-                d = rel - wp.vec2(ux * p.cell[0], uy * p.cell[1])
-                if d[0] >= lo[0] and d[0] <= hi[0] and d[1] >= lo[1] and d[1] <= hi[1]:
-                    # lookups q with d + first + q stride inside the coarser level's box
-                    d0 = d + first
-                    q0, q1 = lookup_range(d0, stride, n, box_lo, box_hi)
-                    dk = d0 + stride * float(q0)
-                    for q in range(q0, q1 + 1):
-                        v = lookup(pyr.coeffs, r0a, na, ia, oa, loa, hia, dk, pyr.order) * w0
-                        if w1 > 0.0:
-                            v = v + lookup(pyr.coeffs, r0b, nb, ib, ob, lob, hib, dk, pyr.order) * w1
-                        acc = acc + v
-                        dk = dk + stride
+    look = PyramidLookup()
+    look.coeffs = pyr.coeffs
+    look.order = pyr.order
+    look.a = level_params(pyr, l0)
+    look.b = level_params(pyr, l1)
+    look.w0 = w0
+    look.w1 = w1
+    look.first = first
+    look.stride = stride
+    look.n = n
+    look.box_lo = box_lo
+    look.box_hi = box_hi
+    acc = sum_lookups(x, lo, hi, p.cells, look)
     acc = acc / float(n)
     out[t] = p.mean + (acc - p.integral * (p.lam * real)) / wp.sqrt(p.lam)

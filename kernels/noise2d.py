@@ -1,11 +1,9 @@
-"""Texton noise in the plane: hashed-cell Poisson process and evaluation kernels.
+"""Texton noise in the plane: the evaluation kernels of the hashed-cell process.
 
-The plane is cut into cells of cw × ch texels. Cell (cx, cy) draws its impacts
-from a PCG stream seeded by an avalanche hash of (cx, cy, seed): first the
-count (Poisson with mean λ cw ch), then for each impact two uniforms giving its
-position in the cell. A period wraps the *seed* indices only, so the process
-is exactly periodic while positions stay unwrapped. Every kernel that needs a
-cell's impacts draws them in that same order, so all paths agree.
+Impacts come from the cells of kernels/impacts.py (one stream, one order, for
+every path). Rasters draw a block of cells' impacts once (``count_impacts``,
+a prefix sum, ``emit_impacts``) and then splat each impact's texton (CPU) or
+gather the impacts near each pixel (CUDA); points walk their neighbouring cells.
 
 Texton convention: an impact at p adds h(x − p) with h(y) = Σ_k α(k) ψ(y − k),
 coefficient (row i, column j) at y = (j, i). Coefficients are stored with a
@@ -14,77 +12,24 @@ zero margin of PAD texels so that every tap of every order reads in bounds.
 
 import warp as wp
 
+from .impacts import GOLDEN, Cells, avalanche, cell_state, cell_walk, draw_count, next_impact
+
 # Forward evaluation only: no adjoints, which halves compile time.
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
 
 #: Zero margin around stored coefficients: the widest order (5) reaches 5 past an edge.
 PAD = 5
 
-_M1 = wp.constant(wp.uint32(0x7FEB352D))
-_M2 = wp.constant(wp.uint32(0x846CA68B))
-_GOLDEN = wp.constant(wp.uint32(0x9E3779B9))
-
 
 @wp.struct
 class NoiseParams:
-    cell: wp.vec2  # cell width and height, texels
-    period_cells: wp.vec2i  # cells per period along x and y; 0 = no period
-    lam_cell: float  # mean impact count per cell, λ cw ch
-    seed: wp.uint32
-    exact_poisson: int  # 1: exact Poisson counts; 0: rounded Gaussian approximation
+    cells: Cells  # the Poisson process of impacts
     order: int  # 0, 1, 3 or 5
     lo: wp.vec2  # support of h relative to the impact: [lo, hi] per axis
     hi: wp.vec2
     lam: float  # λ, impacts per texel²
     mean: wp.vec3  # m
     integral: wp.vec3  # ∫h = Σα
-
-
-@wp.func
-def avalanche(x: wp.uint32):
-    # "lowbias32" integer finaliser: every input bit flips each output bit with p ≈ 1/2
-    x = x ^ (x >> wp.uint32(16))
-    x = x * _M1
-    x = x ^ (x >> wp.uint32(15))
-    x = x * _M2
-    x = x ^ (x >> wp.uint32(16))
-    return x
-
-
-@wp.func
-def wrap(i: int, n: int):
-    # index i modulo n (n > 0) with a non-negative result; n == 0 leaves i alone
-    if n <= 0:
-        return i
-    r = i % n
-    if r < 0:
-        r = r + n
-    return r
-
-
-@wp.func
-def cell_state(cx: int, cy: int, p: NoiseParams):
-    sx = wrap(cx, p.period_cells[0])
-    sy = wrap(cy, p.period_cells[1])
-    h = avalanche(p.seed + _GOLDEN)
-    h = avalanche(h ^ wp.uint32(sx))
-    h = avalanche(h ^ wp.uint32(sy))
-    return h
-
-
-@wp.func
-def draw_count(state: wp.uint32, p: NoiseParams):
-    # returns (count, advanced state)
-    s = state
-    n = int(0)
-    if p.exact_poisson != 0:
-        n = int(wp.poisson(s, p.lam_cell))
-    else:
-        g = wp.randn(s)
-        n = int(wp.floor(p.lam_cell + 0.5 + wp.sqrt(p.lam_cell) * g))
-        if n < 0:
-            n = 0
-    return n, s
 
 
 @wp.func
@@ -168,7 +113,7 @@ def count_impacts(p: NoiseParams, cell0: wp.vec2i, ncx: int, counts: wp.array(dt
     t = wp.tid()
     cx = cell0[0] + t % ncx
     cy = cell0[1] + t / ncx
-    n, s = draw_count(cell_state(cx, cy, p), p)
+    n, s = draw_count(cell_state(p.cells, cx, cy), p.cells.mean_count, p.cells.exact_poisson)
     counts[t] = n
 
 
@@ -184,13 +129,13 @@ def emit_impacts(
     t = wp.tid()
     lx = t % ncx
     ly = t / ncx
-    n, s = draw_count(cell_state(cell0[0] + lx, cell0[1] + ly, p), p)
+    n, s = draw_count(cell_state(p.cells, cell0[0] + lx, cell0[1] + ly), p.cells.mean_count, p.cells.exact_poisson)
     start = offsets[t]
     stop = wp.min(start + n, offsets[t + 1])
+    size = p.cells.size
     for k in range(start, stop):
-        ux = wp.randf(s)
-        uy = wp.randf(s)
-        impacts[k] = wp.vec2((float(lx) + ux) * p.cell[0], (float(ly) + uy) * p.cell[1])
+        u, s = next_impact(s)
+        impacts[k] = wp.vec2((float(lx) + u[0]) * size[0], (float(ly) + u[1]) * size[1])
 
 
 @wp.kernel
@@ -202,9 +147,9 @@ def emit_signs(p: NoiseParams, cell0: wp.vec2i, ncx: int, offsets: wp.array(dtyp
     the position stream, so plain and mixed noise place the same impacts.
     """
     t = wp.tid()
-    h = cell_state(cell0[0] + t % ncx, cell0[1] + t / ncx, p)
+    h = cell_state(p.cells, cell0[0] + t % ncx, cell0[1] + t / ncx)
     for k in range(offsets[t], offsets[t + 1]):
-        bit = avalanche(h ^ (wp.uint32(k - offsets[t] + 1) * _GOLDEN)) >> wp.uint32(31)
+        bit = avalanche(h ^ (wp.uint32(k - offsets[t] + 1) * GOLDEN)) >> wp.uint32(31)
         signs[k] = 1.0 - 2.0 * float(bit)
 
 
@@ -416,10 +361,11 @@ def gather_raster(
     i, j = wp.tid()
     i = i + row0
     x = pixel_position(r, i, j)  # relative to the block origin, i.e. cell0's corner
-    cx_lo = wp.max(int(wp.floor((x[0] - p.hi[0]) / p.cell[0])), 0)
-    cx_hi = wp.min(int(wp.floor((x[0] - p.lo[0]) / p.cell[0])), ncx - 1)
-    cy_lo = wp.max(int(wp.floor((x[1] - p.hi[1]) / p.cell[1])), 0)
-    cy_hi = wp.min(int(wp.floor((x[1] - p.lo[1]) / p.cell[1])), ncy - 1)
+    size = p.cells.size
+    cx_lo = wp.max(int(wp.floor((x[0] - p.hi[0]) / size[0])), 0)
+    cx_hi = wp.min(int(wp.floor((x[0] - p.lo[0]) / size[0])), ncx - 1)
+    cy_lo = wp.max(int(wp.floor((x[1] - p.hi[1]) / size[1])), 0)
+    cy_hi = wp.min(int(wp.floor((x[1] - p.lo[1]) / size[1])), ncy - 1)
     acc = wp.vec3(0.0)
     for cy in range(cy_lo, cy_hi + 1):
         for cx in range(cx_lo, cx_hi + 1):
@@ -433,14 +379,22 @@ def gather_raster(
 
 
 # ------------------------------------------------------------------- points
+@wp.struct
+class TextonLookup:
+    # one padded texton: the rows [row0, row0 + rows) of a coefficient stack
+    coeffs: wp.array2d(dtype=wp.vec3)
+    row0: int
+    rows: int
+    order: int
+
+
 @wp.func
-def cell_span(x: wp.vec2d, lo: wp.vec2, hi: wp.vec2, cell: wp.vec2):
-    # the cells (cx_lo, cx_hi, cy_lo, cy_hi) that hold the impacts q with x − q in
-    # [lo, hi], found in float64 so that points far from the origin land right
-    cw = wp.float64(cell[0])
-    ch = wp.float64(cell[1])
-    return (int(wp.floor((x[0] - wp.float64(hi[0])) / cw)), int(wp.floor((x[0] - wp.float64(lo[0])) / cw)),
-            int(wp.floor((x[1] - wp.float64(hi[1])) / ch)), int(wp.floor((x[1] - wp.float64(lo[1])) / ch)))
+def add_texton(t: TextonLookup, d: wp.vec2, acc: wp.vec3):
+    return acc + texton_value(t.coeffs, t.row0, t.rows, d, t.order)
+
+
+#: Σ h(x − q) over the impacts q with x − q in [lo, hi] (see impacts.cell_walk).
+sum_textons = cell_walk(add_texton, "sum_textons")
 
 
 @wp.kernel
@@ -450,26 +404,11 @@ def evaluate_points(
     points: wp.array(dtype=wp.vec2d),
     out: wp.array(dtype=wp.vec3),
 ):
-    """Noise at arbitrary points (texel units), drawing each nearby cell's impacts.
-
-    Cell indices are found in float64 so that points far from the origin
-    still land in the right cell; offsets inside a cell are small and float32.
-    """
+    """Noise at arbitrary points (texel units), drawing each nearby cell's impacts."""
     t = wp.tid()
-    x = points[t]
-    cw = wp.float64(p.cell[0])
-    ch = wp.float64(p.cell[1])
-    cx_lo, cx_hi, cy_lo, cy_hi = cell_span(x, p.lo, p.hi, p.cell)
-    acc = wp.vec3(0.0)
-    for cy in range(cy_lo, cy_hi + 1):
-        for cx in range(cx_lo, cx_hi + 1):
-            # x relative to this cell's corner
-            rel = wp.vec2(float(x[0] - wp.float64(cx) * cw), float(x[1] - wp.float64(cy) * ch))
-            n, s = draw_count(cell_state(cx, cy, p), p)
-            for k in range(n):
-                ux = wp.randf(s)
-                uy = wp.randf(s)
-                d = rel - wp.vec2(ux * p.cell[0], uy * p.cell[1])
-                if inside(d, p):
-                    acc = acc + texton_value(coeffs, 0, coeffs.shape[0], d, p.order)
-    out[t] = normalize(acc, p)
+    look = TextonLookup()
+    look.coeffs = coeffs
+    look.row0 = 0
+    look.rows = coeffs.shape[0]
+    look.order = p.order
+    out[t] = normalize(sum_textons(points[t], p.lo, p.hi, p.cells, look), p)

@@ -1,10 +1,10 @@
 """Surface texton noise (CGF §6): a 3-D hashed-cell Poisson process projected on
 tangent planes, evaluated at points and in a ray-cast renderer.
 
-Units are texels: the host divides world positions by the texel size. Space
-is cut into cubic cells; a cell's impacts come from a PCG stream seeded by the
-same avalanche hash as the plane's cells, with a third coordinate and a domain
-tag so the two processes are independent. At a point y with frame (u1, u2, n)
+Units are texels: the host divides world positions by the texel size. The
+impacts are those of the cubic cells of kernels/impacts.py (the plane's hash
+with a third coordinate and a domain tag, so the two processes are
+independent). At a point y with frame (u1, u2, n)
 an impact x adds (1 − 2|⟨y − x, n⟩|/r)⁺ h_c(⟨y − x, u1⟩, ⟨y − x, u2⟩), where
 h_c is the texton centred on its support and r the slab thickness (the
 support's larger side).
@@ -12,20 +12,15 @@ support's larger side).
 
 import warp as wp
 
-from .noise2d import PAD, avalanche, texton_value
+from .impacts import Cells3, cell_walk3
+from .noise2d import PAD, texton_value
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
-
-_GOLDEN = wp.constant(wp.uint32(0x9E3779B9))
-_SURFACE_TAG = wp.constant(wp.uint32(0x5BD1E995))
 
 
 @wp.struct
 class SurfaceParams:
-    cell: float  # cube side, texels
-    lam_cell: float  # mean impact count per cell, λ c³
-    seed: wp.uint32
-    exact_poisson: int
+    cells: Cells3  # the 3-D Poisson process of impacts
     order: int
     half: float  # r / 2
     centre: wp.vec2  # centre of the texton support in texton coordinates
@@ -36,15 +31,6 @@ class SurfaceParams:
     mean: wp.vec3
     up: wp.vec3  # the frame rule's directions a and b
     side: wp.vec3
-
-
-@wp.func
-def cell_state3(cx: int, cy: int, cz: int, p: SurfaceParams):
-    h = avalanche((p.seed ^ _SURFACE_TAG) + _GOLDEN)
-    h = avalanche(h ^ wp.uint32(cx))
-    h = avalanche(h ^ wp.uint32(cy))
-    h = avalanche(h ^ wp.uint32(cz))
-    return h
 
 
 @wp.func
@@ -69,6 +55,35 @@ def tangent_frame(n: wp.vec3, a: wp.vec3, b: wp.vec3):
     return u1, wp.cross(n, u1)
 
 
+@wp.struct
+class SlabLookup:
+    # the point's frame and the texton, centred on its support
+    coeffs: wp.array2d(dtype=wp.vec3)
+    u1: wp.vec3
+    u2: wp.vec3
+    n: wp.vec3
+    half: float
+    centre: wp.vec2
+    lo: wp.vec2
+    hi: wp.vec2
+    order: int
+
+
+@wp.func
+def add_slab(c: SlabLookup, d: wp.vec3, acc: wp.vec3):
+    # an impact within r/2 of the tangent plane adds (1 − 2|⟨d, n⟩|/r) h_c(⟨d, u1⟩, ⟨d, u2⟩)
+    t = wp.dot(d, c.n)
+    if wp.abs(t) < c.half:
+        z = wp.vec2(wp.dot(d, c.u1), wp.dot(d, c.u2)) + c.centre
+        if z[0] >= c.lo[0] and z[0] <= c.hi[0] and z[1] >= c.lo[1] and z[1] <= c.hi[1]:
+            acc = acc + texton_value(c.coeffs, 0, c.coeffs.shape[0], z, c.order) * (1.0 - wp.abs(t) / c.half)
+    return acc
+
+
+#: Σ of the slab contributions over the impacts of the cubes near a point (see impacts.cell_walk3).
+sum_slab = cell_walk3(add_slab, "sum_slab")
+
+
 @wp.func
 def surface_value(p: SurfaceParams, coeffs: wp.array2d(dtype=wp.vec3), y: wp.vec3, u1: wp.vec3, u2: wp.vec3,
                   n: wp.vec3):
@@ -78,36 +93,17 @@ def surface_value(p: SurfaceParams, coeffs: wp.array2d(dtype=wp.vec3), y: wp.vec
         p.half * (wp.abs(u1[1]) + wp.abs(u2[1]) + wp.abs(n[1])),
         p.half * (wp.abs(u1[2]) + wp.abs(u2[2]) + wp.abs(n[2])),
     )
-    c = p.cell
-    x0 = int(wp.floor((y[0] - ext[0]) / c))
-    x1 = int(wp.floor((y[0] + ext[0]) / c))
-    y0 = int(wp.floor((y[1] - ext[1]) / c))
-    y1 = int(wp.floor((y[1] + ext[1]) / c))
-    z0 = int(wp.floor((y[2] - ext[2]) / c))
-    z1 = int(wp.floor((y[2] + ext[2]) / c))
-    rows = coeffs.shape[0]
-    acc = wp.vec3(0.0)
-    for cz in range(z0, z1 + 1):
-        for cy in range(y0, y1 + 1):
-            for cx in range(x0, x1 + 1):
-                s = cell_state3(cx, cy, cz, p)
-                count = int(0)
-                if p.exact_poisson != 0:
-                    count = int(wp.poisson(s, p.lam_cell))
-                else:
-                    count = wp.max(int(wp.floor(p.lam_cell + 0.5 + wp.sqrt(p.lam_cell) * wp.randn(s))), 0)
-                corner = wp.vec3(float(cx), float(cy), float(cz)) * c
-                rel = y - corner
-                for k in range(count):
-                    ux = wp.randf(s)
-                    uy = wp.randf(s)
-                    uz = wp.randf(s)
-                    d = rel - wp.vec3(ux, uy, uz) * c
-                    t = wp.dot(d, n)
-                    if wp.abs(t) < p.half:
-                        z = wp.vec2(wp.dot(d, u1), wp.dot(d, u2)) + p.centre
-                        if z[0] >= p.lo[0] and z[0] <= p.hi[0] and z[1] >= p.lo[1] and z[1] <= p.hi[1]:
-                            acc = acc + texton_value(coeffs, 0, rows, z, p.order) * (1.0 - wp.abs(t) / p.half)
+    look = SlabLookup()
+    look.coeffs = coeffs
+    look.u1 = u1
+    look.u2 = u2
+    look.n = n
+    look.half = p.half
+    look.centre = p.centre
+    look.lo = p.lo
+    look.hi = p.hi
+    look.order = p.order
+    acc = sum_slab(y, ext, p.cells, look)
     return p.mean + (acc - p.shift) * p.inv_scale
 
 

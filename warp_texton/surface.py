@@ -116,11 +116,15 @@ def _surface_params(wp, texton: Texton, setup: SurfaceSetup, seed: int, poisson:
 
     if poisson not in POISSON_MODES:
         raise TextonError(f"poisson must be one of {', '.join(POISSON_MODES)}, got {poisson!r}")
+    from .kernels.impacts import Cells3
+
+    cells = Cells3()
+    cells.size = setup.cell
+    cells.mean_count = setup.lam * setup.cell ** 3
+    cells.seed = wp.uint32(seed)
+    cells.exact_poisson = 1 if poisson == "exact" else 0
     p = SurfaceParams()
-    p.cell = setup.cell
-    p.lam_cell = setup.lam * setup.cell ** 3
-    p.seed = wp.uint32(seed)
-    p.exact_poisson = 1 if poisson == "exact" else 0
+    p.cells = cells
     p.order = texton.order
     p.half = setup.r / 2.0
     p.centre = wp.vec2((setup.lo[0] + setup.hi[0]) / 2.0, (setup.lo[1] + setup.hi[1]) / 2.0)

@@ -170,16 +170,19 @@ def _check_period(period) -> tuple[float, float]:
 
 
 def _params(wp, texton: Texton, setup: NoiseSetup, seed: int, poisson: str):
+    from .kernels.impacts import Cells
     from .kernels.noise2d import NoiseParams
 
     if poisson not in POISSON_MODES:
         raise TextonError(f"poisson must be one of {', '.join(POISSON_MODES)}, got {poisson!r}")
+    cells = Cells()
+    cells.size = wp.vec2(*setup.cell)
+    cells.period = wp.vec2i(*setup.period_cells)
+    cells.mean_count = setup.lam_cell
+    cells.seed = wp.uint32(seed)
+    cells.exact_poisson = 1 if poisson == "exact" else 0
     p = NoiseParams()
-    p.cell = wp.vec2(*setup.cell)
-    p.period_cells = wp.vec2i(*setup.period_cells)
-    p.lam_cell = setup.lam_cell
-    p.seed = wp.uint32(seed)
-    p.exact_poisson = 1 if poisson == "exact" else 0
+    p.cells = cells
     p.order = texton.order
     p.lo = wp.vec2(*setup.lo)
     p.hi = wp.vec2(*setup.hi)
