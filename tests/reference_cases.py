@@ -93,7 +93,7 @@ def case_filter_anisotropic_jacobian():
 
 def case_filter_supersample():
     return wt.synthesize(_texton(channels=1), (12, 14), 30.0, 8, scale=0.4, device=DEVICE,
-                         filter="supersample", supersample=3)
+                         filter=wt.FilterOptions("supersample", supersample=3))
 
 
 def case_plane_anisotropic():
@@ -101,8 +101,8 @@ def case_plane_anisotropic():
 
 
 def case_plane_mip_fade0():
-    return wt.render_plane(_texton(channels=1), (32, 32), 1.0, 70.0, 45.0, 0.01, 30.0, 3, "mip", device=DEVICE,
-                           fade_energy=0.0)
+    return wt.render_plane(_texton(channels=1), (32, 32), 1.0, 70.0, 45.0, 0.01, 30.0, 3,
+                           wt.FilterOptions("mip", fade_energy=0.0), device=DEVICE)
 
 
 def case_plane_none():
@@ -110,8 +110,8 @@ def case_plane_none():
 
 
 def case_plane_supersample():
-    return wt.render_plane(_texton(channels=1), (12, 16), 1.0, 70.0, 40.0, 0.01, 30.0, 3, "supersample", 2,
-                           device=DEVICE)
+    return wt.render_plane(_texton(channels=1), (12, 16), 1.0, 70.0, 40.0, 0.01, 30.0, 3,
+                           wt.FilterOptions("supersample", supersample=2), device=DEVICE)
 
 
 def case_surface_points():

@@ -12,40 +12,40 @@ CGF: B. Galerne, A. Leclaire, L. Moisan, "Texton Noise", Computer Graphics
 Forum 2017.
 """
 
-__version__ = "0.1.0"
-
+from ._version import __version__
 from .errors import TextonError
 from .io import read_image, write_image
 from .gaussian import periodic_component, gaussian_texture
 from .texton import Texton, load_texton
 from .analysis import analyze, model_error
 from .dsn import dsn
+from .filtering import FilterOptions
+from .synthesis import synthesize, evaluate
+from .plane import render_plane
+from .mixing import mix_textons, synthesize_mixed
+from .surface import Camera, render_mesh, surface_noise, tangent_frames, texture_mesh
 
 __all__ = [
-    "TextonError",
+    "Camera",
+    "FilterOptions",
     "Texton",
+    "TextonError",
+    "__version__",
     "analyze",
     "dsn",
+    "evaluate",
     "gaussian_texture",
     "load_texton",
+    "mix_textons",
     "model_error",
     "periodic_component",
     "read_image",
+    "render_mesh",
+    "render_plane",
+    "surface_noise",
+    "synthesize",
+    "synthesize_mixed",
+    "tangent_frames",
+    "texture_mesh",
     "write_image",
 ]
-
-from .synthesis import synthesize, evaluate  # noqa: E402
-
-__all__ += ["synthesize", "evaluate"]
-
-from .mixing import mix_textons, synthesize_mixed  # noqa: E402
-
-__all__ += ["mix_textons", "synthesize_mixed"]
-
-from .surface import Camera, render_mesh, surface_noise, tangent_frames, texture_mesh  # noqa: E402
-
-__all__ += ["Camera", "render_mesh", "surface_noise", "tangent_frames", "texture_mesh"]
-
-from .filtering import render_plane  # noqa: E402
-
-__all__ += ["render_plane"]

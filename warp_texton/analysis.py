@@ -23,11 +23,10 @@ import scipy.fft as sfft
 from ._checks import as_image, check_int, check_seed
 from .bspline import ORDERS, bhat
 from .errors import TextonError
-from .gaussian import normalized_kernel, relative_model_error_half
+from .gaussian import FFT_WORKERS, normalized_kernel, relative_model_error_half
 from .texton import Texton, lag0_covariance
 
 SUPPORTS = ("square", "disk")
-_WORKERS = -1
 
 
 def support_mask(size: int, support: str = "square") -> np.ndarray:
@@ -55,12 +54,12 @@ def initial_phase(shape: tuple[int, int], seed: int) -> np.ndarray:
     random phase, EUSIPCO Algorithm 2's start. Same (shape, seed), same start.
     """
     w = np.random.default_rng(seed).standard_normal(shape)
-    w_hat = sfft.rfft2(w, workers=_WORKERS)
+    w_hat = sfft.rfft2(w, workers=FFT_WORKERS)
     mag = np.abs(w_hat)
     return np.divide(w_hat, mag, out=np.zeros_like(w_hat), where=mag > 0)
 
 
-def _unit(z: np.ndarray) -> np.ndarray:
+def unit_phase(z: np.ndarray) -> np.ndarray:
     """z / |z|, and 0 where z = 0 (the indicator of EUSIPCO eq. (2))."""
     mag = np.abs(z)
     return np.divide(z, mag, out=np.zeros_like(z), where=mag > 0)
@@ -75,7 +74,7 @@ def _spectral_projection(a_hat: np.ndarray, target: np.ndarray, target_conj: np.
     cross = a_hat[0] * target_conj[0]
     for c in range(1, a_hat.shape[0]):
         cross += a_hat[c] * target_conj[c]
-    return target * _unit(cross)[None]
+    return target * unit_phase(cross)[None]
 
 
 def correct_colors(alpha: np.ndarray, order: int, covariance: np.ndarray) -> np.ndarray:
@@ -171,7 +170,7 @@ def analyze(
             f"at least 2*size-1 = {2 * size - 1} (or choose size <= {(min(m, n) + 1) // 2})"
         )
     mean, t = normalized_kernel(u, periodic=periodic)
-    t_hat = sfft.rfft2(t, axes=(0, 1), workers=_WORKERS)
+    t_hat = sfft.rfft2(t, axes=(0, 1), workers=FFT_WORKERS)
     flat = t.reshape(-1, c)
     texton = texton_from_spectrum(
         t_hat, n, mean, size, order, iterations, seed,
@@ -211,8 +210,8 @@ def texton_from_spectrum(
 
     def restrict(a_hat: np.ndarray) -> np.ndarray:
         # inverse transform, keeping only the `size` rows and columns of S
-        rows = sfft.ifft(a_hat, axis=-2, workers=_WORKERS, overwrite_x=True)[:, :size]
-        return sfft.irfft(rows, n=n, axis=-1, workers=_WORKERS)[:, :, :size] * mask_f
+        rows = sfft.ifft(a_hat, axis=-2, workers=FFT_WORKERS, overwrite_x=True)[:, :size]
+        return sfft.irfft(rows, n=n, axis=-1, workers=FFT_WORKERS)[:, :, :size] * mask_f
 
     bar = None
     if progress:
@@ -227,8 +226,8 @@ def texton_from_spectrum(
     if bar is not None:
         bar.update()
     for _ in range(iterations - 1):
-        rows = sfft.rfft(alpha, n=n, axis=-1, workers=_WORKERS)
-        a_hat = sfft.fft(rows, n=m, axis=-2, workers=_WORKERS, overwrite_x=True)
+        rows = sfft.rfft(alpha, n=n, axis=-1, workers=FFT_WORKERS)
+        a_hat = sfft.fft(rows, n=m, axis=-2, workers=FFT_WORKERS, overwrite_x=True)
         alpha = restrict(_spectral_projection(a_hat, target, target_conj))
         if bar is not None:
             bar.update()
@@ -252,10 +251,10 @@ def texton_from_spectrum(
     return texton
 
 
-def _texton_half_spectrum(texton: Texton, shape: tuple[int, int]) -> np.ndarray:
+def texton_half_spectrum(texton: Texton, shape: tuple[int, int]) -> np.ndarray:
     """α̂ √b̂ on the rfft half-plane of an M × N grid, (M, N//2 + 1, C)."""
     m, n = shape
-    a_hat = sfft.rfft2(texton.coeffs.astype(np.float64), s=shape, axes=(0, 1), workers=_WORKERS)
+    a_hat = sfft.rfft2(texton.coeffs.astype(np.float64), s=shape, axes=(0, 1), workers=FFT_WORKERS)
     return a_hat * np.sqrt(bhat(shape, texton.order))[:, : n // 2 + 1, None]
 
 
@@ -264,7 +263,7 @@ def _rme(tu_half: np.ndarray, texton: Texton, n: int) -> float:
     shape = (tu_half.shape[0], n)
     if texton.size[0] > shape[0] or texton.size[1] > shape[1]:
         raise TextonError(f"a {texton.size[0]}x{texton.size[1]} texton does not fit on a {shape[0]}x{shape[1]} grid")
-    return relative_model_error_half(tu_half, _texton_half_spectrum(texton, shape), n)
+    return relative_model_error_half(tu_half, texton_half_spectrum(texton, shape), n)
 
 
 def model_error(u, texton: Texton, periodic: bool | None = None) -> float:
@@ -295,4 +294,4 @@ def model_error(u, texton: Texton, periodic: bool | None = None) -> float:
         raise TextonError(
             f"u has {t.shape[2]} channels but the texton has {texton.channels}; they must match"
         )
-    return _rme(sfft.rfft2(t, axes=(0, 1), workers=_WORKERS), texton, t.shape[1])
+    return _rme(sfft.rfft2(t, axes=(0, 1), workers=FFT_WORKERS), texton, t.shape[1])

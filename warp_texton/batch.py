@@ -30,7 +30,7 @@ class SurfaceJob:
     mesh: str
     texton: str
     out_dir: str
-    texel_size: float | None = None  # world units per texel; None: bounding-box diagonal / 256
+    texel_size: float | None = None  # world units per texel; None: surface.default_texel_size
     mni: float = 60.0
     seed: int = 0
     max_edge: float | None = None
@@ -101,7 +101,7 @@ def run_surface_job(job: SurfaceJob, token: str | None = None) -> JobResult:
     pure tasks) always run the job, whose inputs may have changed on disk.
     """
     from .io import atomic_path, write_image
-    from .surface import render_mesh, texture_mesh
+    from .surface import default_texel_size, render_mesh, texture_mesh
     from .texton import load_texton
 
     outputs = job.outputs()
@@ -111,13 +111,7 @@ def run_surface_job(job: SurfaceJob, token: str | None = None) -> JobResult:
         Path(job.out_dir).mkdir(parents=True, exist_ok=True)  # on a cluster worker too
         texton = load_texton(job.texton)
         mesh = _load_mesh(job.mesh)
-        if job.texel_size is None:
-            import numpy as np
-
-            lo, hi = np.asarray(mesh.bounds, dtype=float)
-            texel = float(np.linalg.norm(hi - lo)) / 256.0 or 1.0
-        else:
-            texel = job.texel_size
+        texel = default_texel_size(mesh) if job.texel_size is None else job.texel_size
         textured = texture_mesh(mesh, texton, texel, mni=job.mni, seed=job.seed, max_edge=job.max_edge,
                                 device=job.device)
         buf = io.BytesIO()

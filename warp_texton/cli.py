@@ -97,6 +97,14 @@ def _add_filter_options(p: argparse.ArgumentParser, default: str) -> None:
                         "variance; larger footprints fade to the mean (0 keeps every level)")
 
 
+def _filter_options(args):
+    """The FilterOptions of --filter, --supersample, --max-aniso and --fade-energy."""
+    from .filtering import FilterOptions
+
+    return FilterOptions(args.filter, max_aniso=args.max_aniso, supersample=args.supersample,
+                         fade_energy=args.fade_energy)
+
+
 def build_parser() -> argparse.ArgumentParser:
     fmt = _Formatter
     parser = _Parser(
@@ -262,12 +270,12 @@ def _cmd_synthesize(args) -> None:
     from .synthesis import synthesize
 
     out = check_image_path(args.output)
+    options = _filter_options(args)
     t0 = time.perf_counter()
     texton = _texton_of(args)
     noise = synthesize(texton, shape=(args.height, args.width), mni=args.mni, seed=args.seed, scale=args.scale,
                        rotation=args.rotation, offset=tuple(args.offset), period=args.period, device=args.device,
-                       filter=args.filter, supersample=args.supersample, max_aniso=args.max_aniso,
-                       fade_energy=args.fade_energy)
+                       filter=options)
     write_image(out, noise)
     if not args.quiet:
         print(f"{out}: {args.width}x{args.height} texton noise, MNI {args.mni:g} "
@@ -275,16 +283,16 @@ def _cmd_synthesize(args) -> None:
 
 
 def _cmd_render_plane(args) -> None:
-    from .filtering import render_plane
     from .io import check_image_path, write_image
+    from .plane import render_plane
 
     out = check_image_path(args.output)
+    options = _filter_options(args)
     t0 = time.perf_counter()
     texton = _texton_of(args)
     image = render_plane(texton, (args.height, args.width), height=args.camera_height, tilt=args.tilt,
                          fov=args.fov, texel_size=args.texel_size, mni=args.mni, seed=args.seed,
-                         filter=args.filter, supersample=args.supersample, device=args.device,
-                         max_aniso=args.max_aniso, fade_energy=args.fade_energy, progress=not args.quiet)
+                         filter=options, device=args.device, progress=not args.quiet)
     write_image(out, image)
     if not args.quiet:
         print(f"{out}: {args.width}x{args.height} plane, filter {args.filter}, MNI {args.mni:g} "
@@ -330,7 +338,7 @@ def _cmd_mix(args) -> None:
 def _cmd_surface(args) -> int:
     from ._checks import check_positive, check_seed, check_shape
     from .batch import SurfaceJob, check_unique_outputs, expand_meshes, run_batch
-    from .synthesis import resolve_device
+    from ._runtime import resolve_device
     from .texton import load_texton
 
     load_texton(args.texton)  # a bad texton fails the whole batch, once

@@ -8,6 +8,8 @@ from pathlib import Path
 from .analysis import analyze
 from .gaussian import gaussian_texture
 from .io import read_image, write_image
+from .plane import render_plane
+from .synthesis import synthesize
 from .texton import Texton
 
 DEMO_TEXTURE = "grass_256.png"
@@ -30,8 +32,7 @@ def texton_preview(texton: Texton):
 
 
 def run_demo(out_dir, size: int = 64, seed: int = 0, progress: bool = True) -> list[Path]:
-    """Write input, Gaussian version, texton (+ noise and a plane view when
-    available) to ``out_dir``.
+    """Write input, Gaussian version, texton, noise and a plane view to ``out_dir``.
 
     Returns the paths written, PNG and EXR for each picture plus the texton
     itself as ``texton.exr`` and ``texton.texton``.
@@ -46,15 +47,8 @@ def run_demo(out_dir, size: int = 64, seed: int = 0, progress: bool = True) -> l
         "gaussian": gaussian_texture(u, seed=seed),
         "texton_preview": texton_preview(texton),
     }
-    try:
-        from .synthesis import synthesize
-    except ImportError:  # the noise kernels are not part of this build
-        synthesize = None
-    if synthesize is not None:
-        from .filtering import render_plane
-
-        pictures["noise"] = synthesize(texton, shape=(512, 512), seed=seed)
-        pictures["plane"] = render_plane(texton, (512, 512), seed=seed)
+    pictures["noise"] = synthesize(texton, shape=(512, 512), seed=seed)
+    pictures["plane"] = render_plane(texton, (512, 512), seed=seed)
     written = []
     for name, img in pictures.items():
         for ext in (".png", ".exr"):

@@ -14,7 +14,8 @@ import scipy.fft as sfft
 from ._checks import as_image, check_seed, check_shape
 from .errors import TextonError
 
-_WORKERS = -1  # scipy.fft: use every core
+#: scipy.fft workers for every FFT of the package: all cores.
+FFT_WORKERS = -1
 
 
 def periodic_component(u) -> np.ndarray:
@@ -61,9 +62,9 @@ def periodic_component(u) -> np.ndarray:
     )
     denom[0, 0] = 1.0  # the smooth part has zero mean
     nc = n // 2 + 1
-    s_hat = sfft.rfft2(v, axes=(0, 1), workers=_WORKERS) / denom[:, :nc, None]
+    s_hat = sfft.rfft2(v, axes=(0, 1), workers=FFT_WORKERS) / denom[:, :nc, None]
     s_hat[0, 0] = 0.0
-    s = sfft.irfft2(s_hat, s=(m, n), axes=(0, 1), workers=_WORKERS)
+    s = sfft.irfft2(s_hat, s=(m, n), axes=(0, 1), workers=FFT_WORKERS)
     return (u - s).astype(np.float32)
 
 
@@ -186,8 +187,8 @@ def gaussian_texture(u, shape=None, seed: int = 0, periodic: bool = True) -> np.
                 sfft.next_fast_len(out_shape[1] + n - 1, real=True))
         crop = out_shape
     w = rng.standard_normal(grid)
-    w_hat = sfft.rfft2(w, workers=_WORKERS)
-    t_hat = sfft.rfft2(t, s=grid, axes=(0, 1), workers=_WORKERS)
-    g = sfft.irfft2(t_hat * w_hat[:, :, None], s=grid, axes=(0, 1), workers=_WORKERS)
+    w_hat = sfft.rfft2(w, workers=FFT_WORKERS)
+    t_hat = sfft.rfft2(t, s=grid, axes=(0, 1), workers=FFT_WORKERS)
+    g = sfft.irfft2(t_hat * w_hat[:, :, None], s=grid, axes=(0, 1), workers=FFT_WORKERS)
     out = g[: crop[0], : crop[1]] + mean
     return np.ascontiguousarray(out, dtype=np.float32)

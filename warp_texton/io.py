@@ -76,6 +76,15 @@ def write_exr(path, img: np.ndarray, **attributes) -> None:
         exr.File(exr_header(**attributes), channels).write(str(tmp))
 
 
+def read_exr_header(path) -> dict:
+    """The header attributes of an EXR file, without reading its pixels."""
+    exr = _exr_module()
+    try:
+        return exr.File(str(path), header_only=True).header()
+    except Exception as exc:
+        raise TextonError(f"{path}: not a readable EXR file ({exc})") from None
+
+
 def read_exr(path) -> tuple[np.ndarray, dict]:
     """Read an EXR file into float32 (H, W, C) plus its header; alpha is dropped."""
     exr = _exr_module()

@@ -15,16 +15,16 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.fft as sfft
+import warp as wp
 
 from ._checks import as_image, check_int, check_positive, check_seed, check_shape
-from .analysis import support_mask, texton_from_spectrum, _texton_half_spectrum, _unit
+from ._runtime import resolve_device
+from .analysis import support_mask, texton_from_spectrum, texton_half_spectrum, unit_phase
 from .bspline import ORDERS
 from .errors import TextonError
-from .gaussian import normalized_kernel
+from .gaussian import FFT_WORKERS, normalized_kernel
+from .noise import Regions, noise_params, noise_setup, padded_coeffs, raster, raster_geometry
 from .texton import Texton
-
-_WORKERS = -1
-
 
 def barycentre_spectrum(tu_hat: np.ndarray, tv_hat: np.ndarray, rho: float) -> np.ndarray:
     """τ̂_ρ = (1 − ρ) τ̂_0 + ρ t̂_v with τ̂_0 = t̂_u · (t̂_u* t̂_v)/|t̂_u* t̂_v| (CGF §7).
@@ -35,7 +35,7 @@ def barycentre_spectrum(tu_hat: np.ndarray, tv_hat: np.ndarray, rho: float) -> n
     """
     cross = np.sum(np.conj(tu_hat) * tv_hat, axis=-1)
     # where the product vanishes any unit phase is a geodesic: keep t̂_u as it is
-    phase = np.where(cross != 0, _unit(cross), 1.0)
+    phase = np.where(cross != 0, unit_phase(cross), 1.0)
     return (1.0 - rho) * tu_hat * phase[..., None] + rho * tv_hat
 
 
@@ -64,7 +64,7 @@ def _model(x, grid, name: str, periodic: bool):
                 f"{name}: a {x.size[0]}x{x.size[1]} texton does not fit the {grid[0]}x{grid[1]} grid of the "
                 "other image; mix it with a larger image, or with a texton"
             )
-        t_hat = _texton_half_spectrum(x, grid)
+        t_hat = texton_half_spectrum(x, grid)
         cov = x.covariance()
         return x.mean.astype(np.float64), t_hat, cov
     u = as_image(x, name)
@@ -72,7 +72,7 @@ def _model(x, grid, name: str, periodic: bool):
     h0, w0 = (u.shape[0] - m) // 2, (u.shape[1] - n) // 2
     mean, t = normalized_kernel(u[h0:h0 + m, w0:w0 + n], periodic=periodic, name=name)
     flat = t.reshape(-1, t.shape[2])
-    return mean, sfft.rfft2(t, axes=(0, 1), workers=_WORKERS), flat.T @ flat
+    return mean, sfft.rfft2(t, axes=(0, 1), workers=FFT_WORKERS), flat.T @ flat
 
 
 def mix_textons(
@@ -161,7 +161,7 @@ def mix_textons(
         tau_hat = barycentre_spectrum(tu_hat, tv_hat, rho)
         cov = None
         if color_correction:
-            tau = sfft.irfft2(tau_hat, s=grid, axes=(0, 1), workers=_WORKERS).reshape(-1, c)
+            tau = sfft.irfft2(tau_hat, s=grid, axes=(0, 1), workers=FFT_WORKERS).reshape(-1, c)
             cov = tau.T @ tau
         texton = texton_from_spectrum(tau_hat, grid[1], (1.0 - rho) * mu + rho * mv, size, order,
                                       iterations, seed, covariance=cov, support=support)
@@ -258,8 +258,6 @@ def synthesize_mixed(
     >>> synthesize_mixed(ts, "strips", (32, 64), device="cpu").shape
     (32, 64, 1)
     """
-    from .synthesis import _Regions, _params, _raster, _raster_geometry, _warp, noise_setup, padded_coeffs, resolve_device
-
     textons = _check_textons(textons)
     h, w = check_shape(shape)
     rho = _check_weights(weights, (h, w))
@@ -268,18 +266,17 @@ def synthesize_mixed(
     # one λ for every texton: that of the widest support (zero textons are allowed in a mix)
     widest = max(textons, key=lambda t: t.support_area)
     setup = noise_setup(widest, mni)
-    origin, step = _raster_geometry((h, w), scale, 0.0, offset)
+    origin, step = raster_geometry((h, w), scale, 0.0, offset)
     device = resolve_device(device)
-    wp = _warp()
-    p = _params(wp, widest, setup, seed, "exact")
+    p = noise_params(widest, setup, seed)
     p.mean = wp.vec3(0.0, 0.0, 0.0)
     p.integral = wp.vec3(0.0, 0.0, 0.0)  # the random signs make the sum zero-mean
     pad_rows, pad_cols = setup.coeffs.shape[:2]
     stack = np.zeros((len(textons), pad_rows, pad_cols, 3), np.float32)
     for k, t in enumerate(textons):
         stack[k] = padded_coeffs(t)
-    out = _raster(wp, p, setup, stack, textons[0].order, (h, w), origin, step, device, method, scale,
-                  regions=_Regions(len(textons), rho))
+    out = raster(p, setup, stack, textons[0].order, (h, w), origin, step, device, method, scale,
+                 regions=Regions(len(textons), rho))
     c = textons[0].channels
     means = np.stack([t.mean for t in textons]).astype(np.float64)  # (R, C)
     knots = np.linspace(0.0, 1.0, len(textons)) if len(textons) > 1 else np.zeros(1)

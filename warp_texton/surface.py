@@ -15,13 +15,17 @@ support). Frames follow one rule (see :func:`tangent_frames`) unless given.
 from __future__ import annotations
 
 import math
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
+import warp as wp
 
-from ._checks import check_positive, check_seed
+from ._checks import check_positive, check_seed, check_shape
+from ._runtime import map_points, resolve_device, split_launch
 from .errors import TextonError
+from .kernels import surface as K
+from .kernels.impacts import Cells3
+from .noise import MAX_CELL_INDEX, MAX_CELL_MEAN, POISSON_MODES, noise_setup
 from .texton import Texton
 
 #: Default cell side relative to the slab thickness r.
@@ -31,6 +35,17 @@ CELL_FACTOR = 0.6
 UP = (0.0, 0.0, 1.0)
 SIDE = (1.0, 0.0, 0.0)
 MAX_RENDER_PIXELS = 1 << 26
+#: Refuse cube grids where one point must visit more cubes than this (a tiny cell_factor).
+MAX_CUBES_PER_POINT = 8192
+#: Default texture scale on a mesh: this many texels along its bounding-box diagonal.
+TEXELS_PER_DIAGONAL = 256
+
+
+def default_texel_size(mesh) -> float:
+    """World units per texel when none is given: the bounding-box diagonal /
+    TEXELS_PER_DIAGONAL (1 for a mesh of zero extent)."""
+    lo, hi = np.asarray(mesh.bounds, dtype=np.float64)
+    return float(np.linalg.norm(hi - lo)) / TEXELS_PER_DIAGONAL or 1.0
 
 
 def _points(a, name: str) -> np.ndarray:
@@ -96,34 +111,29 @@ class SurfaceSetup:
 
 
 def surface_setup(texton: Texton, mni: float, cell_factor: float = CELL_FACTOR) -> SurfaceSetup:
-    from .synthesis import noise_setup
-
     base = noise_setup(texton, mni)
     r = max(base.hi[0] - base.lo[0], base.hi[1] - base.lo[1])
     lam = check_positive(mni, "mni") / (r * texton.support_area)
     cell = float(np.float32(check_positive(cell_factor, "cell_factor") * r))
     per_point = (math.ceil(r * math.sqrt(3.0) / cell) + 1) ** 3
-    if per_point > 8192:
-        raise TextonError(f"cell_factor {cell_factor:g} is too small: each point would visit {per_point} cells")
-    if lam * cell ** 3 > 1e5:
+    if per_point > MAX_CUBES_PER_POINT:
+        raise TextonError(f"cell_factor {cell_factor:g} is too small: each point would visit {per_point} cells "
+                          f"(at most {MAX_CUBES_PER_POINT})")
+    if lam * cell ** 3 > MAX_CELL_MEAN:
         raise TextonError(f"cell_factor {cell_factor:g} is too large: cells would hold {lam * cell ** 3:.3g} impacts")
     return SurfaceSetup(r, lam, cell, base.coeffs, base.lo, base.hi)
 
 
-def _surface_params(wp, texton: Texton, setup: SurfaceSetup, seed: int, poisson: str, up, side):
-    from .kernels.surface import SurfaceParams
-    from .synthesis import POISSON_MODES
-
+def surface_params(texton: Texton, setup: SurfaceSetup, seed: int, poisson: str, up, side) -> K.SurfaceParams:
+    """The kernels' ``SurfaceParams`` (CGF Prop. 3 normalisation, the frame rule's directions)."""
     if poisson not in POISSON_MODES:
         raise TextonError(f"poisson must be one of {', '.join(POISSON_MODES)}, got {poisson!r}")
-    from .kernels.impacts import Cells3
-
     cells = Cells3()
     cells.size = setup.cell
     cells.mean_count = setup.lam * setup.cell ** 3
     cells.seed = wp.uint32(seed)
     cells.exact_poisson = 1 if poisson == "exact" else 0
-    p = SurfaceParams()
+    p = K.SurfaceParams()
     p.cells = cells
     p.order = texton.order
     p.half = setup.r / 2.0
@@ -195,8 +205,6 @@ def surface_noise(
     >>> surface_noise(t, p, p, texel_size=0.01, device="cpu").shape
     (5, 1)
     """
-    from .synthesis import _warp, map_points, resolve_device
-
     if not isinstance(texton, Texton):
         raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
     pts = _points(points, "points")
@@ -220,26 +228,23 @@ def surface_noise(
                               "component in the tangent plane")
         tan = tan / np.linalg.norm(tan, axis=1)[:, None]
     pos = pts / texel
-    if pos.size and np.abs(pos).max() / setup.cell >= 2 ** 30:
+    if pos.size and np.abs(pos).max() / setup.cell >= MAX_CELL_INDEX:
         raise TextonError("points lie too far from the origin for this texel_size (more than 2**30 cells)")
     device = resolve_device(device)
-    wp = _warp()
-    from .kernels import surface as K
-
-    p = _surface_params(wp, texton, setup, seed, poisson, up, side)
+    p = surface_params(texton, setup, seed, poisson, up, side)
     with wp.ScopedDevice(device):
         coeffs = wp.array(setup.coeffs, dtype=wp.vec3)
         dummy = wp.zeros(1, dtype=wp.vec3)
 
-        def launch(idx):
-            res = wp.zeros(idx.size, dtype=wp.vec3)
-            tarr = wp.array(tan[idx], dtype=wp.vec3) if use_tangents else dummy
-            wp.launch(K.evaluate_surface, dim=idx.size,
-                      inputs=[p, coeffs, wp.array(pos[idx], dtype=wp.vec3), wp.array(nrm[idx], dtype=wp.vec3),
-                              tarr, int(use_tangents), res])
+        def values(start, stop):
+            res = wp.zeros(stop - start, dtype=wp.vec3)
+            tarr = wp.array(tan[start:stop], dtype=wp.vec3) if use_tangents else dummy
+            wp.launch(K.evaluate_surface, dim=stop - start,
+                      inputs=[p, coeffs, wp.array(pos[start:stop], dtype=wp.vec3),
+                              wp.array(nrm[start:stop], dtype=wp.vec3), tarr, int(use_tangents), res])
             return res.numpy()
 
-        out = map_points(wp, K, device, pts.shape[0], launch)
+        out = map_points(device, K, pts.shape[0], values)
     return np.ascontiguousarray(out[:, : texton.channels])
 
 
@@ -392,16 +397,11 @@ def render_mesh(
     -------
     float32 array (height, width, 3) in [0, 1]
     """
-    from .synthesis import _threads, _warp, resolve_device
-    from ._checks import check_shape
-
     mesh = _check_mesh(mesh)
     if not isinstance(texton, Texton):
         raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
     h, w = check_shape(shape, max_pixels=MAX_RENDER_PIXELS)
-    lo, hi = np.asarray(mesh.bounds, dtype=np.float64)
-    diag = float(np.linalg.norm(hi - lo)) or 1.0
-    texel = diag / 256.0 if texel_size is None else check_positive(texel_size, "texel_size")
+    texel = default_texel_size(mesh) if texel_size is None else check_positive(texel_size, "texel_size")
     seed = check_seed(seed)
     cam = Camera.framing(mesh, up=up) if camera is None else camera
     if not isinstance(cam, Camera):
@@ -418,10 +418,7 @@ def render_mesh(
     cam_up = np.cross(right, forward)
     setup = surface_setup(texton, mni)
     device = resolve_device(device)
-    wp = _warp()
-    from .kernels import surface as K
-
-    p = _surface_params(wp, texton, setup, seed, "exact", up, side)
+    p = surface_params(texton, setup, seed, "exact", up, side)
     c = K.Camera()
     c.origin = wp.vec3(*(eye / texel))
     c.right = wp.vec3(*right)
@@ -445,17 +442,10 @@ def render_mesh(
         coeffs = wp.array(setup.coeffs, dtype=wp.vec3)
         out = wp.zeros((h, w), dtype=wp.vec3)
 
-        def run(band):
-            r0, r1 = band
+        def band(r0, r1):
             wp.launch(K.render_surface, dim=(r1 - r0, w), inputs=[p, coeffs, wmesh.id, normals, indices, c, r0, out])
 
-        if wp.get_device(device).is_cpu:
-            wp.load_module(K, device=device)
-            bands = np.linspace(0, h, min(h, 4 * _threads()) + 1).astype(int)
-            with ThreadPoolExecutor(_threads()) as pool:
-                list(pool.map(run, [(a, b) for a, b in zip(bands[:-1], bands[1:]) if b > a]))
-        else:
-            run((0, h))
+        split_launch(device, K, h, band)
         img = out.numpy()
     if texton.channels == 1:
         # grey noise lives in channel 0: spread it (with the shading) to RGB

@@ -17,17 +17,19 @@ from pathlib import Path
 import numpy as np
 import scipy.ndimage as ndi
 
-from . import __version__
+from ._version import __version__
 from ._checks import CHANNELS
 from .bspline import ORDERS, kernel_width, sampled_autocorrelation
 from .errors import TextonError
-from .io import EXR, atomic_path, read_exr, write_exr
+from .io import EXR, atomic_path, read_exr, read_exr_header, write_exr
 
 TEXTON_EXT = ".texton"
 #: Version of the metadata layout in EXR textons written by this package.
 EXR_TEXTON_VERSION = 1
 #: Largest texton side accepted from a file (textons are small by design).
 MAX_TEXTON_SIDE = 4096
+#: Largest .texton text file read (a 4096² RGB texton in text is far smaller).
+MAX_TEXTON_FILE_BYTES = 64 * 1024 * 1024
 
 
 @dataclass(frozen=True, eq=False)
@@ -214,11 +216,11 @@ def _parse_texton_text(path: Path) -> Texton:
 
     try:
         with open(path, "rb") as f:
-            raw = f.read(64 * 1024 * 1024 + 1)
+            raw = f.read(MAX_TEXTON_FILE_BYTES + 1)
     except OSError as exc:
         raise TextonError(f"{path}: cannot read ({exc.strerror})") from None
-    if len(raw) > 64 * 1024 * 1024:
-        raise bad("larger than 64 MiB")
+    if len(raw) > MAX_TEXTON_FILE_BYTES:
+        raise bad(f"larger than {MAX_TEXTON_FILE_BYTES >> 20} MiB")
     try:
         text = raw.decode("ascii")
     except UnicodeDecodeError:
@@ -329,9 +331,7 @@ def is_texton_path(path) -> bool:
         return True
     if ext == EXR and path.is_file():
         try:
-            from .io import _exr_module
-
-            return "texton_order" in _exr_module().File(str(path)).header()
-        except Exception:
+            return "texton_order" in read_exr_header(path)
+        except TextonError:
             return False
     return False
