@@ -1,14 +1,55 @@
-"""Shared fixtures: real example textures and exact samples of known Gaussian models.
+"""Shared fixtures: the device under test, real example textures, and exact samples of
+known Gaussian models.
 
-The ADSN helper draws u = m + k ⊛ W on a circular grid (EUSIPCO §2.2), so a test
-knows the true kernel k behind an image and can compare what the analysis finds
-with the truth rather than with a single noisy periodogram.
+``pytest --device cuda:0`` runs every test that takes the ``device`` fixture (the
+statistical and exactness tests of the kernels) on that device; the default is
+the CPU. The ADSN helper draws u = m + k ⊛ W on a circular grid (EUSIPCO §2.2),
+so a test knows the true kernel k behind an image and can compare what the
+analysis finds with the truth rather than with a single noisy periodogram.
 """
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
+
+
+def pytest_addoption(parser):
+    parser.addoption("--device", default="cpu",
+                     help="Warp device for the device tests: cpu (default), cuda, cuda:N")
+
+
+def pytest_configure(config):
+    from warp_texton import TextonError
+    from warp_texton._runtime import resolve_device
+
+    try:
+        config.device = resolve_device(config.getoption("--device"))
+    except TextonError as exc:
+        raise pytest.UsageError(f"--device: {exc}") from None
+
+
+@pytest.fixture(scope="session")
+def device(pytestconfig) -> str:
+    """The Warp device the kernels' tests run on (``--device``, default "cpu")."""
+    return pytestconfig.device
+
+
+@pytest.fixture(scope="session")
+def gpu(device) -> str:
+    """The --device when it is not the CPU, for tests that compare it with the CPU."""
+    if device == "cpu":
+        pytest.skip("compares the --device with the CPU: run with --device cuda:0 on a GPU machine")
+    return device
+
+
+@pytest.fixture
+def restore_warning_format(monkeypatch):
+    """The CLI installs its own one-line warning format; keep it out of other tests."""
+    monkeypatch.setattr(warnings, "formatwarning", warnings.formatwarning)
+
 
 TEXTURE_NAMES = ("grass", "gravel", "brick")
 

@@ -21,6 +21,12 @@ from warp_texton import Texton, TextonError, analyze, model_error
 from warp_texton.analysis import support_mask
 from warp_texton.bspline import bspline
 from warp_texton.gaussian import normalized_kernel, relative_model_error
+from helpers import random_texton
+
+
+def gaussian_texton(order: int, channels: int = 3, shape=(4, 5), seed: int = 0) -> Texton:
+    """Standard normal coefficients, zero mean."""
+    return random_texton(shape, channels, order, seed, gain=1.0, offset=0.0, mean=0.0, correlated=False)
 
 ORDERS = (0, 1, 3, 5)
 
@@ -76,11 +82,6 @@ def sampled_covariance(texton: Texton) -> dict:
             a1 = g[max(0, sy): g.shape[0] + min(0, sy), max(0, sx): g.shape[1] + min(0, sx)]
             out[(dy, dx)] = np.einsum("pqc,pqd->cd", a0, a1)
     return out
-
-
-def random_texton(order: int, channels: int = 3, shape=(4, 5), seed: int = 0) -> Texton:
-    a = np.random.default_rng(seed).standard_normal((*shape, channels)).astype(np.float32)
-    return Texton(a, np.zeros(channels), order)
 
 
 # --------------------------------------------------------------------------- #
@@ -344,7 +345,7 @@ class TestTextonModel:
     def test_sampled_spectrum_is_eq4(self, order):
         # DFT of the sampled covariance C(k) = ∫ h(y) h(y + k)ᵀ dy equals conj(α̂ √b̂)(α̂ √b̂)ᵀ,
         # i.e. |α̂|² b̂ on the diagonal and the cross-spectra off it (CGF eq. (4), §4.3).
-        t = random_texton(order, seed=order)
+        t = gaussian_texton(order, seed=order)
         cov = sampled_covariance(t)
         shape = (24, 26)  # > 2 (r + k) − 1 lags, so no aliasing; r ≠ s checks orientation
         c_grid = np.zeros((*shape, 3, 3))
@@ -358,7 +359,7 @@ class TestTextonModel:
 
     @pytest.mark.parametrize("order", ORDERS)
     def test_grey_spectrum_modulus(self, order):
-        t = random_texton(order, channels=1, shape=(6, 3), seed=10 + order)
+        t = gaussian_texton(order, channels=1, shape=(6, 3), seed=10 + order)
         cov = sampled_covariance(t)
         shape = (32, 20)
         c_grid = np.zeros(shape)
@@ -373,7 +374,7 @@ class TestTextonModel:
 
     @pytest.mark.parametrize("order", ORDERS)
     def test_covariance_is_integral_of_h_ht(self, order):
-        t = random_texton(order, seed=20 + order)
+        t = gaussian_texton(order, seed=20 + order)
         h, wts, _, _ = texton_on_quadrature(t)
         expected = np.einsum("pq,pqc,pqd->cd", wts, h, h)
         np.testing.assert_allclose(t.covariance(), expected, rtol=1e-9, atol=0)
@@ -381,14 +382,14 @@ class TestTextonModel:
 
     @pytest.mark.parametrize("order", ORDERS)
     def test_integral(self, order):
-        t = random_texton(order, seed=30 + order)
+        t = gaussian_texton(order, seed=30 + order)
         h, wts, _, _ = texton_on_quadrature(t)
         np.testing.assert_allclose(t.integral, np.einsum("pq,pqc->c", wts, h), rtol=1e-9)
 
     @pytest.mark.parametrize("order", ORDERS)
     @pytest.mark.parametrize("shape", [(7, 7), (3, 9)])
     def test_support_area_full_texton(self, order, shape):
-        t = random_texton(order, channels=1, shape=shape, seed=1)
+        t = gaussian_texton(order, channels=1, shape=shape, seed=1)
         r, s = shape
         assert t.support_area == (r + order) * (s + order)
 

@@ -11,7 +11,6 @@ from __future__ import annotations
 import os
 import pickle
 import re
-import warnings
 from concurrent.futures import Executor, Future
 from pathlib import Path
 
@@ -22,17 +21,11 @@ from PIL import Image
 
 from warp_texton import Texton, TextonError, texture_mesh
 from warp_texton.batch import JobResult, SurfaceJob, expand_meshes, run_batch, run_surface_job
-from warp_texton.cli import main
+from helpers import parts, run_cli
 
 MEAN = (0.3, 0.5, 0.7)
 SUMMARY = re.compile(r"^(\d+) done, (\d+) skipped, (\d+) failed$")
 OLD = 1_000_000_000  # an mtime (2001) that no run of the tests can produce
-
-
-@pytest.fixture(autouse=True)
-def _restore_warning_format(monkeypatch):
-    # main() installs its own one-line warning format; keep it out of other tests.
-    monkeypatch.setattr(warnings, "formatwarning", warnings.formatwarning)
 
 
 @pytest.fixture
@@ -57,17 +50,9 @@ def mesh_dir(tmp_path):
     return d
 
 
-def run(argv):
-    """main(argv) -> exit status, whether it returns or exits through argparse."""
-    try:
-        return main([str(a) for a in argv])
-    except SystemExit as exc:
-        return exc.code
-
-
 def surface(mesh_dir, texton_path, out, *meshes, extra=()):
     names = meshes or ("ball.ply", "ring.obj")
-    return run(["surface", *(mesh_dir / m for m in names), "--texton", texton_path, "--out-dir", out,
+    return run_cli(["surface", *(mesh_dir / m for m in names), "--texton", texton_path, "--out-dir", out,
                 "--device", "cpu", *extra])
 
 
@@ -76,10 +61,6 @@ def summary(err: str):
     m = SUMMARY.match(last)
     assert m, f"no summary line at the end of stderr: {last!r}"
     return tuple(int(v) for v in m.groups())
-
-
-def parts(folder) -> list[str]:
-    return sorted(p.name for p in Path(folder).rglob("*") if ".part" in p.name)
 
 
 def load(path) -> trimesh.Trimesh:
@@ -324,7 +305,7 @@ class TestCli:
         listing = tmp_path / "meshes.txt"
         listing.write_text(f"# two meshes\n{mesh_dir / 'ball.ply'}\n\n{mesh_dir / 'ring.*'}\n{mesh_dir / 'ball.ply'}\n")
         out = tmp_path / "out"
-        status = run(["surface", f"@{listing}", str(mesh_dir / "*.obj"), str(mesh_dir / "nothing*.ply"),
+        status = run_cli(["surface", f"@{listing}", str(mesh_dir / "*.obj"), str(mesh_dir / "nothing*.ply"),
                       "--texton", texton_path, "--out-dir", out, "--device", "cpu", "-q"])
         captured = capsys.readouterr()
         assert status == 1  # the unmatched pattern is reported as a missing file
@@ -398,7 +379,7 @@ class TestCli:
 
     def test_missing_list_is_one_error(self, tmp_path, texton_path, capsys):
         out = tmp_path / "out"
-        status = run(["surface", f"@{tmp_path / 'nolist.txt'}", "--texton", texton_path, "--out-dir", out])
+        status = run_cli(["surface", f"@{tmp_path / 'nolist.txt'}", "--texton", texton_path, "--out-dir", out])
         err = capsys.readouterr().err
         assert status == 2 and err.count("\n") == 1 and "cannot read the mesh list" in err
         assert not out.exists()

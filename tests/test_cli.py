@@ -6,7 +6,6 @@ import re
 import shutil
 import subprocess
 import sys
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -14,17 +13,11 @@ import pytest
 from PIL import Image
 
 from warp_texton import load_texton, read_image
-from warp_texton.cli import main
+from helpers import parts, run_cli
 
 # User errors print one line. Errors found by warp-texton say "warp-texton: error:";
 # argparse usage errors of a subcommand name it ("warp-texton analyze: error:").
 ERROR_LINE = re.compile(r"^warp-texton(?: (?:analyze|gaussian|demo))?: error: \S")
-
-
-@pytest.fixture(autouse=True)
-def _restore_warning_format(monkeypatch):
-    # main() installs its own one-line warning format; keep it out of other tests.
-    monkeypatch.setattr(warnings, "formatwarning", warnings.formatwarning)
 
 
 @pytest.fixture
@@ -46,21 +39,9 @@ def colour_texture(tmp_path):
     return path
 
 
-def run(argv):
-    """main(argv) -> exit status, whether it returns or exits through argparse."""
-    try:
-        return main([str(a) for a in argv])
-    except SystemExit as exc:
-        return exc.code
-
-
-def parts(folder):
-    return sorted(p.name for p in Path(folder).iterdir() if p.name.endswith(".part"))
-
-
 def assert_user_error(capsys, argv, match, *outputs):
     """Exit 2, one 'error:' line on stderr, no traceback, nothing written."""
-    status = run(argv)
+    status = run_cli(argv)
     captured = capsys.readouterr()
     assert status == 2
     lines = captured.err.splitlines()
@@ -81,7 +62,7 @@ class TestAnalyze:
     @pytest.mark.parametrize("ext, order", [(".exr", 3), (".texton", 0), (".texton", 1)])
     def test_writes_texton_of_requested_size_and_order(self, tmp_path, texture, capsys, ext, order):
         out = tmp_path / f"t{ext}"
-        status = run(["analyze", texture, "-o", out, "--size", 8, "--order", order, "--iterations", 3, "-q"])
+        status = run_cli(["analyze", texture, "-o", out, "--size", 8, "--order", order, "--iterations", 3, "-q"])
         captured = capsys.readouterr()
         assert status == 0, captured.err
         assert captured.out == ""  # -q: no summary
@@ -96,25 +77,25 @@ class TestAnalyze:
 
     def test_texton_file_names_the_source(self, tmp_path, texture, capsys):
         out = tmp_path / "t.texton"
-        assert run(["analyze", texture, "-o", out, "--size", 8, "--iterations", 3, "-q"]) == 0
+        assert run_cli(["analyze", texture, "-o", out, "--size", 8, "--iterations", 3, "-q"]) == 0
         assert out.read_text().splitlines()[-1] == "Original image: in.png (32 x 32)"
 
     def test_colour_texton(self, tmp_path, colour_texture, capsys):
         out = tmp_path / "c.exr"
-        assert run(["analyze", colour_texture, "-o", out, "--size", 6, "--iterations", 3, "-q"]) == 0
+        assert run_cli(["analyze", colour_texture, "-o", out, "--size", 6, "--iterations", 3, "-q"]) == 0
         t = load_texton(out)
         assert t.size == (6, 6) and t.channels == 3 and t.order == 1
 
     def test_same_seed_same_texton(self, tmp_path, texture, capsys):
         args = ["--size", 8, "--iterations", 3, "--seed", 11, "-q"]
-        assert run(["analyze", texture, "-o", tmp_path / "a.exr", *args]) == 0
-        assert run(["analyze", texture, "-o", tmp_path / "b.exr", *args]) == 0
+        assert run_cli(["analyze", texture, "-o", tmp_path / "a.exr", *args]) == 0
+        assert run_cli(["analyze", texture, "-o", tmp_path / "b.exr", *args]) == 0
         np.testing.assert_array_equal(load_texton(tmp_path / "a.exr").coeffs,
                                       load_texton(tmp_path / "b.exr").coeffs)
 
     def test_options_reach_the_analysis(self, tmp_path, texture, capsys):
         out = tmp_path / "d.exr"
-        assert run(["analyze", texture, "-o", out, "--size", 9, "--iterations", 2, "--seed", 4,
+        assert run_cli(["analyze", texture, "-o", out, "--size", 9, "--iterations", 2, "--seed", 4,
                     "--support", "disk", "--no-periodic", "--no-color-correction", "-q"]) == 0
         t = load_texton(out)
         meta = t.metadata
@@ -125,7 +106,7 @@ class TestAnalyze:
 
     def test_summary_without_quiet(self, tmp_path, texture, capsys):
         out = tmp_path / "t.exr"
-        assert run(["analyze", texture, "-o", out, "--size", 8, "--iterations", 3]) == 0
+        assert run_cli(["analyze", texture, "-o", out, "--size", 8, "--iterations", 3]) == 0
         summary = capsys.readouterr().out
         assert f"{out}: 8x8 texton, order 1, model error" in summary
 
@@ -135,7 +116,7 @@ class TestGaussian:
     @pytest.mark.parametrize("ext", [".png", ".exr", ".jpg"])
     def test_writes_requested_size(self, tmp_path, texture, capsys, ext):
         out = tmp_path / f"g{ext}"
-        assert run(["gaussian", texture, "-o", out, "--width", 40, "--height", 24, "--seed", 3]) == 0
+        assert run_cli(["gaussian", texture, "-o", out, "--width", 40, "--height", 24, "--seed", 3]) == 0
         img = read_image(out)
         assert img.shape == (24, 40, 1)
         assert img.std() > 0.01  # a texture, not a constant
@@ -143,17 +124,17 @@ class TestGaussian:
 
     def test_default_size_is_the_input(self, tmp_path, colour_texture, capsys):
         out = tmp_path / "g.exr"
-        assert run(["gaussian", colour_texture, "-o", out]) == 0
+        assert run_cli(["gaussian", colour_texture, "-o", out]) == 0
         assert read_image(out).shape == (32, 32, 3)
 
     def test_one_dimension_given(self, tmp_path, texture, capsys):
         out = tmp_path / "g.exr"
-        assert run(["gaussian", texture, "-o", out, "--width", 50]) == 0
+        assert run_cli(["gaussian", texture, "-o", out, "--width", 50]) == 0
         assert read_image(out).shape == (32, 50, 1)
 
     def test_seed_changes_the_sample(self, tmp_path, texture, capsys):
         for seed in (1, 2):
-            assert run(["gaussian", texture, "-o", tmp_path / f"s{seed}.exr", "--seed", seed]) == 0
+            assert run_cli(["gaussian", texture, "-o", tmp_path / f"s{seed}.exr", "--seed", seed]) == 0
         a, b = read_image(tmp_path / "s1.exr"), read_image(tmp_path / "s2.exr")
         assert not np.array_equal(a, b)
 
@@ -171,14 +152,14 @@ class TestHelp:
         ],
     )
     def test_help(self, capsys, command, options):
-        assert run([*command, "--help"]) == 0
+        assert run_cli([*command, "--help"]) == 0
         out = capsys.readouterr().out
         assert out.startswith("usage: warp-texton")
         for option in options:
             assert option in out
 
     def test_no_command_prints_help_and_fails(self, capsys):
-        assert run([]) == 2
+        assert run_cli([]) == 2
         assert "usage: warp-texton" in capsys.readouterr().out
 
     def test_installed_console_script(self, tmp_path):
@@ -260,11 +241,11 @@ class TestUserErrors:
 
     def test_failed_run_keeps_existing_output(self, tmp_path, texture, capsys):
         out = tmp_path / "t.exr"
-        assert run(["analyze", texture, "-o", out, "--size", 8, "--iterations", 3, "-q"]) == 0
+        assert run_cli(["analyze", texture, "-o", out, "--size", 8, "--iterations", 3, "-q"]) == 0
         before = out.read_bytes()
         flat = tmp_path / "flat.png"
         Image.new("L", (32, 32), 7).save(flat)
-        assert run(["analyze", flat, "-o", out, "--size", 8, "--iterations", 3, "-q"]) == 2
+        assert run_cli(["analyze", flat, "-o", out, "--size", 8, "--iterations", 3, "-q"]) == 2
         assert out.read_bytes() == before
         assert parts(tmp_path) == []
 
@@ -280,7 +261,7 @@ class TestUserErrors:
 # ------------------------------------------------------------------ demo
 def test_demo_writes_everything(tmp_path, capsys):
     out = tmp_path / "demo"
-    assert run(["demo", "-o", out, "-q"]) == 0
+    assert run_cli(["demo", "-o", out, "-q"]) == 0
     # -q: the written paths are not listed (Warp may print its own start-up banner)
     assert str(out) not in capsys.readouterr().out
     names = {p.name for p in out.iterdir()}
@@ -306,6 +287,6 @@ def test_demo_writes_everything(tmp_path, capsys):
 
 def test_demo_lists_what_it_writes(tmp_path, capsys):
     out = tmp_path / "demo"
-    assert run(["demo", "-o", out]) == 0
+    assert run_cli(["demo", "-o", out]) == 0
     listed = {Path(line).name for line in capsys.readouterr().out.splitlines() if line.startswith(str(out))}
     assert listed == {p.name for p in out.iterdir()}

@@ -25,34 +25,23 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from devices import needs_cuda
+from helpers import assert_same_noise, noise_sd, random_texton, run_cli
 from texton_models import model_covariance
 from warp_texton import Texton, TextonError, read_image, render_plane, synthesize
-from warp_texton import filtering
+from warp_texton import FilterOptions, filtering
 from warp_texton.bspline import bspline
-from warp_texton.cli import main
-from warp_texton.filtering import PlaneView, plane_pixels, texton_pyramid
+from warp_texton.filtering import FADE_ENERGY, LOD_BIAS, texton_pyramid
+from warp_texton.plane import PlaneView, plane_pixels
 
-CPU = "cpu"
 FILTERED = ("mip", "anisotropic")
 
 
 # --------------------------------------------------------------------------- #
 # Helpers and exact references                                                #
 # --------------------------------------------------------------------------- #
-def white_texton(shape=(8, 8), order=1, seed=0, offset=0.03, channels=1, mean=0.5) -> Texton:
-    """White coefficients (σ 0.15) plus a constant ``offset``: the offset sets ∫h = Σα."""
-    a = 0.15 * np.random.default_rng(seed).standard_normal((*shape, channels)) + offset
-    return Texton(a, [mean] * channels, order)
-
-
-def noise_sd(texton: Texton) -> float:
-    return float(np.sqrt(np.diag(texton.covariance()).mean()))
-
-
 def bias(filter: str) -> float:
     """The level bias the kernels add to log2(width) for ``filter`` (one value or one per filter)."""
-    b = filtering.LOD_BIAS
+    b = LOD_BIAS
     return float(b[filter]) if isinstance(b, dict) else float(b)
 
 
@@ -144,14 +133,6 @@ def seed_stats(values):
     return float(v.mean()), float(v.std(ddof=1) / math.sqrt(v.size))
 
 
-def assert_same_noise(a, b, texton, rtol=1e-5):
-    a = np.asarray(a, np.float64)
-    b = np.asarray(b, np.float64)
-    assert a.shape == b.shape
-    err = np.abs(a - b).max() / noise_sd(texton)
-    assert err <= rtol, f"max difference {err:.3g} std"
-
-
 def run_isolated(code: str, *args) -> subprocess.CompletedProcess:
     """Run ``code`` in a fresh interpreter: a crash there (segfault) fails the test, not pytest."""
     return subprocess.run([sys.executable, "-c", code, *map(str, args)], capture_output=True, text=True,
@@ -165,7 +146,7 @@ class TestPyramid:
     @pytest.mark.parametrize("shape, channels", [((8, 8), 1), ((7, 5), 1), ((13, 3), 3), ((1, 9), 1),
                                                  ((1, 1), 1), ((24, 20), 3), ((33, 64), 1)])
     def test_levels_keep_the_integral_down_to_one_coefficient(self, shape, channels):
-        t = white_texton(shape, channels=channels, seed=sum(shape), offset=0.2)
+        t = random_texton(shape, channels=channels, seed=sum(shape), offset=0.2, correlated=False)
         levels = texton_pyramid(t)
         ref = reference_pyramid(t)
         assert len(levels) == math.ceil(math.log2(max(shape))) + 1 == len(ref)
@@ -184,7 +165,7 @@ class TestPyramid:
     def test_level_textons_integrate_like_the_texton(self, order):
         """The continuous h_ℓ (stretched ψ at the block centres) integrates to ∫h, and its ∫h_ℓ²
         is 4^ℓ Σ_τ b(τ) Σ α_ℓ(k) α_ℓ(k + τ): the quadrature reference used below is exact."""
-        t = white_texton((7, 6), order=order, seed=5, offset=0.1)
+        t = random_texton((7, 6), order=order, seed=5, offset=0.1, correlated=False)
         levels = reference_pyramid(t)
         for ell in range(len(levels)):
             first, second = filtered_moments(levels, order, [(1.0, ell, (0.0, 0.0))])
@@ -202,18 +183,18 @@ class TestPyramid:
 class TestNoMinification:
     @pytest.mark.parametrize("filter", FILTERED)
     @pytest.mark.parametrize("scale, rotation", [(1.0, 0.0), (1.0, 30.0), (1.5, 0.0), (3.0, 70.0)])
-    def test_synthesize_at_scale_one_or_more_is_none(self, filter, scale, rotation):
-        t = white_texton(channels=3, seed=1)
-        kw = dict(seed=4, scale=scale, rotation=rotation, offset=(-37.5, 12.25), device=CPU)
+    def test_synthesize_at_scale_one_or_more_is_none(self, filter, scale, rotation, device):
+        t = random_texton(channels=3, seed=1, correlated=False)
+        kw = dict(seed=4, scale=scale, rotation=rotation, offset=(-37.5, 12.25), device=device)
         np.testing.assert_array_equal(synthesize(t, (40, 56), filter=filter, **kw),
                                       synthesize(t, (40, 56), **kw))
 
     @pytest.mark.parametrize("filter", FILTERED)
-    def test_filtering_starts_where_the_level_rises_above_zero(self, filter):
+    def test_filtering_starts_where_the_level_rises_above_zero(self, filter, device):
         """A raster at scale s has footprints 1/s: level log2(1/s) + bias is 0 down to s = 2^bias."""
-        t = white_texton(seed=2)
+        t = random_texton(seed=2, correlated=False)
         s0 = 2.0 ** bias(filter)
-        kw = dict(seed=5, device=CPU)
+        kw = dict(seed=5, device=device)
         np.testing.assert_array_equal(synthesize(t, (32, 32), scale=1.01 * s0, filter=filter, **kw),
                                       synthesize(t, (32, 32), scale=1.01 * s0, **kw))
         below = synthesize(t, (32, 32), scale=0.8 * s0, filter=filter, **kw)
@@ -222,37 +203,37 @@ class TestNoMinification:
 
     @pytest.mark.parametrize("filter", FILTERED)
     @pytest.mark.parametrize("texel_size", (0.05, 0.02))
-    def test_kernel_path_without_minification_is_none(self, filter, texel_size):
+    def test_kernel_path_without_minification_is_none(self, filter, texel_size, device):
         """plane_pixels always runs the filter kernel: straight down (tilt 0) every footprint is
         k·I with k below 2^(−bias), one lookup of level 0, so it is the plain noise."""
-        t = white_texton(channels=3, seed=3)
+        t = random_texton(channels=3, seed=3, correlated=False)
         view = PlaneView((32, 48), 1.0, 0.0, 40.0, texel_size)
         px = np.arange(32 * 48)
         i, j = np.divmod(px, 48)
         major = np.linalg.svd(view.footprints(i + 0.5, j + 0.5), compute_uv=False)[:, 0]
         assert major.max() < 2.0 ** -bias(filter)
-        assert_same_noise(plane_pixels(t, view, px, seed=6, filter=filter, device=CPU),
-                          plane_pixels(t, view, px, seed=6, filter="none", device=CPU), t)
+        assert_same_noise(plane_pixels(t, view, px, seed=6, filter=filter, device=device),
+                          plane_pixels(t, view, px, seed=6, filter="none", device=device), t)
 
-    def test_mip_kernel_on_a_tilted_view_below_its_level_is_none(self):
-        t = white_texton(seed=4)
+    def test_mip_kernel_on_a_tilted_view_below_its_level_is_none(self, device):
+        t = random_texton(seed=4, correlated=False)
         view = PlaneView((32, 48), 1.0, 30.0, 30.0, 0.05)
         px = np.arange(32 * 48)
         i, j = np.divmod(px, 48)
         sv = np.linalg.svd(view.footprints(i + 0.5, j + 0.5), compute_uv=False)
         assert sv[:, 0].max() < 2.0 ** -bias("mip") and (sv[:, 0] / sv[:, 1]).max() > 1.2
-        assert_same_noise(plane_pixels(t, view, px, seed=7, filter="mip", device=CPU),
-                          plane_pixels(t, view, px, seed=7, filter="none", device=CPU), t)
+        assert_same_noise(plane_pixels(t, view, px, seed=7, filter="mip", device=device),
+                          plane_pixels(t, view, px, seed=7, filter="none", device=device), t)
 
-    def test_anisotropic_lookups_average_even_below_a_texel(self):
+    def test_anisotropic_lookups_average_even_below_a_texel(self, device):
         """A 0.9 × 0.3 texel footprint takes ⌈3⌉ lookups along x at level 0: it is not the plain
         noise, and it is closer to the supersampled average over the footprint than "none" is."""
-        t = white_texton(seed=5)
+        t = random_texton(seed=5, correlated=False)
         J = np.diag([0.9, 0.3])
-        kw = dict(seed=8, jacobian=J, device=CPU)
+        kw = dict(seed=8, jacobian=J, device=device)
         a = synthesize(t, (96, 96), filter="anisotropic", **kw)
         none = synthesize(t, (96, 96), **kw)
-        ref = synthesize(t, (96, 96), filter="supersample", supersample=12, **kw)
+        ref = synthesize(t, (96, 96), filter=FilterOptions("supersample", supersample=12), **kw)
         sd = noise_sd(t)
         assert np.abs(a - none).max() > 0.1 * sd
         rmse_a = np.sqrt(np.mean((a - ref) ** 2)) / sd
@@ -266,25 +247,25 @@ class TestNoMinification:
 class TestIsotropic:
     @pytest.mark.parametrize("c", (2.0, 3.7, 10.0, 25.0, 60.0))
     @pytest.mark.parametrize("angle", (0.0, 30.0))
-    def test_anisotropic_equals_mip_at_the_same_level(self, c, angle):
+    def test_anisotropic_equals_mip_at_the_same_level(self, c, angle, device):
         """For J = c R(θ) (major = minor) "anisotropic" makes one lookup of width c, as "mip"
         does; the filters' biases may differ, so mip gets c·2^(bias_a − bias_m) for the same level."""
-        t = white_texton(channels=3, seed=6, offset=0.1)
+        t = random_texton(channels=3, seed=6, offset=0.1, correlated=False)
         c_mip = c * 2.0 ** (bias("anisotropic") - bias("mip"))
-        kw = dict(seed=9, scale=1.0 / c, device=CPU)
+        kw = dict(seed=9, scale=1.0 / c, device=device)
         a = synthesize(t, (40, 40), jacobian=c * rot(angle), filter="anisotropic", **kw)
         m = synthesize(t, (40, 40), jacobian=c_mip * rot(angle), filter="mip", **kw)
         assert_same_noise(a, m, t)
         if math.log2(c) + bias("anisotropic") > 0:  # really filtered, not the plain noise
             assert np.abs(a - synthesize(t, (40, 40), **kw)).max() > 0.05 * noise_sd(t)
 
-    def test_same_bias_same_image_on_a_plane_seen_from_above(self):
-        t = white_texton(seed=7)
+    def test_same_bias_same_image_on_a_plane_seen_from_above(self, device):
+        t = random_texton(seed=7, correlated=False)
         view = PlaneView((24, 32), 1.0, 0.0, 60.0, 0.002)  # J = k·I, k ≈ 24 texels
         px = np.arange(24 * 32)
         for b in (-0.79, 0.0):
-            assert_same_noise(plane_pixels(t, view, px, seed=3, filter="mip", lod_bias=b, device=CPU),
-                              plane_pixels(t, view, px, seed=3, filter="anisotropic", lod_bias=b, device=CPU), t)
+            assert_same_noise(plane_pixels(t, view, px, seed=3, filter=FilterOptions("mip", lod_bias=b), device=device),
+                              plane_pixels(t, view, px, seed=3, filter=FilterOptions("anisotropic", lod_bias=b), device=device), t)
 
 
 # --------------------------------------------------------------------------- #
@@ -297,7 +278,7 @@ MEAN_SEEDS = range(12)
 
 @functools.lru_cache(maxsize=None)
 def mean_texton(order):
-    return white_texton((24, 20), order=order, seed=20 + order, offset=0.2)
+    return random_texton((24, 20), order=order, seed=20 + order, offset=0.2, correlated=False)
 
 
 def mean_cases():
@@ -317,7 +298,7 @@ def mean_cases():
 
 class TestMean:
     @pytest.mark.parametrize("order, filter, kind, lod, fade", mean_cases())
-    def test_mean_is_the_texton_mean(self, order, filter, kind, lod, fade):
+    def test_mean_is_the_texton_mean(self, order, filter, kind, lod, fade, device):
         t = mean_texton(order)
         if kind == "iso":
             w = width_for(lod, filter)
@@ -326,7 +307,7 @@ class TestMean:
             w = width_for(lod, "anisotropic")
             J = rot(30.0) @ np.diag([8.0 * w, w])
         means = [synthesize(t, (64, 64), seed=s, scale=1.0 / w, offset=(1000.0 * s, -500.0 * s), jacobian=J,
-                            filter=filter, fade_energy=fade, device=CPU).mean() for s in MEAN_SEEDS]
+                            filter=FilterOptions(filter, fade_energy=fade), device=device).mean() for s in MEAN_SEEDS]
         m, se = seed_stats(means)
         # t with 11 degrees of freedom: P(|t| > 5) ≈ 4e-4
         assert abs(m - float(t.mean[0])) < 5 * se, (m, se)
@@ -344,30 +325,30 @@ VAR_SEEDS = range(16)
 
 @functools.lru_cache(maxsize=None)
 def var_texton(order):
-    return white_texton((16, 16), order=order, seed=30 + order, offset=0.03)
+    return random_texton((16, 16), order=order, seed=30 + order, offset=0.03, correlated=False)
 
 
-def variance_over_seeds(t, filter, J, spacing, shape=(64, 64), fade_energy=0.0):
+def variance_over_seeds(t, filter, J, spacing, shape=(64, 64), fade_energy=0.0, *, device):
     """Mean over seeds (and its standard error) of the raster's variance about the known mean;
     ``fade_energy`` 0 (by default here) keeps every level of the pyramid."""
     m = float(t.mean[0])
     return seed_stats([
         np.mean((synthesize(t, shape, seed=s, scale=1.0 / spacing, offset=(-700.0 * s, 300.0 * s), jacobian=J,
-                            filter=filter, fade_energy=fade_energy, device=CPU)[..., 0].astype(np.float64) - m) ** 2)
+                            filter=FilterOptions(filter, fade_energy=fade_energy), device=device)[..., 0].astype(np.float64) - m) ** 2)
         for s in VAR_SEEDS])
 
 
 class TestVariance:
     @pytest.mark.parametrize("order, lod", [(1, 1.0), (1, 2.0), (1, 3.0), (1, 4.0), (1, 1.25), (1, 2.5),
                                             (1, 4.5), (0, 2.0), (3, 2.0), (3, 1.5)])
-    def test_mip_variance_is_that_of_the_level_texton(self, order, lod):
+    def test_mip_variance_is_that_of_the_level_texton(self, order, lod, device):
         """J = w·I at level lod: Var g = ∫((1 − f) h_ℓ + f h_{ℓ+1})², at the last level
         ∫((1 − f) h_last)² (the fade to the mean), at an integer level ∫h_ℓ²."""
         t = var_texton(order)
         levels = reference_pyramid(t)
         expected = filtered_moments(levels, order, lookup_terms(len(levels), lod))[1][0]
         w = width_for(lod, "mip")
-        v, se = variance_over_seeds(t, "mip", w * np.eye(2), w)
+        v, se = variance_over_seeds(t, "mip", w * np.eye(2), w, device=device)
         assert abs(v - expected) < 5 * se, (v, expected, se)  # t with 15 dof: P(|t| > 5) ≈ 2e-4
         assert 5 * se < 0.06 * expected  # 6 %: a level off by ¼ changes ∫H² by more
         if lod == int(lod) and lod + 1 < len(levels):
@@ -375,7 +356,7 @@ class TestVariance:
             assert all(abs(n - expected) > 20 * se for n in neighbours)
 
     @pytest.mark.parametrize("ell", (2, 3))
-    def test_level_texton_sits_on_the_texton(self, ell):
+    def test_level_texton_sits_on_the_texton(self, ell, device):
         """Same impacts: E[(g_mip(x) − m)(g_none(x + τ) − m)] = ∫h_ℓ(y) h(y + τ) dy. Its values at
         a few lags pin h_ℓ's position: without the offset o_ℓ = (2^ℓ − 1)/2 (h_ℓ shifted up-left
         by 1.5 or 3.5 texels) the model at these lags is off by many standard errors."""
@@ -393,8 +374,8 @@ class TestVariance:
         m = float(t.mean[0])
         per_seed = []
         for s in VAR_SEEDS:
-            kw = dict(seed=s, offset=(-700.0 * s, 300.0 * s), device=CPU)
-            gm = synthesize(t, (64, 64), jacobian=w * np.eye(2), filter="mip", fade_energy=0.0, **kw)[..., 0] - m
+            kw = dict(seed=s, offset=(-700.0 * s, 300.0 * s), device=device)
+            gm = synthesize(t, (64, 64), jacobian=w * np.eye(2), filter=FilterOptions("mip", fade_energy=0.0), **kw)[..., 0] - m
             gn = synthesize(t, (64, 64), **kw)[..., 0] - m
             per_seed.append([np.mean(gm[3:61, 3:61].astype(np.float64) * gn[3 + dy:61 + dy, 3 + dx:61 + dx])
                              for dx, dy in lags])
@@ -409,7 +390,7 @@ class TestVariance:
         assert np.abs((misplaced - model) / se).max() > 10
 
     @pytest.mark.parametrize("ell, axis", [(1, 0), (2, 0), (1, 1)])
-    def test_anisotropic_variance_is_that_of_the_averaged_lookups(self, ell, axis):
+    def test_anisotropic_variance_is_that_of_the_averaged_lookups(self, ell, axis, device):
         """J = diag(4s, w) (or its transpose): w = 2^(ℓ − bias) sets the level, s a multiple of ½
         in (¾w, w] makes N = ⌈4s/w⌉ = 4 lookups at s·(−1.5, −0.5, 0.5, 1.5) along the major axis,
         so Var g = ∫(¼ Σ_q h_ℓ(y + δ_q))², a function whose knots stay on the ¼ grid."""
@@ -422,7 +403,7 @@ class TestVariance:
         expected = filtered_moments(levels, 1, lookup_terms(len(levels), ell, shifts))[1][0]
         single = filtered_moments(levels, 1, lookup_terms(len(levels), ell))[1][0]
         J = np.diag([4 * s, w] if axis == 0 else [w, 4 * s])
-        v, se = variance_over_seeds(t, "anisotropic", J, w)
+        v, se = variance_over_seeds(t, "anisotropic", J, w, device=device)
         assert abs(v - expected) < 5 * se, (v, expected, se)
         assert abs(single - expected) > 10 * se  # the lookups' average is what is measured
 
@@ -443,14 +424,14 @@ class TestFade:
 
     FADE = 0.25
 
-    def test_default_is_fade_energy(self):
+    def test_default_is_fade_energy(self, device):
         t = var_texton(1)
         w = width_for(len(reference_pyramid(t)) - 1.5, "mip")
-        kw = dict(seed=4, filter="mip", device=CPU, scale=1.0 / w, jacobian=w * np.eye(2))
+        kw = dict(seed=4, filter="mip", device=device, scale=1.0 / w, jacobian=w * np.eye(2))
         np.testing.assert_array_equal(synthesize(t, (16, 16), **kw),
-                                      synthesize(t, (16, 16), fade_energy=filtering.FADE_ENERGY, **kw))
+                                      synthesize(t, (16, 16), **{**kw, "filter": FilterOptions("mip", fade_energy=FADE_ENERGY)}))
 
-    def test_variance_fades_from_the_first_weak_level(self):
+    def test_variance_fades_from_the_first_weak_level(self, device):
         t = var_texton(1)
         levels = reference_pyramid(t)
         k = reference_kept_levels(t, self.FADE)
@@ -460,12 +441,12 @@ class TestFade:
         faded = filtered_moments(levels, 1, lookup_terms(k, lod))[1][0]  # ¼ ∫h_{k−1}²
         full = filtered_moments(levels, 1, lookup_terms(len(levels), lod))[1][0]
         for fade, expected in ((self.FADE, faded), (0.0, full)):
-            v, se = variance_over_seeds(t, "mip", w * np.eye(2), w, fade_energy=fade)
+            v, se = variance_over_seeds(t, "mip", w * np.eye(2), w, fade_energy=fade, device=device)
             assert abs(v - expected) < 5 * se, (fade, v, expected, se)
         assert abs(full - faded) > 0.3 * full
 
     @pytest.mark.parametrize("filter", FILTERED)
-    def test_mean_one_level_past_the_last_kept(self, filter):
+    def test_mean_one_level_past_the_last_kept(self, filter, device):
         """A colour texton whose channels lose energy at different rates: the rule sums them."""
         rng = np.random.default_rng(50)
         a = 0.15 * rng.standard_normal((16, 16, 3))
@@ -475,14 +456,14 @@ class TestFade:
         for fade in (self.FADE, 0.5):
             k = reference_kept_levels(t, fade)
             assert 1 < k < len(reference_pyramid(t))
-            kw = dict(seed=4, filter=filter, fade_energy=fade, device=CPU)
+            kw = dict(seed=4, filter=FilterOptions(filter, fade_energy=fade), device=device)
             w = width_for(k - 0.5, filter)
             fading = synthesize(t, (16, 16), scale=1.0 / w, jacobian=w * np.eye(2), **kw)
             assert np.abs(fading - t.mean).max() > 0.01 * sd
             w = width_for(k, filter)
             g = synthesize(t, (16, 16), scale=1.0 / w, jacobian=w * np.eye(2), **kw)
             np.testing.assert_array_equal(g, np.broadcast_to(t.mean, g.shape))
-            kw["fade_energy"] = 0.0
+            kw["filter"] = FilterOptions(filter, fade_energy=0.0)
             g = synthesize(t, (16, 16), scale=1.0 / w, jacobian=w * np.eye(2), **kw)
             assert np.abs(g - t.mean).max() > 0.01 * sd  # every level kept: still noise there
 
@@ -502,7 +483,7 @@ def directional_energy(g, step):
 
 
 @functools.lru_cache(maxsize=None)
-def oriented_case(name):
+def oriented_case(name, *, device):
     """A 8:1 footprint along x, y, or a diagonal, at scale 1 (texel axes are pixel axes)."""
     J, along, across = {
         "x": (np.diag([8.0, 1.0]), (0, 1), (1, 0)),
@@ -510,17 +491,17 @@ def oriented_case(name):
         "diag": (rot(45.0) @ np.diag([8.0, 1.0]), (1, 1), (1, -1)),
         "anti": (rot(-45.0) @ np.diag([8.0, 1.0]), (-1, 1), (1, 1)),
     }[name]
-    t = white_texton(seed=8)
-    kw = dict(seed=10, jacobian=J, device=CPU)
+    t = random_texton(seed=8, correlated=False)
+    kw = dict(seed=10, jacobian=J, device=device)
     out = {f: synthesize(t, (96, 96), filter=f, **kw)[..., 0].astype(np.float64) for f in ("none", *FILTERED)}
-    out["supersample"] = synthesize(t, (96, 96), filter="supersample", supersample=8, **kw)[..., 0].astype(np.float64)
+    out["supersample"] = synthesize(t, (96, 96), filter=FilterOptions("supersample", supersample=8), **kw)[..., 0].astype(np.float64)
     return t, along, across, out
 
 
 class TestFootprints:
     @pytest.mark.parametrize("name", ("x", "y", "diag", "anti"))
-    def test_anisotropic_smooths_along_the_major_axis_like_the_reference(self, name):
-        t, along, across, out = oriented_case(name)
+    def test_anisotropic_smooths_along_the_major_axis_like_the_reference(self, name, device):
+        t, along, across, out = oriented_case(name, device=device)
         ratio = {f: directional_energy(g, along) / directional_energy(g, across) for f, g in out.items()}
         # 8 lookups over 8 texels along the major axis, one texel across: the differences along it
         # are several times smaller, as in the reference (measured ≈ 0.1–0.2 for both); the plain
@@ -536,18 +517,18 @@ class TestFootprints:
         rmse = {f: np.sqrt(np.mean((g - out["supersample"]) ** 2)) for f, g in out.items()}
         assert rmse["anisotropic"] < 0.5 * rmse["none"], rmse
 
-    def test_mip_sees_only_the_major_length(self):
+    def test_mip_sees_only_the_major_length(self, device):
         """"mip" is isotropic: 8:1 footprints along x, y or a diagonal give the image of 8·I."""
-        t = white_texton(seed=8)
-        iso = synthesize(t, (96, 96), seed=10, jacobian=8.0 * np.eye(2), filter="mip", device=CPU)
+        t = random_texton(seed=8, correlated=False)
+        iso = synthesize(t, (96, 96), seed=10, jacobian=8.0 * np.eye(2), filter="mip", device=device)
         for name in ("x", "y", "diag", "anti"):
-            assert_same_noise(oriented_case(name)[3]["mip"], iso[..., 0], t)
+            assert_same_noise(oriented_case(name, device=device)[3]["mip"], iso[..., 0], t)
 
     @pytest.mark.parametrize("filter", ("mip", "anisotropic", "supersample"))
-    def test_per_pixel_footprints_are_read_per_pixel(self, filter):
+    def test_per_pixel_footprints_are_read_per_pixel(self, filter, device):
         """(H, W, 2, 2) footprints, one per quadrant of a non-square raster, give in each quadrant
         the image of that constant footprint; a broadcast constant gives the constant's image."""
-        t = white_texton(channels=3, seed=9, offset=0.1)
+        t = random_texton(channels=3, seed=9, offset=0.1, correlated=False)
         h, w = 24, 40
         quads = [np.zeros((2, 2)), 6.0 * np.eye(2), rot(30.0) @ np.diag([12.0, 2.0]), np.diag([1.0, 5.0])]
         J = np.empty((h, w, 2, 2))
@@ -555,7 +536,7 @@ class TestFootprints:
                  (slice(12, 24), slice(0, 20)), (slice(12, 24), slice(20, 40))]
         for q, box in zip(quads, boxes):
             J[box] = q
-        kw = dict(seed=11, scale=0.5, filter=filter, supersample=4, device=CPU)
+        kw = dict(seed=11, scale=0.5, filter=FilterOptions(filter, supersample=4), device=device)
         mixed = synthesize(t, (h, w), jacobian=J, **kw)
         for q, box in zip(quads, boxes):
             const = synthesize(t, (h, w), jacobian=q, **kw)[box]
@@ -572,27 +553,27 @@ class TestFootprints:
             np.testing.assert_array_equal(broadcast, const)
 
     @pytest.mark.parametrize("filter", FILTERED)
-    def test_zero_footprint_is_none(self, filter):
-        t = white_texton(channels=3, seed=10)
-        kw = dict(seed=12, scale=0.1, device=CPU)  # scale alone would filter heavily
+    def test_zero_footprint_is_none(self, filter, device):
+        t = random_texton(channels=3, seed=10, correlated=False)
+        kw = dict(seed=12, scale=0.1, device=device)  # scale alone would filter heavily
         np.testing.assert_array_equal(synthesize(t, (24, 24), jacobian=np.zeros((2, 2)), filter=filter, **kw),
                                       synthesize(t, (24, 24), **kw))
 
     @pytest.mark.parametrize("filter", FILTERED)
     @pytest.mark.parametrize("J", [1e30 * np.eye(2), -1e30 * rot(30.0), 1e13 * rot(45.0),
                                    np.full((2, 2), 1e12) * [[1, -1], [1, 1]]], ids=["1e30", "-1e30rot", "1e13", "1e12"])
-    def test_enormous_isotropic_footprint_is_the_mean(self, filter, J):
-        t = white_texton(channels=3, seed=11, mean=0.25)
-        g = synthesize(t, (8, 12), seed=13, jacobian=J, filter=filter, device=CPU)
+    def test_enormous_isotropic_footprint_is_the_mean(self, filter, J, device):
+        t = random_texton(channels=3, seed=11, mean=0.25, correlated=False)
+        g = synthesize(t, (8, 12), seed=13, jacobian=J, filter=filter, device=device)
         np.testing.assert_array_equal(g, np.broadcast_to(t.mean, g.shape))
 
-    def test_footprint_larger_than_the_texton_is_the_mean(self):
+    def test_footprint_larger_than_the_texton_is_the_mean(self, device):
         """Past the last level + 1 every lookup is the mean, whatever the filter's bias."""
-        t = white_texton(channels=3, seed=11)
+        t = random_texton(channels=3, seed=11, correlated=False)
         n_levels = len(texton_pyramid(t))
         for filter in FILTERED:
             w = width_for(n_levels, filter)
-            g = synthesize(t, (16, 16), seed=2, scale=1.0 / w, filter=filter, device=CPU)
+            g = synthesize(t, (16, 16), seed=2, scale=1.0 / w, filter=filter, device=device)
             np.testing.assert_array_equal(g, np.broadcast_to(t.mean, g.shape))
 
     def test_enormous_degenerate_footprint_is_the_mean(self):
@@ -627,15 +608,15 @@ def plane_texel_size():
 
 
 @functools.lru_cache(maxsize=None)
-def plane_case():
-    t = white_texton(seed=12)
+def plane_case(device):
+    t = random_texton(seed=12, correlated=False)
     h, w = PLANE_SHAPE
     ts = plane_texel_size()
-    out = {f: render_plane(t, PLANE_SHAPE, 1.0, PLANE_TILT, PLANE_FOV, ts, seed=3, filter=f, device=CPU)
+    out = {f: render_plane(t, PLANE_SHAPE, 1.0, PLANE_TILT, PLANE_FOV, ts, seed=3, filter=f, device=device)
            for f in ("none", *FILTERED)}
     view = PlaneView(PLANE_SHAPE, 1.0, PLANE_TILT, PLANE_FOV, ts)
     far = np.arange(h // 2 * w)  # the reference on the far half only
-    ref = plane_pixels(t, view, far, seed=3, filter="supersample", supersample=8, device=CPU)
+    ref = plane_pixels(t, view, far, seed=3, filter=FilterOptions("supersample", supersample=8), device=device)
     return t, view, out, ref.reshape(h // 2, w, 1)
 
 
@@ -650,8 +631,8 @@ NEAR_HORIZON = _near_horizon()
 
 
 class TestPlane:
-    def test_filtered_bands_follow_the_reference_and_none_does_not(self):
-        t, view, out, ref = plane_case()
+    def test_filtered_bands_follow_the_reference_and_none_does_not(self, device):
+        t, view, out, ref = plane_case(device=device)
         h, w = PLANE_SHAPE
         m = float(t.mean[0])
         sig2 = noise_sd(t) ** 2
@@ -681,28 +662,28 @@ class TestPlane:
         assert rmse["anisotropic"] < 0.3 * rmse["none"] and rmse["mip"] < 0.5 * rmse["none"], rmse
 
     @pytest.mark.parametrize("filter", ("none", *FILTERED))
-    def test_plane_pixels_are_the_render_plane_pixels(self, filter):
-        t, view, out, _ = plane_case()
+    def test_plane_pixels_are_the_render_plane_pixels(self, filter, device):
+        t, view, out, _ = plane_case(device=device)
         px = np.random.default_rng(0).choice(view.shape[0] * view.shape[1], 300, replace=False)
-        got = plane_pixels(t, view, px, seed=3, filter=filter, device=CPU)
+        got = plane_pixels(t, view, px, seed=3, filter=filter, device=device)
         np.testing.assert_array_equal(got, out[filter].reshape(-1, 1)[px])
 
-    def test_supersampled_plane_pixels_are_the_render_plane_pixels(self, monkeypatch):
+    def test_supersampled_plane_pixels_are_the_render_plane_pixels(self, monkeypatch, device):
         # batches of 16 pixels at n = 4 (as 1024 pixels at n = 64 with the default batch size)
-        monkeypatch.setattr(filtering, "_BATCH", 16 * 16)
-        t = white_texton(seed=12)
+        monkeypatch.setattr(filtering, "SUPERSAMPLE_BATCH", 16 * 16)
+        t = random_texton(seed=12, correlated=False)
         view = PlaneView((16, 16), 1.0, 60.0, 40.0, 0.01)
-        full = render_plane(t, (16, 16), 1.0, 60.0, 40.0, 0.01, seed=3, filter="supersample", supersample=4,
-                            device=CPU).reshape(-1, 1)
+        full = render_plane(t, (16, 16), 1.0, 60.0, 40.0, 0.01, seed=3, filter=FilterOptions("supersample", supersample=4),
+                            device=device).reshape(-1, 1)
         px = np.arange(16, 48)
-        np.testing.assert_array_equal(plane_pixels(t, view, px, seed=3, filter="supersample", supersample=4,
-                                                   device=CPU), full[px])
+        np.testing.assert_array_equal(plane_pixels(t, view, px, seed=3, filter=FilterOptions("supersample", supersample=4),
+                                                   device=device), full[px])
 
     @pytest.mark.parametrize("filter", ("none", *FILTERED, "supersample"))
-    def test_above_the_horizon_is_the_mean(self, filter):
-        t = white_texton(channels=3, seed=13, mean=0.3)
+    def test_above_the_horizon_is_the_mean(self, filter, device):
+        t = random_texton(channels=3, seed=13, mean=0.3, correlated=False)
         view = PlaneView((40, 30), 1.0, 80.0, 40.0, 0.01)
-        g = render_plane(t, (40, 30), 1.0, 80.0, 40.0, 0.01, seed=1, filter=filter, supersample=3, device=CPU)
+        g = render_plane(t, (40, 30), 1.0, 80.0, 40.0, 0.01, seed=1, filter=FilterOptions(filter, supersample=3), device=device)
         assert g.shape == (40, 30, 3) and g.dtype == np.float32
         i = np.arange(40) + 0.5
         sky = ~np.isfinite(view.texels(i, np.full(40, 15.0))).all(axis=1)  # rows whose centre misses the plane
@@ -735,19 +716,19 @@ class TestPlane:
         assert out.returncode == 0, f"exit status {out.returncode}: {out.stderr[-500:]}"
         assert out.stdout.split("\n")[:2] == ["mip True 0.0", "anisotropic True 0.0"], out.stdout
 
-    def test_colour_plane_and_max_aniso(self):
-        t = white_texton(channels=3, seed=14)
+    def test_colour_plane_and_max_aniso(self, device):
+        t = random_texton(channels=3, seed=14, correlated=False)
         ts = plane_texel_size()
-        kw = dict(seed=2, device=CPU)
+        kw = dict(seed=2, device=device)
         a8 = render_plane(t, (48, 32), 1.0, PLANE_TILT, PLANE_FOV, ts, filter="anisotropic", **kw)
-        a1 = render_plane(t, (48, 32), 1.0, PLANE_TILT, PLANE_FOV, ts, filter="anisotropic", max_aniso=1, **kw)
+        a1 = render_plane(t, (48, 32), 1.0, PLANE_TILT, PLANE_FOV, ts, filter=FilterOptions("anisotropic", max_aniso=1), **kw)
         mip = render_plane(t, (48, 32), 1.0, PLANE_TILT, PLANE_FOV, ts, filter="mip", **kw)
         assert a8.shape == (48, 32, 3)
         assert np.abs(a8 - a1).max() > 0.05 * noise_sd(t)  # max_aniso reaches the kernel
         # max_aniso=1: one lookup as wide as the major axis, i.e. "mip" at the anisotropic bias
         view = PlaneView((48, 32), 1.0, PLANE_TILT, PLANE_FOV, ts)
         px = np.arange(48 * 32)
-        mip_b = plane_pixels(t, view, px, filter="mip", lod_bias=bias("anisotropic"), **kw)
+        mip_b = plane_pixels(t, view, px, filter=FilterOptions("mip", lod_bias=bias("anisotropic")), **kw)
         assert_same_noise(a1.reshape(-1, 3), mip_b, t)
         assert mip.shape == a8.shape
 
@@ -756,43 +737,43 @@ class TestPlane:
 # 8. Supersampling                                                            #
 # --------------------------------------------------------------------------- #
 class TestSupersample:
-    def test_zero_footprint_is_none(self):
-        t = white_texton(channels=3, seed=15)
-        kw = dict(seed=14, scale=0.7, rotation=20.0, offset=(3.0, -9.0), device=CPU)
-        g = synthesize(t, (32, 24), jacobian=np.zeros((2, 2)), filter="supersample", supersample=3, **kw)
+    def test_zero_footprint_is_none(self, device):
+        t = random_texton(channels=3, seed=15, correlated=False)
+        kw = dict(seed=14, scale=0.7, rotation=20.0, offset=(3.0, -9.0), device=device)
+        g = synthesize(t, (32, 24), jacobian=np.zeros((2, 2)), filter=FilterOptions("supersample", supersample=3), **kw)
         assert_same_noise(g, synthesize(t, (32, 24), **kw), t, rtol=1e-4)
 
-    def test_deterministic_and_seeded(self):
-        t = white_texton(seed=16)
-        kw = dict(scale=0.25, filter="supersample", supersample=5, device=CPU)
+    def test_deterministic_and_seeded(self, device):
+        t = random_texton(seed=16, correlated=False)
+        kw = dict(scale=0.25, filter=FilterOptions("supersample", supersample=5), device=device)
         a = synthesize(t, (24, 24), seed=1, **kw)
         np.testing.assert_array_equal(a, synthesize(t, (24, 24), seed=1, **kw))
         assert np.abs(a - synthesize(t, (24, 24), seed=2, **kw)).max() > 0.1 * noise_sd(t)
         view = PlaneView((24, 24), 1.0, 60.0, 40.0, 0.01)
         px = np.arange(24 * 24)
-        p = plane_pixels(t, view, px, seed=1, filter="supersample", supersample=5, device=CPU)
-        np.testing.assert_array_equal(p, plane_pixels(t, view, px, seed=1, filter="supersample", supersample=5,
-                                                      device=CPU))
+        p = plane_pixels(t, view, px, seed=1, filter=FilterOptions("supersample", supersample=5), device=device)
+        np.testing.assert_array_equal(p, plane_pixels(t, view, px, seed=1, filter=FilterOptions("supersample", supersample=5),
+                                                      device=device))
 
-    def test_box_average_of_the_raster_step(self):
+    def test_box_average_of_the_raster_step(self, device):
         """The default footprint is the raster step: at scale 1/4 the n = 4 supersample of a pixel is
         the mean of the noise at its 16 jittered sub-pixels, all inside the pixel's 4 × 4 texels."""
-        t = white_texton(seed=17)
-        g = synthesize(t, (16, 16), seed=3, scale=0.25, filter="supersample", supersample=4, device=CPU)
-        fine = synthesize(t, (64, 64), seed=3, scale=1.0, device=CPU)  # texel-spaced samples of the same noise
+        t = random_texton(seed=17, correlated=False)
+        g = synthesize(t, (16, 16), seed=3, scale=0.25, filter=FilterOptions("supersample", supersample=4), device=device)
+        fine = synthesize(t, (64, 64), seed=3, scale=1.0, device=device)  # texel-spaced samples of the same noise
         blocks = fine[..., 0].reshape(16, 4, 16, 4).mean(axis=(1, 3))
         # 16 jittered samples vs 16 texel-centre samples of the same 4 × 4 area: close, not equal;
         # "none" (the centre value) is much further from the block means
-        none = synthesize(t, (16, 16), seed=3, scale=0.25, device=CPU)[..., 0]
+        none = synthesize(t, (16, 16), seed=3, scale=0.25, device=device)[..., 0]
         err_ss = np.sqrt(np.mean((g[..., 0] - blocks) ** 2))
         err_none = np.sqrt(np.mean((none - blocks) ** 2))
         assert err_ss < 0.5 * err_none, (err_ss, err_none)
 
-    def test_enormous_footprint(self):
-        t = white_texton(seed=0)
+    def test_enormous_footprint(self, device):
+        t = random_texton(seed=0, correlated=False)
         try:
-            g = synthesize(t, (8, 8), seed=0, jacobian=1e30 * np.eye(2), filter="supersample", supersample=8,
-                           device=CPU)
+            g = synthesize(t, (8, 8), seed=0, jacobian=1e30 * np.eye(2), filter=FilterOptions("supersample", supersample=8),
+                           device=device)
         except TextonError as exc:
             assert re.search("jacobian|footprint|position|reach", str(exc)), str(exc)
             return
@@ -803,7 +784,7 @@ class TestSupersample:
 # --------------------------------------------------------------------------- #
 # 9. Errors                                                                   #
 # --------------------------------------------------------------------------- #
-T1 = white_texton(seed=18)
+T1 = random_texton(seed=18, correlated=False)
 
 
 class TestErrors:
@@ -818,15 +799,15 @@ class TestErrors:
         ([[1.0, 2.0], [3.0]], r"jacobian must be an array"),
     ])
     @pytest.mark.parametrize("filter", ("none", "mip", "supersample"))
-    def test_bad_jacobian(self, J, match, filter):
+    def test_bad_jacobian(self, J, match, filter, device):
         with pytest.raises(TextonError, match=match):
-            synthesize(T1, (8, 12), jacobian=J, filter=filter, device=CPU)
+            synthesize(T1, (8, 12), jacobian=J, filter=filter, device=device)
 
-    def test_nan_jacobian_per_pixel(self):
+    def test_nan_jacobian_per_pixel(self, device):
         J = np.zeros((8, 12, 2, 2))
         J[3, 4, 1, 0] = np.nan
         with pytest.raises(TextonError, match="jacobian contains 1 NaN"):
-            synthesize(T1, (8, 12), jacobian=J, filter="anisotropic", device=CPU)
+            synthesize(T1, (8, 12), jacobian=J, filter="anisotropic", device=device)
 
     @pytest.mark.parametrize("kw, match", [
         ({"filter": "bogus"}, r"filter must be one of none, mip, anisotropic, supersample, got 'bogus'"),
@@ -846,11 +827,17 @@ class TestErrors:
         ({"fade_energy": "most"}, r"fade_energy must be a number"),
         ({"fade_energy": None}, r"fade_energy must be a number"),
     ])
-    def test_bad_filter_options(self, kw, match):
+    def test_bad_filter_options(self, kw, match, device):
+        """Options are checked once, where a FilterOptions is made: directly or from a name."""
+        kind = kw.get("filter", "anisotropic")
+        options = {k: v for k, v in kw.items() if k != "filter"}
         with pytest.raises(TextonError, match=match):
-            synthesize(T1, (8, 8), device=CPU, **kw)
-        with pytest.raises(TextonError, match=match):
-            render_plane(T1, (8, 8), device=CPU, **kw)
+            FilterOptions(kind, **options)
+        if not options:
+            with pytest.raises(TextonError, match=match):
+                synthesize(T1, (8, 8), device=device, filter=kind)
+            with pytest.raises(TextonError, match=match):
+                render_plane(T1, (8, 8), device=device, filter=kind)
 
     @pytest.mark.parametrize("kw, match", [
         ({"tilt": -1.0}, r"tilt must be in \[0, 90\)"),
@@ -870,15 +857,15 @@ class TestErrors:
         ({"seed": -1}, r"seed must be an integer"),
         ({"mni": 0.0}, r"mni"),
     ])
-    def test_bad_plane(self, kw, match):
-        args = dict(shape=(8, 8), device=CPU)
+    def test_bad_plane(self, kw, match, device):
+        args = dict(shape=(8, 8), device=device)
         args.update(kw)
         with pytest.raises(TextonError, match=match):
             render_plane(T1, **args)
 
-    def test_not_a_texton(self):
+    def test_not_a_texton(self, device):
         with pytest.raises(TextonError, match="texton must be a Texton"):
-            render_plane(np.zeros((4, 4, 1)), (8, 8), device=CPU)
+            render_plane(np.zeros((4, 4, 1)), (8, 8), device=device)
 
 
 # --------------------------------------------------------------------------- #
@@ -887,17 +874,10 @@ class TestErrors:
 ERROR_LINE = re.compile(r"^warp-texton(?: [a-z-]+)?: error: \S")
 
 
-def run_cli(argv):
-    try:
-        return main([str(a) for a in argv])
-    except SystemExit as exc:
-        return exc.code
-
-
 @pytest.fixture
 def texton_file(tmp_path):
     path = tmp_path / "small.texton"
-    white_texton(seed=19).save(path)
+    random_texton(seed=19, correlated=False).save(path)
     return path
 
 
@@ -917,27 +897,27 @@ class TestCli:
         ([], {}),
         (["--filter", "mip", "--tilt", 60, "--fov", 50, "--camera-height", 2, "--seed", 3, "--mni", 20],
          dict(filter="mip", tilt=60.0, fov=50.0, height=2.0, seed=3, mni=20.0)),
-        (["--max-aniso", 2], dict(max_aniso=2)),
-        (["--filter", "supersample", "--supersample", 3], dict(filter="supersample", supersample=3)),
-        (["--fade-energy", 0, "--filter", "mip"], dict(fade_energy=0.0, filter="mip")),
+        (["--max-aniso", 2], dict(filter=FilterOptions("anisotropic", max_aniso=2))),
+        (["--filter", "supersample", "--supersample", 3], dict(filter=FilterOptions("supersample", supersample=3))),
+        (["--fade-energy", 0, "--filter", "mip"], dict(filter=FilterOptions("mip", fade_energy=0.0))),
     ])
     def test_render_plane_options_reach_the_renderer(self, tmp_path, texton_file, options, kw):
         out = tmp_path / "plane.exr"
         assert run_cli(["render-plane", texton_file, "-o", out, "--width", 32, "--height", 20,
                         "--texel-size", 0.02, "--device", "cpu", "-q", *options]) == 0
-        args = dict(height=1.0, tilt=70.0, fov=40.0, texel_size=0.02, device=CPU)
+        args = dict(height=1.0, tilt=70.0, fov=40.0, texel_size=0.02, device="cpu")
         args.update(kw)
-        np.testing.assert_array_equal(read_image(out), render_plane(white_texton(seed=19), (20, 32), **args))
+        np.testing.assert_array_equal(read_image(out), render_plane(random_texton(seed=19, correlated=False), (20, 32), **args))
 
     def test_synthesize_filter(self, tmp_path, texton_file):
-        t = white_texton(seed=19)
+        t = random_texton(seed=19, correlated=False)
         base = ["synthesize", texton_file, "--width", 24, "--height", 16, "--scale", 0.25, "--seed", 2,
                 "--device", "cpu", "-q"]
         for filter in ("mip", "anisotropic", "none"):
             out = tmp_path / f"{filter}.exr"
             assert run_cli([*base, "-o", out, "--filter", filter]) == 0
             np.testing.assert_array_equal(read_image(out), synthesize(t, (16, 24), seed=2, scale=0.25,
-                                                                      filter=filter, device=CPU))
+                                                                      filter=filter, device="cpu"))
         assert np.abs(read_image(tmp_path / "mip.exr") - read_image(tmp_path / "none.exr")).max() > 0.01
         out = tmp_path / "ss.png"
         assert run_cli([*base, "-o", out, "--filter", "supersample", "--supersample", 2]) == 0
@@ -986,29 +966,29 @@ class TestCli:
 # 11. CUDA                                                                    #
 # --------------------------------------------------------------------------- #
 
-@pytest.mark.cuda
-@needs_cuda
-class TestCuda:
+class TestDeviceMatchesCpu:
+    """The --device (a GPU) gives the CPU's noise: the same impacts, to float rounding."""
+
     @pytest.mark.parametrize("filter", (*FILTERED, "supersample"))
     @pytest.mark.parametrize("order", (0, 1, 3))
-    def test_synthesize_cpu_equals_cuda(self, filter, order):
-        t = white_texton(channels=3, order=order, seed=40 + order, offset=0.1)
+    def test_synthesize_matches_cpu(self, filter, order, gpu):
+        t = random_texton(channels=3, order=order, seed=40 + order, offset=0.1, correlated=False)
         J = np.empty((32, 40, 2, 2))
         J[:] = rot(25.0) @ np.diag([9.0, 2.0])
         J[16:] = 5.0 * np.eye(2)
-        kw = dict(seed=21, scale=0.3, offset=(-400.0, 250.5), jacobian=J, filter=filter, supersample=4)
+        kw = dict(seed=21, scale=0.3, offset=(-400.0, 250.5), jacobian=J, filter=FilterOptions(filter, supersample=4))
         a = synthesize(t, (32, 40), device="cpu", **kw)
-        b = synthesize(t, (32, 40), device="cuda", **kw)
+        b = synthesize(t, (32, 40), device=gpu, **kw)
         sd = noise_sd(t)
         bad = np.any(np.abs(a - b) > 1e-4 * sd, axis=-1)
         # order 0 is discontinuous: a float-rounding flip at a block edge is allowed on a few pixels
         assert bad.mean() <= (0.02 if order == 0 else 0.0), np.abs(a - b).max() / sd
 
     @pytest.mark.parametrize("filter", (*FILTERED, "supersample"))
-    def test_plane_cpu_equals_cuda(self, filter):
-        t = white_texton(channels=3, seed=44)
+    def test_plane_matches_cpu(self, filter, gpu):
+        t = random_texton(channels=3, seed=44, correlated=False)
         ts = plane_texel_size()
-        kw = dict(seed=5, filter=filter, supersample=4)
+        kw = dict(seed=5, filter=FilterOptions(filter, supersample=4))
         a = render_plane(t, (48, 64), 1.0, PLANE_TILT, PLANE_FOV, ts, device="cpu", **kw)
-        b = render_plane(t, (48, 64), 1.0, PLANE_TILT, PLANE_FOV, ts, device="cuda", **kw)
+        b = render_plane(t, (48, 64), 1.0, PLANE_TILT, PLANE_FOV, ts, device=gpu, **kw)
         assert_same_noise(a, b, t, rtol=1e-4)

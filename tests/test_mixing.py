@@ -18,7 +18,6 @@ from __future__ import annotations
 import functools
 import math
 import re
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -26,14 +25,13 @@ import pytest
 import scipy.ndimage as ndi
 from PIL import Image
 
+from helpers import anisotropic_texton, random_texton, run_cli
 from texton_models import block_zscores, expected_periodogram, model_covariance
 from warp_texton import Texton, TextonError, analyze, mix_textons, read_image, synthesize, synthesize_mixed
 from warp_texton.bspline import bspline
-from warp_texton.cli import main
 from warp_texton.gaussian import normalized_kernel, ot_distance, relative_model_error
 from warp_texton.mixing import barycentre_spectrum
 
-CPU = "cpu"
 ITER = 20  # alternating projections: enough for the properties below, cheap on 48 × 48 grids
 
 
@@ -72,22 +70,6 @@ def full_kernel_spectrum(img) -> np.ndarray:
     """Full-grid DFT of t = (u − m)/√(MN) of the periodic component (as analysed by default)."""
     _, t = normalized_kernel(img, periodic=True)
     return np.fft.fft2(t, axes=(0, 1))
-
-
-def random_texton(shape=(8, 8), channels=1, order=1, seed=0, offset=0.03, mean=0.5, gain=0.15) -> Texton:
-    """White coefficients plus a constant (∫h clearly non-zero), correlated channels for RGB."""
-    rng = np.random.default_rng(seed)
-    a = gain * rng.standard_normal((*shape, channels))
-    if channels == 3:
-        a = a @ np.array([[1.0, 0.0, 0.0], [0.8, 0.6, 0.0], [0.5, 0.3, 0.8]]).T
-    return Texton(a + offset, np.broadcast_to(np.asarray(mean, np.float64), (channels,)), order)
-
-
-def anisotropic_texton(seed=4, mean=0.5) -> Texton:
-    """8 × 8 coefficients smoothed along x (σ = 0.8): a spectrum elongated along ξ_y."""
-    a = np.random.default_rng(seed).standard_normal((8, 8, 1))
-    a = ndi.gaussian_filter1d(a, 0.8, axis=1, mode="constant")
-    return Texton(0.3 * a + 0.02, [mean], 1)
 
 
 def scaled(t: Texton, factor: float, mean=None) -> Texton:
@@ -208,23 +190,23 @@ class ColumnModel:
         return np.sqrt(self._c @ np.clip(1 - np.abs(lags) / rows, 0, None) / (rows * rasters))
 
 
-def column_moments(textons, weights, shape, seeds, mean_profile):
+def column_moments(textons, weights, shape, seeds, mean_profile, *, device):
     """Per-column mean and mean square of (g − m(x)) over the rows of one raster per seed."""
     s1 = s2 = 0.0
     for seed in seeds:
-        g = synthesize_mixed(textons, weights, shape, seed=seed, device=CPU)[:, :, 0].astype(np.float64)
+        g = synthesize_mixed(textons, weights, shape, seed=seed, device=device)[:, :, 0].astype(np.float64)
         dev = g - mean_profile[None, :]
         s1 = s1 + dev.mean(axis=0)
         s2 = s2 + (dev**2).mean(axis=0)
     return s1 / len(seeds), s2 / len(seeds)
 
 
-def noise_part(textons, weights, shape, **kw) -> np.ndarray:
+def noise_part(textons, weights, shape, *, device, **kw) -> np.ndarray:
     """Σ ε h / √λ: the mixed field minus the mean that synthesize_mixed adds.
 
     The same textons with equal means are used where this is called, so the mean is a constant.
     """
-    g = synthesize_mixed(textons, weights, shape, device=CPU, **kw).astype(np.float64)
+    g = synthesize_mixed(textons, weights, shape, device=device, **kw).astype(np.float64)
     return g - np.asarray(textons[0].mean, np.float64)
 
 
@@ -422,18 +404,18 @@ class TestMixTextons:
 # --------------------------------------------------------------------------- #
 L, GAP, PER_SIDE, BLOCK = 64, 14, 12, 4
 RASTER = PER_SIDE * (L + GAP)  # 936: 144 independent 64 × 64 windows (gap 14 > support width 9)
-STACK = (random_texton(seed=20, mean=0.2), anisotropic_texton(seed=21, mean=0.35), random_texton(seed=22, mean=0.8))
+STACK = (random_texton(seed=20, mean=0.2), anisotropic_texton((8, 8), seed=21, mean=0.35), random_texton(seed=22, mean=0.8))
 
 
 class TestConstantMap:
     @pytest.mark.parametrize("r", [0, 1, 2])
-    def test_stationary_noise_with_that_textons_spectrum(self, r):
+    def test_stationary_noise_with_that_textons_spectrum(self, r, device):
         t = STACK[r]
         rho = r / (len(STACK) - 1)
         acc, k = np.zeros((L, L)), 0
         means = []
         for seed in (1, 2):
-            g = synthesize_mixed(STACK, np.full((RASTER, RASTER), rho), (RASTER, RASTER), seed=seed, device=CPU)
+            g = synthesize_mixed(STACK, np.full((RASTER, RASTER), rho), (RASTER, RASTER), seed=seed, device=device)
             g = g[:, :, 0].astype(np.float64)
             means.append(g.mean())
             dev = g - float(t.mean[0])
@@ -463,10 +445,10 @@ class TestConstantMap:
         sd = math.sqrt(np.abs(model_covariance(t)[0, 0]).sum() / RASTER**2)
         assert abs(np.mean(means) - float(t.mean[0])) < 5 * sd / math.sqrt(2), (np.mean(means), t.mean)
 
-    def test_rgb_lag0_covariance_and_mean(self):
+    def test_rgb_lag0_covariance_and_mean(self, device):
         ts = [random_texton(channels=3, seed=30 + k, mean=[0.2 + 0.1 * k, 0.5, 0.6 - 0.1 * k]) for k in range(2)]
         t = ts[1]
-        g = synthesize_mixed(ts, np.ones((512, 512)), (512, 512), seed=4, device=CPU).astype(np.float64)
+        g = synthesize_mixed(ts, np.ones((512, 512)), (512, 512), seed=4, device=device).astype(np.float64)
         dev = (g - t.mean.astype(np.float64)).reshape(-1, 3)
         sd = lag0_estimate_sd(t, dev.shape[0])  # ≈ 0.5 % of the variances
         target = t.covariance()
@@ -478,22 +460,22 @@ class TestConstantMap:
         assert np.abs(z_mean).max() < 5.0, z_mean
         assert np.all(mean_estimate_sd(t, dev.shape[0])[[0, 2]] < 0.01)
 
-    def test_labels_round_rho_and_means_interpolate(self):
+    def test_labels_round_rho_and_means_interpolate(self, device):
         # Textons c_r · t (c = 1, −1, 2) with means 0.2, 0.5, 0.6. For a constant map the
         # field is m(ρ) + c_{round(2ρ)} · N with N the one-texton mixed noise of t at that
         # seed (same impacts, same signs): an exact identity.
         t = random_texton(seed=40, mean=0.0)
         ts = [scaled(t, 1.0, [0.2]), scaled(t, -1.0, [0.5]), scaled(t, 2.0, [0.6])]
-        base = synthesize_mixed([t], "strips", (40, 48), seed=6, device=CPU)[:, :, 0].astype(np.float64)
+        base = synthesize_mixed([t], "strips", (40, 48), seed=6, device=device)[:, :, 0].astype(np.float64)
         assert base.std() > 0.05
         for rho, c in ((0.0, 1.0), (0.24, 1.0), (0.26, -1.0), (0.5, -1.0), (0.74, -1.0), (0.76, 2.0), (1.0, 2.0)):
-            g = synthesize_mixed(ts, np.full((40, 48), rho), (40, 48), seed=6, device=CPU)[:, :, 0]
+            g = synthesize_mixed(ts, np.full((40, 48), rho), (40, 48), seed=6, device=device)[:, :, 0]
             m = np.interp(rho, [0.0, 0.5, 1.0], [0.2, 0.5, 0.6])
             np.testing.assert_allclose(g - m, c * base, atol=1e-5, err_msg=f"rho {rho}")
 
-    def test_single_texton_strips_has_the_model_variance(self):
-        t = anisotropic_texton(seed=41, mean=0.25)
-        g = synthesize_mixed([t], "strips", (512, 512), seed=7, device=CPU)[:, :, 0].astype(np.float64)
+    def test_single_texton_strips_has_the_model_variance(self, device):
+        t = anisotropic_texton((8, 8), seed=41, mean=0.25)
+        g = synthesize_mixed([t], "strips", (512, 512), seed=7, device=device)[:, :, 0].astype(np.float64)
         c0 = t.covariance()[0, 0]
         np.testing.assert_allclose(ColumnModel([t], 512).variance, c0, rtol=1e-9)
         sd = lag0_estimate_sd(t, g.size)[0, 0]  # ≈ 0.7 % of C(0)
@@ -501,31 +483,31 @@ class TestConstantMap:
         assert abs(np.mean((g - 0.25) ** 2) - c0) < 5 * sd, (np.mean((g - 0.25) ** 2) / c0, sd / c0)
         assert abs(g.mean() - 0.25) < 5 * mean_estimate_sd(t, g.size)[0]
 
-    def test_random_signs_make_the_sum_zero_mean(self):
+    def test_random_signs_make_the_sum_zero_mean(self, device):
         # all-positive coefficients: ∫h = Σα ≈ 6.4 and λ = 30/81, so a sum without random signs
         # would be off by √λ ∫h ≈ 3.9, and one with signs that still subtracted λ∫h/√λ by −3.9.
         # The raster mean has sd ≤ √(Σ_τ C(τ) / N) = Σα / √N (Σ_τ C = (Σα)² Σb, Σb = 1).
         t = Texton(0.1 + 0.02 * np.random.default_rng(42).random((8, 8, 1)), [0.5], 1)
         assert t.integral[0] > 6.0
         for seed in (1, 2):
-            g = synthesize_mixed([t], "strips", (256, 256), seed=seed, device=CPU)
+            g = synthesize_mixed([t], "strips", (256, 256), seed=seed, device=device)
             sd = t.integral[0] / 256
             assert abs(g.mean() - 0.5) < 5 * sd, (g.mean(), sd)
             # plain texton noise reaches the same mean by subtracting λ ∫h instead
-            plain = synthesize(t, (256, 256), seed=seed, device=CPU)
+            plain = synthesize(t, (256, 256), seed=seed, device=device)
             assert abs(plain.mean() - 0.5) < 5 * sd
             assert not np.allclose(g, plain)
 
 
 class TestStripsAndMaps:
-    def test_no_seams_variance_changes_over_the_support_width(self):
+    def test_no_seams_variance_changes_over_the_support_width(self, device):
         # smooth coefficients spread the energy over the columns of the support
         a = 0.3 * ndi.gaussian_filter(np.random.default_rng(51).standard_normal((8, 8, 1)), 1.0) + 0.02
         t = Texton(a, [0.5], 1)
         ts = [t, scaled(t, 2.0)]  # variance ratio 4, equal means
         W, H, seeds = 64, 936, range(16)
         col = ColumnModel(ts, W)
-        _, v = column_moments(ts, "strips", (H, W), seeds, np.full(W, 0.5))
+        _, v = column_moments(ts, "strips", (H, W), seeds, np.full(W, 0.5), device=device)
         n = H * len(seeds)
         sd = np.sqrt(col.var_var_unit / n)  # 2.5-3 % of the local variance
         v0 = t.covariance()[0, 0]
@@ -551,7 +533,7 @@ class TestStripsAndMaps:
         assert np.all(v[W // 2 - 1: W // 2 + 8] > v0 - 5 * sd[:30].max())
         assert np.all(v[W // 2 - 1: W // 2 + 8] < 4 * v0 + 5 * sd[40:].max())
 
-    def test_strips_ramp_the_mean_and_keep_each_textons_variance(self):
+    def test_strips_ramp_the_mean_and_keep_each_textons_variance(self, device):
         u, v = pair(1)
         ts = mix_textons(u, v, [0.0, 0.5, 1.0], size=8, iterations=ITER)
         W, H, seeds = 192, 936, range(12)
@@ -559,7 +541,7 @@ class TestStripsAndMaps:
         m0, m1 = float(ts[0].mean[0]), float(ts[-1].mean[0])
         ramp = (1 - x) * m0 + x * m1
         col = ColumnModel(ts, W)
-        mean, var = column_moments(ts, "strips", (H, W), seeds, ramp)
+        mean, var = column_moments(ts, "strips", (H, W), seeds, ramp, device=device)
         n = H * len(seeds)
         # per-column means follow the linear ramp (192 correlated columns: 5σ)
         sd_mean = col.mean_sd(H, len(seeds))
@@ -583,7 +565,7 @@ class TestStripsAndMaps:
 
     @pytest.mark.parametrize("kind", ["strips", "map-columns", "map-rows"])
     @pytest.mark.parametrize("geometry", [dict(), dict(offset=(-1234.5, 777.25)), dict(scale=2.0)])
-    def test_impacts_take_the_texton_of_their_region(self, kind, geometry):
+    def test_impacts_take_the_texton_of_their_region(self, kind, geometry, device):
         # Given the labels the field is linear in the textons. With [t, t] it is L + R, with
         # [t, −t] it is L − R (L, R: the impacts labelled 0 and 1), with [t, 2t] L + 2R:
         # an exact identity. R vanishes where no impact of region 1 reaches, L where none of
@@ -601,10 +583,10 @@ class TestStripsAndMaps:
             weights = np.zeros((H, W))
             weights[H // 2:] = 1.0
         kw = dict(seed=3, **geometry)
-        both = noise_part([t, t], weights, (H, W), **kw)
-        diff = noise_part([t, scaled(t, -1.0)], weights, (H, W), **kw)
+        both = noise_part([t, t], weights, (H, W), **kw, device=device)
+        diff = noise_part([t, scaled(t, -1.0)], weights, (H, W), **kw, device=device)
         left, right = (both + diff) / 2, (both - diff) / 2
-        np.testing.assert_allclose(noise_part([t, scaled(t, 2.0)], weights, (H, W), **kw),
+        np.testing.assert_allclose(noise_part([t, scaled(t, 2.0)], weights, (H, W), **kw, device=device),
                                    left + 2 * right, atol=1e-5)
         n_across = H if kind == "map-rows" else W
         centre = np.arange(n_across) + 0.5
@@ -621,17 +603,17 @@ class TestStripsAndMaps:
         assert np.all(np.abs(right[:, ~no_right]).max(axis=(0, 2)) > 100 * tol)
         assert np.all(np.abs(left[:, ~no_left]).max(axis=(0, 2)) > 100 * tol)
 
-    def test_half_map_has_the_two_textons_statistics(self):
-        ta, tb = random_texton(seed=70, mean=0.3), scaled(anisotropic_texton(seed=71), 1.5, [0.7])
+    def test_half_map_has_the_two_textons_statistics(self, device):
+        ta, tb = random_texton(seed=70, mean=0.3), scaled(anisotropic_texton((8, 8), seed=71), 1.5, [0.7])
         H, W = 936, 128
         rho = np.zeros((H, W))
         rho[:, W // 2:] = 1.0
-        g = synthesize_mixed([ta, tb], rho, (H, W), seed=8, device=CPU)
+        g = synthesize_mixed([ta, tb], rho, (H, W), seed=8, device=device)
         # a map (H, W, 1) is the same map
-        np.testing.assert_array_equal(synthesize_mixed([ta, tb], rho[:, :, None], (H, W), seed=8, device=CPU), g)
+        np.testing.assert_array_equal(synthesize_mixed([ta, tb], rho[:, :, None], (H, W), seed=8, device=device), g)
         # the noise is that of two strips (both label an impact by the column it lands in);
         # only the mean differs: a step here, a ramp there
-        strips = synthesize_mixed([ta, tb], "strips", (H, W), seed=8, device=CPU)
+        strips = synthesize_mixed([ta, tb], "strips", (H, W), seed=8, device=device)
         x = (np.arange(W) + 0.5) / W
         mean_map = np.where(np.arange(W) < W // 2, 0.3, 0.7)
         np.testing.assert_allclose(g[:, :, 0] - mean_map, strips[:, :, 0] - ((1 - x) * 0.3 + x * 0.7), atol=1e-5)
@@ -647,24 +629,24 @@ class TestStripsAndMaps:
 
 
 class TestConsistency:
-    def test_same_seed_same_output(self):
+    def test_same_seed_same_output(self, device):
         ts = list(STACK)
-        a = synthesize_mixed(ts, "strips", (40, 60), seed=11, device=CPU)
-        np.testing.assert_array_equal(a, synthesize_mixed(ts, "strips", (40, 60), seed=11, device=CPU))
-        b = synthesize_mixed(ts, "strips", (40, 60), seed=12, device=CPU)
+        a = synthesize_mixed(ts, "strips", (40, 60), seed=11, device=device)
+        np.testing.assert_array_equal(a, synthesize_mixed(ts, "strips", (40, 60), seed=11, device=device))
+        b = synthesize_mixed(ts, "strips", (40, 60), seed=12, device=device)
         assert np.abs(a - b).mean() > 0.1 * a.std()
         assert a.dtype == np.float32 and a.shape == (40, 60, 1) and a.flags.c_contiguous
 
     @pytest.mark.parametrize("order", [0, 1, 3])
     @pytest.mark.parametrize("geometry", [dict(), dict(scale=2.5, offset=(-300.25, 41.5))])
-    def test_gather_equals_splat(self, order, geometry):
+    def test_gather_equals_splat(self, order, geometry, device):
         ts = [random_texton(channels=3, order=order, seed=80 + k, mean=[0.1 * k, 0.5, 0.3]) for k in range(3)]
         rho = np.random.default_rng(order).random((30, 26))
         std = math.sqrt(np.trace(ts[0].covariance()) / 3)
         for weights in ("strips", rho):
-            kw = dict(seed=13, device=CPU, **geometry)
-            a = synthesize_mixed(ts, weights, (30, 26), method="splat", **kw)
-            b = synthesize_mixed(ts, weights, (30, 26), method="gather", **kw)
+            kw = dict(seed=13, **geometry)
+            a = synthesize_mixed(ts, weights, (30, 26), method="splat", device="cpu", **kw)
+            b = synthesize_mixed(ts, weights, (30, 26), method="gather", device=device, **kw)
             bad = np.any(np.abs(a - b) > 1e-4 * std, axis=-1)
             # order 0 is discontinuous: a pixel within float rounding (~1e-5 texel) of a cell edge
             # of some impact may fall either side on the two paths (~0.2 % of pixels)
@@ -672,24 +654,24 @@ class TestConsistency:
             np.testing.assert_array_equal(a, synthesize_mixed(ts, weights, (30, 26), method="auto", **kw))
 
     @pytest.mark.parametrize("channels", [1, 3])
-    def test_constant_map_tiles_like_synthesize(self, channels):
+    def test_constant_map_tiles_like_synthesize(self, channels, device):
         # labels of a constant map do not depend on the position, so windows of the mixed
         # noise join as plain windows do (CGF §8), and a coarser scale samples the same noise
         ts = [random_texton(channels=channels, seed=90 + k, mean=0.4) for k in range(2)]
         H, W, o = 24, 30, (-77.5, 1000.25)
-        whole = synthesize_mixed(ts, np.ones((H, 2 * W)), (H, 2 * W), seed=5, offset=o, device=CPU)
-        left = synthesize_mixed(ts, np.ones((H, W)), (H, W), seed=5, offset=o, device=CPU)
-        right = synthesize_mixed(ts, np.ones((H, W)), (H, W), seed=5, offset=(o[0] + W, o[1]), device=CPU)
+        whole = synthesize_mixed(ts, np.ones((H, 2 * W)), (H, 2 * W), seed=5, offset=o, device=device)
+        left = synthesize_mixed(ts, np.ones((H, W)), (H, W), seed=5, offset=o, device=device)
+        right = synthesize_mixed(ts, np.ones((H, W)), (H, W), seed=5, offset=(o[0] + W, o[1]), device=device)
         std = math.sqrt(np.trace(ts[1].covariance()) / channels)
         np.testing.assert_allclose(np.hstack([left, right]), whole, atol=1e-4 * std)
-        small = synthesize_mixed(ts, np.ones((8, 10)), (8, 10), seed=5, scale=1 / 3, offset=o, device=CPU)
+        small = synthesize_mixed(ts, np.ones((8, 10)), (8, 10), seed=5, scale=1 / 3, offset=o, device=device)
         np.testing.assert_allclose(small, whole[1::3, 1:30:3], atol=1e-4 * std)
 
-    def test_zero_texton_in_the_list(self):
+    def test_zero_texton_in_the_list(self, device):
         t = random_texton(seed=95)
         zero = Texton(np.zeros((8, 8, 1)), [0.5], 1)
         try:
-            g = synthesize_mixed([t, zero], "strips", (16, 32), device=CPU)
+            g = synthesize_mixed([t, zero], "strips", (16, 32), device=device)
         except TextonError:
             return  # refusing it (with a TextonError) is acceptable
         assert np.isfinite(g).all()
@@ -720,9 +702,9 @@ class TestErrors:
             (np.full((8, 16), "a"), "weights must be 'strips' or an"),
         ],
     )
-    def test_weights(self, weights, match):
+    def test_weights(self, weights, match, device):
         with pytest.raises(TextonError, match=match):
-            synthesize_mixed([T8, T8B], weights, (8, 16), device=CPU)
+            synthesize_mixed([T8, T8B], weights, (8, 16), device=device)
 
     @pytest.mark.parametrize(
         "textons, match",
@@ -737,14 +719,14 @@ class TestErrors:
             (5, "textons must be a sequence of Texton"),
         ],
     )
-    def test_textons(self, textons, match):
+    def test_textons(self, textons, match, device):
         with pytest.raises(TextonError, match=match):
-            synthesize_mixed(textons, "strips", (8, 16), device=CPU)
+            synthesize_mixed(textons, "strips", (8, 16), device=device)
 
-    def test_one_texton_may_be_given_alone(self):
-        a = synthesize_mixed(T8, "strips", (8, 16), seed=2, device=CPU)
-        np.testing.assert_array_equal(a, synthesize_mixed([T8], "strips", (8, 16), seed=2, device=CPU))
-        np.testing.assert_array_equal(a, synthesize_mixed((T8,), np.zeros((8, 16)), (8, 16), seed=2, device=CPU))
+    def test_one_texton_may_be_given_alone(self, device):
+        a = synthesize_mixed(T8, "strips", (8, 16), seed=2, device=device)
+        np.testing.assert_array_equal(a, synthesize_mixed([T8], "strips", (8, 16), seed=2, device=device))
+        np.testing.assert_array_equal(a, synthesize_mixed((T8,), np.zeros((8, 16)), (8, 16), seed=2, device=device))
 
     @pytest.mark.parametrize(
         "kw, match",
@@ -765,8 +747,8 @@ class TestErrors:
             (dict(device="tpu"), "device"),
         ],
     )
-    def test_placement_and_options(self, kw, match):
-        kw = {"shape": (8, 16), "device": CPU, **kw}
+    def test_placement_and_options(self, kw, match, device):
+        kw = {"shape": (8, 16), "device": device, **kw}
         with pytest.raises(TextonError, match=match):
             synthesize_mixed([T8, T8B], "strips", **kw)
 
@@ -840,20 +822,14 @@ class TestErrors:
         with pytest.raises(TextonError, match=r"^v: the image is constant"):
             mix_textons(u, np.full((48, 48), 0.5), [0.5], size=8, iterations=1)
 
-    def test_texton_error_is_a_value_error(self):
+    def test_texton_error_is_a_value_error(self, device):
         with pytest.raises(ValueError):
-            synthesize_mixed([T8], np.full((8, 16), 2.0), (8, 16), device=CPU)
+            synthesize_mixed([T8], np.full((8, 16), 2.0), (8, 16), device=device)
 
 
 # --------------------------------------------------------------------------- #
 # 11. Command line                                                            #
 # --------------------------------------------------------------------------- #
-@pytest.fixture(autouse=False)
-def restore_warning_format(monkeypatch):
-    # main() installs its own one-line warning format; keep it out of other tests
-    monkeypatch.setattr(warnings, "formatwarning", warnings.formatwarning)
-
-
 def write_png(path, img) -> Path:
     Image.fromarray(np.round(np.clip(img, 0, 1) * 255).astype(np.uint8).squeeze()).save(path)
     return path
@@ -869,14 +845,7 @@ def textures(tmp_path):
     return write_png(tmp_path / "a.png", a), write_png(tmp_path / "b.png", b)
 
 
-def run_cli(argv):
-    try:
-        return main([str(x) for x in argv])
-    except SystemExit as exc:
-        return exc.code
-
-
-FAST = ["--steps", 5, "--size", 8, "--iterations", 3, "-q", "--device", CPU]
+FAST = ["--steps", 5, "--size", 8, "--iterations", 3, "-q", "--device", "cpu"]  # CLI behaviour, not a device property
 
 
 @pytest.mark.usefixtures("restore_warning_format")
@@ -895,10 +864,10 @@ class TestCli:
         assert right - left > 0.15, (left, right)
         assert sorted(p.name for p in tmp_path.iterdir()) == ["a.png", "b.png", "mix.png"]
 
-    def test_exr_output_and_summary(self, tmp_path, textures, capsys):
+    def test_exr_output_and_summary(self, tmp_path, textures, capsys, device):
         out = tmp_path / "mix.exr"
         args = ["mix", *textures, "-o", out, "--width", 40, "--height", 24, "--steps", 3, "--size", 8,
-                "--iterations", 2, "--seed", 4, "--device", CPU]
+                "--iterations", 2, "--seed", 4, "--device", device]
         assert run_cli(args) == 0
         summary = capsys.readouterr().out
         assert f"{out}: 40x24 mix of 3 textons" in summary
@@ -907,7 +876,7 @@ class TestCli:
         # the same as the API with the same parameters
         a, b = (read_image(p) for p in textures)
         ts = mix_textons(a, b, np.linspace(0, 1, 3), size=8, iterations=2, seed=4)
-        np.testing.assert_allclose(img, synthesize_mixed(ts, "strips", (24, 40), seed=4, device=CPU), atol=1e-6)
+        np.testing.assert_allclose(img, synthesize_mixed(ts, "strips", (24, 40), seed=4, device=device), atol=1e-6)
 
     def test_map(self, tmp_path, textures, capsys):
         rho = np.zeros((32, 64))
@@ -934,11 +903,11 @@ class TestCli:
             (["--steps", "two"], r"argument --steps: invalid int value"),
         ],
     )
-    def test_user_errors(self, tmp_path, textures, capsys, extra, match):
+    def test_user_errors(self, tmp_path, textures, capsys, extra, match, device):
         mask = write_png(tmp_path / "mask.png", np.zeros((32, 64)))
         extra = [mask if x == "MASK" else x for x in extra]
         out = tmp_path / "mix.png"
-        base = ["mix", *textures, "-o", out, "--size", 8, "--iterations", 2, "-q", "--device", CPU]
+        base = ["mix", *textures, "-o", out, "--size", 8, "--iterations", 2, "-q", "--device", device]
         self.assert_user_error(capsys, [*base, *extra], match, out)
 
     def test_missing_input(self, tmp_path, textures, capsys):

@@ -14,57 +14,23 @@ evaluation, CUDA gathers), at any offset, scale and rotation, and windows tile (
 from __future__ import annotations
 
 import functools
-import inspect
 import math
 import subprocess
 import sys
 
 import numpy as np
 import pytest
-import scipy.ndimage as ndi
 
 import warp_texton
-from devices import needs_cuda
+from helpers import anisotropic_texton, assert_same_noise, noise_sd, random_texton
 from texton_models import isolated_bumps, block_zscores, expected_periodogram, model_covariance, self_conjugate, texton_on_nodes
 from warp_texton import Texton, TextonError, evaluate, synthesize
 from warp_texton.bspline import bspline
 
-CPU = "cpu"
 ORDERS = (0, 1, 3, 5)
-# A raster ``method`` ("auto", "splat", "gather") is being added alongside these tests.
-HAS_METHOD = "method" in inspect.signature(synthesize).parameters
-
-
 # --------------------------------------------------------------------------- #
 # Textons and the exact model                                                 #
 # --------------------------------------------------------------------------- #
-def random_texton(shape=(8, 8), channels=1, order=1, seed=0, offset=0.03, mean=0.5) -> Texton:
-    """White coefficients plus a constant, so that ∫h = Σα is clearly non-zero.
-
-    A non-zero ∫h makes the mean tests sensitive to the λ ∫h subtraction. The
-    coefficients are white (not smoothed) so that the spectrum has a moderate dynamic
-    range and the rectangular window's leakage stays far below the model everywhere.
-    """
-    rng = np.random.default_rng(seed)
-    a = 0.15 * rng.standard_normal((*shape, channels))
-    if channels == 3:
-        # correlated channels, as in a photograph, with a full-rank lag-0 covariance
-        mix = np.array([[1.0, 0.0, 0.0], [0.8, 0.6, 0.0], [0.5, 0.3, 0.8]])
-        a = a @ mix.T
-    return Texton(a + offset, [mean] * channels, order)
-
-
-def anisotropic_texton(order=1, seed=4) -> Texton:
-    """Coefficients elongated along x: an 8 × 12 support, smoothed along x (σ = 0.8).
-
-    σ = 0.8 keeps the power at the x-Nyquist frequency at exp(−4π²σ²/4) ≈ 2 % of the
-    peak, well above the rectangular window's leakage (~1e-4 at 32 bins).
-    """
-    a = np.random.default_rng(seed).standard_normal((8, 12, 1))
-    a = ndi.gaussian_filter1d(a, 0.8, axis=1, mode="constant")
-    return Texton(0.3 * a + 0.02, [0.5], order)
-
-
 def lam(texton: Texton, mni: float) -> float:
     return mni / texton.support_area
 
@@ -93,28 +59,6 @@ def pixel_points(shape, scale=1.0, rotation=0.0, offset=(0.0, 0.0)) -> np.ndarra
     return np.stack([x.ravel(), y.ravel()], axis=1)
 
 
-def noise_std(texton: Texton) -> float:
-    return float(np.sqrt(np.diag(texton.covariance()).mean()))
-
-
-def assert_same_noise(a, b, texton, rtol=1e-4, max_flips=0.0):
-    """a == b up to float error, relative to the noise standard deviation.
-
-    Order 0 is discontinuous: a pixel whose offset to an impact lies within float
-    rounding (~1e-5 texel) of a half-integer may fall on either side in two evaluation
-    paths, so a few such pixels (probability ~ 2 × 2 × MNI × 1e-5 per pixel ≈ 0.2 %) are
-    allowed to differ there; ``max_flips`` bounds their fraction.
-    """
-    a = np.asarray(a, np.float64)
-    b = np.asarray(b, np.float64)
-    assert a.shape == b.shape
-    bad = np.any(np.abs(a - b) > rtol * noise_std(texton), axis=-1)
-    assert bad.mean() <= max_flips, (
-        f"{bad.sum()} of {bad.size} pixels differ by more than {rtol} std "
-        f"(max {np.abs(a - b).max() / noise_std(texton):.3g} std)"
-    )
-
-
 # --------------------------------------------------------------------------- #
 # 1. Spectrum                                                                 #
 # --------------------------------------------------------------------------- #
@@ -124,11 +68,11 @@ L, GAP, PER_SIDE, BLOCK = 64, 14, 12, 4
 RASTER = PER_SIDE * (L + GAP)  # 936: 144 windows per raster
 
 
-def mean_periodogram(texton, seeds_offsets, mni=30.0, rotation=0.0):
+def mean_periodogram(texton, seeds_offsets, mni=30.0, rotation=0.0, *, device):
     """Mean periodogram over the independent windows of one raster per (seed, offset)."""
     acc, count = 0.0, 0
     for seed, offset in seeds_offsets:
-        g = synthesize(texton, (RASTER, RASTER), mni, seed, rotation=rotation, offset=offset, device=CPU)
+        g = synthesize(texton, (RASTER, RASTER), mni, seed, rotation=rotation, offset=offset, device=device)
         p, k = window_periodograms(g, float(texton.mean[0]), L, L + GAP)
         acc, count = acc + p * k, count + k
     return acc / count, count
@@ -138,18 +82,18 @@ SPECTRUM_RUNS = ((1, (0.0, 0.0)), (2, (-5000.5, 3000.25)))  # far apart and nega
 
 
 @functools.lru_cache(maxsize=None)
-def spectrum_case(order):
+def spectrum_case(order, *, device):
     """(texton, Fejér model, measured mean periodogram, windows) for a grey 8 × 8 texton."""
     t = random_texton(order=order, seed=10 + order)
     model = expected_periodogram(model_covariance(t)[0, 0], L)
-    measured, k = mean_periodogram(t, SPECTRUM_RUNS)
+    measured, k = mean_periodogram(t, SPECTRUM_RUNS, device=device)
     return t, model, measured, k
 
 
 class TestSpectrum:
     @pytest.mark.parametrize("order", ORDERS)
-    def test_mean_periodogram_matches_fejer_model(self, order):
-        t, model, measured, k = spectrum_case(order)
+    def test_mean_periodogram_matches_fejer_model(self, order, device):
+        t, model, measured, k = spectrum_case(order, device=device)
         assert k == 288
         rel, z, rel_sd = block_zscores(measured, model, k, BLOCK)
         # K = 288 windows, B² = 16 frequencies per block: relative sd 1/√(K B²) ≈ 1.5 %.
@@ -167,11 +111,11 @@ class TestSpectrum:
         assert np.abs(rel).mean() < 0.025
 
     @pytest.mark.parametrize("order", ORDERS)
-    def test_no_peak_at_cell_frequency(self, order):
+    def test_no_peak_at_cell_frequency(self, order, device):
         """Hashing cells must leave no trace at the cell frequency L / cell (CGF §8)."""
-        t, model, measured, k = spectrum_case(order)
+        t, model, measured, k = spectrum_case(order, device=device)
         side = t.size[1] + order  # support side: s + k (s for order 0)
-        cell = warp_texton.synthesis.CELL_FACTOR * side
+        cell = warp_texton.noise.CELL_FACTOR * side
         c = round(L / cell)
         v = np.where(self_conjugate(L), 2.0, 1.0)
         for fy, fx in ((0, c), (c, 0), (c, c), (0, 2 * c), (2 * c, 0)):
@@ -180,7 +124,7 @@ class TestSpectrum:
             sd = np.sqrt((v[idx] * model[idx] ** 2).sum() / k)  # 9 exponentials, as above
             assert measured[idx].sum() - e < 5 * sd, f"excess power at ξ = ({fx}, {fy})"
 
-    def test_rotation_by_90_transposes_the_spectrum(self):
+    def test_rotation_by_90_transposes_the_spectrum(self, device):
         """g_rot[i, j] = g(−(i + ½), j + ½): the rotated lattice covariance is C(Δx = −a, Δy = b)."""
         t = anisotropic_texton()
         cov = model_covariance(t)[0, 0]  # [dy, dx]
@@ -191,8 +135,8 @@ class TestSpectrum:
         model = expected_periodogram(cov, L)
         model_rot = expected_periodogram(rotated_cov, L)
         runs = ((5, (0.0, 0.0)),)
-        plain, k = mean_periodogram(t, runs)
-        turned, k2 = mean_periodogram(t, runs, rotation=90.0)
+        plain, k = mean_periodogram(t, runs, device=device)
+        turned, k2 = mean_periodogram(t, runs, rotation=90.0, device=device)
         assert k == k2 == 144
         _, z, _ = block_zscores(plain, model, k, BLOCK)
         _, z_rot, _ = block_zscores(turned, model_rot, k, BLOCK)
@@ -231,7 +175,7 @@ def covariance_estimate_sd(texton: Texton, mni: float, n: int) -> np.ndarray:
     return out
 
 
-def kurtosis_over_seeds(texton: Texton, mni: float, seeds, shape=(256, 256)):
+def kurtosis_over_seeds(texton: Texton, mni: float, seeds, shape=(256, 256), *, device):
     """Mean excess kurtosis of independent rasters (one per seed), and its standard error.
 
     Each raster's kurtosis uses the known mean and its own second moment. Their spread
@@ -243,7 +187,7 @@ def kurtosis_over_seeds(texton: Texton, mni: float, seeds, shape=(256, 256)):
     """
     ks = []
     for seed in seeds:
-        g = synthesize(texton, shape, mni, seed, device=CPU)[:, :, 0].astype(np.float64) - texton.mean[0]
+        g = synthesize(texton, shape, mni, seed, device=device)[:, :, 0].astype(np.float64) - texton.mean[0]
         ks.append(np.mean(g**4) / np.mean(g**2) ** 2 - 3.0)
     ks = np.array(ks)
     return ks.mean(), ks.std(ddof=1) / math.sqrt(ks.size)
@@ -253,7 +197,7 @@ class TestImpactShape:
     """Deterministic: at a tiny MNI the impacts are isolated, and each one is a copy of h."""
 
     @pytest.mark.parametrize("order", (1, 3, 5))
-    def test_isolated_impact_is_the_texton(self, order):
+    def test_isolated_impact_is_the_texton(self, order, device):
         # An asymmetric 2 × 3 texton: a swapped (row, column) ↔ (y, x) convention, a wrong
         # ψ or a wrong normalisation all change the recovered bumps.
         alpha = np.array([[1.0, 0.5, 0.25], [0.75, 0.3, 0.6]])
@@ -261,7 +205,7 @@ class TestImpactShape:
         lam_ = 20.0 / 96**2  # ~20 impacts on the 96 × 96 texels below
         mni = lam_ * t.support_area
         q = 8  # pixels per texel
-        g = synthesize(t, (96 * q, 96 * q), mni, seed=5, scale=q, offset=(-40.0, 13.0), device=CPU)
+        g = synthesize(t, (96 * q, 96 * q), mni, seed=5, scale=q, offset=(-40.0, 13.0), device=device)
         g = g[:, :, 0].astype(np.float64)
         # g = m + (f − λΣα)/√λ: where no impact reaches, g = m − √λ Σα exactly
         f = (g - 0.5) * math.sqrt(lam_) + lam_ * alpha.sum()
@@ -302,11 +246,11 @@ class TestMoments:
         np.testing.assert_allclose(np.einsum("pq,pqa,pqb->ab", w, h, h), t.covariance(), rtol=1e-10)
 
     @pytest.mark.parametrize("poisson", ("exact", "gaussian"))
-    def test_mean_and_colour_covariance(self, poisson):
+    def test_mean_and_colour_covariance(self, poisson, device):
         t = random_texton(channels=3, order=1, seed=3, mean=0.4)
         mni, seeds, shape = 30.0, (0, 1, 2), (512, 512)
         g = np.concatenate(
-            [synthesize(t, shape, mni, s, device=CPU, poisson=poisson).reshape(-1, 3) for s in seeds]
+            [synthesize(t, shape, mni, s, device=device, poisson=poisson).reshape(-1, 3) for s in seeds]
         ).astype(np.float64)
         n = g.shape[0]
         # Mean: Var(m̂_a) = (1/N) Σ_τ C_aa(τ) = (Σα_a)² / N, an upper bound on a raster.
@@ -324,7 +268,7 @@ class TestMoments:
             # The rounded Gaussian count has variance λ_c + 1/12 instead of λ_c (λ_c = λ × cell
             # area ≈ 10.8 impacts per cell): each cell adds (1/12)(E_U h(x − U))² ≥ 0, at most
             # 1/(12 λ_c) ≈ 0.8 % of C(0) in relative terms; allow it on top of the sampling error.
-            cell = warp_texton.synthesis.CELL_FACTOR * (t.size[0] + t.order)
+            cell = warp_texton.noise.CELL_FACTOR * (t.size[0] + t.order)
             lam_cell = lam(t, mni) * cell**2
             tol = tol + np.sqrt(np.outer(np.diag(target), np.diag(target))) / (12 * lam_cell)
         z = (c_hat - target) / sd
@@ -332,21 +276,21 @@ class TestMoments:
         # the tolerance is tight enough to see a 5 % error of the variance
         assert np.all(tol.diagonal() < 0.05 * target.diagonal())
 
-    def test_gaussian_counts_are_used(self):
+    def test_gaussian_counts_are_used(self, device):
         t = random_texton(seed=3)
-        a = synthesize(t, (32, 32), seed=9, device=CPU, poisson="exact")
-        b = synthesize(t, (32, 32), seed=9, device=CPU, poisson="gaussian")
+        a = synthesize(t, (32, 32), seed=9, device=device, poisson="exact")
+        b = synthesize(t, (32, 32), seed=9, device=device, poisson="gaussian")
         assert not np.allclose(a, b)
-        np.testing.assert_array_equal(b, synthesize(t, (32, 32), seed=9, device=CPU, poisson="gaussian"))
+        np.testing.assert_array_equal(b, synthesize(t, (32, 32), seed=9, device=device, poisson="gaussian"))
         np.testing.assert_allclose(
-            evaluate(t, pixel_points((32, 32)), seed=9, device=CPU, poisson="gaussian").reshape(b.shape),
-            b, atol=1e-4 * noise_std(t),
+            evaluate(t, pixel_points((32, 32)), seed=9, device=device, poisson="gaussian").reshape(b.shape),
+            b, atol=1e-4 * noise_sd(t),
         )
 
     @pytest.mark.parametrize(
         "shape, order", [((8, 8), 1), ((6, 10), 3)], ids=["8x8-order1", "6x10-order3"]
     )
-    def test_excess_kurtosis_at_low_mni(self, shape, order):
+    def test_excess_kurtosis_at_low_mni(self, shape, order, device):
         """κ = ∫h⁴ / (λ (∫h²)²) with λ = MNI / support_area (the fourth cumulant of the shot noise)."""
         t = random_texton(shape, order=order, seed=7)
         assert t.support_area == (shape[0] + order) * (shape[1] + order)
@@ -355,12 +299,12 @@ class TestMoments:
         h2 = np.sum(w * h[:, :, 0] ** 2)
         h4 = np.sum(w * h[:, :, 0] ** 4)
         expected = h4 / (lam(t, mni) * h2**2)
-        ks, sd = kurtosis_over_seeds(t, mni, range(48))
+        ks, sd = kurtosis_over_seeds(t, mni, range(48), device=device)
         assert abs(ks - expected) < 5 * sd, (ks, expected, sd)
         # and the test sees a λ off by a factor 2 (κ ∝ 1/λ: κ/2 or 2κ)
         assert 5 * sd < expected / 4
 
-    def test_intensity_follows_support_area_not_box(self):
+    def test_intensity_follows_support_area_not_box(self, device):
         """λ = MNI / |supp h|: zero coefficients outside a disk-like support shrink the area."""
         a = random_texton((10, 10), seed=2, offset=0.05).coeffs.copy()
         yy, xx = np.mgrid[:10, :10]
@@ -372,7 +316,7 @@ class TestMoments:
         assert t.support_area == nonzero.sum() < 121
         mni = 5.0
         expected = np.sum(w * h[:, :, 0] ** 4) / (lam(t, mni) * np.sum(w * h[:, :, 0] ** 2) ** 2)
-        ks, sd = kurtosis_over_seeds(t, mni, range(100, 196))
+        ks, sd = kurtosis_over_seeds(t, mni, range(100, 196), device=device)
         assert abs(ks - expected) < 5 * sd, (ks, expected, sd)
         # λ from the box area 121 would give a kurtosis × 121 / support_area: the test sees it
         assert 5 * sd < expected * (121 / t.support_area - 1) / 2
@@ -390,115 +334,115 @@ GEOMETRIES = [
 
 
 class TestConsistency:
-    def test_same_seed_same_noise(self):
+    def test_same_seed_same_noise(self, device):
         t = random_texton(channels=3, seed=1)
-        a = synthesize(t, (40, 56), seed=7, offset=(3.25, -9.5), device=CPU)
+        a = synthesize(t, (40, 56), seed=7, offset=(3.25, -9.5), device=device)
         assert a.shape == (40, 56, 3) and a.dtype == np.float32
-        np.testing.assert_array_equal(a, synthesize(t, (40, 56), seed=7, offset=(3.25, -9.5), device=CPU))
+        np.testing.assert_array_equal(a, synthesize(t, (40, 56), seed=7, offset=(3.25, -9.5), device=device))
         pts = np.random.default_rng(0).uniform(-50, 50, (500, 2))
-        e = evaluate(t, pts, seed=7, device=CPU)
+        e = evaluate(t, pts, seed=7, device=device)
         assert e.shape == (500, 3) and e.dtype == np.float32
-        np.testing.assert_array_equal(e, evaluate(t, pts, seed=7, device=CPU))
+        np.testing.assert_array_equal(e, evaluate(t, pts, seed=7, device=device))
 
-    def test_different_seeds_differ(self):
+    def test_different_seeds_differ(self, device):
         t = random_texton(seed=1)
         cov = model_covariance(t)[0, 0]
-        a = synthesize(t, (128, 128), seed=0, device=CPU)[:, :, 0].ravel()
+        a = synthesize(t, (128, 128), seed=0, device=device)[:, :, 0].ravel()
         # independent fields: the sample correlation is 0 ± √(Σ_τ ρ(τ)² / N) (≈ 0.012 here)
         corr_sd = math.sqrt(np.sum(cov**2) / cov.max() ** 2 / a.size)
         for seed in (1, 2**32 - 1):
-            b = synthesize(t, (128, 128), seed=seed, device=CPU)[:, :, 0].ravel()
+            b = synthesize(t, (128, 128), seed=seed, device=device)[:, :, 0].ravel()
             assert abs(np.corrcoef(a, b)[0, 1]) < 5 * corr_sd
             # E|a − b| = √2 σ √(2/π) ≈ 1.13 σ for independent fields (≈ 0 for equal ones)
-            assert np.mean(np.abs(a - b)) > 0.9 * noise_std(t)
+            assert np.mean(np.abs(a - b)) > 0.9 * noise_sd(t)
 
     @pytest.mark.parametrize("channels", (1, 3), ids=("grey", "rgb"))
     @pytest.mark.parametrize("order", ORDERS)
     @pytest.mark.parametrize("scale, rotation, offset", GEOMETRIES)
-    def test_synthesize_equals_evaluate_at_pixel_centres(self, order, channels, scale, rotation, offset):
+    def test_synthesize_equals_evaluate_at_pixel_centres(self, order, channels, scale, rotation, offset, device):
         t = random_texton(channels=channels, order=order, seed=20 + order)
         shape = (24, 20)
-        g = synthesize(t, shape, 30.0, 3, scale, rotation, offset, device=CPU)
-        e = evaluate(t, pixel_points(shape, scale, rotation, offset), 30.0, 3, CPU).reshape(g.shape)
+        g = synthesize(t, shape, 30.0, 3, scale, rotation, offset, device=device)
+        e = evaluate(t, pixel_points(shape, scale, rotation, offset), 30.0, 3, device).reshape(g.shape)
         # float32 positions relative to cell corners: ~1e-5 std; far from the origin the
         # positions far from the origin lose float32 digits inside the kernels
         far = max(abs(v) for v in offset) > 100
         assert_same_noise(g, e, t, rtol=3e-4 if far else 1e-4, max_flips=0.02 if order == 0 else 0.0)
 
     @pytest.mark.parametrize("order", (1, 3))
-    def test_synthesize_equals_evaluate_far_from_origin(self, order):
+    def test_synthesize_equals_evaluate_far_from_origin(self, order, device):
         t = random_texton(order=order, seed=20 + order)  # cell side 0.6 × 9 = 5.4: not a float32
         offset = (1.0e5, -2.5e4)
-        g = synthesize(t, (16, 16), offset=offset, device=CPU)
-        e = evaluate(t, pixel_points((16, 16), offset=offset), device=CPU).reshape(g.shape)
+        g = synthesize(t, (16, 16), offset=offset, device=device)
+        e = evaluate(t, pixel_points((16, 16), offset=offset), device=device).reshape(g.shape)
         assert_same_noise(g, e, t)
 
-    def test_beyond_int32_cell_indices(self):
+    def test_beyond_int32_cell_indices(self, device):
         t = random_texton(order=1, seed=21)
         offset = (1.0e10, 0.0)  # cell index 1e10 / 4.5 ≈ 2.2e9 > 2**31
         try:
-            g = synthesize(t, (16, 16), offset=offset, device=CPU, cell_factor=0.5)
-            e = evaluate(t, pixel_points((16, 16), offset=offset), device=CPU, cell_factor=0.5)
+            g = synthesize(t, (16, 16), offset=offset, device=device, cell_factor=0.5)
+            e = evaluate(t, pixel_points((16, 16), offset=offset), device=device, cell_factor=0.5)
         except TextonError:
             return  # refusing such positions is a fine answer too
         assert_same_noise(g, e.reshape(g.shape), t)
 
-    def test_far_from_origin_with_representable_cell_side(self):
+    def test_far_from_origin_with_representable_cell_side(self, device):
         # The same far offsets agree when the cell side (0.5 × 9 = 4.5) is exact in float32:
         # float64 positions themselves are handled correctly far from the origin.
         t = random_texton(order=1, seed=21)
         for offset in ((1.0e5, -2.5e4), (-3.0e6, 1.0e6)):
-            g = synthesize(t, (16, 16), offset=offset, device=CPU, cell_factor=0.5)
-            e = evaluate(t, pixel_points((16, 16), offset=offset), device=CPU, cell_factor=0.5)
+            g = synthesize(t, (16, 16), offset=offset, device=device, cell_factor=0.5)
+            e = evaluate(t, pixel_points((16, 16), offset=offset), device=device, cell_factor=0.5)
             assert_same_noise(g, e.reshape(g.shape), t)
 
     @pytest.mark.parametrize(
         "order, scale", [(1, 1.0), (3, 1.7), (0, 1.0)], ids=["grid-path", "splat-path", "order0"]
     )
-    def test_windows_tile(self, order, scale):
+    def test_windows_tile(self, order, scale, device):
         t = random_texton(channels=3, order=order, seed=30)
         h, w = 24, 40
         flips = 0.02 if order == 0 else 0.0
         for origin in ((0.0, 0.0), (-3 * w / scale, -2 * h / scale)):  # also negative cells
             ox, oy = origin
-            wide = synthesize(t, (h, 2 * w), seed=4, scale=scale, offset=(ox, oy), device=CPU)
-            left = synthesize(t, (h, w), seed=4, scale=scale, offset=(ox, oy), device=CPU)
-            right = synthesize(t, (h, w), seed=4, scale=scale, offset=(ox + w / scale, oy), device=CPU)
+            wide = synthesize(t, (h, 2 * w), seed=4, scale=scale, offset=(ox, oy), device=device)
+            left = synthesize(t, (h, w), seed=4, scale=scale, offset=(ox, oy), device=device)
+            right = synthesize(t, (h, w), seed=4, scale=scale, offset=(ox + w / scale, oy), device=device)
             assert_same_noise(np.concatenate([left, right], axis=1), wide, t, 1e-4, flips)
-            tall = synthesize(t, (2 * h, w), seed=4, scale=scale, offset=(ox, oy), device=CPU)
-            below = synthesize(t, (h, w), seed=4, scale=scale, offset=(ox, oy + h / scale), device=CPU)
+            tall = synthesize(t, (2 * h, w), seed=4, scale=scale, offset=(ox, oy), device=device)
+            below = synthesize(t, (h, w), seed=4, scale=scale, offset=(ox, oy + h / scale), device=device)
             assert_same_noise(np.concatenate([left, below], axis=0), tall, t, 1e-4, flips)
 
-    def test_negative_offsets(self):
+    def test_negative_offsets(self, device):
         t = random_texton(seed=31)
-        g = synthesize(t, (16, 24), offset=(-12.0, -8.0), device=CPU)
-        assert np.isfinite(g).all() and g.std() > 0.2 * noise_std(t)
-        e = evaluate(t, pixel_points((16, 24), offset=(-12.0, -8.0)), device=CPU)
+        g = synthesize(t, (16, 24), offset=(-12.0, -8.0), device=device)
+        assert np.isfinite(g).all() and g.std() > 0.2 * noise_sd(t)
+        e = evaluate(t, pixel_points((16, 24), offset=(-12.0, -8.0)), device=device)
         assert_same_noise(g, e.reshape(g.shape), t)
         # a window straddling the origin equals the two quadrants drawn separately
-        whole = synthesize(t, (16, 24), offset=(-12.0, 0.0), device=CPU)
-        neg = synthesize(t, (16, 12), offset=(-12.0, 0.0), device=CPU)
-        pos = synthesize(t, (16, 12), offset=(0.0, 0.0), device=CPU)
+        whole = synthesize(t, (16, 24), offset=(-12.0, 0.0), device=device)
+        neg = synthesize(t, (16, 12), offset=(-12.0, 0.0), device=device)
+        pos = synthesize(t, (16, 12), offset=(0.0, 0.0), device=device)
         assert_same_noise(np.concatenate([neg, pos], axis=1), whole, t)
 
     @pytest.mark.parametrize("order, period", [(1, (40, 24)), (3, (18, 30)), (0, (5, 7))])
-    def test_period(self, order, period):
+    def test_period(self, order, period, device):
         t = random_texton(channels=3, order=order, seed=40)
         px, py = period
-        g = synthesize(t, (2 * py, 2 * px), seed=6, period=period, device=CPU)
+        g = synthesize(t, (2 * py, 2 * px), seed=6, period=period, device=device)
         flips = 0.02 if order == 0 else 0.0
         assert_same_noise(g[:, :px], g[:, px:], t, 1e-4, flips)
         assert_same_noise(g[:py], g[py:], t, 1e-4, flips)
         assert not np.allclose(g[:, : px // 2], g[:, px // 2: 2 * (px // 2)])  # not a shorter period
         pts = np.random.default_rng(1).uniform(-3000, 3000, (400, 2))
-        e = evaluate(t, pts, seed=6, period=period, device=CPU)
+        e = evaluate(t, pts, seed=6, period=period, device=device)
         for shift in ((px, 0), (0, py), (-3 * px, 5 * py)):
-            assert_same_noise(evaluate(t, pts + shift, seed=6, period=period, device=CPU), e, t, 1e-4, flips)
+            assert_same_noise(evaluate(t, pts + shift, seed=6, period=period, device=device), e, t, 1e-4, flips)
         # the periodic noise is the same at the raster's pixels
-        e0 = evaluate(t, pixel_points(g.shape[:2]), seed=6, period=period, device=CPU)
+        e0 = evaluate(t, pixel_points(g.shape[:2]), seed=6, period=period, device=device)
         assert_same_noise(g, e0.reshape(g.shape), t, 1e-4, flips)
 
-    def test_periodic_noise_keeps_its_moments(self):
+    def test_periodic_noise_keeps_its_moments(self, device):
         # With periods larger than twice the support (9 texels), the periodic noise is a
         # shot noise on the torus whose lags never wrap onto the support: same mean, same
         # C(0). A wrong cell area (the periodic cells are 40/7 × 24/4 = 5.71 × 6, not
@@ -506,7 +450,7 @@ class TestConsistency:
         t = random_texton(order=1, seed=42)
         period, mni = (40, 24), 30.0
         g = np.concatenate(
-            [synthesize(t, (24, 40), mni, s, period=period, device=CPU)[:, :, 0].ravel() for s in range(40)]
+            [synthesize(t, (24, 40), mni, s, period=period, device=device)[:, :, 0].ravel() for s in range(40)]
         ).astype(np.float64) - t.mean[0]
         # one period per seed: the torus mean is (N − λ P²) Σα / (P² √λ) with N ~ Poisson(λ P²)
         n_seeds, area = 40, 40 * 24
@@ -517,91 +461,89 @@ class TestConsistency:
         assert abs(np.mean(g**2) - c0) < 5 * var_sd, (np.mean(g**2) / c0, var_sd / c0)
         assert 5 * var_sd < 0.1 * c0
 
-    def test_period_non_integer(self):
+    def test_period_non_integer(self, device):
         t = random_texton(order=1, seed=41)
         period = (37.3, 21.9)
         pts = np.random.default_rng(2).uniform(-500, 500, (300, 2))
-        e = evaluate(t, pts, period=period, device=CPU)
-        assert_same_noise(evaluate(t, pts + (37.3, 0), period=period, device=CPU), e, t)
-        assert_same_noise(evaluate(t, pts + (0, -21.9), period=period, device=CPU), e, t)
+        e = evaluate(t, pts, period=period, device=device)
+        assert_same_noise(evaluate(t, pts + (37.3, 0), period=period, device=device), e, t)
+        assert_same_noise(evaluate(t, pts + (0, -21.9), period=period, device=device), e, t)
 
-    def test_scale_samples_the_unscaled_noise(self):
+    def test_scale_samples_the_unscaled_noise(self, device):
         t = random_texton(order=3, seed=50)
         # scale 1/3: pixel (i, j) sits at (3j + 1.5, 3i + 1.5), the centre of unscaled pixel (3i+1, 3j+1)
-        small = synthesize(t, (12, 10), seed=2, scale=1 / 3, device=CPU)
-        big = synthesize(t, (36, 30), seed=2, device=CPU)
+        small = synthesize(t, (12, 10), seed=2, scale=1 / 3, device=device)
+        big = synthesize(t, (36, 30), seed=2, device=device)
         assert_same_noise(small, big[1::3, 1::3], t)
         # scale 2.5: (j + ½) / 2.5, compared with point evaluation
-        g = synthesize(t, (30, 25), seed=2, scale=2.5, device=CPU)
-        e = evaluate(t, pixel_points((30, 25), scale=2.5), seed=2, device=CPU)
+        g = synthesize(t, (30, 25), seed=2, scale=2.5, device=device)
+        e = evaluate(t, pixel_points((30, 25), scale=2.5), seed=2, device=device)
         assert_same_noise(g, e.reshape(g.shape), t)
 
-    def test_rotation_by_90_is_an_exact_turn(self):
+    def test_rotation_by_90_is_an_exact_turn(self, device):
         # rotation 90: pixel (i, j) at o + (−(i + ½), j + ½) = unrotated pixel (j, H − 1 − i) of
         # the W × H raster at offset o − (H, 0)
         t = random_texton(channels=3, order=1, seed=51)
         h, w, o = 20, 28, (5.0, -7.0)
-        turned = synthesize(t, (h, w), seed=8, rotation=90.0, offset=o, device=CPU)
-        plain = synthesize(t, (w, h), seed=8, offset=(o[0] - h, o[1]), device=CPU)
+        turned = synthesize(t, (h, w), seed=8, rotation=90.0, offset=o, device=device)
+        plain = synthesize(t, (w, h), seed=8, offset=(o[0] - h, o[1]), device=device)
         assert_same_noise(turned, plain.transpose(1, 0, 2)[::-1], t)
 
-    @pytest.mark.skipif(not HAS_METHOD, reason="synthesize has no method option")
     @pytest.mark.parametrize("order", ORDERS)
     @pytest.mark.parametrize("scale, rotation, offset", GEOMETRIES)
-    def test_gather_equals_splat_on_cpu(self, order, scale, rotation, offset):
-        # the CUDA path's per-pixel gather kernel, run on the CPU, against the CPU splats
+    def test_gather_equals_splat(self, order, scale, rotation, offset, device):
+        # the per-pixel gather kernel (the CUDA default) on the --device, against the CPU's splats
         t = random_texton(channels=3, order=order, seed=25 + order)
-        kw = dict(mni=30.0, seed=13, scale=scale, rotation=rotation, offset=offset, device=CPU)
-        a = synthesize(t, (30, 26), method="splat", **kw)
-        b = synthesize(t, (30, 26), method="gather", **kw)
+        kw = dict(mni=30.0, seed=13, scale=scale, rotation=rotation, offset=offset)
+        a = synthesize(t, (30, 26), method="splat", device="cpu", **kw)
+        b = synthesize(t, (30, 26), method="gather", device=device, **kw)
         assert_same_noise(a, b, t, 1e-4, 0.02 if order == 0 else 0.0)
-        np.testing.assert_array_equal(a, synthesize(t, (30, 26), method="auto", **kw))
+        np.testing.assert_array_equal(a, synthesize(t, (30, 26), method="auto", device="cpu", **kw))
 
-    def test_empty_and_single_point(self):
+    def test_empty_and_single_point(self, device):
         t = random_texton(channels=3, seed=52)
-        assert evaluate(t, np.zeros((0, 2)), device=CPU).shape == (0, 3)
-        one = synthesize(t, (1, 1), offset=(7.0, 9.0), device=CPU)
-        assert_same_noise(one[0], evaluate(t, [[7.5, 9.5]], device=CPU), t)
+        assert evaluate(t, np.zeros((0, 2)), device=device).shape == (0, 3)
+        one = synthesize(t, (1, 1), offset=(7.0, 9.0), device=device)
+        assert_same_noise(one[0], evaluate(t, [[7.5, 9.5]], device=device), t)
 
 
 # --------------------------------------------------------------------------- #
 # 5. CUDA                                                                     #
 # --------------------------------------------------------------------------- #
 
-@pytest.mark.cuda
-@needs_cuda
-class TestCuda:
+class TestDeviceMatchesCpu:
+    """The --device (a GPU) gives the CPU's noise: the same impacts, to float rounding."""
+
     @pytest.mark.parametrize("order", ORDERS)
     @pytest.mark.parametrize("scale, rotation, offset", GEOMETRIES)
-    def test_synthesize_cpu_equals_cuda(self, order, scale, rotation, offset):
+    def test_synthesize_matches_cpu(self, order, scale, rotation, offset, gpu):
         t = random_texton(channels=3, order=order, seed=60 + order)
         a = synthesize(t, (48, 40), 30.0, 11, scale, rotation, offset, device="cpu")
-        b = synthesize(t, (48, 40), 30.0, 11, scale, rotation, offset, device="cuda")
+        b = synthesize(t, (48, 40), 30.0, 11, scale, rotation, offset, device=gpu)
         assert b.dtype == np.float32 and b.shape == a.shape
         assert_same_noise(a, b, t, 1e-4, 0.02 if order == 0 else 0.0)
 
     @pytest.mark.parametrize("order", ORDERS)
-    def test_evaluate_cpu_equals_cuda(self, order):
+    def test_evaluate_matches_cpu(self, order, gpu):
         t = random_texton(channels=3, order=order, seed=60 + order)
         pts = np.random.default_rng(3).uniform(-2000, 2000, (4000, 2))
         a = evaluate(t, pts, seed=12, device="cpu")
-        b = evaluate(t, pts, seed=12, device="cuda")
+        b = evaluate(t, pts, seed=12, device=gpu)
         assert_same_noise(a, b, t, 1e-4, 0.02 if order == 0 else 0.0)
 
-    @pytest.mark.skipif(not HAS_METHOD, reason="synthesize has no method option")
-    def test_gather_on_cuda_and_no_splat(self):
+    def test_gather_matches_cpu_and_no_splat(self, gpu):
         t = random_texton(channels=3, order=3, seed=63)
         a = synthesize(t, (40, 40), seed=2, rotation=10.0, device="cpu", method="gather")
-        b = synthesize(t, (40, 40), seed=2, rotation=10.0, device="cuda", method="gather")
+        b = synthesize(t, (40, 40), seed=2, rotation=10.0, device=gpu, method="gather")
         assert_same_noise(a, b, t)
         with pytest.raises(TextonError, match="splat"):
-            synthesize(t, (8, 8), device="cuda", method="splat")
+            synthesize(t, (8, 8), device=gpu, method="splat")
 
-    def test_period_and_gaussian_counts_on_cuda(self):
+    def test_period_and_gaussian_counts_match_cpu(self, gpu):
         t = random_texton(order=1, seed=62)
         for kw in (dict(period=(40, 24)), dict(poisson="gaussian")):
             a = synthesize(t, (48, 80), seed=1, device="cpu", **kw)
-            b = synthesize(t, (48, 80), seed=1, device="cuda", **kw)
+            b = synthesize(t, (48, 80), seed=1, device=gpu, **kw)
             assert_same_noise(a, b, t)
 
 
@@ -612,19 +554,18 @@ T1 = random_texton(seed=70)
 
 
 def _no_cuda7() -> bool:
-    import warp
+    from helpers import cuda_devices
 
-    warp_texton.synthesis._warp()
-    return "cuda:7" not in [str(d) for d in warp.get_devices()]
+    return "cuda:7" not in cuda_devices()
 
 
 class TestErrors:
     @pytest.mark.parametrize("mni", [0.0, -1.0, float("nan"), float("inf"), "30", None])
-    def test_mni(self, mni):
+    def test_mni(self, mni, device):
         with pytest.raises(TextonError, match="mni"):
-            synthesize(T1, (8, 8), mni=mni, device=CPU)
+            synthesize(T1, (8, 8), mni=mni, device=device)
         with pytest.raises(TextonError, match="mni"):
-            evaluate(T1, [[0.0, 0.0]], mni=mni, device=CPU)
+            evaluate(T1, [[0.0, 0.0]], mni=mni, device=device)
 
     @pytest.mark.parametrize(
         "shape, match",
@@ -638,9 +579,9 @@ class TestErrors:
             ((100000, 100000), "too large"),
         ],
     )
-    def test_shape(self, shape, match):
+    def test_shape(self, shape, match, device):
         with pytest.raises(TextonError, match=match):
-            synthesize(T1, shape, device=CPU)
+            synthesize(T1, shape, device=device)
 
     @pytest.mark.parametrize(
         "period, match",
@@ -654,11 +595,11 @@ class TestErrors:
             ("ab", r"period\[0\]"),
         ],
     )
-    def test_period(self, period, match):
+    def test_period(self, period, match, device):
         with pytest.raises(TextonError, match=match):
-            synthesize(T1, (8, 8), period=period, device=CPU)
+            synthesize(T1, (8, 8), period=period, device=device)
         with pytest.raises(TextonError, match=match):
-            evaluate(T1, [[0.0, 0.0]], period=period, device=CPU)
+            evaluate(T1, [[0.0, 0.0]], period=period, device=device)
 
     @pytest.mark.parametrize("device", ["tpu", "cuda:7", "cpu:1"])
     def test_device(self, device):
@@ -682,18 +623,18 @@ class TestErrors:
             ([[1.0, 2.0], [3.0]], r"shape \(N, 2\)"),
         ],
     )
-    def test_points(self, points, match):
+    def test_points(self, points, match, device):
         with pytest.raises(TextonError, match=match):
-            evaluate(T1, points, device=CPU)
+            evaluate(T1, points, device=device)
 
-    def test_tiny_scale_covers_too_many_cells(self):
+    def test_tiny_scale_covers_too_many_cells(self, device):
         with pytest.raises(TextonError, match="scale"):
-            synthesize(T1, (1000, 1000), scale=1e-6, device=CPU)
+            synthesize(T1, (1000, 1000), scale=1e-6, device=device)
 
     @pytest.mark.parametrize("scale", [0.0, -1.0, float("nan"), float("inf")])
-    def test_scale(self, scale):
+    def test_scale(self, scale, device):
         with pytest.raises(TextonError, match="scale"):
-            synthesize(T1, (8, 8), scale=scale, device=CPU)
+            synthesize(T1, (8, 8), scale=scale, device=device)
 
     @pytest.mark.parametrize(
         "kw, match",
@@ -709,31 +650,30 @@ class TestErrors:
             (dict(cell_factor=0.0), "cell_factor"),
         ],
     )
-    def test_placement_and_seed(self, kw, match):
+    def test_placement_and_seed(self, kw, match, device):
         with pytest.raises(TextonError, match=match):
-            synthesize(T1, (8, 8), device=CPU, **kw)
+            synthesize(T1, (8, 8), device=device, **kw)
 
-    @pytest.mark.skipif(not HAS_METHOD, reason="synthesize has no method option")
-    def test_method(self):
+    def test_method(self, device):
         with pytest.raises(TextonError, match="method must be one of"):
-            synthesize(T1, (8, 8), method="bogus", device=CPU)
+            synthesize(T1, (8, 8), method="bogus", device=device)
 
-    def test_poisson_mode(self):
+    def test_poisson_mode(self, device):
         with pytest.raises(TextonError, match="poisson must be one of exact, gaussian"):
-            synthesize(T1, (8, 8), poisson="bogus", device=CPU)
+            synthesize(T1, (8, 8), poisson="bogus", device=device)
         with pytest.raises(TextonError, match="poisson"):
-            evaluate(T1, [[0.0, 0.0]], poisson="bogus", device=CPU)
+            evaluate(T1, [[0.0, 0.0]], poisson="bogus", device=device)
 
     @pytest.mark.parametrize("texton", [np.ones((8, 8, 1)), None, "grass.texton"])
-    def test_not_a_texton(self, texton):
+    def test_not_a_texton(self, texton, device):
         with pytest.raises(TextonError, match="texton must be a Texton"):
-            synthesize(texton, (8, 8), device=CPU)
+            synthesize(texton, (8, 8), device=device)
         with pytest.raises(TextonError, match="texton must be a Texton"):
-            evaluate(texton, [[0.0, 0.0]], device=CPU)
+            evaluate(texton, [[0.0, 0.0]], device=device)
 
-    def test_texton_error_is_a_value_error(self):
+    def test_texton_error_is_a_value_error(self, device):
         with pytest.raises(ValueError):
-            synthesize(T1, (0, 8), device=CPU)
+            synthesize(T1, (0, 8), device=device)
 
     def test_evaluate_refuses_too_many_cells_per_point(self):
         # In a child process, so that the hang can be stopped: a refusal takes < 1 s
@@ -753,13 +693,13 @@ class TestErrors:
         assert out.stdout.startswith("TextonError:"), out.stdout
 
     @pytest.mark.filterwarnings("ignore::RuntimeWarning")
-    def test_subnormal_scale(self):
+    def test_subnormal_scale(self, device):
         with pytest.raises(TextonError, match="scale"):
-            synthesize(T1, (4, 4), scale=1e-320, device=CPU)
+            synthesize(T1, (4, 4), scale=1e-320, device=device)
 
-    def test_huge_cell_factor(self):
+    def test_huge_cell_factor(self, device):
         with pytest.raises(TextonError, match="cell_factor"):
-            synthesize(T1, (8, 8), cell_factor=1e5, device=CPU)
+            synthesize(T1, (8, 8), cell_factor=1e5, device=device)
 
 
 def test_all_zero_texton_is_refused_with_a_clear_error():

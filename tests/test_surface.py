@@ -27,18 +27,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import scipy.ndimage as ndi
 import scipy.optimize as so
 import trimesh
 from scipy.spatial import cKDTree
 
-from devices import needs_cuda
+from helpers import anisotropic_texton, noise_sd, random_texton
 from texton_models import isolated_bumps, block_zscores, expected_periodogram, model_covariance, texton_on_nodes
 from warp_texton import Camera, Texton, TextonError, render_mesh, surface_noise, tangent_frames, texture_mesh
 from warp_texton.bspline import bspline
 from warp_texton.surface import UP, vertex_normals
 
-CPU = "cpu"
 A = np.array(UP)  # the frame rule's `up` (0, 0, 1)
 B = np.array((1.0, 0.0, 0.0))  # and its `side`
 
@@ -46,17 +44,6 @@ B = np.array((1.0, 0.0, 0.0))  # and its `side`
 # --------------------------------------------------------------------------- #
 # Textons and the model                                                       #
 # --------------------------------------------------------------------------- #
-def random_texton(shape=(8, 8), channels=1, order=1, seed=0, scale=0.15, offset=0.03, mean=0.5) -> Texton:
-    """White coefficients plus a constant (so that ∫h = Σα is clearly non-zero)."""
-    rng = np.random.default_rng(seed)
-    a = scale * rng.standard_normal((*shape, channels))
-    if channels == 3:
-        # correlated channels with a full-rank lag-0 covariance, as in a photograph
-        a = a @ np.array([[1.0, 0.0, 0.0], [0.8, 0.6, 0.0], [0.5, 0.3, 0.8]]).T
-    means = np.broadcast_to(np.asarray(mean, dtype=np.float64), (channels,))
-    return Texton(a + offset, means, order)
-
-
 def small_texton(channels=3, seed=5, sd=0.06, mean=(0.3, 0.5, 0.7)) -> Texton:
     """A texton whose noise has standard deviation ≈ ``sd`` per channel around ``mean``.
 
@@ -78,10 +65,6 @@ def support_side(t: Texton) -> float:
 
 def surface_lam(t: Texton, mni: float) -> float:
     return mni / (support_side(t) * t.support_area)
-
-
-def noise_sd(t: Texton) -> float:
-    return float(np.sqrt(np.diag(t.covariance()).mean()))
 
 
 def fourth_cumulant(t: Texton, mni: float) -> np.ndarray:
@@ -204,7 +187,7 @@ class TestTangentFrames:
             f = tangent_frames(np.stack([p, q]))[0]
             assert np.linalg.norm(f[0] - f[1]) > 1.0
 
-    def test_kernel_rule_equals_host_rule(self):
+    def test_kernel_rule_equals_host_rule(self, device):
         t = random_texton(channels=3, seed=8)
         rng = np.random.default_rng(5)
         n = np.concatenate([
@@ -215,7 +198,7 @@ class TestTangentFrames:
         unit = n / np.linalg.norm(n, axis=1)[:, None]
         n = n[np.max(unit @ singular_normals().T, axis=1) < math.cos(0.01)]  # 0.01 rad from ±n*
         p = rng.uniform(-3.0, 3.0, (len(n), 3))
-        kw = dict(texel_size=0.05, seed=3, device=CPU)
+        kw = dict(texel_size=0.05, seed=3, device=device)
         for rule in ({}, dict(up=(0, 1.0, 0), side=(0, 0, 2.0))):
             u1, u2 = tangent_frames(n, **rule)
             implicit = surface_noise(t, p, n, **rule, **kw)
@@ -225,7 +208,7 @@ class TestTangentFrames:
             turned = surface_noise(t, p, n, tangents=u2, **rule, **kw)
             assert np.mean(np.abs(turned - implicit) > 0.1 * noise_sd(t)) > 0.5
 
-    def test_turning_the_frame_turns_the_texton(self):
+    def test_turning_the_frame_turns_the_texton(self, device):
         """With u1' = u2 the point sees h_c(w2, −w1), (w1, w2) its frame coordinates. For α of
         r × s and centre ((s−1)/2, (r−1)/2), that is the s × r texton β(j, r−1−i) = α(i, j)
         = np.rot90(α, −1) in the frame (u1, u2): r, |supp h| and so λ and the cells are the
@@ -241,11 +224,11 @@ class TestTangentFrames:
         n = random_normals(2000, 10)
         p = np.random.default_rng(11).uniform(-2, 2, (2000, 3))
         u1, u2 = tangent_frames(n)
-        a = surface_noise(t, p, n, 0.04, seed=1, tangents=u2, device=CPU)
-        b = surface_noise(turned, p, n, 0.04, seed=1, tangents=u1, device=CPU)
+        a = surface_noise(t, p, n, 0.04, seed=1, tangents=u2, device=device)
+        b = surface_noise(turned, p, n, 0.04, seed=1, tangents=u1, device=device)
         np.testing.assert_allclose(a, b, atol=1e-4 * noise_sd(t))
         # a turn the other way (rot90 by +1) is a different texture: the test sees the sense
-        other = surface_noise(Texton(np.rot90(alpha, 1), t.mean, 1), p, n, 0.04, seed=1, tangents=u1, device=CPU)
+        other = surface_noise(Texton(np.rot90(alpha, 1), t.mean, 1), p, n, 0.04, seed=1, tangents=u1, device=device)
         assert np.mean(np.abs(other - a) > 0.1 * noise_sd(t)) > 0.5
 
 
@@ -274,14 +257,14 @@ def independent_points(where: str, t: Texton):
 
 class TestProposition3:
     @pytest.mark.parametrize("where", ["plane", "tilted plane", "sphere"])
-    def test_mean_and_colour_covariance(self, where):
+    def test_mean_and_colour_covariance(self, where, device):
         t = random_texton(channels=3, seed=3, mean=(0.4, 0.5, 0.6))
         mni = 60.0
         p, n, texel = independent_points(where, t)
         if where == "sphere":
             d, _ = cKDTree(p / texel).query(p / texel, k=2)
             assert d[:, 1].min() > support_side(t) * math.sqrt(3)  # independent points
-        g = surface_noise(t, p, n, texel, mni, seed=7, device=CPU).astype(np.float64)
+        g = surface_noise(t, p, n, texel, mni, seed=7, device=device).astype(np.float64)
         count = len(g)
         cov = t.covariance()
         # i.i.d. values: Var(mean_a) = C_aa / N
@@ -300,11 +283,11 @@ class TestProposition3:
         # ... tight enough to see a 10 % error of the variance (√(λr/2) instead of √(λr/3) is 33 %)
         assert np.all(5 * np.diag(sd) < 0.1 * np.diag(cov))
 
-    def test_gaussian_counts_keep_the_moments(self):
+    def test_gaussian_counts_keep_the_moments(self, device):
         t = random_texton(channels=1, seed=12)
         p, n, texel = independent_points("tilted plane", t)
-        g = surface_noise(t, p, n, texel, seed=2, poisson="gaussian", device=CPU)[:, 0].astype(np.float64)
-        exact = surface_noise(t, p, n, texel, seed=2, device=CPU)[:, 0]
+        g = surface_noise(t, p, n, texel, seed=2, poisson="gaussian", device=device)[:, 0].astype(np.float64)
+        exact = surface_noise(t, p, n, texel, seed=2, device=device)[:, 0]
         assert not np.allclose(g, exact)
         c0, count = t.covariance()[0, 0], len(g)
         assert abs(g.mean() - t.mean[0]) < 5 * math.sqrt(c0 / count)
@@ -314,7 +297,7 @@ class TestProposition3:
         sd = math.sqrt((2 * c0**2 + fourth_cumulant(t, 60.0)[0, 0]) / count)
         assert abs(np.mean((g - t.mean[0]) ** 2) - c0) < 5 * sd + c0 / (12 * lam_c)
 
-    def test_excess_kurtosis_at_low_mni(self):
+    def test_excess_kurtosis_at_low_mni(self, device):
         """κ = 9 ∫h⁴ / (5 λ r (∫h²)²): it sees λ = MNI / (r |supp h|) and the slab weight.
 
         A 6 × 10 texton of order 1 has a 7 × 11 support: r = 11, |supp h| = 77. λ = MNI/r³
@@ -331,7 +314,7 @@ class TestProposition3:
         p = frame_grid([3.0, -2.0, 1.0], B, np.cross(A, B), 32, 12 * 0.1)  # 12 > r texels apart
         ks = []
         for seed in range(64):
-            g = surface_noise(t, p, np.tile(n, (len(p), 1)), 0.1, mni, seed, device=CPU)[:, 0] - t.mean[0]
+            g = surface_noise(t, p, np.tile(n, (len(p), 1)), 0.1, mni, seed, device=device)[:, 0] - t.mean[0]
             g = g.astype(np.float64)
             ks.append(np.mean(g**4) / np.mean(g**2) ** 2 - 3.0)
         # the spread over 64 independent groups of 1024 gives the standard error honestly
@@ -341,7 +324,7 @@ class TestProposition3:
         assert abs(ks.mean() - expected) < 5 * sd, (ks.mean(), expected, sd)
         assert 5 * sd < 0.3 * expected  # sees 77/121 or 5/9 factors
 
-    def test_isolated_impacts_are_the_texton(self):
+    def test_isolated_impacts_are_the_texton(self, device):
         """At a tiny MNI each impact near the plane z = 0 adds w · h(· − p), w ∈ (0, 1]; the
         background, where none reaches, is m − λ (r/2) ∫h / √(λ r/3) exactly (CGF Prop. 3).
         An asymmetric 2 × 3 texton: a mirrored or transposed frame changes the bumps."""
@@ -356,7 +339,7 @@ class TestProposition3:
         ys = (np.arange(96 * q) + 0.5) / q + 13.0
         gx, gy = np.meshgrid(xs, ys)
         pts = np.stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)], axis=1)
-        g = surface_noise(t, pts * 0.5, np.tile([0, 0, 1.0], (len(pts), 1)), 0.5, mni, seed=5, device=CPU)
+        g = surface_noise(t, pts * 0.5, np.tile([0, 0, 1.0], (len(pts), 1)), 0.5, mni, seed=5, device=device)
         g = g[:, 0].reshape(gx.shape).astype(np.float64)
         f = (g - 0.5) * math.sqrt(lam * r / 3) + lam * r / 2 * alpha.sum()  # the raw sum
         assert np.all(f > -1e-6)
@@ -384,18 +367,11 @@ class TestProposition3:
 # --------------------------------------------------------------------------- #
 # 3. The plane: the 2-D spectrum                                              #
 # --------------------------------------------------------------------------- #
-def anisotropic_texton(seed=4) -> Texton:
-    """8 × 12 coefficients smoothed along x (σ = 0.8): a clearly anisotropic spectrum."""
-    a = np.random.default_rng(seed).standard_normal((8, 12, 1))
-    a = ndi.gaussian_filter1d(a, 0.8, axis=1, mode="constant")
-    return Texton(0.3 * a + 0.02, [0.5], 1)
-
-
 L, GAP, PER_SIDE, BLOCK = 32, 14, 8, 4  # GAP ≥ r = 13: windows see disjoint impacts
 
 
 class TestPlaneSpectrum:
-    def test_plane_noise_has_the_2d_texton_spectrum(self):
+    def test_plane_noise_has_the_2d_texton_spectrum(self, device):
         t = anisotropic_texton()
         assert support_side(t) == 13
         texel = 0.25
@@ -405,7 +381,7 @@ class TestPlaneSpectrum:
         acc, windows = np.zeros((L, L)), 0
         for seed, (ox, oy, oz) in ((1, (0.0, 0.0, 0.0)), (2, (-700.0, 350.0, 12.5)), (3, (40.0, -90.0, -3.0))):
             pts = np.stack([gx.ravel() + ox, gy.ravel() + oy, np.full(gx.size, oz)], axis=1)
-            g = surface_noise(t, pts, np.tile([0, 0, 1.0], (len(pts), 1)), texel, 60.0, seed, device=CPU)
+            g = surface_noise(t, pts, np.tile([0, 0, 1.0], (len(pts), 1)), texel, 60.0, seed, device=device)
             g = g[:, 0].reshape(side, side).astype(np.float64) - t.mean[0]
             for y in range(0, side, L + GAP):
                 for x in range(0, side, L + GAP):
@@ -433,7 +409,7 @@ class TestPlaneSpectrum:
 # 4. Triangulation, determinism, scale                                        #
 # --------------------------------------------------------------------------- #
 class TestTriangulation:
-    def test_values_depend_only_on_point_and_frame(self):
+    def test_values_depend_only_on_point_and_frame(self, device):
         """The same point with the same normal has the same noise in any mesh, batch or order."""
         t = random_texton(channels=3, seed=20)
         coarse = trimesh.creation.icosphere(subdivisions=2, radius=2.0)
@@ -441,25 +417,25 @@ class TestTriangulation:
         vc, vf = np.asarray(coarse.vertices), np.asarray(fine.vertices)
         d, match = cKDTree(vf).query(vc)
         assert d.max() < 1e-12
-        a = surface_noise(t, vc, vc, 0.02, seed=4, device=CPU)  # analytic normals: the radius
-        b = surface_noise(t, vf, vf, 0.02, seed=4, device=CPU)[match]
+        a = surface_noise(t, vc, vc, 0.02, seed=4, device=device)  # analytic normals: the radius
+        b = surface_noise(t, vf, vf, 0.02, seed=4, device=device)[match]
         np.testing.assert_allclose(a, b, atol=1e-5 * noise_sd(t))
         perm = np.random.default_rng(0).permutation(len(vc))[:37]
-        np.testing.assert_array_equal(surface_noise(t, vc[perm], vc[perm], 0.02, seed=4, device=CPU), a[perm])
-        one = surface_noise(t, vc[5:6], vc[5:6], 0.02, seed=4, device=CPU)
+        np.testing.assert_array_equal(surface_noise(t, vc[perm], vc[perm], 0.02, seed=4, device=device), a[perm])
+        one = surface_noise(t, vc[5:6], vc[5:6], 0.02, seed=4, device=device)
         np.testing.assert_array_equal(one, a[5:6])
         assert a.std(axis=0).min() > 0.3 * noise_sd(t)  # not a constant
 
-    def test_planar_mesh_triangulated_two_ways(self):
+    def test_planar_mesh_triangulated_two_ways(self, device):
         t = small_texton(sd=0.15)
         texel = 0.01
         m1 = plane_mesh(n=41, z=0.25)
         m2 = plane_mesh(n=41, z=0.25, flip=True)
         v3, f3 = trimesh.remesh.subdivide(m1.vertices, m1.faces)
         m3 = trimesh.Trimesh(v3, f3, process=False)
-        c1 = colours(texture_mesh(m1, t, texel, seed=3, device=CPU))
-        c2 = colours(texture_mesh(m2, t, texel, seed=3, device=CPU))
-        c3 = colours(texture_mesh(m3, t, texel, seed=3, device=CPU))
+        c1 = colours(texture_mesh(m1, t, texel, seed=3, device=device))
+        c2 = colours(texture_mesh(m2, t, texel, seed=3, device=device))
+        c3 = colours(texture_mesh(m3, t, texel, seed=3, device=device))
         n0 = len(m1.vertices)
         np.testing.assert_array_equal(np.asarray(m3.vertices[:n0]), np.asarray(m1.vertices))
         # a plane z = const has exactly the normal (0, 0, 1) whatever the triangulation
@@ -467,49 +443,49 @@ class TestTriangulation:
         np.testing.assert_array_equal(c3[:n0], c1)
         assert c1[:, :3].std() > 10  # a texture, not a flat colour
         # max_edge subdivision keeps the original vertices, and their colours
-        c4 = colours(texture_mesh(m1, t, texel, seed=3, max_edge=1.0, device=CPU))
+        c4 = colours(texture_mesh(m1, t, texel, seed=3, max_edge=1.0, device=device))
         np.testing.assert_array_equal(c4[:n0], c1)
 
-    def test_tilted_planar_mesh_triangulated_two_ways(self):
+    def test_tilted_planar_mesh_triangulated_two_ways(self, device):
         t = small_texton(sd=0.15)
         rot = trimesh.transformations.rotation_matrix(0.7, [1.0, 2.0, 0.5])
         m1, m2 = plane_mesh(n=31), plane_mesh(n=31, flip=True)
         m1.apply_transform(rot)
         m2.apply_transform(rot)
-        c1 = colours(texture_mesh(m1, t, 0.01, device=CPU)).astype(int)
-        c2 = colours(texture_mesh(m2, t, 0.01, device=CPU)).astype(int)
+        c1 = colours(texture_mesh(m1, t, 0.01, device=device)).astype(int)
+        c2 = colours(texture_mesh(m2, t, 0.01, device=device)).astype(int)
         # the normals agree to rounding (≈1e-16): colours to the 8-bit rounding step
         assert np.abs(c1 - c2).max() <= 1
         assert np.mean(c1 != c2) < 0.01
 
-    def test_texture_mesh_colours_are_the_surface_noise(self):
+    def test_texture_mesh_colours_are_the_surface_noise(self, device):
         t = small_texton(channels=1, sd=0.2)
         mesh = trimesh.creation.torus(1.0, 0.4)
         assert mesh.visual.kind is None
-        out = texture_mesh(mesh, t, 0.01, mni=40.0, seed=6, device=CPU)
+        out = texture_mesh(mesh, t, 0.01, mni=40.0, seed=6, device=device)
         assert out is not mesh and len(out.vertices) == len(mesh.vertices)
         n = vertex_normals(out)
-        g = surface_noise(t, out.vertices, n, 0.01, 40.0, 6, device=CPU)
+        g = surface_noise(t, out.vertices, n, 0.01, 40.0, 6, device=device)
         expect = np.round(np.clip(g, 0, 1) * 255).astype(int)
         c = colours(out).astype(int)
         np.testing.assert_array_equal(c[:, :3], np.repeat(expect, 3, axis=1))  # grey spread to RGB
         assert np.all(c[:, 3] == 255)
         # the frame rule's directions reach the kernel
         rule = dict(up=(0.0, 1.0, 0.0), side=(0.0, 0.0, 1.0))
-        other = colours(texture_mesh(mesh, t, 0.01, mni=40.0, seed=6, device=CPU, **rule))
-        g = surface_noise(t, out.vertices, n, 0.01, 40.0, 6, device=CPU, **rule)
+        other = colours(texture_mesh(mesh, t, 0.01, mni=40.0, seed=6, device=device, **rule))
+        g = surface_noise(t, out.vertices, n, 0.01, 40.0, 6, device=device, **rule)
         np.testing.assert_array_equal(other[:, 0], np.round(np.clip(g[:, 0], 0, 1) * 255))
         assert np.mean(other[:, 0] != c[:, 0]) > 0.5
         assert mesh.visual.kind is None  # the input is left uncoloured
 
-    def test_scale_invariance_and_seeds(self):
+    def test_scale_invariance_and_seeds(self, device):
         t = random_texton(channels=3, seed=21)
         n = random_normals(500, 22)
         p = np.random.default_rng(23).uniform(-1, 1, (500, 3))
-        a = surface_noise(t, p, n, 0.01, seed=9, device=CPU)
-        b = surface_noise(t, p * 1000.0, n * 3.0, 10.0, seed=9, device=CPU)
+        a = surface_noise(t, p, n, 0.01, seed=9, device=device)
+        b = surface_noise(t, p * 1000.0, n * 3.0, 10.0, seed=9, device=device)
         np.testing.assert_allclose(a, b, atol=1e-4 * noise_sd(t))
-        c = surface_noise(t, p, n, 0.01, seed=10, device=CPU)
+        c = surface_noise(t, p, n, 0.01, seed=10, device=device)
         assert np.mean(np.abs(a - c) > 0.1 * noise_sd(t)) > 0.5
         assert a.dtype == np.float32 and a.shape == (500, 3)
 
@@ -550,14 +526,14 @@ class TestSurfaceNoiseErrors:
             (dict(device="tpu"), "device"),
         ],
     )
-    def test_errors(self, kw, match):
-        args = dict(texton=T1, points=P1, normals=N1, texel_size=1.0, device=CPU)
+    def test_errors(self, kw, match, device):
+        args = dict(texton=T1, points=P1, normals=N1, texel_size=1.0, device=device)
         args.update(kw)
         with pytest.raises(TextonError, match=match):
             surface_noise(**args)
 
-    def test_no_points(self):
-        assert surface_noise(T1, np.zeros((0, 3)), np.zeros((0, 3)), 1.0, device=CPU).shape == (0, 1)
+    def test_no_points(self, device):
+        assert surface_noise(T1, np.zeros((0, 3)), np.zeros((0, 3)), 1.0, device=device).shape == (0, 1)
 
 
 def degenerate_mesh():
@@ -569,18 +545,18 @@ def degenerate_mesh():
 
 
 class TestMeshes:
-    def test_zero_area_triangles_get_defined_colours(self):
+    def test_zero_area_triangles_get_defined_colours(self, device):
         t = small_texton(channels=3, sd=0.15)
         mesh = degenerate_mesh()
-        out = texture_mesh(mesh, t, 0.05, device=CPU)
+        out = texture_mesh(mesh, t, 0.05, device=device)
         c = colours(out)
         assert c.shape == (6, 4) and c.dtype == np.uint8 and np.all(c[:, 3] == 255)
         # vertices with no area around them take the normal UP: a defined value
         n = vertex_normals(out)
         np.testing.assert_array_equal(n[3:], np.tile(A, (3, 1)))
-        g = surface_noise(t, out.vertices, n, 0.05, device=CPU)
+        g = surface_noise(t, out.vertices, n, 0.05, device=device)
         np.testing.assert_array_equal(c[:, :3], np.round(np.clip(g, 0, 1) * 255))
-        img = render_mesh(mesh, t, (24, 24), texel_size=0.05, device=CPU)
+        img = render_mesh(mesh, t, (24, 24), texel_size=0.05, device=device)
         assert np.isfinite(img).all() and img.min() >= 0 and img.max() <= 1
 
     @pytest.mark.parametrize(
@@ -596,14 +572,14 @@ class TestMeshes:
         ],
         ids=["no-vertices", "no-faces", "bad-index", "nan", "array", "scene"],
     )
-    def test_bad_meshes(self, mesh, match):
+    def test_bad_meshes(self, mesh, match, device):
         with pytest.raises(TextonError, match=match):
-            texture_mesh(mesh, T1, 0.1, device=CPU)
+            texture_mesh(mesh, T1, 0.1, device=device)
         with pytest.raises(TextonError, match=match):
-            render_mesh(mesh, T1, (8, 8), device=CPU)
+            render_mesh(mesh, T1, (8, 8), device=device)
 
     @pytest.mark.parametrize("kind", ["triangle", "open-grid", "non-manifold"])
-    def test_open_and_non_manifold_meshes(self, kind):
+    def test_open_and_non_manifold_meshes(self, kind, device):
         if kind == "triangle":
             mesh = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [0, 1, 0.2]], [[0, 1, 2]], process=False)
         elif kind == "open-grid":
@@ -613,12 +589,12 @@ class TestMeshes:
                                    [[0, 1, 2], [0, 1, 3], [0, 1, 4]], process=False)
         assert not mesh.is_watertight
         t = small_texton(channels=3, sd=0.15)
-        out = texture_mesh(mesh, t, 0.02, device=CPU)
+        out = texture_mesh(mesh, t, 0.02, device=device)
         n = vertex_normals(out)
         np.testing.assert_allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-12)
-        g = surface_noise(t, out.vertices, n, 0.02, device=CPU)
+        g = surface_noise(t, out.vertices, n, 0.02, device=device)
         np.testing.assert_array_equal(colours(out)[:, :3], np.round(np.clip(g, 0, 1) * 255))
-        img = render_mesh(mesh, t, (32, 32), texel_size=0.02, device=CPU)
+        img = render_mesh(mesh, t, (32, 32), texel_size=0.02, device=device)
         bg = np.float32(0.92)
         hit = np.any(img != bg, axis=2)
         assert 0 < hit.mean() < 1 and np.isfinite(img).all()
@@ -635,8 +611,8 @@ class TestMeshes:
             (dict(texton="wood.exr"), "texton must be a Texton"),
         ],
     )
-    def test_texture_mesh_errors(self, kw, match):
-        args = dict(mesh=trimesh.creation.icosphere(subdivisions=1), texton=T1, texel_size=0.1, device=CPU)
+    def test_texture_mesh_errors(self, kw, match, device):
+        args = dict(mesh=trimesh.creation.icosphere(subdivisions=1), texton=T1, texel_size=0.1, device=device)
         args.update(kw)
         with pytest.raises(TextonError, match=match):
             texture_mesh(**args)
@@ -652,11 +628,11 @@ def edge_lengths(mesh):
 
 class TestMaxEdge:
     @pytest.mark.parametrize("max_edge", [0.8, 2.5])
-    def test_edges_are_short_enough(self, max_edge):
+    def test_edges_are_short_enough(self, max_edge, device):
         t = small_texton()
         mesh = trimesh.creation.icosphere(subdivisions=1, radius=1.0)
         texel = 0.03
-        out = texture_mesh(mesh, t, texel, max_edge=max_edge, device=CPU)
+        out = texture_mesh(mesh, t, texel, max_edge=max_edge, device=device)
         assert edge_lengths(mesh).max() > 4 * max_edge * texel  # there was work to do
         assert edge_lengths(out).max() <= max_edge * texel * (1 + 1e-9)
         assert len(colours(out)) == len(out.vertices) > len(mesh.vertices)
@@ -667,19 +643,19 @@ class TestMaxEdge:
         assert out.area == pytest.approx(mesh.area, rel=1e-9)
         assert out.volume == pytest.approx(mesh.volume, rel=1e-9)
 
-    def test_too_many_faces_is_refused(self):
+    def test_too_many_faces_is_refused(self, device):
         mesh = trimesh.creation.icosphere(subdivisions=1)
         with pytest.raises(TextonError, match=r"max_edge 0\.01 texels would make about \d+ faces"):
-            texture_mesh(mesh, T1, 0.01, max_edge=0.01, device=CPU)
+            texture_mesh(mesh, T1, 0.01, max_edge=0.01, device=device)
         with pytest.raises(TextonError, match=r"at most 100\)"):
-            texture_mesh(mesh, T1, 0.1, max_edge=1.0, max_faces=100, device=CPU)
+            texture_mesh(mesh, T1, 0.1, max_edge=1.0, max_faces=100, device=device)
 
-    def test_max_faces_bounds_the_result(self):
+    def test_max_faces_bounds_the_result(self, device):
         # an equilateral triangle of side 1 cut to edges ≤ 0.24: estimate ceil(1/0.24)² = 25 faces,
         # but bisection needs edges 1/8 < 0.24, i.e. 64 faces
         tri = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [0.5, math.sqrt(3) / 2, 0]], [[0, 1, 2]], process=False)
         try:
-            out = texture_mesh(tri, T1, 1.0, max_edge=0.24, max_faces=25, device=CPU)
+            out = texture_mesh(tri, T1, 1.0, max_edge=0.24, max_faces=25, device=device)
         except TextonError:
             return  # refused: the bound holds
         assert len(out.faces) <= 25, f"{len(out.faces)} faces with max_faces=25"
@@ -692,7 +668,7 @@ LIGHT = np.array([0.4, -0.5, 1.0]) / np.linalg.norm([0.4, -0.5, 1.0])
 
 
 class TestRender:
-    def test_sphere_render_is_shaded_noise_with_the_texton_mean(self):
+    def test_sphere_render_is_shaded_noise_with_the_texton_mean(self, device):
         """Pixel = clip(g) (0.3 + 0.7 |⟨n, light⟩|) on hits, background elsewhere.
 
         Camera at (0, 0, 5) looking at the origin, up y: right = +x. Pixel (i, j) looks along
@@ -704,7 +680,7 @@ class TestRender:
         mesh = trimesh.creation.icosphere(subdivisions=5, radius=1.0)
         cam = Camera(position=(0, 0, 5.0), target=(0, 0, 0), up=(0, 1.0, 0), fov=30.0)
         h = w = 48
-        img = render_mesh(mesh, t, (h, w), texel_size=0.002, camera=cam, seed=2, device=CPU)
+        img = render_mesh(mesh, t, (h, w), texel_size=0.002, camera=cam, seed=2, device=device)
         assert img.shape == (h, w, 3) and img.dtype == np.float32
         tan = math.tan(math.radians(15.0))
         sy, sx = np.meshgrid((1 - 2 * (np.arange(h) + 0.5) / h) * tan, (2 * (np.arange(w) + 0.5) / w - 1) * tan,
@@ -736,39 +712,39 @@ class TestRender:
         corr = np.corrcoef(g, shade[inside])[0, 1]
         assert abs(corr) < 5 / math.sqrt(count), corr
 
-    def test_image_orientation(self):
+    def test_image_orientation(self, device):
         # a small ball up (y > 0) lands in the top rows, one to the right (x > 0) in the right columns
         t = small_texton()
         cam = Camera(position=(0, 0, 10.0), target=(0, 0, 0), up=(0, 1.0, 0), fov=30.0)
         up_ball = trimesh.creation.icosphere(subdivisions=2, radius=0.3)
         up_ball.apply_translation((0, 1.5, 0))
-        img = render_mesh(up_ball, t, (40, 40), camera=cam, device=CPU)
+        img = render_mesh(up_ball, t, (40, 40), camera=cam, device=device)
         rows, cols = np.nonzero(np.any(img != np.float32(0.92), axis=2))
         assert rows.size and rows.max() < 20 and abs(cols.mean() - 19.5) < 2
         right_ball = up_ball.copy()
         right_ball.apply_translation((1.5, -1.5, 0))
-        img = render_mesh(right_ball, t, (40, 40), camera=cam, device=CPU)
+        img = render_mesh(right_ball, t, (40, 40), camera=cam, device=device)
         rows, cols = np.nonzero(np.any(img != np.float32(0.92), axis=2))
         assert cols.size and cols.min() >= 20 and abs(rows.mean() - 19.5) < 2
 
-    def test_camera_that_misses_sees_the_background(self):
+    def test_camera_that_misses_sees_the_background(self, device):
         t = small_texton()
         mesh = trimesh.creation.icosphere(subdivisions=2)
         cam = Camera(position=(0, 0, 5.0), target=(0, 0, 10.0), up=(0, 1.0, 0))  # looking away
         bg = (0.1, 0.2, 0.3)
-        img = render_mesh(mesh, t, (16, 24), camera=cam, background=bg, device=CPU)
+        img = render_mesh(mesh, t, (16, 24), camera=cam, background=bg, device=device)
         assert img.shape == (16, 24, 3)
         np.testing.assert_array_equal(img, np.broadcast_to(np.float32(bg), img.shape))
 
-    def test_default_camera_frames_the_mesh(self):
+    def test_default_camera_frames_the_mesh(self, device):
         t = small_texton()
         mesh = trimesh.creation.torus(1.0, 0.3)
-        img = render_mesh(mesh, t, (32, 48), device=CPU)
+        img = render_mesh(mesh, t, (32, 48), device=device)
         hit = np.any(img != np.float32(0.92), axis=2)
         assert 0.05 < hit.mean() < 0.9
         # nothing is cut off: the border rows and columns see the background
         assert not hit[0].any() and not hit[-1].any() and not hit[:, 0].any() and not hit[:, -1].any()
-        np.testing.assert_array_equal(img, render_mesh(mesh, t, (32, 48), device=CPU))
+        np.testing.assert_array_equal(img, render_mesh(mesh, t, (32, 48), device=device))
 
     @pytest.mark.parametrize(
         "kw, match",
@@ -786,8 +762,8 @@ class TestRender:
             (dict(texton=None), "texton must be a Texton"),
         ],
     )
-    def test_render_errors(self, kw, match):
-        args = dict(mesh=trimesh.creation.icosphere(subdivisions=1), texton=T1, shape=(8, 8), device=CPU)
+    def test_render_errors(self, kw, match, device):
+        args = dict(mesh=trimesh.creation.icosphere(subdivisions=1), texton=T1, shape=(8, 8), device=device)
         args.update(kw)
         with pytest.raises(TextonError, match=match):
             render_mesh(**args)
@@ -818,12 +794,12 @@ def real_mesh(request):
 
 
 class TestRealMeshes:
-    def test_texture_mesh_mean_colour(self, real_mesh):
+    def test_texture_mesh_mean_colour(self, real_mesh, device):
         name, mesh = real_mesh
         t = small_texton()  # means (0.3, 0.5, 0.7), sd 0.06
         lo, hi = mesh.bounds
         texel = float(np.linalg.norm(hi - lo)) / 1024  # r√3 texels ≈ 1.5 % of the diagonal
-        out = texture_mesh(mesh, t, texel, seed=1, device=CPU)
+        out = texture_mesh(mesh, t, texel, seed=1, device=device)
         c = colours(out)
         assert c.shape == (len(mesh.vertices), 4) and np.all(c[:, 3] == 255)
         g = c[:, :3].astype(np.float64) / 255
@@ -838,10 +814,10 @@ class TestRealMeshes:
         # the channels are where they belong: means 0.2 apart ≫ the tolerance
         assert np.all(5 * sd + 0.5 / 255 < 0.1)
 
-    def test_render(self, real_mesh):
+    def test_render(self, real_mesh, device):
         name, mesh = real_mesh
         t = small_texton()
-        img = render_mesh(mesh, t, (32, 40), seed=3, device=CPU)
+        img = render_mesh(mesh, t, (32, 40), seed=3, device=device)
         assert img.shape == (32, 40, 3) and np.isfinite(img).all()
         assert img.min() >= 0.0 and img.max() <= 1.0
         bg = np.float32(0.92)
@@ -857,21 +833,21 @@ class TestRealMeshes:
 # 9. CUDA                                                                     #
 # --------------------------------------------------------------------------- #
 
-@pytest.mark.cuda
-@needs_cuda
-class TestCuda:
-    def test_surface_noise_cpu_equals_cuda(self):
+class TestDeviceMatchesCpu:
+    """The --device (a GPU) gives the CPU's noise: the same impacts, to float rounding."""
+
+    def test_surface_noise_matches_cpu(self, gpu):
         t = random_texton(channels=3, seed=40)
         n = random_normals(4000, 41)
         p = np.random.default_rng(42).uniform(-5, 5, (4000, 3))
         a = surface_noise(t, p, n, 0.03, seed=5, device="cpu")
-        b = surface_noise(t, p, n, 0.03, seed=5, device="cuda")
+        b = surface_noise(t, p, n, 0.03, seed=5, device=gpu)
         np.testing.assert_allclose(a, b, atol=1e-4 * noise_sd(t))
 
-    def test_render_cpu_equals_cuda(self):
+    def test_render_matches_cpu(self, gpu):
         t = small_texton()
         mesh = trimesh.creation.torus(1.0, 0.3)
         a = render_mesh(mesh, t, (40, 40), device="cpu")
-        b = render_mesh(mesh, t, (40, 40), device="cuda")
+        b = render_mesh(mesh, t, (40, 40), device=gpu)
         # a ray grazing an edge may hit another face on the other device: allow a few pixels
         assert np.mean(np.any(np.abs(a - b) > 1e-4, axis=2)) < 0.01

@@ -4,35 +4,20 @@ from __future__ import annotations
 
 import json
 import pathlib
-import types
 
 import numpy as np
 import OpenEXR
 import pytest
 
-import warp_texton.io as wio
 from warp_texton import Texton, TextonError, __version__, load_texton
 from warp_texton.texton import is_texton_path
+from helpers import assert_nothing_written, parts, random_texton, raw_exr
 
 
-def parts(folder):
-    return sorted(p.name for p in folder.iterdir() if p.name.endswith(".part"))
-
-
-def assert_nothing_written(path):
-    assert not path.exists()
-    assert parts(path.parent) == []
-
-
-def random_texton(rng, r=5, s=7, channels=3, order=1, **metadata):
-    coeffs = (rng.standard_normal((r, s, channels)) * 0.05).astype(np.float32)
-    mean = rng.random(channels).astype(np.float32)
-    return Texton(coeffs, mean, order, metadata)
-
-
-def raw_exr(path, channels, **attributes):
-    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage, **attributes}
-    OpenEXR.File(header, channels).write(str(path))
+def file_texton(rng, r=5, s=7, channels=3, order=1, **metadata) -> Texton:
+    """A small texton with a random mean and ``metadata``, drawn from ``rng``."""
+    return random_texton((r, s), channels, order, rng, gain=0.05, offset=0.0, mean=None, correlated=False,
+                         metadata=metadata)
 
 
 def texton_exr(path, coeffs, **attributes):
@@ -92,7 +77,7 @@ class TestExrTexton:
     @pytest.mark.parametrize("order", [0, 1, 3, 5])
     def test_round_trip_bit_exact(self, tmp_path, rng, channels, order):
         meta = {"source": "wood.png", "source_shape": [40, 50], "model_error": 0.4123456789, "seed": 7}
-        t = random_texton(rng, channels=channels, order=order, **meta)
+        t = file_texton(rng, channels=channels, order=order, **meta)
         path = tmp_path / "t.exr"
         t.save(path)
         back = load_texton(path)
@@ -104,7 +89,7 @@ class TestExrTexton:
         assert parts(tmp_path) == []
 
     def test_header_attributes(self, tmp_path, rng):
-        t = random_texton(rng, order=3, source="a.png")
+        t = file_texton(rng, order=3, source="a.png")
         path = tmp_path / "t.exr"
         t.save(path)
         header = OpenEXR.File(str(path)).header()
@@ -114,7 +99,7 @@ class TestExrTexton:
         assert json.loads(header["texton_metadata"])["source"] == "a.png"
 
     def test_is_texton_path(self, tmp_path, rng):
-        random_texton(rng).save(tmp_path / "t.exr")
+        file_texton(rng).save(tmp_path / "t.exr")
         texton_exr(tmp_path / "img.exr", np.zeros((2, 2, 1)))
         assert is_texton_path(tmp_path / "t.exr")
         assert not is_texton_path(tmp_path / "img.exr")
@@ -179,7 +164,7 @@ class TestExtensionsAndPaths:
     def test_save_unsupported_extension(self, tmp_path, rng):
         path = tmp_path / "t.png"
         with pytest.raises(TextonError, match=r"unsupported texton extension '\.png'; use \.exr or \.texton"):
-            random_texton(rng).save(path)
+            file_texton(rng).save(path)
         assert_nothing_written(path)
 
     def test_load_unsupported_extension(self, tmp_path, rng):
@@ -196,13 +181,13 @@ class TestExtensionsAndPaths:
     def test_save_into_missing_folder(self, tmp_path, rng, ext):
         path = tmp_path / "missing" / f"t{ext}"
         with pytest.raises(TextonError, match="does not exist"):
-            random_texton(rng).save(path)
+            file_texton(rng).save(path)
         assert not path.parent.exists()
 
     @pytest.mark.parametrize("ext", [".exr", ".texton"])
     def test_failed_save_keeps_old_file(self, tmp_path, rng, ext, monkeypatch):
         path = tmp_path / f"t{ext}"
-        random_texton(rng).save(path)
+        file_texton(rng).save(path)
         before = path.read_bytes()
 
         def half_write(name):
@@ -218,20 +203,18 @@ class TestExtensionsAndPaths:
                 def write(self, name):
                     half_write(name)
 
-            fake = types.SimpleNamespace(File=BrokenFile, ZIP_COMPRESSION=OpenEXR.ZIP_COMPRESSION,
-                                         scanlineimage=OpenEXR.scanlineimage)
-            monkeypatch.setattr(wio, "_exr_module", lambda: fake)
+            monkeypatch.setattr(OpenEXR, "File", BrokenFile)
         else:
             monkeypatch.setattr(pathlib.Path, "write_text", lambda self, *a, **k: half_write(self))
         with pytest.raises(OSError, match="No space left"):
-            random_texton(rng).save(path)
+            file_texton(rng).save(path)
         assert path.read_bytes() == before
         assert parts(tmp_path) == []
 
     def test_unserialisable_metadata_writes_nothing(self, tmp_path, rng):
         path = tmp_path / "t.exr"
         with pytest.raises(TypeError):
-            random_texton(rng, thing=object()).save(path)
+            file_texton(rng, thing=object()).save(path)
         assert_nothing_written(path)
 
 
@@ -259,7 +242,7 @@ class TestTextonText:
     @pytest.mark.parametrize("channels", [1, 3])
     def test_layout_matches_reference_viewer(self, tmp_path, rng, channels):
         r, s = 4, 6
-        t = random_texton(rng, r=r, s=s, channels=channels, order=3,
+        t = file_texton(rng, r=r, s=s, channels=channels, order=3,
                           source="wood.png", source_shape=[120, 90])
         path = tmp_path / "t.texton"
         t.save(path)
@@ -287,7 +270,7 @@ class TestTextonText:
     @pytest.mark.parametrize("channels", [1, 3])
     @pytest.mark.parametrize("order", [0, 1, 3, 5])
     def test_round_trip_bit_exact(self, tmp_path, rng, channels, order):
-        t = random_texton(rng, r=6, s=3, channels=channels, order=order,
+        t = file_texton(rng, r=6, s=3, channels=channels, order=order,
                           source="stone.jpg", source_shape=[64, 80])
         path = tmp_path / "t.texton"
         t.save(path)
@@ -314,7 +297,7 @@ class TestTextonText:
         np.testing.assert_array_equal(back.mean, t.mean)
 
     def test_non_ascii_source_name(self, tmp_path, rng):
-        t = random_texton(rng, source="größe.png", source_shape=[10, 12])
+        t = file_texton(rng, source="größe.png", source_shape=[10, 12])
         path = tmp_path / "t.texton"
         t.save(path)
         back = load_texton(path)
@@ -397,7 +380,7 @@ class TestMalformedTextonText:
 
     def test_truncated_real_file(self, tmp_path, rng):
         path = tmp_path / "cut.texton"
-        random_texton(rng, r=4, s=4).save(path)
+        file_texton(rng, r=4, s=4).save(path)
         lines = path.read_text().splitlines()
         path.write_text("\n".join(lines[:20]) + "\n")  # 36 coefficient lines expected
         with pytest.raises(TextonError, match="expected 36 coefficient lines, found 15"):

@@ -62,7 +62,7 @@ MAX_MAX_ANISO = 64
 #: MIP level, where the filtered noise is its mean, and safe in float32.
 MAX_FOOTPRINT = 1.0e12
 #: Sub-pixel evaluations per batch when supersampling (bounds host memory).
-_BATCH = 1 << 22
+SUPERSAMPLE_BATCH = 1 << 22
 
 
 @dataclass(frozen=True)
@@ -136,8 +136,10 @@ class FilterOptions:
 
 
 def _fraction(value) -> float:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not 0.0 <= float(value) <= 1.0:
-        raise TextonError(f"fade_energy must be a number in [0, 1] (0 keeps every MIP level), got {value!r}")
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TextonError(f"fade_energy must be a number in [0, 1], got {value!r}")
+    if not 0.0 <= float(value) <= 1.0:
+        raise TextonError(f"fade_energy must be in [0, 1] (0 keeps every MIP level), got {value!r}")
     return float(value)
 
 
@@ -363,7 +365,7 @@ def supersampled(p, coeffs, pixels: PixelSet, n: int, seed: int, device, limit: 
     texels (whose cells the kernels cannot index) count as the mean.
     """
     out = np.zeros((pixels.count, 3), np.float32)
-    per = max(1, _BATCH // (n * n))
+    per = max(1, SUPERSAMPLE_BATCH // (n * n))
     chunks = range(0, pixels.count, per)
     if progress:
         from tqdm.auto import tqdm
