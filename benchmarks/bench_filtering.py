@@ -35,10 +35,10 @@ sys.path.insert(0, str(HERE))
 
 from common import machine_line, make_texture, report_header, run_main  # noqa: E402
 
-from warp_texton import analyze  # noqa: E402
-from warp_texton.filtering import (FADE_ENERGY, LOD_BIAS, MAX_ANISO, PlaneView, kept_levels,  # noqa: E402
-                                   level_energies, plane_pixels)
-from warp_texton.synthesis import resolve_device  # noqa: E402
+from warp_texton import FilterOptions, analyze  # noqa: E402
+from warp_texton.filtering import FADE_ENERGY, LOD_BIAS, MAX_ANISO, kept_levels, level_energies  # noqa: E402
+from warp_texton.plane import PlaneView, plane_pixels  # noqa: E402
+from warp_texton._runtime import resolve_device  # noqa: E402
 
 #: The view: camera height, tilt and field of view (degrees), texel size at 1024 rows.
 VIEW = {"height": 1.0, "tilt": 70.0, "fov": 40.0, "texel_1024": 0.0011}
@@ -73,7 +73,7 @@ def run(args) -> dict:
     plane_pixels(texton, plane_view(32), np.arange(32 * 32), filter="anisotropic", **common)  # compile
     print(f"reference: {sample.size} far-half pixels x {n_ref}x{n_ref} samples", flush=True)
     t0 = time.perf_counter()
-    ref = plane_pixels(texton, view, sample, filter="supersample", supersample=n_ref, **common)
+    ref = plane_pixels(texton, view, sample, filter=FilterOptions("supersample", supersample=n_ref), **common)
     t_ref = time.perf_counter() - t0
     filters = ("none", "mip", "anisotropic")
     times = {f: [] for f in filters}
@@ -117,7 +117,7 @@ def run(args) -> dict:
             t_f, t_none = [], []
             for _ in range(2):  # interleaved with the unfiltered render
                 t0 = time.perf_counter()
-                img = plane_pixels(texton, view, everything, filter=f, **common, **kw)
+                img = plane_pixels(texton, view, everything, filter=FilterOptions(f, **kw), **common)
                 t_f.append(time.perf_counter() - t0)
                 t0 = time.perf_counter()
                 plane_pixels(texton, view, everything, filter="none", **common)

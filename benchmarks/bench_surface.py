@@ -23,7 +23,7 @@ from common import machine_line, make_texture, report_header, run_main  # noqa: 
 import trimesh  # noqa: E402
 
 from warp_texton import analyze, render_mesh, surface_noise, texture_mesh  # noqa: E402
-from warp_texton.synthesis import resolve_device  # noqa: E402
+from warp_texton._runtime import resolve_device  # noqa: E402
 
 
 def best(fn, repeat):

@@ -29,7 +29,7 @@ from common import machine_line, make_texture, report_header, run_main  # noqa: 
 
 from warp_texton import analyze, evaluate, synthesize  # noqa: E402
 from warp_texton.bspline import bhat  # noqa: E402
-from warp_texton.synthesis import resolve_device  # noqa: E402
+from warp_texton._runtime import resolve_device  # noqa: E402
 
 
 class FFTSample:

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import argparse
 import datetime as _dt
-import importlib.util
 import json
 import os
 import statistics
@@ -134,21 +133,21 @@ def interleaved(methods: dict, repeat: int, caps: dict | None = None) -> dict:
 
 def resolve_devices(spec: str) -> list[str]:
     """``all`` → the CPU and every CUDA device present; else one checked device name."""
-    from warp_texton.synthesis import _warp, resolve_device
+    from warp_texton._runtime import init_warp, resolve_device
 
     if spec != "all":
         return [resolve_device(spec)]
-    wp = _warp()
+    wp = init_warp()
     return ["cpu"] + [f"cuda:{k}" for k in range(wp.get_cuda_device_count())]
 
 
 def device_info(device: str) -> dict:
-    from warp_texton.synthesis import _warp
+    from warp_texton._runtime import cpu_threads, init_warp
 
-    d = _warp().get_device(device)
+    d = init_warp().get_device(device)
     info = {"name": device, "description": getattr(d, "name", device)}
     if d.is_cpu:
-        info["threads"] = os.cpu_count()
+        info["threads"] = cpu_threads()
     else:
         info["memory_gib"] = round(getattr(d, "total_memory", 0) / 2**30, 1)
         info["arch"] = getattr(d, "arch", None)
@@ -253,37 +252,27 @@ def filtering_case(suite: Suite, textons: dict, device: str, report: Report) -> 
     "none", "mip" and "anisotropic" at the reference size, the view of
     bench_filtering.py, and each filter's RMSE against an 8×8 supersampled
     reference on every 8th row and column of the far half.
-
-    HOOK: skipped, with the reason printed, when ``warp_texton.filtering`` is
-    absent or its calls fail; the run goes on.
     """
-    if importlib.util.find_spec("warp_texton.filtering") is None:
-        report.skip(f"filtering on {device}", "warp_texton has no filtering module")
-        return
-    try:
-        from .bench_filtering import far_half_sample, plane_view
+    from .bench_filtering import far_half_sample, plane_view
 
-        from warp_texton.filtering import plane_pixels
+    from warp_texton import FilterOptions
+    from warp_texton.plane import plane_pixels
 
-        texton = textons[suite.ref_texton]
-        side = suite.ref_shape[0]
-        view = plane_view(side)
-        every = np.arange(side * side)
-        kw = dict(mni=suite.ref_mni, seed=1, device=device)
-        print(f"filtering on {device}: plane {side}x{side}", flush=True)
-        sample = far_half_sample(view, 8)
-        ref = plane_pixels(texton, view, sample, filter="supersample", supersample=8, **kw)
-        images = {}
+    texton = textons[suite.ref_texton]
+    side = suite.ref_shape[0]
+    view = plane_view(side)
+    every = np.arange(side * side)
+    kw = dict(mni=suite.ref_mni, seed=1, device=device)
+    print(f"filtering on {device}: plane {side}x{side}", flush=True)
+    sample = far_half_sample(view, 8)
+    ref = plane_pixels(texton, view, sample, filter=FilterOptions("supersample", supersample=8), **kw)
+    images = {}
 
-        def render(f):
-            images[f] = plane_pixels(texton, view, every, filter=f, **kw)
+    def render(f):
+        images[f] = plane_pixels(texton, view, every, filter=f, **kw)
 
-        methods = {f: (lambda f=f: render(f)) for f in ("none", "mip", "anisotropic")}
-        results = interleaved(methods, suite.repeat)
-    except Exception as exc:  # the hook must not end the run: say why and go on
-        report.skip(f"filtering on {device}", f"warp_texton.filtering is there but a call failed: "
-                    f"{type(exc).__name__}: {exc}")
-        return
+    methods = {f: (lambda f=f: render(f)) for f in ("none", "mip", "anisotropic")}
+    results = interleaved(methods, suite.repeat)
     err = {f: float(np.sqrt(np.mean((images[f][sample] - ref) ** 2))) for f in methods}
     for f, t in results.items():
         report.add(case="filtering", method=f, device=device, shape=[side, side], mni=suite.ref_mni,
@@ -296,37 +285,26 @@ def filtering_case(suite: Suite, textons: dict, device: str, report: Report) -> 
 def surface_case(suite: Suite, textons: dict, device: str, report: Report) -> None:
     """Surface noise on meshes (CGF §6): ``surface_noise`` points per second at
     MNI 60 at the vertices of an icosphere, and one ``render_mesh`` frame.
-
-    HOOK: skipped, with the reason printed, when ``warp_texton.surface`` is
-    absent or its calls fail (its API is young); the run goes on.
     """
-    if importlib.util.find_spec("warp_texton.surface") is None:
-        report.skip(f"surface on {device}", "warp_texton.surface does not exist (surface noise on meshes)")
-        return
-    try:
-        import trimesh
+    import trimesh
 
-        from warp_texton import surface
+    from warp_texton import render_mesh, surface_noise
 
-        texton = textons[suite.ref_texton]
-        # unit sphere, 128 texels per unit: about 800 texels round the equator
-        mesh = trimesh.creation.icosphere(subdivisions=suite.surface_subdivisions, radius=1.0)
-        texel = 1.0 / 128.0
-        vertices, normals = mesh.vertices, mesh.vertex_normals
-        nv = len(vertices)
-        print(f"surface on {device}: icosphere of {nv} vertices, render {suite.surface_render[1]}x"
-              f"{suite.surface_render[0]}", flush=True)
-        methods = {
-            "surface_noise": lambda: surface.surface_noise(texton, vertices, normals, texel, mni=SURFACE_MNI,
-                                                           seed=1, device=device),
-            "render_mesh": lambda: surface.render_mesh(mesh, texton, suite.surface_render, texel,
-                                                       mni=SURFACE_MNI, seed=1, device=device),
-        }
-        results = interleaved(methods, suite.repeat)
-    except Exception as exc:  # the hook must not end the run: say why and go on
-        report.skip(f"surface on {device}", f"warp_texton.surface is there but a call failed: "
-                    f"{type(exc).__name__}: {exc}")
-        return
+    texton = textons[suite.ref_texton]
+    # unit sphere, 128 texels per unit: about 800 texels round the equator
+    mesh = trimesh.creation.icosphere(subdivisions=suite.surface_subdivisions, radius=1.0)
+    texel = 1.0 / 128.0
+    vertices, normals = mesh.vertices, mesh.vertex_normals
+    nv = len(vertices)
+    print(f"surface on {device}: icosphere of {nv} vertices, render {suite.surface_render[1]}x"
+          f"{suite.surface_render[0]}", flush=True)
+    methods = {
+        "surface_noise": lambda: surface_noise(texton, vertices, normals, texel, mni=SURFACE_MNI, seed=1,
+                                               device=device),
+        "render_mesh": lambda: render_mesh(mesh, texton, suite.surface_render, texel, mni=SURFACE_MNI, seed=1,
+                                           device=device),
+    }
+    results = interleaved(methods, suite.repeat)
     t = results["surface_noise"]
     report.add(case="surface", method="surface_noise", device=device, vertices=nv, mni=SURFACE_MNI,
                texton=suite.ref_texton, mpoints_per_s=nv / t["best_s"] / 1e6, **t)

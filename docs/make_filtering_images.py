@@ -26,8 +26,8 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 from bench_filtering import plane_view  # noqa: E402
 from common import make_texture  # noqa: E402
 
-from warp_texton import analyze, write_image  # noqa: E402
-from warp_texton.filtering import plane_pixels  # noqa: E402
+from warp_texton import FilterOptions, analyze, write_image  # noqa: E402
+from warp_texton.plane import plane_pixels  # noqa: E402
 
 OUT = ROOT / "docs" / "images" / "filtering"
 FILTERS = ("none", "mip", "anisotropic", "supersample")
@@ -47,8 +47,8 @@ def main(argv=None) -> int:
     OUT.mkdir(parents=True, exist_ok=True)
     images = {}
     for f in FILTERS:
-        img = plane_pixels(texton, view, np.arange(h * w), mni=30.0, seed=1, filter=f,
-                           supersample=args.supersample, device=args.device, progress=True)
+        img = plane_pixels(texton, view, np.arange(h * w), mni=30.0, seed=1,
+                           filter=FilterOptions(f, supersample=args.supersample), device=args.device, progress=True)
         images[f] = np.clip((img.reshape(h, w, -1) - lo) / (hi - lo), 0, 1)
         name = "reference" if f == "supersample" else f
         # the far half, where the filters differ (the near half is the same in all four)
