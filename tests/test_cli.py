@@ -141,6 +141,16 @@ class TestGaussian:
 
 # ------------------------------------------------------------------ help
 class TestHelp:
+    def test_version(self, capsys):
+        """One version: the package's, the installed metadata's (read from it) and the CLI's."""
+        from importlib.metadata import version
+
+        import warp_texton
+
+        assert run_cli(["--version"]) == 0
+        assert capsys.readouterr().out.strip() == f"warp-texton {warp_texton.__version__}"
+        assert version("warp-texton") == warp_texton.__version__
+
     @pytest.mark.parametrize(
         "command, options",
         [
@@ -162,6 +172,7 @@ class TestHelp:
         assert run_cli([]) == 2
         assert "usage: warp-texton" in capsys.readouterr().out
 
+    @pytest.mark.slow
     def test_installed_console_script(self, tmp_path):
         script = shutil.which("warp-texton") or shutil.which("warp-texton", path=str(Path(sys.executable).parent))
         if script is None:
@@ -259,6 +270,7 @@ class TestUserErrors:
 
 
 # ------------------------------------------------------------------ demo
+@pytest.mark.slow
 def test_demo_writes_everything(tmp_path, capsys):
     out = tmp_path / "demo"
     assert run_cli(["demo", "-o", out, "-q"]) == 0
@@ -285,6 +297,7 @@ def test_demo_writes_everything(tmp_path, capsys):
         assert plane[:64].var() < 0.2 * plane[-64:].var()
 
 
+@pytest.mark.slow
 def test_demo_lists_what_it_writes(tmp_path, capsys):
     out = tmp_path / "demo"
     assert run_cli(["demo", "-o", out]) == 0

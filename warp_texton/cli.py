@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ._version import __version__
 from .errors import TextonError
 
 EPILOG_ANALYZE = """examples:
@@ -117,6 +118,7 @@ def build_parser() -> argparse.ArgumentParser:
         ),
         formatter_class=fmt,
     )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
 
     p = sub.add_parser("analyze", help="compute the texton of an example image",
