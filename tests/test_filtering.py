@@ -225,6 +225,7 @@ class TestNoMinification:
         assert_same_noise(plane_pixels(t, view, px, seed=7, filter="mip", device=device),
                           plane_pixels(t, view, px, seed=7, filter="none", device=device), t)
 
+    @pytest.mark.slow
     def test_anisotropic_lookups_average_even_below_a_texel(self, device):
         """A 0.9 × 0.3 texel footprint takes ⌈3⌉ lookups along x at level 0: it is not the plain
         noise, and it is closer to the supersampled average over the footprint than "none" is."""
@@ -701,6 +702,7 @@ class TestPlane:
         assert view.footprints(0.5, w / 2).max() > 1e10
         assert np.isfinite(view.texels(1.5, w / 2)).all()
 
+    @pytest.mark.slow
     def test_just_below_the_horizon_is_the_mean(self):
         h, w, fov, ts, tilt = NEAR_HORIZON
         code = (

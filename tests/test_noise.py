@@ -90,6 +90,7 @@ def spectrum_case(order, *, device):
     return t, model, measured, k
 
 
+@pytest.mark.slow
 class TestSpectrum:
     @pytest.mark.parametrize("order", ORDERS)
     def test_mean_periodogram_matches_fejer_model(self, order, device):
@@ -290,6 +291,7 @@ class TestMoments:
     @pytest.mark.parametrize(
         "shape, order", [((8, 8), 1), ((6, 10), 3)], ids=["8x8-order1", "6x10-order3"]
     )
+    @pytest.mark.slow
     def test_excess_kurtosis_at_low_mni(self, shape, order, device):
         """κ = ∫h⁴ / (λ (∫h²)²) with λ = MNI / support_area (the fourth cumulant of the shot noise)."""
         t = random_texton(shape, order=order, seed=7)
@@ -304,6 +306,7 @@ class TestMoments:
         # and the test sees a λ off by a factor 2 (κ ∝ 1/λ: κ/2 or 2κ)
         assert 5 * sd < expected / 4
 
+    @pytest.mark.slow
     def test_intensity_follows_support_area_not_box(self, device):
         """λ = MNI / |supp h|: zero coefficients outside a disk-like support shrink the area."""
         a = random_texton((10, 10), seed=2, offset=0.05).coeffs.copy()
@@ -675,6 +678,7 @@ class TestErrors:
         with pytest.raises(ValueError):
             synthesize(T1, (0, 8), device=device)
 
+    @pytest.mark.slow
     def test_evaluate_refuses_too_many_cells_per_point(self):
         # In a child process, so that the hang can be stopped: a refusal takes < 1 s
         # (start-up included), the loop takes hours; 10 s separates the two.

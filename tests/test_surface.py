@@ -371,6 +371,7 @@ L, GAP, PER_SIDE, BLOCK = 32, 14, 8, 4  # GAP ≥ r = 13: windows see disjoint i
 
 
 class TestPlaneSpectrum:
+    @pytest.mark.slow
     def test_plane_noise_has_the_2d_texton_spectrum(self, device):
         t = anisotropic_texton()
         assert support_side(t) == 13
