@@ -27,7 +27,7 @@ KERNELS = ROOT / "kernels"
 #: The layers of docs/architecture.md: a module may import modules of lower layers only.
 LAYERS = {
     "errors": 0, "_version": 0, "bspline": 0,
-    "_checks": 1,
+    "_checks": 1, "limits": 1,
     "io": 2,
     "texton": 3,
     "gaussian": 4, "dsn": 4,
