@@ -40,7 +40,8 @@ sys.path.insert(0, str(HERE))
 from common import machine_line, make_texture, report_header, run_main  # noqa: E402
 
 from warp_texton import synthesize, write_image  # noqa: E402
-from warp_texton.view import png_bytes, serve, to_8bit  # noqa: E402
+from warp_texton.view import serve  # noqa: E402
+from warp_texton.view_core import PNG_LEVEL, png_bytes, to_8bit  # noqa: E402
 
 VIEW = (1280, 720)
 TILE = 256
@@ -203,7 +204,7 @@ def run(args) -> dict:
                                   "median_s": statistics.median(times), "runs": len(times)})
                     print(fills[-1], flush=True)
     report["parameters"] = {"texture": side, "texton": args.size, "mni": args.mni, "tile": TILE, "view": VIEW,
-                            "connections": CONNECTIONS, "png_level": 1}
+                            "connections": CONNECTIONS, "png_level": PNG_LEVEL}
     report.update(latency=results, encoding=enc, fill=fills, browser_fill=page)
     return report
 

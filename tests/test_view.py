@@ -27,11 +27,11 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from warp_texton import (TextonError, analyze, load_texton, mix_textons, read_image, render_plane, synthesize,
+from warp_texton import (TextonError, analyze, load_texton, read_image, render_plane, synthesize,
                          synthesize_mixed)
 from warp_texton.demo import demo_texture_path
-from warp_texton.view import (Analysis, Mix, Noise, Tile, Viewer, rotate, serve, tile_window, to_8bit,
-                              view_window)
+from warp_texton.view import serve
+from warp_texton.view_core import Analysis, Mix, Noise, Tile, Viewer, rotate, tile_window, to_8bit, view_window
 
 DEVICE = "cpu"
 SIZE = 16  # texton side: small, so that tiles are quick

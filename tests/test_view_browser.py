@@ -10,10 +10,7 @@ from __future__ import annotations
 
 import base64
 import io
-import json
 import math
-import os
-import shlex
 import shutil
 from pathlib import Path
 
@@ -22,7 +19,8 @@ import pytest
 from PIL import Image
 
 from warp_texton import analyze, read_image, render_plane, synthesize
-from warp_texton.view import Noise, Tile, serve, tile_window, to_8bit, view_window
+from warp_texton.view import serve
+from warp_texton.view_core import Noise, Tile, tile_window, to_8bit, view_window
 
 from test_view import DEVICE, SIZE, run_cli, small_rgb
 

@@ -233,6 +233,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--mni", type=float, default=30.0, help="start mean number of impacts per point")
     p.add_argument("--filter", choices=("none", "mip", "anisotropic"), default="anisotropic",
                    help="start filter for zoomed-out views")
+    p.add_argument("--png-level", type=int, default=0, choices=range(10), metavar="0-9",
+                   help="zlib level of the tiles: 0 is the fastest to make, 1-9 save bandwidth over a slow link")
     p.add_argument("-v", "--verbose", action="store_true", help="log every request")
 
     p = sub.add_parser("demo", help="analyse the bundled texture and write pictures",
@@ -412,7 +414,8 @@ def _cmd_view(args) -> int:
     try:
         handle = serve(args.input, port=args.port, host=args.host, device=args.device, mix=args.mix,
                        size=args.size, order=args.order, color_correction=args.color_correction, seed=args.seed,
-                       mni=args.mni, filter=args.filter, open_browser=args.open, verbose=args.verbose)
+                       mni=args.mni, filter=args.filter, png_level=args.png_level, open_browser=args.open,
+                       verbose=args.verbose)
     except KeyboardInterrupt:
         return 130
     print(f"warp-texton view: serving {args.input} at {handle.url} (Ctrl-C to stop)", flush=True)
