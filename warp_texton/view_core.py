@@ -455,10 +455,12 @@ def _data_url(img: np.ndarray, side: int | None = None, nearest: bool = False) -
 
 
 def texton_picture(texton: Texton) -> np.ndarray:
-    """The coefficients for viewing: 0 at mid-grey, ± the largest magnitude at 0 and 1."""
+    """The coefficients for viewing, in the texture's colours: the noise's mean plus
+    the coefficients' deviations, ±3 standard deviations (shared by the channels) spanning ±0.45."""
     a = texton.coeffs.astype(np.float64)
-    peak = float(np.abs(a).max()) or 1.0
-    return (0.5 + 0.5 * a / peak).astype(np.float32)
+    a = a - a.mean(axis=(0, 1))
+    spread = 3.0 * float(a.std()) or 1.0
+    return (texton.mean + 0.45 * a / spread).astype(np.float32)
 
 
 def log_spectra(*spectra: np.ndarray, decades: float = 5.0) -> list[np.ndarray]:

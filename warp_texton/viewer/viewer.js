@@ -128,6 +128,10 @@
     inflight.set(url, ac);
     fetch(url, { signal: ac.signal })
       .then(async (r) => {
+        if (r.status === 503) {  // the server is busy: ask again in a moment
+          await new Promise((resolve) => setTimeout(resolve, 1000));
+          throw Object.assign(new Error("busy"), { name: "AbortError" });
+        }
         if (!r.ok) throw new Error((await r.text()).trim() || `HTTP ${r.status}`);
         const timing = /dur=([\d.]+)/.exec(r.headers.get("Server-Timing") || "");
         if (timing) lastTileMs = parseFloat(timing[1]);
