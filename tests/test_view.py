@@ -274,6 +274,8 @@ def test_uploads_are_checked(client):
     assert upload(client, good, header=False)[0] == 403  # not from the page
     status, _, body = upload(client, b"not an image at all")
     assert status == 400 and b"not an image" in body
+    status, _, body = upload(client, b"\x76\x2f\x31\x01" + bytes(100))  # an EXR
+    assert status == 400 and b"PNG or JPEG" in body
     status, _, body = upload(client, png(np.zeros((5000, 5000), bool)))  # a tiny file of many pixels
     assert status == 400 and b"at most" in body
     status, _, body = upload(client, good)

@@ -26,7 +26,7 @@ import time
 import warnings
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from importlib import resources
-from urllib.parse import urlsplit
+from urllib.parse import unquote, urlsplit
 
 import numpy as np
 
@@ -203,7 +203,7 @@ class _Handler(BaseHTTPRequestHandler):
         data = self.rfile.read(length)
         if len(data) != length:
             raise BadRequest("upload cut short")
-        b = self.viewer.add_upload(data, self.headers.get("X-Filename", "upload"))
+        b = self.viewer.add_upload(data, unquote(self.headers.get("X-Filename", "upload")))
         self._json({"id": b.digest, "name": b.name, "width": b.image.shape[1], "height": b.image.shape[0]})
 
 

@@ -44,6 +44,9 @@ TILE_SIZES = (128, 256, 512)
 #: millions of impacts for an aliased picture, so "none" stops sooner.
 ZOOM_MIN = {"none": -6, "mip": -10, "anisotropic": -10}
 ZOOM_MAX = 5
+#: The page enlarges the deepest level's tiles up to this many levels further in,
+#: and exports what it shows there.
+ENLARGE = 2
 #: Mixed noise has no filter, and its tiles are computed with a margin of one
 #: texton side, which grows with the scale.
 MIX_ZOOM = (-6, 2)
@@ -103,9 +106,6 @@ class Query:
             if k in self._values:
                 raise BadRequest(f"parameter {k!r} given twice")
             self._values[k] = v
-
-    def has(self, name: str) -> bool:
-        return name in self._values
 
     def text(self, name: str, default=None) -> str:
         if name not in self._values:
@@ -395,16 +395,16 @@ def decode_upload(data: bytes, name: str, workdir: Path) -> Source:
 
     if len(data) > MAX_UPLOAD_BYTES:
         raise BadRequest(f"upload larger than {MAX_UPLOAD_BYTES >> 20} MiB", 413)
-    is_exr = data[:4] == b"\x76\x2f\x31\x01"
-    if not is_exr:
-        try:
-            with Image.open(io.BytesIO(data)) as im:
-                w, h = im.size
-        except Exception:
-            raise BadRequest("the upload is not an image that can be read") from None
-        if w * h > MAX_UPLOAD_PIXELS:
-            raise BadRequest(f"the uploaded image is {w}x{h}; at most {MAX_UPLOAD_PIXELS} pixels")
-    fd, tmp = tempfile.mkstemp(dir=workdir, suffix=".exr" if is_exr else ".img")
+    if data[:4] == b"\x76\x2f\x31\x01":  # an EXR header may declare any size: not from a request
+        raise BadRequest("upload a PNG or JPEG image; give an EXR or a texton file at start (--mix)")
+    try:
+        with Image.open(io.BytesIO(data)) as im:  # reads the header only
+            w, h = im.size
+    except Exception:
+        raise BadRequest("the upload is not an image that can be read") from None
+    if w * h > MAX_UPLOAD_PIXELS:
+        raise BadRequest(f"the uploaded image is {w}x{h}; at most {MAX_UPLOAD_PIXELS} pixels")
+    fd, tmp = tempfile.mkstemp(dir=workdir, suffix=".img")
     try:
         with os.fdopen(fd, "wb") as f:
             f.write(data)
@@ -415,8 +415,6 @@ def decode_upload(data: bytes, name: str, workdir: Path) -> Source:
         raise BadRequest("the upload is not an image that can be read") from None
     finally:
         os.unlink(tmp)
-    if image.shape[0] * image.shape[1] > MAX_UPLOAD_PIXELS:
-        raise BadRequest(f"the uploaded image is {image.shape[1]}x{image.shape[0]}; at most {MAX_UPLOAD_PIXELS} pixels")
     return Source(name, None, image, None, digest(data))
 
 
@@ -496,6 +494,10 @@ def _python(lines: list[str]) -> str:
     head = [ln for ln in lines if ln.startswith("import ")]
     body = [ln for ln in lines if not ln.startswith((prefix, "import "))]
     return "\n".join(head + [prefix + ", ".join(names)] + body)
+
+
+def _load_expr(kind: str, path: str) -> str:
+    return f"load_texton({path!r})" if kind == "texton" else f"read_image({path!r})"
 
 
 def _pycall(fn: str, *args, **kwargs) -> str:
@@ -739,7 +741,7 @@ class Viewer:
             noise = parse_noise(q, self.defaults[1], rotation=False)
             mix = parse_mix(q)
             w, h = parse_size(q)
-            scale = q.number("scale", 2.0 ** MIX_ZOOM[0], 2.0 ** MIX_ZOOM[1])
+            scale = q.number("scale", 2.0 ** MIX_ZOOM[0], 2.0 ** (MIX_ZOOM[1] + ENLARGE))
             corner = (q.number("left", -MAX_REACH, MAX_REACH), q.number("top", -MAX_REACH, MAX_REACH))
             q.finish()
             name = f"mix_{w}x{h}_seed{noise.seed}.{fmt}"
@@ -755,7 +757,7 @@ class Viewer:
         noise = parse_noise(q, self.defaults[1])
         kind = q.choice("kind", ("view", "tile"), default="view")
         w, h = parse_size(q)
-        scale = q.number("scale", 2.0 ** min(ZOOM_MIN.values()), 2.0 ** ZOOM_MAX)
+        scale = q.number("scale", 2.0 ** min(ZOOM_MIN.values()), 2.0 ** (ZOOM_MAX + ENLARGE))
         if kind == "tile":
             # a seamless tile: the raster at offset 0 covers exactly one period, unrotated
             window = Window((h, w), scale, 0.0, (0.0, 0.0), (w / scale, h / scale))
@@ -792,13 +794,15 @@ class Viewer:
         if src.kind == "texton":
             return [], ["from warp_texton import load_texton", f"texton = load_texton({path!r})"], shlex.quote(path)
         stem = Path(src.name).stem or "input"
-        texton_file = f"{stem}_texton_{analysis.size}_o{analysis.order}{'' if analysis.color_correction else '_nocc'}.exr"
+        cc = "" if analysis.color_correction else "_nocc"
+        texton_file = f"{stem}_texton_{analysis.size}_o{analysis.order}{cc}.exr"
         cli = ["warp-texton", "analyze", shlex.quote(path), "-o", shlex.quote(texton_file),
                "--size", str(analysis.size), "--order", str(analysis.order), "--seed", str(ANALYSIS_SEED)]
         if not analysis.color_correction:
             cli.append("--no-color-correction")
-        py = ["from warp_texton import analyze, read_image",
-              f"texton = {_pycall('analyze', f'read_image({path!r})', size=analysis.size, order=analysis.order, seed=ANALYSIS_SEED, color_correction=analysis.color_correction)}"]
+        call = _pycall("analyze", f"read_image({path!r})", size=analysis.size, order=analysis.order,
+                       seed=ANALYSIS_SEED, color_correction=analysis.color_correction)
+        py = ["from warp_texton import analyze, read_image", f"texton = {call}"]
         return [" ".join(cli)], py, shlex.quote(texton_file)
 
     def _device_args(self) -> tuple[list[str], dict]:
@@ -841,21 +845,26 @@ class Viewer:
         return {"file": name, "width": p.width, "height": p.height, "cli": cli + [" ".join(line)],
                 "python": _python(py)}
 
-    def _plan_mix(self, name: str, shape, scale: float, corner, analysis: Analysis, noise: Noise, mix: Mix) -> dict:
+    def _plan_mix(self, name: str, shape, scale: float, corner, analysis: Analysis, noise: Noise,
+                  mix: Mix) -> dict:
         a = self.source
         b = self.second(mix.b)
-        a_expr = (f"load_texton({(a.path or 'A.exr')!r})" if a.kind == "texton" else f"read_image({(a.path or 'A.png')!r})")
-        b_name = b.path or b.name
-        b_expr = f"load_texton({b_name!r})" if b.kind == "texton" else f"read_image({b_name!r})"
+        a_expr = _load_expr(a.kind, a.path or ("A.exr" if a.kind == "texton" else "A.png"))
+        b_expr = _load_expr(b.kind, b.path or b.name)
         dev_py = self._device_args()[1]
         h, w = shape
+        x0, start, end = _py(corner[0]), _py(mix.start), _py(mix.end)
+        textons = _pycall("mix_textons", a_expr, b_expr, f"np.linspace(0.0, 1.0, {mix.steps})", size=analysis.size,
+                          order=analysis.order, seed=ANALYSIS_SEED, color_correction=analysis.color_correction)
+        image = _pycall("synthesize_mixed", "textons", "rho", _py((h, w)), mni=_py(noise.mni), seed=noise.seed,
+                        scale=_py(scale), offset=_py(tuple(corner)), **dev_py)
         py = ["import numpy as np",
               "from warp_texton import load_texton, mix_textons, read_image, synthesize_mixed, write_image",
-              f"textons = {_pycall('mix_textons', a_expr, b_expr, f'np.linspace(0.0, 1.0, {mix.steps})', size=analysis.size, order=analysis.order, seed=ANALYSIS_SEED, color_correction=analysis.color_correction)}",
-              f"# rho in noise space: 0 left of x = {_py(mix.start)}, 1 right of x = {_py(mix.end)}",
-              f"x = {_py(corner[0])} + (np.arange({w}) + 0.5) / {_py(scale)}",
-              f"rho = np.broadcast_to(np.clip((x - {_py(mix.start)}) / ({_py(mix.end)} - {_py(mix.start)}), 0, 1), ({h}, {w}))",
-              f"image = {_pycall('synthesize_mixed', 'textons', 'rho', _py((h, w)), mni=_py(noise.mni), seed=noise.seed, scale=_py(scale), offset=_py(tuple(corner)), **dev_py)}",
+              f"textons = {textons}",
+              f"# rho in noise space: 0 left of x = {start}, 1 right of x = {end}",
+              f"x = {x0} + (np.arange({w}) + 0.5) / {_py(scale)}",
+              f"rho = np.broadcast_to(np.clip((x - {start}) / ({end} - {start}), 0, 1), ({h}, {w}))",
+              f"image = {image}",
               f"write_image({name!r}, image)"]
         return {"file": name, "width": w, "height": h,
                 "cli": ["# no single warp-texton command: 'mix' takes its rho map from an image in the raster's "
@@ -874,9 +883,9 @@ class Viewer:
             "device": self.device,
             "defaults": {"size": analysis.size, "order": analysis.order, "cc": analysis.color_correction,
                          "seed": noise.seed, "mni": noise.mni, "filter": noise.filter},
-            "bounds": {"zoom_min": ZOOM_MIN, "zoom_max": ZOOM_MAX, "mix_zoom": list(MIX_ZOOM), "mni": list(MNI_RANGE),
-                       "texton_size": list(TEXTON_SIZES), "orders": list(ORDERS), "tile_sizes": list(TILE_SIZES),
-                       "mix_steps": list(MIX_STEPS), "export_side": MAX_EXPORT_SIDE,
+            "bounds": {"zoom_min": ZOOM_MIN, "zoom_max": ZOOM_MAX, "enlarge": ENLARGE, "mix_zoom": list(MIX_ZOOM),
+                       "mni": list(MNI_RANGE), "texton_size": list(TEXTON_SIZES), "orders": list(ORDERS),
+                       "tile_sizes": list(TILE_SIZES), "mix_steps": list(MIX_STEPS), "export_side": MAX_EXPORT_SIDE,
                        "export_pixels": MAX_EXPORT_PIXELS, "plane_pixels": MAX_PLANE_PIXELS,
                        "filters": list(VIEW_FILTERS), "upload_bytes": MAX_UPLOAD_BYTES},
             "mix_b": None if start_b is None else {"id": start_b.digest, "name": start_b.name},

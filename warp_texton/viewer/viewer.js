@@ -30,8 +30,8 @@
   const scale = () => 2 ** state.zoom * dpr();  // device pixels per texel
   const zoomBounds = () => {
     const b = state.info.bounds;
-    if (state.mode === "mix") return [b.mix_zoom[0], b.mix_zoom[1] + 2];
-    return [b.zoom_min[state.filter], b.zoom_max + 2];
+    if (state.mode === "mix") return [b.mix_zoom[0], b.mix_zoom[1] + b.enlarge];
+    return [b.zoom_min[state.filter], b.zoom_max + b.enlarge];
   };
   const levelBounds = () => {
     const b = state.info.bounds;
