@@ -5,7 +5,8 @@ driven by Playwright (``apt-get install chromium``, ``pip install playwright``).
 The input is the gallery's walnut pattern (docs/images/gallery/walnut_input.png
 shows it tiled 2 × 2; its top-left 128² is the pattern itself, GPL-3+ from GIMP's
 ``gimp-data``), analysed with a 64² texton; the view is turned by 20° and
-zoomed in to two pixels per texel.
+zoomed in to two pixels per texel. The picture is saved with 256 colours
+(dithered): noise hardly compresses, and the full-colour PNG is twice as large.
 
     python docs/make_viewer_screenshot.py [--device cpu] [--out docs/images/viewer.png]
 """
@@ -13,6 +14,7 @@ zoomed in to two pixels per texel.
 from __future__ import annotations
 
 import argparse
+import io
 import shutil
 import sys
 import tempfile
@@ -66,8 +68,11 @@ def main(argv=None) -> int:
             png = page.screenshot()
             browser.close()
     args.out.parent.mkdir(parents=True, exist_ok=True)
+    from PIL import Image
+
+    picture = Image.open(io.BytesIO(png)).convert("RGB").quantize(256, dither=Image.Dither.FLOYDSTEINBERG)
     with atomic_path(args.out) as part:
-        Path(part).write_bytes(png)
+        picture.save(part, format="PNG", optimize=True)
     print(args.out)
     return 0
 
