@@ -37,9 +37,10 @@ LAYERS = {
     "filtering": 8,
     "synthesis": 9, "plane": 9,
     "mixing": 10, "surface": 10,
-    "batch": 11, "demo": 11,
-    "cli": 12,
-    "__init__": 13,
+    "batch": 11, "demo": 11, "view_core": 11,
+    "view": 12,
+    "cli": 13,
+    "__init__": 14,
 }
 
 
