@@ -103,7 +103,7 @@ def split_launch(device, module, n: int, launch, per_thread: int = CHUNKS_PER_TH
     if not is_cpu(device):
         launch(0, n)
         return
-    wp.load_module(module, device=device)
+    wp.load_module(module, device=device, block_dim=1)  # the variant CPU launches use
     threads = cpu_threads()
     cuts = np.linspace(0, n, min(n, per_thread * threads) + 1).astype(int).tolist()
     parts = [(a, b) for a, b in zip(cuts[:-1], cuts[1:]) if b > a]
