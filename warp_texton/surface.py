@@ -10,11 +10,18 @@ r/2 of the tangent plane, weighted by (1 − 2|⟨y − x, n⟩|/r)⁺:
 so g has the texton's mean and variance on any surface. r is the larger side
 of the texton's support and MNI = λ r · area(supp h) (λ r³ for a square
 support). Frames follow one rule (see :func:`tangent_frames`) unless given.
+
+Points are evaluated in blocks: sorted by the block of cubes they lie in, each
+block's cubes draw their impacts once and every point of the block gathers
+them, in the order a lone point would walk them (``method="points"``, the
+reference), so both give the same values. Cube indices come from float64
+positions, so the noise is as exact far from the origin as near it.
 """
 
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -23,6 +30,7 @@ import warp as wp
 from ._checks import check_positive, check_seed, check_shape
 from ._runtime import map_points, resolve_device, split_launch
 from .errors import TextonError
+from .limits import check_memory
 from .kernels import surface as K
 from .kernels.impacts import Cells3
 from .noise import MAX_CELL_INDEX, MAX_CELL_MEAN, POISSON_MODES, noise_setup
@@ -39,6 +47,26 @@ MAX_RENDER_PIXELS = 1 << 26
 MAX_CUBES_PER_POINT = 8192
 #: Default texture scale on a mesh: this many texels along its bounding-box diagonal.
 TEXELS_PER_DIAGONAL = 256
+#: Evaluation paths: "blocks" (points share their cubes' impacts) and "points"
+#: (each point draws the impacts of its cubes itself: the reference).
+METHODS = ("blocks", "points")
+#: Points are grouped by blocks of this many cubes per side.
+BLOCK_CUBES = 4
+#: Cubes drawn per round of the block path (bounds its impact buffer).
+CUBES_PER_ROUND = 1 << 20
+#: Up axes: the frame rule, the default camera and the light are set for a
+#: Z-up world and turned by this rotation (world = R · canonical) for the others.
+#: Y-up follows glTF (+Z towards the front viewer, +X to the right).
+UP_AXES = {
+    "z": np.eye(3),
+    "y": np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]]),
+    "x": np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]),
+}
+#: Default view of renders: azimuth and elevation (degrees) of the camera seen from
+#: the mesh's centre, in the Z-up frame (azimuth 0 along +X, −90 along −Y: the front).
+VIEW = (-55.0, 25.0)
+#: Default light direction in the Z-up frame (towards the light).
+LIGHT = (0.4, -0.5, 1.0)
 
 
 def default_texel_size(mesh) -> float:
@@ -153,6 +181,35 @@ def surface_params(texton: Texton, setup: SurfaceSetup, seed: int, poisson: str,
     return p
 
 
+def check_reach(pos: np.ndarray, setup: SurfaceSetup, what: str) -> None:
+    """Refuse positions (texel units, float64) whose cubes would not fit the
+    kernels' int32 cube indices, or that overflowed (a tiny texel_size)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        far = float(np.abs(pos).max()) if pos.size else 0.0
+    limit = (MAX_CELL_INDEX - 2) * setup.cell - setup.r
+    if not far < limit:
+        where = f"{far:.3g} texels" if math.isfinite(far) else "beyond floating point range"
+        raise TextonError(
+            f"{what} lie too far from the origin for this texel_size: {where}, where the surface noise is "
+            f"defined within ±{limit:.3g} texels (2**30 cubes); use a larger texel_size or move them nearer "
+            "the origin"
+        )
+
+
+def texel_positions(points: np.ndarray, texel: float, setup: SurfaceSetup, what: str) -> np.ndarray:
+    """World positions divided by the texel size, in float64, checked by :func:`check_reach`."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        pos = np.asarray(points, dtype=np.float64) / texel
+    check_reach(pos, setup, what)
+    return pos
+
+
+def check_method(method: str) -> str:
+    if method not in METHODS:
+        raise TextonError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+    return method
+
+
 def surface_noise(
     texton: Texton,
     points,
@@ -167,6 +224,7 @@ def surface_noise(
     side=SIDE,
     poisson: str = "exact",
     cell_factor: float = CELL_FACTOR,
+    method: str = "blocks",
 ) -> np.ndarray:
     """Surface texton noise at points of a surface (CGF §6, Prop. 3).
 
@@ -191,10 +249,18 @@ def surface_noise(
         Directions of the frame rule.
     poisson, cell_factor
         As in :func:`warp_texton.synthesize`.
+    method : str
+        ``"blocks"`` (default): points sorted into blocks share the impacts of
+        their cubes; ``"points"``: each point draws its cubes' impacts itself
+        (the reference: same values, slower).
 
     Returns
     -------
     float32 array (N, C)
+
+    References
+    ----------
+    CGF §6, Proposition 3 (the slab weight and the normalisation).
 
     Examples
     --------
@@ -204,6 +270,9 @@ def surface_noise(
     >>> p = np.random.default_rng(1).normal(size=(5, 3))
     >>> surface_noise(t, p, p, texel_size=0.01, device="cpu").shape
     (5, 1)
+    >>> bool(np.array_equal(surface_noise(t, p, p, 0.01, device="cpu"),
+    ...                     surface_noise(t, p, p, 0.01, device="cpu", method="points")))
+    True
     """
     if not isinstance(texton, Texton):
         raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
@@ -213,9 +282,10 @@ def surface_noise(
         raise TextonError(f"normals has shape {nrm.shape}; it must match points {pts.shape}")
     texel = check_positive(texel_size, "texel_size")
     seed = check_seed(seed)
+    check_method(method)
     setup = surface_setup(texton, mni, cell_factor)
-    use_tangents = tangents is not None
-    if use_tangents:
+    tan = None
+    if tangents is not None:
         tan = _points(tangents, "tangents")
         if tan.shape != pts.shape:
             raise TextonError(f"tangents has shape {tan.shape}; it must match points {pts.shape}")
@@ -227,25 +297,129 @@ def surface_noise(
             raise TextonError(f"tangents[{flat[0]}] {what} ({flat.size} such rows); a tangent must have a "
                               "component in the tangent plane")
         tan = tan / np.linalg.norm(tan, axis=1)[:, None]
-    pos = pts / texel
-    if pos.size and np.abs(pos).max() / setup.cell >= MAX_CELL_INDEX:
-        raise TextonError("points lie too far from the origin for this texel_size (more than 2**30 cells)")
+    pos = texel_positions(pts, texel, setup, "points")
     device = resolve_device(device)
     p = surface_params(texton, setup, seed, poisson, up, side)
+    out = evaluate_points(p, setup, pos, nrm, tan, device, method)
+    return np.ascontiguousarray(out[:, : texton.channels])
+
+
+def evaluate_points(p: K.SurfaceParams, setup: SurfaceSetup, pos: np.ndarray, nrm: np.ndarray, tan, device,
+                    method: str = "blocks") -> np.ndarray:
+    """(N, 3) float32 surface noise at checked float64 texel positions with unit
+    normals (and unit tangents, or None for the frame rule)."""
+    n = pos.shape[0]
+    if n == 0:
+        return np.zeros((0, 3), np.float32)
     with wp.ScopedDevice(device):
         coeffs = wp.array(setup.coeffs, dtype=wp.vec3)
-        dummy = wp.zeros(1, dtype=wp.vec3)
+        if method == "points":
+            dummy = wp.zeros(1, dtype=wp.vec3)
 
-        def values(start, stop):
-            res = wp.zeros(stop - start, dtype=wp.vec3)
-            tarr = wp.array(tan[start:stop], dtype=wp.vec3) if use_tangents else dummy
-            wp.launch(K.evaluate_surface, dim=stop - start,
-                      inputs=[p, coeffs, wp.array(pos[start:stop], dtype=wp.vec3),
-                              wp.array(nrm[start:stop], dtype=wp.vec3), tarr, int(use_tangents), res])
-            return res.numpy()
+            def values(start, stop):
+                res = wp.zeros(stop - start, dtype=wp.vec3)
+                tarr = wp.array(tan[start:stop], dtype=wp.vec3) if tan is not None else dummy
+                wp.launch(K.evaluate_surface, dim=stop - start,
+                          inputs=[p, coeffs, wp.array(pos[start:stop], dtype=wp.vec3d),
+                                  wp.array(nrm[start:stop], dtype=wp.vec3), tarr, int(tan is not None), res])
+                return res.numpy()
 
-        out = map_points(device, K, pts.shape[0], values)
-    return np.ascontiguousarray(out[:, : texton.channels])
+            return map_points(device, K, n, values)
+        return _gather_blocks(p, setup, coeffs, pos, nrm, tan, device)
+
+
+def _blocks(pos: np.ndarray, setup: SurfaceSetup):
+    """Points sorted into blocks of BLOCK_CUBES³ cubes: (order, starts, lo, hi), with
+    lo/hi the first and last cube (per axis) that the points of each block can reach."""
+    c = setup.cell
+    own = np.floor(pos / c).astype(np.int64) // BLOCK_CUBES
+    own -= own.min(axis=0)
+    span = own.max(axis=0) + 1
+    if float(span[0]) * float(span[1]) * float(span[2]) < 2.0**62:
+        order = np.argsort((own[:, 2] * span[1] + own[:, 1]) * span[0] + own[:, 0], kind="stable")
+    else:  # blocks spread over more than int64 keys hold
+        order = np.lexsort((own[:, 0], own[:, 1], own[:, 2]))
+    key = own[order]
+    starts = np.flatnonzero(np.r_[True, np.any(key[1:] != key[:-1], axis=1)])
+    # frame_extent ≤ (r/2)√3 per axis (a row of an orthogonal matrix has unit length),
+    # with room for float32 rounding: every cube a point's walk visits is in its block
+    reach = setup.r / 2.0 * math.sqrt(3.0) * (1.0 + 1e-5)
+    ps = pos[order]
+    lo = np.minimum.reduceat(np.floor((ps - reach) / c), starts, axis=0).astype(np.int64)
+    hi = np.maximum.reduceat(np.floor((ps + reach) / c), starts, axis=0).astype(np.int64)
+    return order, starts, lo, hi
+
+
+def _gather_blocks(p, setup: SurfaceSetup, coeffs, pos, nrm, tan, device) -> np.ndarray:
+    n = pos.shape[0]
+    order, starts, lo, hi = _blocks(pos, setup)
+    dims = hi - lo + 1
+    cubes = np.prod(dims, axis=1)
+    mean_count = setup.lam * setup.cell ** 3
+    # one round per group of blocks holding at most CUBES_PER_ROUND cubes (a block alone may exceed it)
+    check_memory(float(cubes.max()) * (16 + 12 * (mean_count + 10 * math.sqrt(mean_count) + 1))
+                 + n * 64.0, f"surface noise at {n} points", "use fewer points at once or a larger texel_size")
+    ends = np.r_[starts[1:], n]
+    sorted_pos = np.ascontiguousarray(pos[order])
+    sorted_nrm = np.ascontiguousarray(nrm[order])
+    sorted_tan = np.ascontiguousarray(tan[order]) if tan is not None else None
+    out = np.zeros((n, 3), np.float32)
+    b0 = 0
+    nb = len(starts)
+    while b0 < nb:
+        total = np.cumsum(cubes[b0:])
+        b1 = b0 + max(1, int(np.searchsorted(total, CUBES_PER_ROUND, side="right")))
+        _gather_round(p, setup, coeffs, sorted_pos, sorted_nrm, sorted_tan, device, starts[b0:b1], ends[b0:b1],
+                      lo[b0:b1], dims[b0:b1], cubes[b0:b1], out)
+        b0 = b1
+    res = np.empty_like(out)
+    res[order] = out
+    return res
+
+
+def _gather_round(p, setup, coeffs, pos, nrm, tan, device, starts, ends, lo, dims, cubes, out) -> None:
+    nb = len(starts)
+    base = np.zeros(nb, np.int64)
+    base[1:] = np.cumsum(cubes)[:-1]
+    total = int(cubes.sum())
+    owner = np.repeat(np.arange(nb), cubes)
+    local = np.arange(total, dtype=np.int64) - base[owner]
+    d = dims[owner]
+    coords = lo[owner] + np.stack([local % d[:, 0], (local // d[:, 0]) % d[:, 1], local // (d[:, 0] * d[:, 1])],
+                                  axis=1)
+    p0, p1 = int(starts[0]), int(ends[-1])
+    block_of = np.repeat(np.arange(nb, dtype=np.int32), ends - starts)
+    cube_arr = wp.array(coords.astype(np.int32), dtype=wp.vec3i)
+    counts = wp.zeros(total + 1, dtype=wp.int32)
+    split_launch(device, K, total, lambda a, b: wp.launch(K.count_cubes, dim=b - a,
+                                                          inputs=[p, cube_arr[a:b], counts[a:b]]))
+    offsets = wp.zeros(total + 1, dtype=wp.int32)
+    wp.utils.array_scan(counts, offsets, inclusive=False)
+    n_impacts = int(offsets[total:total + 1].numpy()[0])
+    impacts = wp.zeros(max(n_impacts, 1), dtype=wp.vec3)
+    if n_impacts:
+        split_launch(device, K, total, lambda a, b: wp.launch(K.emit_cubes, dim=b - a,
+                                                              inputs=[p, cube_arr[a:b], offsets[a:], impacts]))
+    blocks = K.CubeBlocks()
+    blocks.origin = wp.array(lo.astype(np.int32), dtype=wp.vec3i)
+    blocks.dims = wp.array(dims.astype(np.int32), dtype=wp.vec3i)
+    blocks.base = wp.array(base.astype(np.int32), dtype=wp.int32)
+    blocks.offsets = offsets
+    blocks.impacts = impacts
+    pts = wp.array(pos[p0:p1], dtype=wp.vec3d)
+    nrms = wp.array(nrm[p0:p1], dtype=wp.vec3)
+    tans = wp.array(tan[p0:p1], dtype=wp.vec3) if tan is not None else wp.zeros(1, dtype=wp.vec3)
+    owners = wp.array(block_of, dtype=wp.int32)
+    on_cpu = wp.get_device(device).is_cpu
+    res = wp.array(out[p0:p1], dtype=wp.vec3, copy=False) if on_cpu else wp.zeros(p1 - p0, dtype=wp.vec3)
+
+    def launch(a, b):
+        wp.launch(K.gather_surface, dim=b - a, inputs=[p, coeffs, pts, nrms, tans, int(tan is not None), owners,
+                                                      blocks, a, res])
+
+    split_launch(device, K, p1 - p0, launch)
+    if not on_cpu:
+        out[p0:p1] = res.numpy()
 
 
 def _check_mesh(mesh):
