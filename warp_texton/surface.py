@@ -54,14 +54,8 @@ METHODS = ("blocks", "points")
 BLOCK_CUBES = 4
 #: Cubes drawn per round of the block path (bounds its impact buffer).
 CUBES_PER_ROUND = 1 << 20
-#: Up axes: the frame rule, the default camera and the light are set for a
-#: Z-up world and turned by this rotation (world = R · canonical) for the others.
-#: Y-up follows glTF (+Z towards the front viewer, +X to the right).
-UP_AXES = {
-    "z": np.eye(3),
-    "y": np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]]),
-    "x": np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]),
-}
+#: Names ``up`` takes besides a 3-vector: the world axis that points up.
+UP_NAMES = ("x", "y", "z")
 #: Default view of renders: azimuth and elevation (degrees) of the camera seen from
 #: the mesh's centre, in the Z-up frame (azimuth 0 along +X, −90 along −Y: the front).
 VIEW = (-55.0, 25.0)
@@ -103,7 +97,7 @@ def _direction(v, name: str) -> np.ndarray:
     return d / np.linalg.norm(d)
 
 
-def tangent_frames(normals, up=UP, side=SIDE) -> tuple[np.ndarray, np.ndarray]:
+def tangent_frames(normals, up=UP, side=None) -> tuple[np.ndarray, np.ndarray]:
     """The frame rule used when no tangents are given: returns (u1, u2).
 
     u1 is the direction of v(n) = P_n(up) + ⟨up, n⟩⁴ P_n(side), with P_n the
@@ -115,8 +109,7 @@ def tangent_frames(normals, up=UP, side=SIDE) -> tuple[np.ndarray, np.ndarray]:
     The kernels implement the same rule (kernels/surface.py:tangent_frame).
     """
     n = _unit_rows(_points(normals, "normals"), "normals")
-    a = _direction(up, "up")
-    b = _direction(side, "side")
+    a, b = frame_rule(up, side)
     ca = n @ a
     v = (a - n * ca[:, None]) + (b - n * (n @ b)[:, None]) * (ca ** 4)[:, None]
     small = np.linalg.norm(v, axis=1) < 1e-6
@@ -126,6 +119,58 @@ def tangent_frames(normals, up=UP, side=SIDE) -> tuple[np.ndarray, np.ndarray]:
         v[still] = np.cross(n[still], a)
     u1 = v / np.linalg.norm(v, axis=1)[:, None]
     return u1, np.cross(n, u1)
+
+
+def up_vector(up) -> np.ndarray:
+    """``up`` as a unit 3-vector: "x", "y", "z" name a world axis; a 3-vector is normalised."""
+    if isinstance(up, str):
+        name = up.lower()
+        if name not in UP_NAMES:
+            raise TextonError(f"up must be one of x, y, z or a 3-vector, got {up!r}")
+        return np.eye(3)[UP_NAMES.index(name)]
+    return _direction(up, "up")
+
+
+def up_rotation(up) -> np.ndarray:
+    """The rotation R (world = R · z-up frame) that takes the Z-up frame of the
+    defaults (frame rule, view, light) to a world whose up is ``up``.
+
+    R's columns are (b, a × b, a): a = ``up``, b = the x axis made orthogonal to
+    a (the y axis when a is along x). So "z" is the identity and "y" is glTF's
+    frame (+Z, the front, is the Z-up frame's −Y; +X stays to the right).
+
+    >>> up_rotation("y").astype(int).tolist()
+    [[1, 0, 0], [0, 0, 1], [0, -1, 0]]
+    """
+    a = up_vector(up)
+    b = np.array([1.0, 0.0, 0.0]) - a * a[0]
+    if np.linalg.norm(b) < 1e-3:
+        b = np.array([0.0, 1.0, 0.0]) - a * a[1]
+    b /= np.linalg.norm(b)
+    return np.stack([b, np.cross(a, b), a], axis=1)
+
+
+def frame_rule(up, side=None) -> tuple[np.ndarray, np.ndarray]:
+    """(up, side) vectors of the frame rule: ``side`` defaults to the world's
+    "right" for this up axis (x, or y when up is along x)."""
+    if side is None:
+        r = up_rotation(up)
+        return r[:, 2].copy(), r[:, 0].copy()
+    return up_vector(up), _direction(side, "side")
+
+
+def view_direction(view, up=UP) -> np.ndarray:
+    """Unit vector from a mesh's centre towards the camera for ``view`` =
+    (azimuth, elevation) in degrees: azimuth about the up axis from the world's
+    right (x), −90 looking at the front; elevation above the horizon."""
+    try:
+        az, el = (float(v) for v in view)
+    except (TypeError, ValueError):
+        raise TextonError(f"view must be a pair (azimuth, elevation) in degrees, got {view!r}") from None
+    if not (math.isfinite(az) and math.isfinite(el)) or abs(el) >= 90.0:
+        raise TextonError(f"view elevation must be finite and strictly between -90 and 90 degrees, got {view!r}")
+    a, e = math.radians(az), math.radians(el)
+    return up_rotation(up) @ np.array([math.cos(e) * math.cos(a), math.cos(e) * math.sin(a), math.sin(e)])
 
 
 @dataclass(frozen=True)
@@ -176,8 +221,9 @@ def surface_params(texton: Texton, setup: SurfaceSetup, seed: int, poisson: str,
     p.shift = wp.vec3(*(setup.lam * setup.r / 2.0 * integral))
     p.inv_scale = 1.0 / math.sqrt(setup.lam * setup.r / 3.0)
     p.mean = wp.vec3(*mean)
-    p.up = wp.vec3(*_direction(up, "up"))
-    p.side = wp.vec3(*_direction(side, "side"))
+    a, b = frame_rule(up, side)
+    p.up = wp.vec3(*a)
+    p.side = wp.vec3(*b)
     return p
 
 
@@ -221,7 +267,7 @@ def surface_noise(
     device=None,
     *,
     up=UP,
-    side=SIDE,
+    side=None,
     poisson: str = "exact",
     cell_factor: float = CELL_FACTOR,
     method: str = "blocks",
@@ -445,8 +491,34 @@ def vertex_normals(mesh, up=UP) -> np.ndarray:
     n = np.asarray(mesh.vertex_normals, dtype=np.float64).copy()
     length = np.linalg.norm(n, axis=1)
     bad = ~np.isfinite(length) | (length < 1e-12)
-    n[bad] = _direction(up, "up")
+    n[bad] = up_vector(up)
     return n / np.linalg.norm(n, axis=1)[:, None]
+
+
+def srgb_to_linear(v) -> np.ndarray:
+    """The sRGB decoding (IEC 61966-2-1) of values in [0, 1]: what glTF's linear
+    ``COLOR_0`` holds for a colour an image stores as ``v``.
+
+    >>> srgb_to_linear([0.0, 0.5, 1.0]).round(4).tolist()
+    [0.0, 0.214, 1.0]
+    """
+    v = np.asarray(v, dtype=np.float64)
+    return np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4)
+
+
+def linear_to_srgb(v) -> np.ndarray:
+    """The sRGB encoding, inverse of :func:`srgb_to_linear`."""
+    v = np.clip(np.asarray(v, dtype=np.float64), 0.0, None)
+    return np.where(v <= 0.0031308, v * 12.92, 1.055 * v ** (1 / 2.4) - 0.055)
+
+
+def vertex_spacing(mesh, texel_size: float) -> float:
+    """The median edge length of ``mesh`` in texels: how far apart vertex colours are."""
+    v = np.asarray(mesh.vertices, dtype=np.float64)
+    f = np.asarray(mesh.faces, dtype=np.int64)
+    if len(f) == 0:
+        return 0.0
+    return float(np.median(np.linalg.norm(v[f[:, [1, 2, 0]]] - v[f], axis=2))) / texel_size
 
 
 def texture_mesh(
@@ -459,10 +531,18 @@ def texture_mesh(
     *,
     device=None,
     up=UP,
-    side=SIDE,
+    side=None,
     max_faces: int = 5_000_000,
+    linear: bool = False,
+    name: str = "mesh",
 ):
     """A copy of ``mesh`` with per-vertex colours from surface texton noise.
+
+    Vertex colours hold one value per vertex, interpolated across faces: they
+    show the texture only where vertices are at most about a texel apart. When
+    the median edge is longer than a texel, a warning names the mesh and the
+    spacing and suggests a baked texture (:func:`warp_texton.bake_mesh`) or
+    ``max_edge``.
 
     Parameters
     ----------
@@ -477,6 +557,13 @@ def texture_mesh(
         texels, so that vertex colours resolve the noise (≈ 1 texel).
     max_faces : int
         Refuse a subdivision that would exceed this many faces.
+    up, side
+        The frame rule's directions (``up`` may name an axis: "x", "y", "z").
+    linear : bool
+        Store linear colours (glTF ``COLOR_0`` is linear by definition) instead
+        of the noise's own sRGB-coded values (PLY, OBJ).
+    name : str
+        How the warning names the mesh (a file name in a batch).
 
     Returns
     -------
@@ -501,12 +588,19 @@ def texture_mesh(
             )
         vertices, faces = trimesh.remesh.subdivide_to_size(vertices, faces, max_edge=edge, max_iter=64)
     out = trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
+    spacing = vertex_spacing(out, texel)
+    if spacing > 1.0:
+        warnings.warn(f"{name}: vertices are {spacing:.3g} texels apart (median edge), so vertex colours blur the "
+                      "texture; bake a texture (--bake RES) or subdivide (--max-edge 1)", stacklevel=2)
     colours = surface_noise(texton, vertices, vertex_normals(out, up), texel, mni, seed, device=device, up=up,
                             side=side)
     if colours.shape[1] == 1:
         colours = np.repeat(colours, 3, axis=1)
+    colours = np.clip(colours, 0.0, 1.0)
+    if linear:
+        colours = srgb_to_linear(colours)
     rgba = np.empty((len(vertices), 4), np.uint8)
-    rgba[:, :3] = np.round(np.clip(colours, 0.0, 1.0) * 255.0)
+    rgba[:, :3] = np.round(colours * 255.0)
     rgba[:, 3] = 255
     out.visual.vertex_colors = rgba
     return out
@@ -522,15 +616,21 @@ class Camera:
     fov: float = 35.0
 
     @classmethod
-    def framing(cls, mesh, direction=(1.0, -1.3, 0.9), fov: float = 35.0, up=UP, zoom: float = 1.0) -> "Camera":
-        """A camera looking at the mesh's bounding-box centre from ``direction``,
-        far enough for its bounding sphere to fit the view (``zoom`` > 1 moves closer)."""
+    def framing(cls, mesh, direction=None, fov: float = 35.0, up=UP, zoom: float = 1.0, *,
+                view=VIEW) -> "Camera":
+        """A camera looking at the mesh's bounding-box centre, far enough for its
+        bounding sphere to fit the view (``zoom`` > 1 moves closer). It sits along
+        ``direction`` from the centre, or at ``view`` = (azimuth, elevation) in
+        degrees for this ``up`` axis (see :func:`view_direction`)."""
         lo, hi = np.asarray(mesh.bounds, dtype=np.float64)
         centre = (lo + hi) / 2.0
         radius = max(np.linalg.norm(hi - lo) / 2.0, 1e-9)
-        d = _direction(direction, "direction")
+        d = view_direction(view, up) if direction is None else _direction(direction, "direction")
+        fov = check_positive(fov, "fov")
+        if fov >= 180.0:
+            raise TextonError(f"fov must be below 180 degrees, got {fov}")
         dist = radius / math.sin(math.radians(fov) / 2.0) * 1.05 / check_positive(zoom, "zoom")
-        return cls(tuple(centre + d * dist), tuple(centre), tuple(up), fov)
+        return cls(tuple(centre + d * dist), tuple(centre), tuple(up_vector(up)), fov)
 
 
 def render_mesh(
@@ -544,16 +644,22 @@ def render_mesh(
     device=None,
     *,
     background=(0.92, 0.92, 0.92),
-    light=(0.4, -0.5, 1.0),
+    light=None,
     up=UP,
-    side=SIDE,
+    side=None,
+    view=None,
+    fov=None,
+    method: str = "blocks",
 ) -> np.ndarray:
     """Ray-cast ``mesh`` with surface texton noise and simple diffuse shading.
 
-    Each pixel's ray hits the mesh (``wp.Mesh`` BVH, ``wp.mesh_query_ray``);
-    the noise is evaluated at the hit with the interpolated vertex normal (the
-    face normal across creases sharper than 30°) and the frame rule, then shaded by 0.3 + 0.7 |⟨n, light⟩|. Missed pixels get
-    ``background``.
+    Each pixel's ray hits the mesh (``wp.Mesh`` BVH, ``wp.mesh_query_ray``, in
+    world units around the mesh's centre); the hit is placed in float64 from
+    the face's vertices and its barycentric weights, and the noise is evaluated
+    there with the interpolated vertex normal (the face normal across creases
+    sharper than 30°) and the frame rule, for all hits at once (in blocks, as
+    :func:`surface_noise`), then shaded by 0.3 + 0.7 |⟨n, light⟩|. Missed
+    pixels get ``background``.
 
     Parameters
     ----------
@@ -563,13 +669,30 @@ def render_mesh(
     texel_size : float, optional
         World units per texel; default: the bounding-box diagonal / 256.
     camera : Camera, optional
-        Default: :meth:`Camera.framing` of the mesh.
+        Default: :meth:`Camera.framing` of the mesh at ``view`` and ``fov``.
     mni, seed, device
         As in :func:`surface_noise`.
+    up : "x", "y", "z" or 3-vector
+        The world's up axis: the frame rule's ``up``, the default camera's up,
+        and the frame of ``view`` and of the default light.
+    side : 3-vector, optional
+        The frame rule's ``side`` (default: the world's right for ``up``).
+    view : (azimuth, elevation), optional
+        Degrees; default (−55, 25): from the front left, above (:func:`view_direction`).
+    fov : float, optional
+        Vertical field of view of the default camera, degrees (default 35).
+    light : 3-vector, optional
+        Towards the light; default (0.4, −0.5, 1) in the Z-up frame, turned with ``up``.
+    method : "blocks" or "points"
+        As in :func:`surface_noise` (the same image).
 
     Returns
     -------
     float32 array (height, width, 3) in [0, 1]
+
+    References
+    ----------
+    CGF §6 (surface noise), Fig. 8 (textured meshes without UVs).
     """
     mesh = _check_mesh(mesh)
     if not isinstance(texton, Texton):
@@ -577,12 +700,24 @@ def render_mesh(
     h, w = check_shape(shape, max_pixels=MAX_RENDER_PIXELS)
     texel = default_texel_size(mesh) if texel_size is None else check_positive(texel_size, "texel_size")
     seed = check_seed(seed)
-    cam = Camera.framing(mesh, up=up) if camera is None else camera
+    check_method(method)
+    rot = up_rotation(up)
+    if camera is None:
+        cam = Camera.framing(mesh, fov=35.0 if fov is None else fov, up=up, view=VIEW if view is None else view)
+    elif view is not None or fov is not None:
+        raise TextonError("give either camera or view/fov, not both")
+    else:
+        cam = camera
     if not isinstance(cam, Camera):
         raise TextonError(f"camera must be a warp_texton.Camera, got {type(cam).__name__}")
-    fov = check_positive(cam.fov, "camera.fov")
-    if fov >= 180.0:
-        raise TextonError(f"camera.fov must be below 180 degrees, got {fov}")
+    cam_fov = check_positive(cam.fov, "camera.fov")
+    if cam_fov >= 180.0:
+        raise TextonError(f"camera.fov must be below 180 degrees, got {cam_fov}")
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    setup = surface_setup(texton, mni)
+    texel_positions(vertices, texel, setup, "the mesh's vertices")  # refuses far meshes and tiny texels
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    origin = (lo + hi) / 2.0  # the ray cast runs in float32 around this point
     eye = np.asarray(cam.position, dtype=np.float64)
     forward = _direction(np.asarray(cam.target, dtype=np.float64) - eye, "camera target - position")
     right = np.cross(forward, _direction(cam.up, "camera.up"))
@@ -590,40 +725,51 @@ def render_mesh(
         raise TextonError("camera.up is parallel to the view direction")
     right /= np.linalg.norm(right)
     cam_up = np.cross(right, forward)
-    setup = surface_setup(texton, mni)
-    device = resolve_device(device)
-    p = surface_params(texton, setup, seed, "exact", up, side)
-    c = K.Camera()
-    c.origin = wp.vec3(*(eye / texel))
-    c.right = wp.vec3(*right)
-    c.up = wp.vec3(*cam_up)
-    c.forward = wp.vec3(*forward)
-    c.tan_half_fov = math.tan(math.radians(fov) / 2.0)
-    c.aspect = w / h
-    c.light = wp.vec3(*_direction(light, "light"))
     try:
         bg = np.asarray(background, dtype=np.float64).reshape(3)
     except (TypeError, ValueError):
         raise TextonError(f"background must be an RGB triple, got {background!r}") from None
     if not np.isfinite(bg).all():
         raise TextonError(f"background must be finite, got {background!r}")
-    c.background = wp.vec3(*bg)
+    light_dir = rot @ _direction(LIGHT, "light") if light is None else _direction(light, "light")
+    check_memory(h * w * 40.0, f"a {w}x{h} render", "render fewer pixels")
+    device = resolve_device(device)
+    p = surface_params(texton, setup, seed, "exact", up, side)
+    c = K.Camera()
+    c.origin = wp.vec3(*(eye - origin))
+    c.right = wp.vec3(*right)
+    c.up = wp.vec3(*cam_up)
+    c.forward = wp.vec3(*forward)
+    c.tan_half_fov = math.tan(math.radians(cam_fov) / 2.0)
+    c.aspect = w / h
+    c.light = wp.vec3(*light_dir)
+    faces_np = np.asarray(mesh.faces, dtype=np.int64)
     with wp.ScopedDevice(device):
-        points = wp.array(np.asarray(mesh.vertices, dtype=np.float64) / texel, dtype=wp.vec3)
-        indices = wp.array(np.asarray(mesh.faces, dtype=np.int32).reshape(-1), dtype=wp.int32)
+        points = wp.array(vertices - origin, dtype=wp.vec3)
+        indices = wp.array(faces_np.astype(np.int32).reshape(-1), dtype=wp.int32)
         wmesh = wp.Mesh(points=points, indices=indices)
         normals = wp.array(vertex_normals(mesh, up), dtype=wp.vec3)
-        coeffs = wp.array(setup.coeffs, dtype=wp.vec3)
-        out = wp.zeros((h, w), dtype=wp.vec3)
+        face = wp.zeros((h, w), dtype=wp.int32)
+        bary = wp.zeros((h, w), dtype=wp.vec2)
+        nrm = wp.zeros((h, w), dtype=wp.vec3)
+        shade = wp.zeros((h, w), dtype=float)
 
         def band(r0, r1):
-            wp.launch(K.render_surface, dim=(r1 - r0, w), inputs=[p, coeffs, wmesh.id, normals, indices, c, r0, out])
+            wp.launch(K.cast_rays, dim=(r1 - r0, w), inputs=[wmesh.id, normals, indices, c, r0, face, bary, nrm, shade])
 
         split_launch(device, K, h, band)
-        img = out.numpy()
-    if texton.channels == 1:
-        # grey noise lives in channel 0: spread it (with the shading) to RGB
-        hit = np.any(img != np.asarray(c.background, np.float32), axis=2)
-        img[hit, 1] = img[hit, 0]
-        img[hit, 2] = img[hit, 0]
-    return np.ascontiguousarray(img, dtype=np.float32)
+        face, bary, nrm, shade = face.numpy(), bary.numpy(), nrm.numpy(), shade.numpy()
+    img = np.empty((h, w, 3), np.float32)
+    img[:] = bg.astype(np.float32)
+    hit = face >= 0
+    if hit.any():
+        tri = faces_np[face[hit]]
+        b = bary[hit].astype(np.float64)
+        y = (vertices[tri[:, 0]] * b[:, :1] + vertices[tri[:, 1]] * b[:, 1:]
+             + vertices[tri[:, 2]] * (1.0 - b[:, :1] - b[:, 1:]))
+        g = evaluate_points(p, setup, y / texel, nrm[hit].astype(np.float64), None, device, method)
+        if texton.channels == 1:
+            g[:, 1] = g[:, 0]  # grey noise lives in channel 0: spread it to RGB
+            g[:, 2] = g[:, 0]
+        img[hit] = np.clip(g, 0.0, 1.0) * shade[hit][:, None]
+    return img
