@@ -468,7 +468,7 @@ def _gather_round(p, setup, coeffs, pos, nrm, tan, device, starts, ends, lo, dim
         out[p0:p1] = res.numpy()
 
 
-def _check_mesh(mesh):
+def check_mesh(mesh):
     import trimesh
 
     if not isinstance(mesh, trimesh.Trimesh):
@@ -535,6 +535,7 @@ def texture_mesh(
     max_faces: int = 5_000_000,
     linear: bool = False,
     name: str = "mesh",
+    warn: bool = True,
 ):
     """A copy of ``mesh`` with per-vertex colours from surface texton noise.
 
@@ -564,6 +565,8 @@ def texture_mesh(
         of the noise's own sRGB-coded values (PLY, OBJ).
     name : str
         How the warning names the mesh (a file name in a batch).
+    warn : bool
+        Warn about vertices further apart than a texel (a batch reports it itself).
 
     Returns
     -------
@@ -571,7 +574,7 @@ def texture_mesh(
     """
     import trimesh
 
-    mesh = _check_mesh(mesh)
+    mesh = check_mesh(mesh)
     texel = check_positive(texel_size, "texel_size")
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
     faces = np.asarray(mesh.faces, dtype=np.int64)
@@ -589,7 +592,7 @@ def texture_mesh(
         vertices, faces = trimesh.remesh.subdivide_to_size(vertices, faces, max_edge=edge, max_iter=64)
     out = trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
     spacing = vertex_spacing(out, texel)
-    if spacing > 1.0:
+    if warn and spacing > 1.0:
         warnings.warn(f"{name}: vertices are {spacing:.3g} texels apart (median edge), so vertex colours blur the "
                       "texture; bake a texture (--bake RES) or subdivide (--max-edge 1)", stacklevel=2)
     colours = surface_noise(texton, vertices, vertex_normals(out, up), texel, mni, seed, device=device, up=up,
@@ -694,7 +697,7 @@ def render_mesh(
     ----------
     CGF §6 (surface noise), Fig. 8 (textured meshes without UVs).
     """
-    mesh = _check_mesh(mesh)
+    mesh = check_mesh(mesh)
     if not isinstance(texton, Texton):
         raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
     h, w = check_shape(shape, max_pixels=MAX_RENDER_PIXELS)
