@@ -275,6 +275,221 @@ def gather_surface(
     out[k] = normalize_surface(p, acc)
 
 
+# ------------------------------------------------ clusters of nearby points
+@wp.func
+def range_meets(rel: wp.vec3, a: wp.vec3, size: float, lo: float, hi: float):
+    # does ⟨rel − u size, a⟩ over u ∈ [0, 1]³ meet [lo, hi]?
+    x = wp.dot(rel, a)
+    x_lo = x - size * (wp.max(a[0], 0.0) + wp.max(a[1], 0.0) + wp.max(a[2], 0.0))
+    x_hi = x - size * (wp.min(a[0], 0.0) + wp.min(a[1], 0.0) + wp.min(a[2], 0.0))
+    return x_lo <= hi and x_hi >= lo
+
+
+@wp.struct
+class Clusters:
+    # cluster m holds the points first[m] .. first[m + 1] − 1 (all of one block); the
+    # impacts that may reach them are listed at cap·m .. cap·m + length[m] − 1 as
+    # (cube number, impact number) in the walk's order; length −1: the list overflowed
+    first: wp.array(dtype=wp.int32)
+    cap: int
+    length: wp.array(dtype=wp.int32)
+    cube: wp.array(dtype=wp.int32)
+    impact: wp.array(dtype=wp.int32)
+
+
+@wp.kernel
+def list_cluster_impacts(
+    p: SurfaceParams,
+    points: wp.array(dtype=wp.vec3d),
+    normals: wp.array(dtype=wp.vec3),
+    tangents: wp.array(dtype=wp.vec3),
+    use_tangents: int,
+    block_of: wp.array(dtype=wp.int32),
+    blocks: CubeBlocks,
+    clusters: Clusters,
+):
+    """The impacts that may reach some point of a cluster, in the walk's order.
+
+    For a point y_i with frame (u1_i, u2_i, n_i) an impact q counts only if
+    |⟨y_i − q, n_i⟩| < r/2 and its frame coordinates lie in the support, so
+    |y_i − q| ≤ R = (r/2)√3. With y_c, n̄, ū1, ū2 the cluster's means, ρ its
+    radius and ν, μ1, μ2 the largest distances of n_i, u1_i, u2_i from their
+    means, ⟨y_c − q, n̄⟩ lies within r/2 + ρ + Rν of 0, and ⟨y_c − q, ū1⟩,
+    ⟨y_c − q, ū2⟩ within ρ + Rμ of the support's range. Impacts outside those
+    ranges are left off the list: none of them can reach a point."""
+    m = wp.tid()
+    k0 = clusters.first[m]
+    k1 = clusters.first[m + 1]
+    c = p.cells.size
+    # means of the positions (relative to the first point) and of the frames
+    y0 = points[k0]
+    mean_off = wp.vec3(0.0)
+    nbar = wp.vec3(0.0)
+    ubar = wp.vec3(0.0)
+    vbar = wp.vec3(0.0)
+    x0 = int(2147483647)
+    x1 = int(-2147483647)
+    yy0 = int(2147483647)
+    yy1 = int(-2147483647)
+    z0 = int(2147483647)
+    z1 = int(-2147483647)
+    for k in range(k0, k1):
+        n = normals[k]
+        u1, u2 = point_frame(p, n, tangents, k, use_tangents)
+        y = points[k]
+        mean_off = mean_off + wp.vec3(float(y[0] - y0[0]), float(y[1] - y0[1]), float(y[2] - y0[2]))
+        nbar = nbar + n
+        ubar = ubar + u1
+        vbar = vbar + u2
+        a0, a1, b0, b1, e0, e1 = cube_span(y, frame_extent(p.half, u1, u2, n), c)
+        x0 = wp.min(x0, a0)
+        x1 = wp.max(x1, a1)
+        yy0 = wp.min(yy0, b0)
+        yy1 = wp.max(yy1, b1)
+        z0 = wp.min(z0, e0)
+        z1 = wp.max(z1, e1)
+    inv = 1.0 / float(k1 - k0)
+    mean_off = mean_off * inv
+    nbar = nbar * inv
+    ubar = ubar * inv
+    vbar = vbar * inv
+    yc = wp.vec3d(y0[0] + wp.float64(mean_off[0]), y0[1] + wp.float64(mean_off[1]), y0[2] + wp.float64(mean_off[2]))
+    rho = float(0.0)
+    nu = float(0.0)
+    mu1 = float(0.0)
+    mu2 = float(0.0)
+    for k in range(k0, k1):
+        n = normals[k]
+        u1, u2 = point_frame(p, n, tangents, k, use_tangents)
+        y = points[k]
+        rho = wp.max(rho, wp.length(wp.vec3(float(y[0] - yc[0]), float(y[1] - yc[1]), float(y[2] - yc[2]))))
+        nu = wp.max(nu, wp.length(n - nbar))
+        mu1 = wp.max(mu1, wp.length(u1 - ubar))
+        mu2 = wp.max(mu2, wp.length(u2 - vbar))
+    big_r = p.half * 1.7320508 * 1.001
+    margin = 1.0e-3 * (p.half + c) + 1.0e-5 * (rho + big_r)
+    t_lim = p.half + rho + big_r * nu + margin
+    a_lo = p.lo[0] - p.centre[0] - rho - big_r * mu1 - margin
+    a_hi = p.hi[0] - p.centre[0] + rho + big_r * mu1 + margin
+    b_lo = p.lo[1] - p.centre[1] - rho - big_r * mu2 - margin
+    b_hi = p.hi[1] - p.centre[1] + rho + big_r * mu2 + margin
+    b = block_of[k0]
+    o = blocks.origin[b]
+    dm = blocks.dims[b]
+    base = blocks.base[b]
+    x0 = wp.max(x0, o[0])
+    yy0 = wp.max(yy0, o[1])
+    z0 = wp.max(z0, o[2])
+    x1 = wp.min(x1, o[0] + dm[0] - 1)
+    yy1 = wp.min(yy1, o[1] + dm[1] - 1)
+    z1 = wp.min(z1, o[2] + dm[2] - 1)
+    count = int(0)
+    out0 = m * clusters.cap
+    for cz in range(z0, z1 + 1):
+        for cy in range(yy0, yy1 + 1):
+            row = base + ((cz - o[2]) * dm[1] + (cy - o[1])) * dm[0] - o[0]
+            for cx in range(x0, x1 + 1):
+                rel = cube_offset(yc, cx, cy, cz, c)
+                if range_meets(rel, nbar, c, -t_lim, t_lim) and range_meets(rel, ubar, c, a_lo, a_hi) and \
+                        range_meets(rel, vbar, c, b_lo, b_hi):
+                    g = row + cx
+                    for j in range(blocks.offsets[g], blocks.offsets[g + 1]):
+                        d = impact_offset3(rel, blocks.impacts[j], c)
+                        t = wp.dot(d, nbar)
+                        if wp.abs(t) < t_lim:
+                            a = wp.dot(d, ubar)
+                            bb = wp.dot(d, vbar)
+                            if a >= a_lo and a <= a_hi and bb >= b_lo and bb <= b_hi:
+                                if count < clusters.cap:
+                                    clusters.cube[out0 + count] = g
+                                    clusters.impact[out0 + count] = j
+                                count += 1
+    if count > clusters.cap:
+        count = -1
+    clusters.length[m] = count
+
+
+@wp.kernel
+def gather_clustered(
+    p: SurfaceParams,
+    coeffs: wp.array2d(dtype=wp.vec3),
+    points: wp.array(dtype=wp.vec3d),
+    normals: wp.array(dtype=wp.vec3),
+    tangents: wp.array(dtype=wp.vec3),
+    use_tangents: int,
+    block_of: wp.array(dtype=wp.int32),
+    blocks: CubeBlocks,
+    cluster_of: wp.array(dtype=wp.int32),
+    clusters: Clusters,
+    first_cluster: int,
+    first: int,
+    out: wp.array(dtype=wp.vec3),
+):
+    """``gather_surface`` through the cluster's list: the list keeps the walk's order
+    and holds every impact that can reach the point, and impacts of cubes outside
+    the point's own walk are skipped, so the terms and their order are the walk's."""
+    k = wp.tid() + first
+    m = cluster_of[k] - first_cluster
+    length = clusters.length[m]
+    n = normals[k]
+    u1, u2 = point_frame(p, n, tangents, k, use_tangents)
+    look = slab_lookup(p, coeffs, u1, u2, n)
+    half = p.half
+    centre = p.centre
+    lo = p.lo
+    hi = p.hi
+    order = p.order
+    y = points[k]
+    c = p.cells.size
+    x0, x1, y0, y1, z0, z1 = cube_span(y, frame_extent(p.half, u1, u2, n), c)
+    b = block_of[k]
+    o = blocks.origin[b]
+    dm = blocks.dims[b]
+    base = blocks.base[b]
+    acc = wp.vec3(0.0)
+    if length < 0:  # the list overflowed: walk the block's cubes
+        x0 = wp.max(x0, o[0])
+        y0 = wp.max(y0, o[1])
+        z0 = wp.max(z0, o[2])
+        x1 = wp.min(x1, o[0] + dm[0] - 1)
+        y1 = wp.min(y1, o[1] + dm[1] - 1)
+        z1 = wp.min(z1, o[2] + dm[2] - 1)
+        for cz in range(z0, z1 + 1):
+            for cy in range(y0, y1 + 1):
+                row = base + ((cz - o[2]) * dm[1] + (cy - o[1])) * dm[0] - o[0]
+                for cx in range(x0, x1 + 1):
+                    rel = cube_offset(y, cx, cy, cz, c)
+                    if cube_may_count(look, rel, c):
+                        g = row + cx
+                        for j in range(blocks.offsets[g], blocks.offsets[g + 1]):
+                            d = impact_offset3(rel, blocks.impacts[j], c)
+                            t = wp.dot(d, n)
+                            if wp.abs(t) < half:
+                                acc = slab_term(coeffs, u1, u2, t, half, centre, lo, hi, order, d, acc)
+    else:
+        last = int(-1)
+        use = bool(False)
+        rel = wp.vec3(0.0)
+        start = m * clusters.cap
+        for e in range(start, start + length):
+            g = clusters.cube[e]
+            if g != last:
+                last = g
+                local = g - base
+                cx = o[0] + local % dm[0]
+                cy = o[1] + (local / dm[0]) % dm[1]
+                cz = o[2] + local / (dm[0] * dm[1])
+                use = cx >= x0 and cx <= x1 and cy >= y0 and cy <= y1 and cz >= z0 and cz <= z1
+                if use:
+                    rel = cube_offset(y, cx, cy, cz, c)
+            if use:
+                d = impact_offset3(rel, blocks.impacts[clusters.impact[e]], c)
+                t = wp.dot(d, n)
+                if wp.abs(t) < half:
+                    acc = slab_term(coeffs, u1, u2, t, half, centre, lo, hi, order, d, acc)
+    out[k] = normalize_surface(p, acc)
+
+
 @wp.struct
 class Camera:
     origin: wp.vec3  # world units, relative to the mesh's local origin
@@ -330,4 +545,4 @@ def cast_rays(
 
 
 __all__ = ["PAD", "SurfaceParams", "Camera", "CubeBlocks", "evaluate_surface", "count_cubes", "emit_cubes",
-           "gather_surface", "cast_rays", "tangent_frame"]
+           "gather_surface", "Clusters", "list_cluster_impacts", "gather_clustered", "cast_rays", "tangent_frame"]

@@ -54,6 +54,13 @@ METHODS = ("blocks", "points")
 BLOCK_CUBES = 4
 #: Cubes drawn per round of the block path (bounds its impact buffer).
 CUBES_PER_ROUND = 1 << 20
+#: Points of a block are taken in clusters of this many neighbours, which list the
+#: impacts that may reach them once; a list holds at most CLUSTER_CAP impacts
+#: (a longer one is dropped and its points walk the block's cubes), and at most
+#: CLUSTERS_PER_ROUND lists exist at once.
+CLUSTER_POINTS = 16
+CLUSTER_CAP = 1024
+CLUSTERS_PER_ROUND = 1 << 13
 #: Names ``up`` takes besides a 3-vector: the world axis that points up.
 UP_NAMES = ("x", "y", "z")
 #: Default view of renders: azimuth and elevation (degrees) of the camera seen from
@@ -374,17 +381,25 @@ def evaluate_points(p: K.SurfaceParams, setup: SurfaceSetup, pos: np.ndarray, nr
         return _gather_blocks(p, setup, coeffs, pos, nrm, tan, device)
 
 
+#: x ↦ x with two zero bits after each of its 5 bits (Morton codes of 32 steps per axis)
+_SPREAD = np.array([sum(((x >> b) & 1) << (3 * b) for b in range(5)) for x in range(8 * BLOCK_CUBES)], np.int64)
+
+
 def _blocks(pos: np.ndarray, setup: SurfaceSetup):
     """Points sorted into blocks of BLOCK_CUBES³ cubes: (order, starts, lo, hi), with
     lo/hi the first and last cube (per axis) that the points of each block can reach."""
     c = setup.cell
-    own = np.floor(pos / c).astype(np.int64) // BLOCK_CUBES
+    fine = np.floor(pos / (c / 8.0)).astype(np.int64)  # eighths of a cube
+    own = fine // (8 * BLOCK_CUBES)
+    # within a block, Morton order of the eighths: consecutive points are neighbours
+    sub = fine - own * (8 * BLOCK_CUBES)
+    morton = _SPREAD[sub[:, 0]] | (_SPREAD[sub[:, 1]] << 1) | (_SPREAD[sub[:, 2]] << 2)
     own -= own.min(axis=0)
     span = own.max(axis=0) + 1
-    if float(span[0]) * float(span[1]) * float(span[2]) < 2.0**62:
-        order = np.argsort((own[:, 2] * span[1] + own[:, 1]) * span[0] + own[:, 0], kind="stable")
+    if float(span[0]) * float(span[1]) * float(span[2]) < 2.0**46:
+        order = np.argsort((((own[:, 2] * span[1] + own[:, 1]) * span[0] + own[:, 0]) << 15) | morton, kind="stable")
     else:  # blocks spread over more than int64 keys hold
-        order = np.lexsort((own[:, 0], own[:, 1], own[:, 2]))
+        order = np.lexsort((morton, own[:, 0], own[:, 1], own[:, 2]))
     key = own[order]
     starts = np.flatnonzero(np.r_[True, np.any(key[1:] != key[:-1], axis=1)])
     # frame_extent ≤ (r/2)√3 per axis (a row of an orthogonal matrix has unit length),
@@ -458,12 +473,37 @@ def _gather_round(p, setup, coeffs, pos, nrm, tan, device, starts, ends, lo, dim
     owners = wp.array(block_of, dtype=wp.int32)
     on_cpu = wp.get_device(device).is_cpu
     res = wp.array(out[p0:p1], dtype=wp.vec3, copy=False) if on_cpu else wp.zeros(p1 - p0, dtype=wp.vec3)
+    # clusters: runs of CLUSTER_POINTS consecutive points of one block
+    per_block = -(-(ends - starts) // CLUSTER_POINTS)
+    cb = np.repeat(np.arange(nb), per_block)
+    rank = np.arange(len(cb)) - np.repeat(np.cumsum(per_block) - per_block, per_block)
+    cfirst = np.r_[starts[cb] + rank * CLUSTER_POINTS - p0, p1 - p0].astype(np.int32)
+    cluster_of = wp.array(np.repeat(np.arange(len(cb), dtype=np.int32), np.diff(cfirst)), dtype=wp.int32)
+    cap = CLUSTER_CAP
+    for m0 in range(0, len(cb), CLUSTERS_PER_ROUND):
+        m1 = min(m0 + CLUSTERS_PER_ROUND, len(cb))
+        cl = K.Clusters()
+        cl.first = wp.array(cfirst[m0:m1 + 1], dtype=wp.int32)
+        cl.cap = cap
+        cl.length = wp.zeros(m1 - m0, dtype=wp.int32)
+        cl.cube = wp.zeros((m1 - m0) * cap, dtype=wp.int32)
+        cl.impact = wp.zeros((m1 - m0) * cap, dtype=wp.int32)
 
-    def launch(a, b):
-        wp.launch(K.gather_surface, dim=b - a, inputs=[p, coeffs, pts, nrms, tans, int(tan is not None), owners,
-                                                      blocks, a, res])
+        def listing(a, b, cl=cl):
+            sub = K.Clusters()
+            sub.first, sub.cap, sub.length, sub.cube, sub.impact = cl.first[a:], cap, cl.length[a:], \
+                cl.cube[a * cap:], cl.impact[a * cap:]
+            wp.launch(K.list_cluster_impacts, dim=b - a, inputs=[p, pts, nrms, tans, int(tan is not None), owners,
+                                                                 blocks, sub])
 
-    split_launch(device, K, p1 - p0, launch)
+        split_launch(device, K, m1 - m0, listing)
+
+        def launch(a, b, cl=cl, m0=m0):
+            wp.launch(K.gather_clustered, dim=b - a, inputs=[p, coeffs, pts, nrms, tans, int(tan is not None),
+                                                             owners, blocks, cluster_of, cl, m0, a, res])
+
+        k0, k1 = int(cfirst[m0]), int(cfirst[m1])
+        split_launch(device, K, k1 - k0, lambda a, b: launch(a + k0, b + k0))
     if not on_cpu:
         out[p0:p1] = res.numpy()
 
