@@ -10,9 +10,10 @@ or makes a UV atlas with xatlas (the optional extra ``mesh``), then
 2. evaluates the surface noise (CGF §6) there, averaging ``n_x × n_y``
    samples over the texel's footprint on the surface where one texel covers
    more than a texton texel (the supersampling anti-aliases a coarse bake);
-3. dilates every chart by ``gutter`` texels (each texel past a chart edge
-   takes the value of the nearest chart texel), so bilinear and mip-mapped
-   lookups near chart edges show no seam.
+3. extends every chart by a gutter of ``gutter`` texels: a texel past a chart
+   edge takes the triangle of the nearest chart texel and the noise where that
+   triangle's plane continues (the chart's surface, extrapolated), so bilinear
+   and mip-mapped lookups near chart edges see the noise continue, no seam.
 
 Colours: the texture holds the noise's own values, which are sRGB-coded like
 the example images (PNG and glTF base-colour textures are sRGB); EXR textures
@@ -59,13 +60,15 @@ class BakedMesh:
     """What :func:`bake_mesh` makes.
 
     mesh : trimesh.Trimesh
-        The mesh with UVs (vertices split along the atlas's seams) and a PBR
-        material whose base-colour texture is ``texture`` (8-bit sRGB).
+        The mesh with UVs (vertices split along the atlas's seams), the vertex
+        normals the noise was evaluated with (the input's, so smooth across
+        seams) and a PBR material whose base-colour texture is ``texture``
+        (8-bit sRGB).
     texture : float32 array (RES, RES, C)
         The noise on the texture's texels (row 0 at the top, v = 1), gutter
         included; texels outside every chart and gutter hold the texton's mean.
     coverage : bool array (RES, RES)
-        Texels whose centre lies on a triangle.
+        Texels whose centre lies on a triangle (the gutter around them is not counted).
     texels_per_texton_texel : float
         Median, over the covered texels, of the texture's texels per texton
         texel on the surface (√ of the footprint's area): below 1 a texel
@@ -261,7 +264,8 @@ def bake_mesh(
             raise TextonError(f"{name}: {exc}; use uv='atlas' (--uv atlas) to ignore them") from None
         source = "mesh"
     else:
-        vmap, faces, uvs = make_atlas(vertices, faces, res, gutter)
+        # charts 2 gutters apart: each gutter texel is nearer its own chart than any other
+        vmap, faces, uvs = make_atlas(vertices, faces, res, 2 * max(gutter, 1))
         vertices, vnormals = vertices[vmap], vnormals[vmap]
         source = "atlas"
     device = resolve_device(device)
@@ -278,7 +282,9 @@ def bake_mesh(
         raise TextonError(f"{name}: its UVs overlap ({100 * overlap:.1f} % of the covered texels lie on two or more "
                           "triangles), so one texel would stand for several surface points; use uv='atlas' "
                           "(--uv atlas) to ignore them")
-    rows, cols = np.nonzero(covered)
+    owner = _extend(owner, covered, gutter)
+    rows, cols = np.nonzero(owner >= 0)
+    inner = covered[rows, cols]
     f = owner[rows, cols].astype(np.int64)
     tri = faces[f]
     # each face's affine map texel coordinates → (barycentric weights, 3-D point)
@@ -295,17 +301,17 @@ def bake_mesh(
     side_x = np.linalg.norm(jac[:, :, 0], axis=1)
     side_y = np.linalg.norm(jac[:, :, 1], axis=1)
     area = np.linalg.norm(np.cross(jac[:, :, 0], jac[:, :, 1]), axis=1)
-    per_texel = float(np.median(1.0 / np.sqrt(np.maximum(area, 1e-300))))
+    per_texel = float(np.median(1.0 / np.sqrt(np.maximum(area[inner], 1e-300))))
     if supersample is None:
         nx = np.clip(np.ceil(side_x * SAMPLE_DENSITY), 1, MAX_SAMPLES_SIDE).astype(np.int64)
         ny = np.clip(np.ceil(side_y * SAMPLE_DENSITY), 1, MAX_SAMPLES_SIDE).astype(np.int64)
     else:
         nx = ny = np.full(len(f), supersample, np.int64)
     total = int(np.sum(nx * ny))
-    check_memory(min(total, SAMPLES_PER_ROUND) * 120.0 + n_cov * 64.0, f"a {res}x{res} bake with {total} samples",
+    check_memory(min(total, SAMPLES_PER_ROUND) * 120.0 + len(f) * 64.0, f"a {res}x{res} bake with {total} samples",
                  "use a smaller resolution or supersample")
     p = surface_params(texton, setup, seed, "exact", up, side)
-    sums = np.zeros((n_cov, 3), np.float64)
+    sums = np.zeros((len(f), 3), np.float64)
     for sx, sy in sorted(set(zip(nx.tolist(), ny.tolist()))):
         group = np.flatnonzero((nx == sx) & (ny == sy))
         ox, oy = np.meshgrid((np.arange(sx) + 0.5) / sx - 0.5, (np.arange(sy) + 0.5) / sy - 0.5)
@@ -329,20 +335,22 @@ def bake_mesh(
     texture = np.empty((res, res, c), np.float32)
     texture[:] = np.asarray(texton.mean, np.float32)[:c]
     texture[rows, cols] = values[:, :c]
-    _dilate(texture, covered, gutter)
-    out = _textured(vertices, faces, uvs, texture, trimesh)
-    return BakedMesh(out, texture, covered, per_texel, total / n_cov, source)
+    out = _textured(vertices, faces, uvs, vnormals, texture, trimesh)
+    return BakedMesh(out, texture, covered, per_texel, float(np.sum((nx * ny)[inner])) / n_cov, source)
 
 
-def _dilate(texture: np.ndarray, covered: np.ndarray, gutter: int) -> None:
-    """Texels within ``gutter`` of a chart (not in one) take the value of the nearest chart texel."""
+def _extend(owner: np.ndarray, covered: np.ndarray, gutter: int) -> np.ndarray:
+    """The owner map with the gutter: texels within ``gutter`` of a chart (and in none)
+    take the triangle of the nearest chart texel."""
     if gutter <= 0 or covered.all():
-        return
+        return owner
     import scipy.ndimage as ndi
 
     dist, (ii, jj) = ndi.distance_transform_edt(~covered, return_indices=True)
     ring = (dist > 0) & (dist <= gutter)
-    texture[ring] = texture[ii[ring], jj[ring]]
+    out = owner.copy()
+    out[ring] = owner[ii[ring], jj[ring]]
+    return out
 
 
 def to_8bit(texture: np.ndarray) -> np.ndarray:
@@ -353,14 +361,16 @@ def to_8bit(texture: np.ndarray) -> np.ndarray:
     return np.round(t * 255.0).astype(np.uint8)
 
 
-def _textured(vertices, faces, uvs, texture, trimesh):
+def _textured(vertices, faces, uvs, normals, texture, trimesh):
+    # the bake's normals travel with the mesh (glTF NORMAL), so that renderers shade
+    # across the atlas's seams as the noise was evaluated: smoothly
     from PIL import Image
 
     image = Image.fromarray(to_8bit(texture))
     material = trimesh.visual.material.PBRMaterial(name="warp_texton", baseColorTexture=image,
                                                    metallicFactor=0.0, roughnessFactor=1.0)
     visual = trimesh.visual.TextureVisuals(uv=uvs, material=material)
-    return trimesh.Trimesh(vertices=vertices, faces=faces, visual=visual, process=False)
+    return trimesh.Trimesh(vertices=vertices, faces=faces, vertex_normals=normals, visual=visual, process=False)
 
 
 #: Files a bake writes for each mesh format (besides the optional texture file).
