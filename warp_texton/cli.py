@@ -408,6 +408,14 @@ def _surface_texton(args):
 
 
 def _cmd_surface(args) -> int:
+    try:
+        return _run_surface(args)
+    except KeyboardInterrupt:  # before or after the batch itself (which reports its own)
+        print("warp-texton: interrupted", file=sys.stderr)
+        return 130
+
+
+def _run_surface(args) -> int:
     from ._checks import check_int, check_positive, check_seed, check_shape
     from .batch import BatchInterrupted, SurfaceJob, check_unique_outputs, expand_meshes, run_batch
     from ._runtime import resolve_device

@@ -618,6 +618,9 @@ def texture_mesh(
     texel = check_positive(texel_size, "texel_size")
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
     faces = np.asarray(mesh.faces, dtype=np.int64)
+    if not isinstance(texton, Texton):
+        raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
+    texel_positions(vertices, texel, surface_setup(texton, mni), "the mesh's vertices")
     if max_edge is not None:
         edge = check_positive(max_edge, "max_edge") * texel
         lengths = np.linalg.norm(vertices[faces[:, [1, 2, 0]]] - vertices[faces], axis=2)
