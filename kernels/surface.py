@@ -307,8 +307,10 @@ def list_cluster_impacts(
     block_of: wp.array(dtype=wp.int32),
     blocks: CubeBlocks,
     clusters: Clusters,
+    min_points: int,
 ):
-    """The impacts that may reach some point of a cluster, in the walk's order.
+    """The impacts that may reach some point of a cluster, in the walk's order
+    (clusters of fewer than ``min_points`` points get none: length −1).
 
     For a point y_i with frame (u1_i, u2_i, n_i) an impact q counts only if
     |⟨y_i − q, n_i⟩| < r/2 and its frame coordinates lie in the support, so
@@ -320,6 +322,9 @@ def list_cluster_impacts(
     m = wp.tid()
     k0 = clusters.first[m]
     k1 = clusters.first[m + 1]
+    if k1 - k0 < min_points:
+        clusters.length[m] = -1
+        return
     c = p.cells.size
     # means of the positions (relative to the first point) and of the frames
     y0 = points[k0]

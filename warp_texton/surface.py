@@ -54,11 +54,15 @@ METHODS = ("blocks", "points")
 BLOCK_CUBES = 4
 #: Cubes drawn per round of the block path (bounds its impact buffer).
 CUBES_PER_ROUND = 1 << 20
-#: Points of a block are taken in clusters of this many neighbours, which list the
-#: impacts that may reach them once; a list holds at most CLUSTER_CAP impacts
-#: (a longer one is dropped and its points walk the block's cubes), and at most
+#: Points of a block that share a cell of side cube / 2**(3 − CLUSTER_LEVEL) (a half
+#: cube: measured fastest on dense and sparse meshes, see docs/benchmarks.md) are
+#: taken in clusters of at most CLUSTER_POINTS, which list the impacts that may
+#: reach them once; clusters of fewer than CLUSTER_MIN points, or whose list would
+#: pass CLUSTER_CAP impacts, walk the block's cubes instead. At most
 #: CLUSTERS_PER_ROUND lists exist at once.
 CLUSTER_POINTS = 16
+CLUSTER_MIN = 4
+CLUSTER_LEVEL = 2
 CLUSTER_CAP = 1024
 CLUSTERS_PER_ROUND = 1 << 13
 #: Names ``up`` takes besides a 3-vector: the world axis that points up.
@@ -386,8 +390,9 @@ _SPREAD = np.array([sum(((x >> b) & 1) << (3 * b) for b in range(5)) for x in ra
 
 
 def _blocks(pos: np.ndarray, setup: SurfaceSetup):
-    """Points sorted into blocks of BLOCK_CUBES³ cubes: (order, starts, lo, hi), with
-    lo/hi the first and last cube (per axis) that the points of each block can reach."""
+    """Points sorted into blocks of BLOCK_CUBES³ cubes: (order, starts, lo, hi, clusters),
+    with lo/hi the first and last cube (per axis) that the points of each block can reach
+    and clusters the first point of each cluster (sorted order)."""
     c = setup.cell
     fine = np.floor(pos / (c / 8.0)).astype(np.int64)  # eighths of a cube
     own = fine // (8 * BLOCK_CUBES)
@@ -408,12 +413,18 @@ def _blocks(pos: np.ndarray, setup: SurfaceSetup):
     ps = pos[order]
     lo = np.minimum.reduceat(np.floor((ps - reach) / c), starts, axis=0).astype(np.int64)
     hi = np.maximum.reduceat(np.floor((ps + reach) / c), starts, axis=0).astype(np.int64)
-    return order, starts, lo, hi
+    # clusters: runs of points in the same cluster cell, cut every CLUSTER_POINTS
+    cell = morton[order] >> (3 * CLUSTER_LEVEL)
+    eighth = np.r_[True, (cell[1:] != cell[:-1]) | np.any(key[1:] != key[:-1], axis=1)]
+    run = np.cumsum(eighth) - 1
+    rank = np.arange(len(order)) - np.flatnonzero(eighth)[run]
+    clusters = np.flatnonzero(eighth | (rank % CLUSTER_POINTS == 0))
+    return order, starts, lo, hi, clusters
 
 
 def _gather_blocks(p, setup: SurfaceSetup, coeffs, pos, nrm, tan, device) -> np.ndarray:
     n = pos.shape[0]
-    order, starts, lo, hi = _blocks(pos, setup)
+    order, starts, lo, hi, clusters = _blocks(pos, setup)
     dims = hi - lo + 1
     cubes = np.prod(dims, axis=1)
     mean_count = setup.lam * setup.cell ** 3
@@ -430,7 +441,7 @@ def _gather_blocks(p, setup: SurfaceSetup, coeffs, pos, nrm, tan, device) -> np.
     while b0 < nb:
         total = np.cumsum(cubes[b0:])
         b1 = b0 + max(1, int(np.searchsorted(total, CUBES_PER_ROUND, side="right")))
-        _gather_round(p, setup, coeffs, sorted_pos, sorted_nrm, sorted_tan, device, starts[b0:b1], ends[b0:b1],
+        _gather_round(p, setup, coeffs, sorted_pos, sorted_nrm, sorted_tan, device, starts[b0:b1], ends[b0:b1], clusters,
                       lo[b0:b1], dims[b0:b1], cubes[b0:b1], out)
         b0 = b1
     res = np.empty_like(out)
@@ -438,7 +449,7 @@ def _gather_blocks(p, setup: SurfaceSetup, coeffs, pos, nrm, tan, device) -> np.
     return res
 
 
-def _gather_round(p, setup, coeffs, pos, nrm, tan, device, starts, ends, lo, dims, cubes, out) -> None:
+def _gather_round(p, setup, coeffs, pos, nrm, tan, device, starts, ends, clusters, lo, dims, cubes, out) -> None:
     nb = len(starts)
     base = np.zeros(nb, np.int64)
     base[1:] = np.cumsum(cubes)[:-1]
@@ -473,11 +484,10 @@ def _gather_round(p, setup, coeffs, pos, nrm, tan, device, starts, ends, lo, dim
     owners = wp.array(block_of, dtype=wp.int32)
     on_cpu = wp.get_device(device).is_cpu
     res = wp.array(out[p0:p1], dtype=wp.vec3, copy=False) if on_cpu else wp.zeros(p1 - p0, dtype=wp.vec3)
-    # clusters: runs of CLUSTER_POINTS consecutive points of one block
-    per_block = -(-(ends - starts) // CLUSTER_POINTS)
-    cb = np.repeat(np.arange(nb), per_block)
-    rank = np.arange(len(cb)) - np.repeat(np.cumsum(per_block) - per_block, per_block)
-    cfirst = np.r_[starts[cb] + rank * CLUSTER_POINTS - p0, p1 - p0].astype(np.int32)
+    # the round's clusters (a cluster never straddles blocks: block starts are cluster starts)
+    mine = clusters[(clusters >= p0) & (clusters < p1)]
+    cfirst = np.r_[mine - p0, p1 - p0].astype(np.int32)
+    cb = mine
     cluster_of = wp.array(np.repeat(np.arange(len(cb), dtype=np.int32), np.diff(cfirst)), dtype=wp.int32)
     cap = CLUSTER_CAP
     for m0 in range(0, len(cb), CLUSTERS_PER_ROUND):
@@ -494,7 +504,7 @@ def _gather_round(p, setup, coeffs, pos, nrm, tan, device, starts, ends, lo, dim
             sub.first, sub.cap, sub.length, sub.cube, sub.impact = cl.first[a:], cap, cl.length[a:], \
                 cl.cube[a * cap:], cl.impact[a * cap:]
             wp.launch(K.list_cluster_impacts, dim=b - a, inputs=[p, pts, nrms, tans, int(tan is not None), owners,
-                                                                 blocks, sub])
+                                                                 blocks, sub, CLUSTER_MIN])
 
         split_launch(device, K, m1 - m0, listing)
 
