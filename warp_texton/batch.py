@@ -136,7 +136,7 @@ def _load_mesh(path: str):
     try:
         mesh = trimesh.load(str(p), force="mesh", process=False)
     except Exception as exc:
-        raise TextonError(f"{path}: not a mesh that trimesh can read ({type(exc).__name__}: {exc})") from None
+        raise TextonError(f"{path}: not a mesh that trimesh can read ({exc})") from None
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise TextonError(f"{path}: the file holds no triangles")
     faces = np.asarray(mesh.faces)
