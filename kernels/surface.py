@@ -76,7 +76,24 @@ def slab_term(coeffs: wp.array2d(dtype=wp.vec3), u1: wp.vec3, u2: wp.vec3, t: fl
     # an impact at t = ⟨d, n⟩ within r/2 of the tangent plane adds (1 − 2|t|/r) h_c(⟨d, u1⟩, ⟨d, u2⟩)
     z = wp.vec2(wp.dot(d, u1), wp.dot(d, u2)) + centre
     if z[0] >= lo[0] and z[0] <= hi[0] and z[1] >= lo[1] and z[1] <= hi[1]:
-        acc = acc + texton_value(coeffs, 0, coeffs.shape[0], z, order) * (1.0 - wp.abs(t) / half)
+        w = 1.0 - wp.abs(t) / half
+        if order == 1:
+            # texton_value's order-1 branch for one texton (row0 = 0), inline: the same
+            # operations in the same order (the same values, bit for bit) without the call and
+            # the order dispatch, for the lookup each point makes about MNI times. z is in the
+            # support [−1, s]², so PAD − 1 ≤ j, i and j + 1, i + 1 ≤ s + PAD + 1 < s + 2 PAD:
+            # texton_value's clamps never act and are left out.
+            fx = wp.floor(z[0])
+            fy = wp.floor(z[1])
+            tx = z[0] - fx
+            ty = z[1] - fy
+            j = int(fx) + PAD
+            i = int(fy) + PAD
+            top = coeffs[i, j] * (1.0 - tx) + coeffs[i, j + 1] * tx
+            bottom = coeffs[i + 1, j] * (1.0 - tx) + coeffs[i + 1, j + 1] * tx
+            acc = acc + (top * (1.0 - ty) + bottom * ty) * w
+        else:
+            acc = acc + texton_value(coeffs, 0, coeffs.shape[0], z, order) * w
     return acc
 
 
@@ -211,7 +228,8 @@ def cube_may_count(c: SlabLookup, rel: wp.vec3, size: float):
 @wp.struct
 class CubeBlocks:
     # block b owns the cubes origin[b] + [0, dims[b]) (x fastest), numbered from base[b];
-    # cube g's impacts are impacts[offsets[g]:offsets[g + 1]]
+    # cube g is cubes[g] and its impacts are impacts[offsets[g]:offsets[g + 1]]
+    cubes: wp.array(dtype=wp.vec3i)
     origin: wp.array(dtype=wp.vec3i)
     dims: wp.array(dtype=wp.vec3i)
     base: wp.array(dtype=wp.int32)
@@ -288,13 +306,17 @@ def range_meets(rel: wp.vec3, a: wp.vec3, size: float, lo: float, hi: float):
 @wp.struct
 class Clusters:
     # cluster m holds the points first[m] .. first[m + 1] − 1 (all of one block); the
-    # impacts that may reach them are listed at cap·m .. cap·m + length[m] − 1 as
-    # (cube number, impact number) in the walk's order; length −1: the list overflowed
+    # impacts that may reach them are listed in the walk's order as runs of one cube
+    # each: run k < runs[m] is cube run_cube[cap_runs·m + k], its impacts (positions in
+    # cell units, as drawn) are u[cap·m + run_end[cap_runs·m + k − 1] .. cap·m +
+    # run_end[cap_runs·m + k] − 1]; runs −1: no list (too few points, or it overflowed)
     first: wp.array(dtype=wp.int32)
     cap: int
-    length: wp.array(dtype=wp.int32)
-    cube: wp.array(dtype=wp.int32)
-    impact: wp.array(dtype=wp.int32)
+    cap_runs: int
+    runs: wp.array(dtype=wp.int32)
+    run_cube: wp.array(dtype=wp.int32)
+    run_end: wp.array(dtype=wp.int32)
+    u: wp.array(dtype=wp.vec3)
 
 
 @wp.kernel
@@ -323,7 +345,7 @@ def list_cluster_impacts(
     k0 = clusters.first[m]
     k1 = clusters.first[m + 1]
     if k1 - k0 < min_points:
-        clusters.length[m] = -1
+        clusters.runs[m] = -1
         return
     c = p.cells.size
     # means of the positions (relative to the first point) and of the frames
@@ -389,29 +411,42 @@ def list_cluster_impacts(
     yy1 = wp.min(yy1, o[1] + dm[1] - 1)
     z1 = wp.min(z1, o[2] + dm[2] - 1)
     count = int(0)
+    runs = int(0)
+    ok = bool(True)
     out0 = m * clusters.cap
+    run0 = m * clusters.cap_runs
     for cz in range(z0, z1 + 1):
         for cy in range(yy0, yy1 + 1):
             row = base + ((cz - o[2]) * dm[1] + (cy - o[1])) * dm[0] - o[0]
             for cx in range(x0, x1 + 1):
                 rel = cube_offset(yc, cx, cy, cz, c)
-                if range_meets(rel, nbar, c, -t_lim, t_lim) and range_meets(rel, ubar, c, a_lo, a_hi) and \
+                if ok and range_meets(rel, nbar, c, -t_lim, t_lim) and range_meets(rel, ubar, c, a_lo, a_hi) and \
                         range_meets(rel, vbar, c, b_lo, b_hi):
                     g = row + cx
+                    opened = bool(False)
                     for j in range(blocks.offsets[g], blocks.offsets[g + 1]):
-                        d = impact_offset3(rel, blocks.impacts[j], c)
+                        u = blocks.impacts[j]
+                        d = impact_offset3(rel, u, c)
                         t = wp.dot(d, nbar)
                         if wp.abs(t) < t_lim:
                             a = wp.dot(d, ubar)
                             bb = wp.dot(d, vbar)
                             if a >= a_lo and a <= a_hi and bb >= b_lo and bb <= b_hi:
+                                if not opened:
+                                    opened = True
+                                    if runs < clusters.cap_runs:
+                                        clusters.run_cube[run0 + runs] = g
+                                    runs += 1
                                 if count < clusters.cap:
-                                    clusters.cube[out0 + count] = g
-                                    clusters.impact[out0 + count] = j
+                                    clusters.u[out0 + count] = u
                                 count += 1
-    if count > clusters.cap:
-        count = -1
-    clusters.length[m] = count
+                    if opened and runs <= clusters.cap_runs:
+                        clusters.run_end[run0 + runs - 1] = count
+                    if count > clusters.cap or runs > clusters.cap_runs:
+                        ok = False
+    if not ok:
+        runs = -1
+    clusters.runs[m] = runs
 
 
 @wp.kernel
@@ -435,7 +470,7 @@ def gather_clustered(
     the point's own walk are skipped, so the terms and their order are the walk's."""
     k = wp.tid() + first
     m = cluster_of[k] - first_cluster
-    length = clusters.length[m]
+    runs = clusters.runs[m]
     n = normals[k]
     u1, u2 = point_frame(p, n, tangents, k, use_tangents)
     look = slab_lookup(p, coeffs, u1, u2, n)
@@ -452,7 +487,7 @@ def gather_clustered(
     dm = blocks.dims[b]
     base = blocks.base[b]
     acc = wp.vec3(0.0)
-    if length < 0:  # the list overflowed: walk the block's cubes
+    if runs < 0:  # no list: walk the block's cubes
         x0 = wp.max(x0, o[0])
         y0 = wp.max(y0, o[1])
         z0 = wp.max(z0, o[2])
@@ -472,26 +507,20 @@ def gather_clustered(
                             if wp.abs(t) < half:
                                 acc = slab_term(coeffs, u1, u2, t, half, centre, lo, hi, order, d, acc)
     else:
-        last = int(-1)
-        use = bool(False)
-        rel = wp.vec3(0.0)
-        start = m * clusters.cap
-        for e in range(start, start + length):
-            g = clusters.cube[e]
-            if g != last:
-                last = g
-                local = g - base
-                cx = o[0] + local % dm[0]
-                cy = o[1] + (local / dm[0]) % dm[1]
-                cz = o[2] + local / (dm[0] * dm[1])
-                use = cx >= x0 and cx <= x1 and cy >= y0 and cy <= y1 and cz >= z0 and cz <= z1
-                if use:
-                    rel = cube_offset(y, cx, cy, cz, c)
-            if use:
-                d = impact_offset3(rel, blocks.impacts[clusters.impact[e]], c)
-                t = wp.dot(d, n)
-                if wp.abs(t) < half:
-                    acc = slab_term(coeffs, u1, u2, t, half, centre, lo, hi, order, d, acc)
+        u0 = m * clusters.cap
+        r0 = m * clusters.cap_runs
+        start = int(0)
+        for r in range(runs):
+            end = clusters.run_end[r0 + r]
+            cc = blocks.cubes[clusters.run_cube[r0 + r]]
+            if cc[0] >= x0 and cc[0] <= x1 and cc[1] >= y0 and cc[1] <= y1 and cc[2] >= z0 and cc[2] <= z1:
+                rel = cube_offset(y, cc[0], cc[1], cc[2], c)
+                for e in range(u0 + start, u0 + end):
+                    d = impact_offset3(rel, clusters.u[e], c)
+                    t = wp.dot(d, n)
+                    if wp.abs(t) < half:
+                        acc = slab_term(coeffs, u1, u2, t, half, centre, lo, hi, order, d, acc)
+            start = end
     out[k] = normalize_surface(p, acc)
 
 

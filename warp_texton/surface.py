@@ -50,18 +50,21 @@ TEXELS_PER_DIAGONAL = 256
 #: Evaluation paths: "blocks" (points share their cubes' impacts) and "points"
 #: (each point draws the impacts of its cubes itself: the reference).
 METHODS = ("blocks", "points")
-#: Points are grouped by blocks of this many cubes per side.
-BLOCK_CUBES = 4
+#: Points are grouped by blocks of BLOCK_CUBES = 2**BLOCK_SHIFT cubes per side.
+BLOCK_SHIFT = 2
+BLOCK_CUBES = 1 << BLOCK_SHIFT
 #: Cubes drawn per round of the block path (bounds its impact buffer).
 CUBES_PER_ROUND = 1 << 20
 #: Points of a block that share a cell of side cube / 2**(3 − CLUSTER_LEVEL) (a half
 #: cube: measured fastest on dense and sparse meshes, see docs/benchmarks.md) are
 #: taken in clusters of at most CLUSTER_POINTS, which list the impacts that may
-#: reach them once; clusters of fewer than CLUSTER_MIN points, or whose list would
-#: pass CLUSTER_CAP impacts, walk the block's cubes instead. At most
+#: reach them once (in runs of one cube each); clusters of fewer than CLUSTER_MIN
+#: points, or whose list would pass CLUSTER_CAP impacts or CLUSTER_RUNS cubes, walk
+#: the block's cubes instead. At most
 #: CLUSTERS_PER_ROUND lists exist at once.
 CLUSTER_POINTS = 16
 CLUSTER_MIN = 4
+CLUSTER_RUNS = 128
 CLUSTER_LEVEL = 2
 CLUSTER_CAP = 1024
 CLUSTERS_PER_ROUND = 1 << 13
@@ -390,41 +393,48 @@ _SPREAD = np.array([sum(((x >> b) & 1) << (3 * b) for b in range(5)) for x in ra
 
 
 def _blocks(pos: np.ndarray, setup: SurfaceSetup):
-    """Points sorted into blocks of BLOCK_CUBES³ cubes: (order, starts, lo, hi, clusters),
-    with lo/hi the first and last cube (per axis) that the points of each block can reach
-    and clusters the first point of each cluster (sorted order)."""
+    """Points sorted into blocks of BLOCK_CUBES³ cubes: (order, sorted positions, starts,
+    lo, hi, clusters), with lo/hi the first and last cube (per axis) that the points of
+    each block can reach and clusters the first point of each cluster (sorted order)."""
     c = setup.cell
-    fine = np.floor(pos / (c / 8.0)).astype(np.int64)  # eighths of a cube
-    own = fine // (8 * BLOCK_CUBES)
+    fine = np.floor(pos * (8.0 / c)).astype(np.int64)  # eighths of a cube (any rounding will do: a sort key)
+    own = fine >> (3 + BLOCK_SHIFT)  # BLOCK_CUBES = 2**BLOCK_SHIFT cubes of 8 eighths
     # within a block, Morton order of the eighths: consecutive points are neighbours
-    sub = fine - own * (8 * BLOCK_CUBES)
+    sub = fine & (8 * BLOCK_CUBES - 1)
     morton = _SPREAD[sub[:, 0]] | (_SPREAD[sub[:, 1]] << 1) | (_SPREAD[sub[:, 2]] << 2)
     own -= own.min(axis=0)
     span = own.max(axis=0) + 1
     if float(span[0]) * float(span[1]) * float(span[2]) < 2.0**46:
-        order = np.argsort((((own[:, 2] * span[1] + own[:, 1]) * span[0] + own[:, 0]) << 15) | morton, kind="stable")
+        key = ((((own[:, 2] * span[1] + own[:, 1]) * span[0] + own[:, 0]) << 15) | morton)
+        order = np.argsort(key, kind="stable")
+        key = key[order]
+        block = key >> 15
     else:  # blocks spread over more than int64 keys hold
         order = np.lexsort((morton, own[:, 0], own[:, 1], own[:, 2]))
-    key = own[order]
-    starts = np.flatnonzero(np.r_[True, np.any(key[1:] != key[:-1], axis=1)])
+        o = own[order]
+        block = np.cumsum(np.r_[0, np.any(o[1:] != o[:-1], axis=1)])
+        key = (block << 15) | morton[order]
+    new_block = np.r_[True, block[1:] != block[:-1]]
+    starts = np.flatnonzero(new_block)
     # frame_extent ≤ (r/2)√3 per axis (a row of an orthogonal matrix has unit length),
-    # with room for float32 rounding: every cube a point's walk visits is in its block
+    # with room for float32 rounding: every cube a point's walk visits is in its block.
+    # floor((min p − R)/c) = min floor((p − R)/c): floor and rounding are monotone.
     reach = setup.r / 2.0 * math.sqrt(3.0) * (1.0 + 1e-5)
     ps = pos[order]
-    lo = np.minimum.reduceat(np.floor((ps - reach) / c), starts, axis=0).astype(np.int64)
-    hi = np.maximum.reduceat(np.floor((ps + reach) / c), starts, axis=0).astype(np.int64)
+    lo = np.floor((np.minimum.reduceat(ps, starts, axis=0) - reach) / c).astype(np.int64)
+    hi = np.floor((np.maximum.reduceat(ps, starts, axis=0) + reach) / c).astype(np.int64)
     # clusters: runs of points in the same cluster cell, cut every CLUSTER_POINTS
-    cell = morton[order] >> (3 * CLUSTER_LEVEL)
-    eighth = np.r_[True, (cell[1:] != cell[:-1]) | np.any(key[1:] != key[:-1], axis=1)]
-    run = np.cumsum(eighth) - 1
-    rank = np.arange(len(order)) - np.flatnonzero(eighth)[run]
-    clusters = np.flatnonzero(eighth | (rank % CLUSTER_POINTS == 0))
-    return order, starts, lo, hi, clusters
+    cell = key >> (3 * CLUSTER_LEVEL)
+    first = np.r_[True, cell[1:] != cell[:-1]] | new_block
+    run = np.cumsum(first) - 1
+    rank = np.arange(len(order)) - np.flatnonzero(first)[run]
+    clusters = np.flatnonzero(first | (rank % CLUSTER_POINTS == 0))
+    return order, ps, starts, lo, hi, clusters
 
 
 def _gather_blocks(p, setup: SurfaceSetup, coeffs, pos, nrm, tan, device) -> np.ndarray:
     n = pos.shape[0]
-    order, starts, lo, hi, clusters = _blocks(pos, setup)
+    order, sorted_pos, starts, lo, hi, clusters = _blocks(pos, setup)
     dims = hi - lo + 1
     cubes = np.prod(dims, axis=1)
     mean_count = setup.lam * setup.cell ** 3
@@ -432,7 +442,6 @@ def _gather_blocks(p, setup: SurfaceSetup, coeffs, pos, nrm, tan, device) -> np.
     check_memory(float(cubes.max()) * (16 + 12 * (mean_count + 10 * math.sqrt(mean_count) + 1))
                  + n * 64.0, f"surface noise at {n} points", "use fewer points at once or a larger texel_size")
     ends = np.r_[starts[1:], n]
-    sorted_pos = np.ascontiguousarray(pos[order])
     sorted_nrm = np.ascontiguousarray(nrm[order])
     sorted_tan = np.ascontiguousarray(tan[order]) if tan is not None else None
     out = np.zeros((n, 3), np.float32)
@@ -473,6 +482,7 @@ def _gather_round(p, setup, coeffs, pos, nrm, tan, device, starts, ends, cluster
         split_launch(device, K, total, lambda a, b: wp.launch(K.emit_cubes, dim=b - a,
                                                               inputs=[p, cube_arr[a:b], offsets[a:], impacts]))
     blocks = K.CubeBlocks()
+    blocks.cubes = cube_arr
     blocks.origin = wp.array(lo.astype(np.int32), dtype=wp.vec3i)
     blocks.dims = wp.array(dims.astype(np.int32), dtype=wp.vec3i)
     blocks.base = wp.array(base.astype(np.int32), dtype=wp.int32)
@@ -495,14 +505,17 @@ def _gather_round(p, setup, coeffs, pos, nrm, tan, device, starts, ends, cluster
         cl = K.Clusters()
         cl.first = wp.array(cfirst[m0:m1 + 1], dtype=wp.int32)
         cl.cap = cap
-        cl.length = wp.zeros(m1 - m0, dtype=wp.int32)
-        cl.cube = wp.zeros((m1 - m0) * cap, dtype=wp.int32)
-        cl.impact = wp.zeros((m1 - m0) * cap, dtype=wp.int32)
+        cl.cap_runs = CLUSTER_RUNS
+        cl.runs = wp.zeros(m1 - m0, dtype=wp.int32)
+        cl.run_cube = wp.zeros((m1 - m0) * CLUSTER_RUNS, dtype=wp.int32)
+        cl.run_end = wp.zeros((m1 - m0) * CLUSTER_RUNS, dtype=wp.int32)
+        cl.u = wp.zeros((m1 - m0) * cap, dtype=wp.vec3)
 
         def listing(a, b, cl=cl):
             sub = K.Clusters()
-            sub.first, sub.cap, sub.length, sub.cube, sub.impact = cl.first[a:], cap, cl.length[a:], \
-                cl.cube[a * cap:], cl.impact[a * cap:]
+            sub.first, sub.cap, sub.cap_runs, sub.runs = cl.first[a:], cap, CLUSTER_RUNS, cl.runs[a:]
+            sub.run_cube, sub.run_end, sub.u = cl.run_cube[a * CLUSTER_RUNS:], cl.run_end[a * CLUSTER_RUNS:], \
+                cl.u[a * cap:]
             wp.launch(K.list_cluster_impacts, dim=b - a, inputs=[p, pts, nrms, tans, int(tan is not None), owners,
                                                                  blocks, sub, CLUSTER_MIN])
 
