@@ -277,6 +277,32 @@ class TestAtlas:
         gap0 = np.abs(bilinear(bare.texture, ua) - bilinear(bare.texture, ub)).max(axis=1)
         assert gap0.mean() > 5 * gap.mean()  # the gutter is what closes the seams
 
+    def test_render_of_the_baked_glb_matches_render_mesh(self, torus, tmp_path, device):
+        """The GLB written, read back and rendered with lookups in its texture (render_baked) against
+        render_mesh's per-pixel noise, same camera: on the pixels both hit, within ω of 2.5 texels
+        of the noise at the hit (the lookup's texels) plus half an 8-bit step, times the shade."""
+        from warp_texton import Camera, render_baked, render_mesh
+        from warp_texton.surface import cast_rays
+
+        mesh, baked = torus
+        (glb,) = write_baked(baked, tmp_path / "torus", "glb")
+        # the scene's one geometry: force="mesh" would concatenate and recompute the normals
+        (loaded,) = trimesh.load(glb, process=False).geometry.values()
+        np.testing.assert_allclose(loaded.vertex_normals, baked.mesh.vertex_normals, atol=1e-6)
+        cam = Camera.framing(mesh, view=(-40, 35), zoom=1.4)
+        ref = render_mesh(mesh, TS, (96, 96), TORUS_TEXEL, cam, seed=5, device=device).astype(np.float64)
+        img = render_baked(loaded, (96, 96), cam, device=device).astype(np.float64)
+        hits = cast_rays(loaded, (96, 96), cam, device=device)
+        bg = np.float32(0.92)
+        both = np.any(ref != bg, axis=2) & np.any(img != bg, axis=2) & hits.hit
+        assert both.mean() > 0.3 and np.mean(np.any(ref != bg, axis=2) != hits.hit) < 0.01
+        face, bary = hits.face[both], hits.bary[both]
+        omega = modulus_uv(TS, loaded, face, bary, 2.5, 256, TORUS_TEXEL, seed=5, device=device)
+        shade = hits.shade[both].astype(np.float64)
+        err = np.abs(img[both] - ref[both]).max(axis=1)
+        assert np.mean(err <= (omega + 0.5 / 255) * shade + 1e-6) > 0.99
+        assert err.mean() < 0.02  # the noise's sd is 0.1: the render of the bake is the noise
+
     def test_gutter_continues_the_chart(self, device):
         """A plane whose UVs fill the middle of the texture: the gutter texels hold the noise where
         the plane continues (exact on a plane), up to `gutter` texels out; beyond, the mean."""

@@ -24,7 +24,7 @@ from .synthesis import synthesize, evaluate
 from .plane import render_plane
 from .mixing import mix_textons, synthesize_mixed
 from .surface import Camera, render_mesh, surface_noise, tangent_frames, texture_mesh
-from .bake import BakedMesh, bake_mesh, write_baked
+from .bake import BakedMesh, bake_mesh, render_baked, write_baked
 
 __all__ = [
     "BakedMesh",
@@ -43,6 +43,7 @@ __all__ = [
     "model_error",
     "periodic_component",
     "read_image",
+    "render_baked",
     "render_mesh",
     "render_plane",
     "surface_noise",

@@ -34,8 +34,8 @@ from ._runtime import resolve_device, split_launch
 from .errors import TextonError
 from .kernels import bake as KB
 from .limits import check_memory
-from .surface import (UP, check_mesh, check_method, evaluate_points, srgb_to_linear, surface_params,
-                      surface_setup, texel_positions, vertex_normals)
+from .surface import (UP, cast_rays, check_background, check_mesh, check_method, evaluate_points, srgb_to_linear,
+                      surface_params, surface_setup, texel_positions, vertex_normals)
 from .texton import Texton
 
 #: UV sources: the mesh's own UVs when it has them ("auto"), always them ("mesh"), or a new atlas ("atlas").
@@ -430,3 +430,67 @@ def write_baked(baked: BakedMesh, stem, fmt: str = "glb", texture: str | None = 
             write_image(tmp.with_name(tmp.name + f".{texture}"), img)
             (tmp.with_name(tmp.name + f".{texture}")).replace(tmp)
     return paths
+
+
+def lookup(texture: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """Bilinear lookups of ``texture`` (R, R, C) at ``uv`` (N, 2), as a renderer makes them:
+    texel (i, j) at ((j + ½)/R, 1 − (i + ½)/R), clamped at the border."""
+    r, c = texture.shape[0], texture.shape[1]
+    x = np.asarray(uv[:, 0], np.float64) * c - 0.5
+    y = (1.0 - np.asarray(uv[:, 1], np.float64)) * r - 0.5
+    x0 = np.floor(x)
+    y0 = np.floor(y)
+    fx = (x - x0)[:, None]
+    fy = (y - y0)[:, None]
+    x0 = x0.astype(np.int64)
+    y0 = y0.astype(np.int64)
+    xs = np.clip(x0, 0, c - 1), np.clip(x0 + 1, 0, c - 1)
+    ys = np.clip(y0, 0, r - 1), np.clip(y0 + 1, 0, r - 1)
+    t = np.asarray(texture, np.float64)
+    top = t[ys[0], xs[0]] * (1 - fx) + t[ys[0], xs[1]] * fx
+    bottom = t[ys[1], xs[0]] * (1 - fx) + t[ys[1], xs[1]] * fx
+    return top * (1 - fy) + bottom * fy
+
+
+def render_baked(baked, shape=(512, 512), camera=None, *, up=UP, view=None, fov=None, light=None,
+                 background=(0.92, 0.92, 0.92), device=None) -> np.ndarray:
+    """Render a textured mesh as a renderer shows it: each pixel's hit looks its UV up
+    in the texture (bilinear), shaded as :func:`warp_texton.render_mesh` shades.
+
+    Parameters
+    ----------
+    baked : BakedMesh or trimesh.Trimesh
+        A bake, or a mesh with UVs and a material holding an image (a GLB or OBJ
+        written by :func:`write_baked`, read back with trimesh).
+    shape, camera, up, view, fov, light, background, device
+        As in :func:`warp_texton.render_mesh`: the same camera gives the same
+        pixels, so the two renders compare pixel by pixel.
+
+    Returns
+    -------
+    float32 array (height, width, 3) in [0, 1]
+    """
+    if isinstance(baked, BakedMesh):
+        mesh, texture = baked.mesh, np.clip(baked.texture, 0.0, 1.0)
+    else:
+        mesh = check_mesh(baked)
+        uv = mesh_uvs(mesh)
+        material = getattr(mesh.visual, "material", None)
+        image = getattr(material, "baseColorTexture", None) or getattr(material, "image", None)
+        if uv is None or image is None:
+            raise TextonError("baked must be a BakedMesh or a mesh with UVs and a texture image")
+        texture = np.asarray(image.convert("RGB"), np.float64) / 255.0
+    uv = check_uvs(np.asarray(mesh.visual.uv, np.float64), len(mesh.vertices))
+    bg = check_background(background)
+    hits = cast_rays(mesh, shape, camera, up=up, view=view, fov=fov, light=light, device=device)
+    img = np.empty(hits.face.shape + (3,), np.float32)
+    img[:] = bg.astype(np.float32)
+    hit = hits.hit
+    if hit.any():
+        tri = hits.faces[hits.face[hit]]
+        at = np.einsum("nk,nkd->nd", hits.bary[hit], uv[tri])
+        values = lookup(texture, at)
+        if values.shape[1] == 1:
+            values = np.repeat(values, 3, axis=1)
+        img[hit] = values * hits.shade[hit][:, None]
+    return img

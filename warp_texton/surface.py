@@ -702,6 +702,112 @@ class Camera:
         return cls(tuple(centre + d * dist), tuple(centre), tuple(up_vector(up)), fov)
 
 
+def check_background(background) -> np.ndarray:
+    try:
+        bg = np.asarray(background, dtype=np.float64).reshape(3)
+    except (TypeError, ValueError):
+        raise TextonError(f"background must be an RGB triple, got {background!r}") from None
+    if not np.isfinite(bg).all():
+        raise TextonError(f"background must be finite, got {background!r}")
+    return bg
+
+
+@dataclass(frozen=True)
+class RayHits:
+    """What each pixel's ray hits (see :func:`cast_rays`).
+
+    face : int32 (H, W), −1 where the ray misses; bary : float64 (H, W, 3), the
+    hit's barycentric weights of the face's three corners; normal : float32
+    (H, W, 3), the shading normal; shade : float32 (H, W), 0.3 + 0.7 |⟨n, light⟩|.
+    """
+
+    face: np.ndarray
+    bary: np.ndarray
+    normal: np.ndarray
+    shade: np.ndarray
+    vertices: np.ndarray
+    faces: np.ndarray
+
+    @property
+    def hit(self) -> np.ndarray:
+        return self.face >= 0
+
+    def points(self) -> np.ndarray:
+        """(N, 3) float64 world positions of the hits (row-major order of the hit pixels),
+        from the face's vertices and the weights: as exact far from the origin as near it."""
+        tri = self.faces[self.face[self.hit]]
+        b = self.bary[self.hit]
+        return np.einsum("nk,nkd->nd", b, self.vertices[tri])
+
+
+def cast_rays(mesh, shape, camera: Camera | None = None, *, up=UP, view=None, fov=None, light=None,
+              device=None) -> RayHits:
+    """Cast one ray per pixel at ``mesh`` (the camera, view, fov, up and light of
+    :func:`render_mesh`): the face hit, its barycentric weights, the shading normal
+    (interpolated vertex normals, the face normal across creases over 30°) and the
+    diffuse shade. The BVH holds the vertices in float32 around the centre of their
+    bounding box, so meshes far from the origin are hit as precisely as near ones.
+
+    Returns
+    -------
+    RayHits
+    """
+    mesh = check_mesh(mesh)
+    h, w = check_shape(shape, max_pixels=MAX_RENDER_PIXELS)
+    rot = up_rotation(up)
+    if camera is None:
+        cam = Camera.framing(mesh, fov=35.0 if fov is None else fov, up=up, view=VIEW if view is None else view)
+    elif view is not None or fov is not None:
+        raise TextonError("give either camera or view/fov, not both")
+    else:
+        cam = camera
+    if not isinstance(cam, Camera):
+        raise TextonError(f"camera must be a warp_texton.Camera, got {type(cam).__name__}")
+    cam_fov = check_positive(cam.fov, "camera.fov")
+    if cam_fov >= 180.0:
+        raise TextonError(f"camera.fov must be below 180 degrees, got {cam_fov}")
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    origin = (lo + hi) / 2.0  # the ray cast runs in float32 around this point
+    eye = np.asarray(cam.position, dtype=np.float64)
+    forward = _direction(np.asarray(cam.target, dtype=np.float64) - eye, "camera target - position")
+    right = np.cross(forward, _direction(cam.up, "camera.up"))
+    if np.linalg.norm(right) < 1e-9:
+        raise TextonError("camera.up is parallel to the view direction")
+    right /= np.linalg.norm(right)
+    cam_up = np.cross(right, forward)
+    light_dir = rot @ _direction(LIGHT, "light") if light is None else _direction(light, "light")
+    check_memory(h * w * 60.0, f"a {w}x{h} render", "render fewer pixels")
+    device = resolve_device(device)
+    c = K.Camera()
+    c.origin = wp.vec3(*(eye - origin))
+    c.right = wp.vec3(*right)
+    c.up = wp.vec3(*cam_up)
+    c.forward = wp.vec3(*forward)
+    c.tan_half_fov = math.tan(math.radians(cam_fov) / 2.0)
+    c.aspect = w / h
+    c.light = wp.vec3(*light_dir)
+    faces_np = np.asarray(mesh.faces, dtype=np.int64)
+    with wp.ScopedDevice(device):
+        points = wp.array(vertices - origin, dtype=wp.vec3)
+        indices = wp.array(faces_np.astype(np.int32).reshape(-1), dtype=wp.int32)
+        wmesh = wp.Mesh(points=points, indices=indices)
+        normals = wp.array(vertex_normals(mesh, up), dtype=wp.vec3)
+        face = wp.zeros((h, w), dtype=wp.int32)
+        bary = wp.zeros((h, w), dtype=wp.vec2)
+        nrm = wp.zeros((h, w), dtype=wp.vec3)
+        shade = wp.zeros((h, w), dtype=float)
+
+        def band(r0, r1):
+            wp.launch(K.cast_rays, dim=(r1 - r0, w), inputs=[wmesh.id, normals, indices, c, r0, face, bary, nrm, shade])
+
+        split_launch(device, K, h, band)
+        face, bary, nrm, shade = face.numpy(), bary.numpy(), nrm.numpy(), shade.numpy()
+    b = bary.astype(np.float64)
+    weights = np.concatenate([b, 1.0 - b[..., :1] - b[..., 1:]], axis=-1)
+    return RayHits(face, weights, nrm, shade, vertices, faces_np)
+
+
 def render_mesh(
     mesh,
     texton: Texton,
@@ -770,73 +876,19 @@ def render_mesh(
     texel = default_texel_size(mesh) if texel_size is None else check_positive(texel_size, "texel_size")
     seed = check_seed(seed)
     check_method(method)
-    rot = up_rotation(up)
-    if camera is None:
-        cam = Camera.framing(mesh, fov=35.0 if fov is None else fov, up=up, view=VIEW if view is None else view)
-    elif view is not None or fov is not None:
-        raise TextonError("give either camera or view/fov, not both")
-    else:
-        cam = camera
-    if not isinstance(cam, Camera):
-        raise TextonError(f"camera must be a warp_texton.Camera, got {type(cam).__name__}")
-    cam_fov = check_positive(cam.fov, "camera.fov")
-    if cam_fov >= 180.0:
-        raise TextonError(f"camera.fov must be below 180 degrees, got {cam_fov}")
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
     setup = surface_setup(texton, mni)
     texel_positions(vertices, texel, setup, "the mesh's vertices")  # refuses far meshes and tiny texels
-    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
-    origin = (lo + hi) / 2.0  # the ray cast runs in float32 around this point
-    eye = np.asarray(cam.position, dtype=np.float64)
-    forward = _direction(np.asarray(cam.target, dtype=np.float64) - eye, "camera target - position")
-    right = np.cross(forward, _direction(cam.up, "camera.up"))
-    if np.linalg.norm(right) < 1e-9:
-        raise TextonError("camera.up is parallel to the view direction")
-    right /= np.linalg.norm(right)
-    cam_up = np.cross(right, forward)
-    try:
-        bg = np.asarray(background, dtype=np.float64).reshape(3)
-    except (TypeError, ValueError):
-        raise TextonError(f"background must be an RGB triple, got {background!r}") from None
-    if not np.isfinite(bg).all():
-        raise TextonError(f"background must be finite, got {background!r}")
-    light_dir = rot @ _direction(LIGHT, "light") if light is None else _direction(light, "light")
-    check_memory(h * w * 40.0, f"a {w}x{h} render", "render fewer pixels")
+    bg = check_background(background)
     device = resolve_device(device)
     p = surface_params(texton, setup, seed, "exact", up, side)
-    c = K.Camera()
-    c.origin = wp.vec3(*(eye - origin))
-    c.right = wp.vec3(*right)
-    c.up = wp.vec3(*cam_up)
-    c.forward = wp.vec3(*forward)
-    c.tan_half_fov = math.tan(math.radians(cam_fov) / 2.0)
-    c.aspect = w / h
-    c.light = wp.vec3(*light_dir)
-    faces_np = np.asarray(mesh.faces, dtype=np.int64)
-    with wp.ScopedDevice(device):
-        points = wp.array(vertices - origin, dtype=wp.vec3)
-        indices = wp.array(faces_np.astype(np.int32).reshape(-1), dtype=wp.int32)
-        wmesh = wp.Mesh(points=points, indices=indices)
-        normals = wp.array(vertex_normals(mesh, up), dtype=wp.vec3)
-        face = wp.zeros((h, w), dtype=wp.int32)
-        bary = wp.zeros((h, w), dtype=wp.vec2)
-        nrm = wp.zeros((h, w), dtype=wp.vec3)
-        shade = wp.zeros((h, w), dtype=float)
-
-        def band(r0, r1):
-            wp.launch(K.cast_rays, dim=(r1 - r0, w), inputs=[wmesh.id, normals, indices, c, r0, face, bary, nrm, shade])
-
-        split_launch(device, K, h, band)
-        face, bary, nrm, shade = face.numpy(), bary.numpy(), nrm.numpy(), shade.numpy()
+    hits = cast_rays(mesh, (h, w), camera, up=up, view=view, fov=fov, light=light, device=device)
+    face, nrm, shade = hits.face, hits.normal, hits.shade
     img = np.empty((h, w, 3), np.float32)
     img[:] = bg.astype(np.float32)
     hit = face >= 0
     if hit.any():
-        tri = faces_np[face[hit]]
-        b = bary[hit].astype(np.float64)
-        y = (vertices[tri[:, 0]] * b[:, :1] + vertices[tri[:, 1]] * b[:, 1:]
-             + vertices[tri[:, 2]] * (1.0 - b[:, :1] - b[:, 1:]))
-        g = evaluate_points(p, setup, y / texel, nrm[hit].astype(np.float64), None, device, method)
+        g = evaluate_points(p, setup, hits.points() / texel, nrm[hit].astype(np.float64), None, device, method)
         if texton.channels == 1:
             g[:, 1] = g[:, 0]  # grey noise lives in channel 0: spread it to RGB
             g[:, 2] = g[:, 0]
