@@ -193,7 +193,7 @@ def _run(job: SurfaceJob, outputs: list[Path], notes: list[str]) -> None:
                           supersample=job.supersample, device=job.device, up=up, name=job.mesh)
         write_baked(baked, stem, job.format, job.texture, job.exr_linear)
         notes.append(f"{job.mesh}: {job.bake}x{job.bake} texture, {baked.texels_per_texton_texel:.3g} texels per "
-                     f"texton texel (median), {baked.samples:.3g} samples per texel, UVs from the "
+                     f"texton texel (median), noise samples per texel: {baked.samples:.3g} (mean), UVs from the "
                      f"{baked.uv_source}")
     else:
         # glTF's COLOR_0 is linear by definition; PLY and OBJ keep the noise's sRGB-coded values
