@@ -897,7 +897,7 @@ class TestBlocks:
         for tangents in (None, np.cross(n, rng.normal(size=3))):
             kw = dict(seed=int(rng.integers(0, 2**32)), mni=float(rng.uniform(5, 80)), tangents=tangents,
                       device=device)
-            a = surface_noise(t, p, n, 0.07, **kw)
+            a = surface_noise(t, p, n, 0.07, method="blocks", **kw)
             b = surface_noise(t, p, n, 0.07, method="points", **kw)
             _same_values(a, b, t, device)
             assert a.std(axis=0).min() > 0.3 * noise_sd(t)
@@ -915,7 +915,7 @@ class TestBlocks:
             mesh = trimesh.creation.icosphere(subdivisions=3)
             mesh.vertices = mesh.vertices + rng.normal(scale=0.05, size=mesh.vertices.shape)
         n = vertex_normals(mesh)
-        a = surface_noise(t, mesh.vertices, n, 0.01, seed=3, device=device)
+        a = surface_noise(t, mesh.vertices, n, 0.01, seed=3, device=device, method="blocks")
         b = surface_noise(t, mesh.vertices, n, 0.01, seed=3, device=device, method="points")
         _same_values(a, b, t, device)
 
@@ -930,12 +930,26 @@ class TestBlocks:
             monkeypatch.setattr(S, "CLUSTER_CAP", cap)
             monkeypatch.setattr(S, "CLUSTERS_PER_ROUND", per_round)
             monkeypatch.setattr(S, "CUBES_PER_ROUND", cubes)
-            _same_values(surface_noise(t, mesh.vertices, n, 0.02, device=device), want, t, device)
+            _same_values(surface_noise(t, mesh.vertices, n, 0.02, device=device, method="blocks"), want, t, device)
+
+    def test_auto_walks_few_points_and_blocks_many(self, device, monkeypatch):
+        import warp_texton.surface as S
+
+        t = random_texton(channels=1, seed=3)
+        p = np.random.default_rng(4).normal(size=(300, 3))
+        used = []
+        monkeypatch.setattr(S, "_gather_blocks", lambda *a: used.append("blocks") or np.zeros((len(a[3]), 3),
+                                                                                           np.float32))
+        surface_noise(t, p, p, 0.05, device=device)
+        assert used == []
+        monkeypatch.setattr(S, "AUTO_MIN_POINTS", 100)
+        surface_noise(t, p, p, 0.05, device=device)
+        assert used == ["blocks"]
 
     def test_method_is_checked(self, device):
-        with pytest.raises(TextonError, match="method must be one of blocks, points"):
+        with pytest.raises(TextonError, match="method must be one of auto, blocks, points"):
             surface_noise(T1, P1, N1, 1.0, device=device, method="fast")
-        with pytest.raises(TextonError, match="method must be one of blocks, points"):
+        with pytest.raises(TextonError, match="method must be one of auto, blocks, points"):
             render_mesh(trimesh.creation.icosphere(1), T1, (8, 8), device=device, method="fast")
 
 

@@ -184,7 +184,7 @@ def bake_mesh(
     up=UP,
     side=None,
     name: str = "mesh",
-    method: str = "blocks",
+    method: str = "auto",
 ) -> BakedMesh:
     """Bake surface texton noise into a ``resolution``² texture on the mesh's UVs.
 

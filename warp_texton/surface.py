@@ -47,9 +47,13 @@ MAX_RENDER_PIXELS = 1 << 26
 MAX_CUBES_PER_POINT = 8192
 #: Default texture scale on a mesh: this many texels along its bounding-box diagonal.
 TEXELS_PER_DIAGONAL = 256
-#: Evaluation paths: "blocks" (points share their cubes' impacts) and "points"
-#: (each point draws the impacts of its cubes itself: the reference).
-METHODS = ("blocks", "points")
+#: Evaluation paths: "blocks" (points share their cubes' impacts), "points"
+#: (each point draws the impacts of its cubes itself: the reference) and "auto"
+#: (the walk below AUTO_MIN_POINTS points, where sorting and the extra launches
+#: cost more than they save — measured: 642 points, walk 14 ms, blocks 20 ms;
+#: 10 000 sparse points, blocks 1.4× faster — else blocks). All give the same values.
+METHODS = ("auto", "blocks", "points")
+AUTO_MIN_POINTS = 4096
 #: Points are grouped by blocks of BLOCK_CUBES = 2**BLOCK_SHIFT cubes per side.
 BLOCK_SHIFT = 2
 BLOCK_CUBES = 1 << BLOCK_SHIFT
@@ -284,7 +288,7 @@ def surface_noise(
     side=None,
     poisson: str = "exact",
     cell_factor: float = CELL_FACTOR,
-    method: str = "blocks",
+    method: str = "auto",
 ) -> np.ndarray:
     """Surface texton noise at points of a surface (CGF §6, Prop. 3).
 
@@ -310,9 +314,10 @@ def surface_noise(
     poisson, cell_factor
         As in :func:`warp_texton.synthesize`.
     method : str
-        ``"blocks"`` (default): points sorted into blocks share the impacts of
-        their cubes; ``"points"``: each point draws its cubes' impacts itself
-        (the reference: same values, slower).
+        ``"blocks"``: points sorted into blocks share the impacts of their
+        cubes; ``"points"``: each point draws its cubes' impacts itself (the
+        reference: same values, slower on many points); ``"auto"`` (default):
+        the walk below 4096 points, blocks above.
 
     Returns
     -------
@@ -365,12 +370,14 @@ def surface_noise(
 
 
 def evaluate_points(p: K.SurfaceParams, setup: SurfaceSetup, pos: np.ndarray, nrm: np.ndarray, tan, device,
-                    method: str = "blocks") -> np.ndarray:
+                    method: str = "auto") -> np.ndarray:
     """(N, 3) float32 surface noise at checked float64 texel positions with unit
     normals (and unit tangents, or None for the frame rule)."""
     n = pos.shape[0]
     if n == 0:
         return np.zeros((0, 3), np.float32)
+    if method == "auto":
+        method = "points" if n < AUTO_MIN_POINTS else "blocks"
     with wp.ScopedDevice(device):
         coeffs = wp.array(setup.coeffs, dtype=wp.vec3)
         if method == "points":
@@ -824,7 +831,7 @@ def render_mesh(
     side=None,
     view=None,
     fov=None,
-    method: str = "blocks",
+    method: str = "auto",
 ) -> np.ndarray:
     """Ray-cast ``mesh`` with surface texton noise and simple diffuse shading.
 
