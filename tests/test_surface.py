@@ -938,7 +938,7 @@ class TestBlocks:
         t = random_texton(channels=1, seed=3)
         p = np.random.default_rng(4).normal(size=(300, 3))
         used = []
-        monkeypatch.setattr(S, "_gather_blocks", lambda *a: used.append("blocks") or np.zeros((len(a[3]), 3),
+        monkeypatch.setattr(S, "gather_blocks", lambda *a: used.append("blocks") or np.zeros((len(a[3]), 3),
                                                                                            np.float32))
         surface_noise(t, p, p, 0.05, device=device)
         assert used == []

@@ -392,7 +392,7 @@ def evaluate_points(p: K.SurfaceParams, setup: SurfaceSetup, pos: np.ndarray, nr
                 return res.numpy()
 
             return map_points(device, K, n, values)
-        return _gather_blocks(p, setup, coeffs, pos, nrm, tan, device)
+        return gather_blocks(p, setup, coeffs, pos, nrm, tan, device)
 
 
 #: x ↦ x with two zero bits after each of its 5 bits (Morton codes of 32 steps per axis)
@@ -439,7 +439,9 @@ def _blocks(pos: np.ndarray, setup: SurfaceSetup):
     return order, ps, starts, lo, hi, clusters
 
 
-def _gather_blocks(p, setup: SurfaceSetup, coeffs, pos, nrm, tan, device) -> np.ndarray:
+def gather_blocks(p, setup: SurfaceSetup, coeffs, pos, nrm, tan, device) -> np.ndarray:
+    """The block path of :func:`evaluate_points`: sort, draw each block's cubes once, list
+    each cluster's impacts, gather (docs/model.md, "Blocks of points")."""
     n = pos.shape[0]
     order, sorted_pos, starts, lo, hi, clusters = _blocks(pos, setup)
     dims = hi - lo + 1
