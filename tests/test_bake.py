@@ -27,9 +27,9 @@ import pytest
 import trimesh
 from PIL import Image
 
-from helpers import noise_sd, parts, random_texton
+from helpers import parts, random_texton
 from warp_texton import BakedMesh, Texton, TextonError, bake_mesh, surface_noise, texture_mesh, write_baked
-from warp_texton.bake import check_uvs, default_gutter, to_8bit
+from warp_texton.bake import check_uvs, to_8bit
 from warp_texton.limits import set_memory_budget
 from warp_texton.surface import srgb_to_linear, tangent_frames, vertex_normals
 

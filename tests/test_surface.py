@@ -860,6 +860,29 @@ class TestDeviceMatchesCpu:
         b = surface_noise(t, p, n, 0.03, seed=5, device=gpu)
         np.testing.assert_allclose(a, b, atol=1e-4 * noise_sd(t))
 
+    def test_blocks_match_cpu(self, gpu):
+        # clusters, lists and the gather on the device: the CPU walk's values
+        t = random_texton(channels=3, seed=43)
+        mesh = trimesh.creation.icosphere(subdivisions=5)
+        n = vertex_normals(mesh)
+        a = surface_noise(t, mesh.vertices, n, 0.01, seed=6, device="cpu", method="points")
+        b = surface_noise(t, mesh.vertices, n, 0.01, seed=6, device=gpu, method="blocks")
+        np.testing.assert_allclose(a, b, atol=1e-4 * noise_sd(t))
+
+    def test_bake_matches_cpu(self, gpu):
+        from warp_texton import bake_mesh
+
+        t = small_texton()
+        mesh = trimesh.creation.icosphere(subdivisions=3)
+        mesh.visual = trimesh.visual.TextureVisuals(uv=(mesh.vertices[:, :2] + 1) / 2)  # overlapping: refused
+        with pytest.raises(TextonError, match="overlap"):
+            bake_mesh(mesh, t, 0.02, 64, device=gpu)
+        plane = plane_mesh(n=5)
+        plane.visual = trimesh.visual.TextureVisuals(uv=np.asarray(plane.vertices)[:, :2])
+        a = bake_mesh(plane, t, 1 / 64, 64, device="cpu").texture
+        b = bake_mesh(plane, t, 1 / 64, 64, device=gpu).texture
+        np.testing.assert_allclose(a, b, atol=1e-4 * noise_sd(t))
+
     def test_render_matches_cpu(self, gpu):
         t = small_texton()
         mesh = trimesh.creation.torus(1.0, 0.3)

@@ -18,7 +18,7 @@ from concurrent.futures import Executor, ThreadPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .bake import BAKE_FORMATS, UV_MODES, bake_outputs
+from .bake import bake_outputs
 from .errors import TextonError
 from .texton import Texton
 
