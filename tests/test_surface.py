@@ -969,6 +969,18 @@ class TestBlocks:
         surface_noise(t, p, p, 0.05, device=device)
         assert used == ["blocks"]
 
+    def test_memory_budget(self, device):
+        from warp_texton.limits import set_memory_budget
+
+        p = np.random.default_rng(5).normal(size=(5000, 3))
+        set_memory_budget("1M")
+        try:
+            with pytest.raises(TextonError, match=r"surface noise at 5000 points needs about .* over the memory "
+                                                  r"budget of 1 MiB"):
+                surface_noise(T1, p, p, 0.05, device=device, method="blocks")
+        finally:
+            set_memory_budget(None)
+
     def test_method_is_checked(self, device):
         with pytest.raises(TextonError, match="method must be one of auto, blocks, points"):
             surface_noise(T1, P1, N1, 1.0, device=device, method="fast")

@@ -71,7 +71,7 @@ CLUSTER_MIN = 4
 CLUSTER_RUNS = 128
 CLUSTER_LEVEL = 2
 CLUSTER_CAP = 1024
-CLUSTERS_PER_ROUND = 1 << 13
+CLUSTERS_PER_ROUND = 1 << 12
 #: Names ``up`` takes besides a 3-vector: the world axis that points up.
 UP_NAMES = ("x", "y", "z")
 #: Default view of renders: azimuth and elevation (degrees) of the camera seen from
@@ -447,18 +447,22 @@ def gather_blocks(p, setup: SurfaceSetup, coeffs, pos, nrm, tan, device) -> np.n
     dims = hi - lo + 1
     cubes = np.prod(dims, axis=1)
     mean_count = setup.lam * setup.cell ** 3
-    # one round per group of blocks holding at most CUBES_PER_ROUND cubes (a block alone may exceed it)
-    check_memory(float(cubes.max()) * (16 + 12 * (mean_count + 10 * math.sqrt(mean_count) + 1))
-                 + n * 64.0, f"surface noise at {n} points", "use fewer points at once or a larger texel_size")
+    # the peak: the sorted copies of the points, one round's cubes and impacts (at most
+    # CUBES_PER_ROUND cubes, or one block), and one round's cluster lists
+    round_cubes = min(float(cubes.sum()), max(float(CUBES_PER_ROUND), float(cubes.max())))
+    lists = min(len(clusters), CLUSTERS_PER_ROUND) * (12.0 * CLUSTER_CAP + 8.0 * CLUSTER_RUNS + 12.0)
+    check_memory(round_cubes * (24 + 12 * (mean_count + 10 * math.sqrt(mean_count) + 1)) + lists + n * 120.0,
+                 f"surface noise at {n} points", "evaluate fewer points at once")
     ends = np.r_[starts[1:], n]
     sorted_nrm = np.ascontiguousarray(nrm[order])
     sorted_tan = np.ascontiguousarray(tan[order]) if tan is not None else None
     out = np.zeros((n, 3), np.float32)
     b0 = 0
     nb = len(starts)
+    cum = np.cumsum(cubes)
     while b0 < nb:
-        total = np.cumsum(cubes[b0:])
-        b1 = b0 + max(1, int(np.searchsorted(total, CUBES_PER_ROUND, side="right")))
+        before = cum[b0 - 1] if b0 else 0
+        b1 = max(b0 + 1, int(np.searchsorted(cum, before + CUBES_PER_ROUND, side="right")))
         _gather_round(p, setup, coeffs, sorted_pos, sorted_nrm, sorted_tan, device, starts[b0:b1], ends[b0:b1], clusters,
                       lo[b0:b1], dims[b0:b1], cubes[b0:b1], out)
         b0 = b1
@@ -506,11 +510,10 @@ def _gather_round(p, setup, coeffs, pos, nrm, tan, device, starts, ends, cluster
     # the round's clusters (a cluster never straddles blocks: block starts are cluster starts)
     mine = clusters[(clusters >= p0) & (clusters < p1)]
     cfirst = np.r_[mine - p0, p1 - p0].astype(np.int32)
-    cb = mine
-    cluster_of = wp.array(np.repeat(np.arange(len(cb), dtype=np.int32), np.diff(cfirst)), dtype=wp.int32)
+    cluster_of = wp.array(np.repeat(np.arange(len(mine), dtype=np.int32), np.diff(cfirst)), dtype=wp.int32)
     cap = CLUSTER_CAP
-    for m0 in range(0, len(cb), CLUSTERS_PER_ROUND):
-        m1 = min(m0 + CLUSTERS_PER_ROUND, len(cb))
+    for m0 in range(0, len(mine), CLUSTERS_PER_ROUND):
+        m1 = min(m0 + CLUSTERS_PER_ROUND, len(mine))
         cl = K.Clusters()
         cl.first = wp.array(cfirst[m0:m1 + 1], dtype=wp.int32)
         cl.cap = cap
