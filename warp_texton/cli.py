@@ -234,7 +234,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--up", choices=("auto", "x", "y", "z"), default="auto",
                    help="the meshes' up axis: auto is y for .glb/.gltf (Y-up by definition), z otherwise")
     p.add_argument("--view", metavar="AZ,EL",
-                   help="render camera azimuth and elevation in degrees (default -55,25: front left, above)")
+                   help="render camera azimuth and elevation in degrees (default -55,25: front left, above; "
+                        "a negative azimuth as --view=-30,20)")
     p.add_argument("--fov", type=float, help="render vertical field of view, degrees (default 35)")
     p.add_argument("--format", choices=("ply", "obj", "glb"),
                    help="mesh output format (default: glb with --bake, else ply)")
