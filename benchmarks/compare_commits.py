@@ -9,7 +9,9 @@ fresh processes, and reports each case's best and median time and the ratio
 new / base.
 
 Only calls whose signatures both commits share are timed: plain, rotated and
-mixed rasters, points, the filtered plane, surface points and mesh renders.
+mixed rasters, points, the filtered plane, surface points and mesh renders
+(and, in full runs, surface noise at the 1M vertices of a torus and a 1024²
+render of an icosphere of 40 962 vertices).
 
 Usage::
 
@@ -49,6 +51,9 @@ ts = [wt.Texton(0.02 * rng.standard_normal((32, 32, 3)), [0.3 + 0.1 * k] * 3) fo
 pts = rng.uniform(-5000, 5000, (100_000 if quick else 400_000, 2))
 mesh = trimesh.creation.torus(1.0, 0.35, major_sections=96 if quick else 192, minor_sections=48 if quick else 96)
 normals = np.asarray(mesh.vertex_normals)
+big = trimesh.creation.torus(1.0, 0.35, major_sections=1000, minor_sections=1000)
+big_normals = np.asarray(big.vertex_normals)
+sphere = trimesh.creation.icosphere(subdivisions=6)
 cases = {
     "raster grid": lambda: wt.synthesize(t, (side, side), 30.0, 1, device="cpu"),
     "raster 4K": lambda: wt.synthesize(t, (2160, 3840), 30.0, 1, device="cpu") if not quick else None,
@@ -59,6 +64,11 @@ cases = {
     "plane anisotropic": lambda: wt.render_plane(t, (side // 2, side // 2), filter="anisotropic", device="cpu"),
     "surface points": lambda: wt.surface_noise(t, mesh.vertices, normals, 0.01, device="cpu"),
     "render mesh": lambda: wt.render_mesh(mesh, t, (side // 2, side // 2), device="cpu"),
+    # the goals of issue 12: surface noise at 1M points, a 1024² render (full runs only)
+    "surface 1M points": lambda: wt.surface_noise(t, big.vertices, big_normals, 0.004, device="cpu") if not quick
+    else None,
+    "render mesh 1024²": lambda: wt.render_mesh(sphere, t, (1024, 1024), 1 / 128, device="cpu") if not quick
+    else None,
 }
 out = {}
 for name, fn in cases.items():

@@ -73,7 +73,7 @@ class Suite:
     naive_max_pixels: int  # the naive per-pixel peer is skipped above this
     mix_steps: int
     mix_sizes: tuple
-    surface_subdivisions: int  # icosphere: 3 → 642 vertices, 6 → 40 962
+    surface_subdivisions: int  # icosphere: 3 → 642 vertices, 6 → 40 962, 8 → 655 362
     surface_render: tuple  # (height, width) of the surface render
 
 
@@ -88,7 +88,7 @@ FULL = Suite(
     mnis=(5.0, 10.0, 30.0, 60.0), texton_sizes=(16, 32, 64, 128),
     ref_shape=(1024, 1024), ref_mni=30.0, ref_texton=64, repeat=5, image_side=512,
     naive_max_pixels=1024 * 1024, mix_steps=21, mix_sizes=((1024, 1024), (2160, 3840)),
-    surface_subdivisions=6, surface_render=(1024, 1024),
+    surface_subdivisions=8, surface_render=(1024, 1024),
 )
 
 
@@ -284,11 +284,13 @@ def filtering_case(suite: Suite, textons: dict, device: str, report: Report) -> 
 
 def surface_case(suite: Suite, textons: dict, device: str, report: Report) -> None:
     """Surface noise on meshes (CGF §6): ``surface_noise`` points per second at
-    MNI 60 at the vertices of an icosphere, and one ``render_mesh`` frame.
+    MNI 60 at the vertices of an icosphere, in blocks and with the per-point walk
+    (the reference), against a ``synthesize`` raster (MNI 30) of the same texton
+    measured in the same turns; and one ``render_mesh`` frame, blocks and walk.
     """
     import trimesh
 
-    from warp_texton import render_mesh, surface_noise
+    from warp_texton import render_mesh, surface_noise, synthesize
 
     texton = textons[suite.ref_texton]
     # unit sphere, 128 texels per unit: about 800 texels round the equator
@@ -296,24 +298,41 @@ def surface_case(suite: Suite, textons: dict, device: str, report: Report) -> No
     texel = 1.0 / 128.0
     vertices, normals = mesh.vertices, mesh.vertex_normals
     nv = len(vertices)
+    rh, rw = suite.ref_shape
     print(f"surface on {device}: icosphere of {nv} vertices, render {suite.surface_render[1]}x"
           f"{suite.surface_render[0]}", flush=True)
     methods = {
         "surface_noise": lambda: surface_noise(texton, vertices, normals, texel, mni=SURFACE_MNI, seed=1,
                                                device=device),
+        "surface_noise (walk)": lambda: surface_noise(texton, vertices, normals, texel, mni=SURFACE_MNI, seed=1,
+                                                      device=device, method="points"),
+        "synthesize": lambda: synthesize(texton, suite.ref_shape, mni=suite.ref_mni, seed=1, device=device),
         "render_mesh": lambda: render_mesh(mesh, texton, suite.surface_render, texel, mni=SURFACE_MNI, seed=1,
                                            device=device),
+        "render_mesh (walk)": lambda: render_mesh(mesh, texton, suite.surface_render, texel, mni=SURFACE_MNI,
+                                                  seed=1, device=device, method="points"),
     }
     results = interleaved(methods, suite.repeat)
-    t = results["surface_noise"]
-    report.add(case="surface", method="surface_noise", device=device, vertices=nv, mni=SURFACE_MNI,
-               texton=suite.ref_texton, mpoints_per_s=nv / t["best_s"] / 1e6, **t)
+    raster = results["synthesize"]
+    per_pixel = raster["best_s"] / (rh * rw)
+    for name in ("surface_noise", "surface_noise (walk)"):
+        t = results[name]
+        report.add(case="surface", method=name, device=device, vertices=nv, mni=SURFACE_MNI,
+                   texton=suite.ref_texton, mpoints_per_s=nv / t["best_s"] / 1e6,
+                   vs_raster_pixel=t["best_s"] / nv / per_pixel, **t)
+    report.add(case="surface", method="synthesize", device=device, shape=[rh, rw], mni=suite.ref_mni,
+               texton=suite.ref_texton, mpix_per_s=rh * rw / raster["best_s"] / 1e6, **raster)
     h, w = suite.surface_render
-    r = results["render_mesh"]
-    report.add(case="surface", method="render_mesh", device=device, vertices=nv, mni=SURFACE_MNI,
-               texton=suite.ref_texton, shape=[h, w], mpix_per_s=h * w / r["best_s"] / 1e6, **r)
-    print(f"  surface_noise: {t['best_s']:.4f} s ({nv / t['best_s'] / 1e6:.2f} Mpoints/s); "
-          f"render_mesh {w}x{h}: {r['best_s']:.4f} s", flush=True)
+    for name in ("render_mesh", "render_mesh (walk)"):
+        r = results[name]
+        report.add(case="surface", method=name, device=device, vertices=nv, mni=SURFACE_MNI,
+                   texton=suite.ref_texton, shape=[h, w], mpix_per_s=h * w / r["best_s"] / 1e6, **r)
+    t, r = results["surface_noise"], results["render_mesh"]
+    print(f"  surface_noise: {t['best_s']:.4f} s ({nv / t['best_s'] / 1e6:.2f} Mpoints/s, x"
+          f"{t['best_s'] / nv / per_pixel:.1f} a raster pixel; walk x"
+          f"{results['surface_noise (walk)']['best_s'] / t['best_s']:.2f} slower); render_mesh {w}x{h}: "
+          f"{r['best_s']:.4f} s (walk x{results['render_mesh (walk)']['best_s'] / r['best_s']:.2f} slower)",
+          flush=True)
 
 
 # ---------------------------------------------------------------- the run
@@ -455,15 +474,26 @@ def markdown(report: dict) -> str:
     surf = [r for r in rows if r["case"] == "surface"]
     if surf:
         lines += ["", f"## Surface noise (MNI {SURFACE_MNI:g}, texton {p['ref_texton']}², unit icosphere, "
-                  "128 texels per unit)", "", "| device | what | time (s) | rate |", "|---|---|---:|---:|"]
+                  "128 texels per unit; blocks against the per-point walk, and against a raster of the same "
+                  "texton measured in the same turns)", "",
+                  "| device | what | time (s) | rate | per point / per raster pixel | walk / blocks |",
+                  "|---|---|---:|---:|---:|---:|"]
         for r in surf:
-            if r["method"] == "surface_noise":
-                lines.append(f"| `{r['device']}` | `surface_noise`, {r['vertices']} vertices | {_cell(r)} | "
-                             f"{r['mpoints_per_s']:.2f} Mpoints/s |")
+            if r["method"].startswith("surface_noise"):
+                walk = _find(surf, method="surface_noise (walk)", device=r["device"])
+                ratio = f"{walk['best_s'] / r['best_s']:.2f}" if r["method"] == "surface_noise" else ""
+                lines.append(f"| `{r['device']}` | `{r['method']}`, {r['vertices']} vertices | {_cell(r)} | "
+                             f"{r['mpoints_per_s']:.2f} Mpoints/s | {r['vs_raster_pixel']:.1f} | {ratio} |")
+            elif r["method"] == "synthesize":
+                h, w = r["shape"]
+                lines.append(f"| `{r['device']}` | `synthesize` {w}×{h}, MNI {r['mni']:g} | {_cell(r)} | "
+                             f"{r['mpix_per_s']:.1f} Mpix/s | 1 | |")
             else:
                 h, w = r["shape"]
-                lines.append(f"| `{r['device']}` | `render_mesh`, {w}×{h} | {_cell(r)} | "
-                             f"{r['mpix_per_s']:.1f} Mpix/s |")
+                walk = _find(surf, method="render_mesh (walk)", device=r["device"])
+                ratio = f"{walk['best_s'] / r['best_s']:.2f}" if r["method"] == "render_mesh" else ""
+                lines.append(f"| `{r['device']}` | `{r['method']}`, {w}×{h} | {_cell(r)} | "
+                             f"{r['mpix_per_s']:.1f} Mpix/s | | {ratio} |")
     if report["skipped"]:
         lines += ["", "## Not measured", ""]
         lines += [f"* {s['case']}: {s['reason']}." for s in report["skipped"]]

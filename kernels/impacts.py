@@ -164,28 +164,54 @@ def cell_walk(contribution, name: str):
     return wp.func(walk, name=name, module=contribution.module)
 
 
-def cell_walk3(contribution, name: str):
-    """A ``@wp.func walk(y: vec3, ext: vec3, cells: Cells3, ctx) -> vec3`` summing
-    ``contribution(ctx, d, acc)`` over the impacts q of the cubes that meet the
-    box y ± ext, with d = y − q (the contribution tests its own support)."""
+@wp.func
+def cube_span(y: wp.vec3d, ext: wp.vec3, size: float):
+    # the cubes (x0, x1, y0, y1, z0, z1) that meet the box y ± ext, found in float64
+    # so that points far from the origin land in the right cube
+    c = wp.float64(size)
+    return (int(wp.floor((y[0] - wp.float64(ext[0])) / c)), int(wp.floor((y[0] + wp.float64(ext[0])) / c)),
+            int(wp.floor((y[1] - wp.float64(ext[1])) / c)), int(wp.floor((y[1] + wp.float64(ext[1])) / c)),
+            int(wp.floor((y[2] - wp.float64(ext[2])) / c)), int(wp.floor((y[2] + wp.float64(ext[2])) / c)))
 
-    def walk(y: wp.vec3, ext: wp.vec3, cells: Cells3, ctx: Any):
+
+@wp.func
+def cube_offset(y: wp.vec3d, cx: int, cy: int, cz: int, size: float):
+    # y relative to the corner of cube (cx, cy, cz): float64 before rounding, so the
+    # offset is as exact far from the origin as near it
+    c = wp.float64(size)
+    return wp.vec3(float(y[0] - wp.float64(cx) * c), float(y[1] - wp.float64(cy) * c),
+                   float(y[2] - wp.float64(cz) * c))
+
+
+@wp.func
+def impact_offset3(rel: wp.vec3, u: wp.vec3, size: float):
+    # point minus impact, from the point's offset to the cube corner and the impact's
+    # position u in cell units: the one expression every 3-D path uses
+    return rel - u * size
+
+
+def cell_walk3(contribution, name: str):
+    """A ``@wp.func walk(y: vec3d, ext: vec3, cells: Cells3, ctx) -> vec3`` summing
+    ``contribution(ctx, d, acc)`` over the impacts q of the cubes that meet the
+    box y ± ext, with d = y − q (the contribution tests its own support).
+
+    Cubes are visited in z, y, x order and the impacts of a cube in the order
+    they are drawn; a path that shares impacts between points (``kernels/surface.py``,
+    the block gather) keeps this order, so the two sum the same terms in the same order.
+    """
+
+    def walk(y: wp.vec3d, ext: wp.vec3, cells: Cells3, ctx: Any):
         c = cells.size
-        x0 = int(wp.floor((y[0] - ext[0]) / c))
-        x1 = int(wp.floor((y[0] + ext[0]) / c))
-        y0 = int(wp.floor((y[1] - ext[1]) / c))
-        y1 = int(wp.floor((y[1] + ext[1]) / c))
-        z0 = int(wp.floor((y[2] - ext[2]) / c))
-        z1 = int(wp.floor((y[2] + ext[2]) / c))
+        x0, x1, y0, y1, z0, z1 = cube_span(y, ext, c)
         acc = wp.vec3(0.0)
         for cz in range(z0, z1 + 1):
             for cy in range(y0, y1 + 1):
                 for cx in range(x0, x1 + 1):
                     count, s = draw_count(cell_state3(cells, cx, cy, cz), cells.mean_count, cells.exact_poisson)
-                    rel = y - wp.vec3(float(cx), float(cy), float(cz)) * c
+                    rel = cube_offset(y, cx, cy, cz, c)
                     for k in range(count):
                         u, s = next_impact3(s)
-                        acc = contribution(ctx, rel - u * c, acc)
+                        acc = contribution(ctx, impact_offset3(rel, u, c), acc)
         return acc
 
     return wp.func(walk, name=name, module=contribution.module)

@@ -1,5 +1,6 @@
 """Surface texton noise (CGF §6): a 3-D hashed-cell Poisson process projected on
-tangent planes, evaluated at points and in a ray-cast renderer.
+tangent planes, evaluated at points (each point walking its cubes, or blocks of
+points sharing the cubes' impacts) and ray-cast for renders.
 
 Units are texels: the host divides world positions by the texel size. The
 impacts are those of the cubic cells of kernels/impacts.py (the plane's hash
@@ -12,7 +13,7 @@ support's larger side).
 
 import warp as wp
 
-from .impacts import Cells3, cell_walk3
+from .impacts import Cells3, cell_state3, cell_walk3, cube_offset, cube_span, draw_count, impact_offset3, next_impact3
 from .noise2d import PAD, texton_value
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
@@ -70,13 +71,37 @@ class SlabLookup:
 
 
 @wp.func
+def slab_term(coeffs: wp.array2d(dtype=wp.vec3), u1: wp.vec3, u2: wp.vec3, t: float, half: float, centre: wp.vec2,
+              lo: wp.vec2, hi: wp.vec2, order: int, d: wp.vec3, acc: wp.vec3):
+    # an impact at t = ⟨d, n⟩ within r/2 of the tangent plane adds (1 − 2|t|/r) h_c(⟨d, u1⟩, ⟨d, u2⟩)
+    z = wp.vec2(wp.dot(d, u1), wp.dot(d, u2)) + centre
+    if z[0] >= lo[0] and z[0] <= hi[0] and z[1] >= lo[1] and z[1] <= hi[1]:
+        w = 1.0 - wp.abs(t) / half
+        if order == 1:
+            # texton_value's order-1 branch for one texton (row0 = 0), inline: the same
+            # operations in the same order (the same values, bit for bit) without the call and
+            # the order dispatch, for the lookup each point makes about MNI times. z is in the
+            # support [−1, s]², so PAD − 1 ≤ j, i and j + 1, i + 1 ≤ s + PAD + 1 < s + 2 PAD:
+            # texton_value's clamps never act and are left out.
+            fx = wp.floor(z[0])
+            fy = wp.floor(z[1])
+            tx = z[0] - fx
+            ty = z[1] - fy
+            j = int(fx) + PAD
+            i = int(fy) + PAD
+            top = coeffs[i, j] * (1.0 - tx) + coeffs[i, j + 1] * tx
+            bottom = coeffs[i + 1, j] * (1.0 - tx) + coeffs[i + 1, j + 1] * tx
+            acc = acc + (top * (1.0 - ty) + bottom * ty) * w
+        else:
+            acc = acc + texton_value(coeffs, 0, coeffs.shape[0], z, order) * w
+    return acc
+
+
+@wp.func
 def add_slab(c: SlabLookup, d: wp.vec3, acc: wp.vec3):
-    # an impact within r/2 of the tangent plane adds (1 − 2|⟨d, n⟩|/r) h_c(⟨d, u1⟩, ⟨d, u2⟩)
     t = wp.dot(d, c.n)
     if wp.abs(t) < c.half:
-        z = wp.vec2(wp.dot(d, c.u1), wp.dot(d, c.u2)) + c.centre
-        if z[0] >= c.lo[0] and z[0] <= c.hi[0] and z[1] >= c.lo[1] and z[1] <= c.hi[1]:
-            acc = acc + texton_value(c.coeffs, 0, c.coeffs.shape[0], z, c.order) * (1.0 - wp.abs(t) / c.half)
+        acc = slab_term(c.coeffs, c.u1, c.u2, t, c.half, c.centre, c.lo, c.hi, c.order, d, acc)
     return acc
 
 
@@ -85,14 +110,7 @@ sum_slab = cell_walk3(add_slab, "sum_slab")
 
 
 @wp.func
-def surface_value(p: SurfaceParams, coeffs: wp.array2d(dtype=wp.vec3), y: wp.vec3, u1: wp.vec3, u2: wp.vec3,
-                  n: wp.vec3):
-    # the rotated cube of side r around y lies in this axis-aligned box
-    ext = wp.vec3(
-        p.half * (wp.abs(u1[0]) + wp.abs(u2[0]) + wp.abs(n[0])),
-        p.half * (wp.abs(u1[1]) + wp.abs(u2[1]) + wp.abs(n[1])),
-        p.half * (wp.abs(u1[2]) + wp.abs(u2[2]) + wp.abs(n[2])),
-    )
+def slab_lookup(p: SurfaceParams, coeffs: wp.array2d(dtype=wp.vec3), u1: wp.vec3, u2: wp.vec3, n: wp.vec3):
     look = SlabLookup()
     look.coeffs = coeffs
     look.u1 = u1
@@ -103,68 +121,446 @@ def surface_value(p: SurfaceParams, coeffs: wp.array2d(dtype=wp.vec3), y: wp.vec
     look.lo = p.lo
     look.hi = p.hi
     look.order = p.order
-    acc = sum_slab(y, ext, p.cells, look)
+    return look
+
+
+@wp.func
+def frame_extent(half: float, u1: wp.vec3, u2: wp.vec3, n: wp.vec3):
+    # the rotated cube of side r around y (axes u1, u2, n) lies in the box y ± this
+    return wp.vec3(
+        half * (wp.abs(u1[0]) + wp.abs(u2[0]) + wp.abs(n[0])),
+        half * (wp.abs(u1[1]) + wp.abs(u2[1]) + wp.abs(n[1])),
+        half * (wp.abs(u1[2]) + wp.abs(u2[2]) + wp.abs(n[2])),
+    )
+
+
+@wp.func
+def point_frame(p: SurfaceParams, n: wp.vec3, tangents: wp.array(dtype=wp.vec3), k: int, use_tangents: int):
+    # (u1, u2): the given tangent, or the frame rule
+    if use_tangents != 0:
+        u1 = tangents[k]
+        return u1, wp.cross(n, u1)
+    return tangent_frame(n, p.up, p.side)
+
+
+@wp.func
+def normalize_surface(p: SurfaceParams, acc: wp.vec3):
     return p.mean + (acc - p.shift) * p.inv_scale
+
+
+@wp.func
+def surface_value(p: SurfaceParams, coeffs: wp.array2d(dtype=wp.vec3), y: wp.vec3d, u1: wp.vec3, u2: wp.vec3,
+                  n: wp.vec3):
+    look = slab_lookup(p, coeffs, u1, u2, n)
+    acc = sum_slab(y, frame_extent(p.half, u1, u2, n), p.cells, look)
+    return normalize_surface(p, acc)
 
 
 @wp.kernel
 def evaluate_surface(
     p: SurfaceParams,
     coeffs: wp.array2d(dtype=wp.vec3),
-    points: wp.array(dtype=wp.vec3),
+    points: wp.array(dtype=wp.vec3d),
     normals: wp.array(dtype=wp.vec3),
     tangents: wp.array(dtype=wp.vec3),
     use_tangents: int,
     out: wp.array(dtype=wp.vec3),
 ):
-    """Surface noise at points (texel units) with unit normals; frames from the
-    rule, or from given tangents (already orthogonal to the normals, unit)."""
+    """Surface noise at points (texel units, float64) with unit normals, each point
+    walking its own cubes; frames from the rule, or from given tangents (already
+    orthogonal to the normals, unit). The reference for ``gather_surface``."""
     k = wp.tid()
     n = normals[k]
-    u1 = wp.vec3(0.0)
-    u2 = wp.vec3(0.0)
-    if use_tangents != 0:
-        u1 = tangents[k]
-        u2 = wp.cross(n, u1)
-    else:
-        u1, u2 = tangent_frame(n, p.up, p.side)
+    u1, u2 = point_frame(p, n, tangents, k, use_tangents)
     out[k] = surface_value(p, coeffs, points[k], u1, u2, n)
+
+
+# ------------------------------------------------------- blocks of points
+@wp.kernel
+def count_cubes(p: SurfaceParams, cubes: wp.array(dtype=wp.vec3i), counts: wp.array(dtype=wp.int32)):
+    """Impact count of each listed cube."""
+    g = wp.tid()
+    c = cubes[g]
+    n, s = draw_count(cell_state3(p.cells, c[0], c[1], c[2]), p.cells.mean_count, p.cells.exact_poisson)
+    counts[g] = n
+
+
+@wp.kernel
+def emit_cubes(p: SurfaceParams, cubes: wp.array(dtype=wp.vec3i), offsets: wp.array(dtype=wp.int32),
+               impacts: wp.array(dtype=wp.vec3)):
+    """Each listed cube's impacts, in the order drawn, as positions in cell units
+    (what ``next_impact3`` gives), so that a gather computes the offsets exactly
+    as the per-point walk does."""
+    g = wp.tid()
+    c = cubes[g]
+    n, s = draw_count(cell_state3(p.cells, c[0], c[1], c[2]), p.cells.mean_count, p.cells.exact_poisson)
+    for k in range(offsets[g], wp.min(offsets[g] + n, offsets[g + 1])):
+        u, s = next_impact3(s)
+        impacts[k] = u
+
+
+@wp.func
+def cube_may_count(c: SlabLookup, rel: wp.vec3, size: float):
+    """Whether an impact of the cube whose corner is at y − rel can pass add_slab's
+    tests: the ranges of ⟨d, n⟩, ⟨d, u1⟩, ⟨d, u2⟩ over d = rel − [0, size]³ against
+    the slab and the support, with a margin far above float rounding. A cube
+    refused here holds no impact that adds anything, so skipping it leaves the
+    sum unchanged, bit for bit."""
+    margin = 1.0e-4 * (c.half + size)
+    t = wp.dot(rel, c.n)
+    t_lo = t - size * (wp.max(c.n[0], 0.0) + wp.max(c.n[1], 0.0) + wp.max(c.n[2], 0.0))
+    t_hi = t - size * (wp.min(c.n[0], 0.0) + wp.min(c.n[1], 0.0) + wp.min(c.n[2], 0.0))
+    if t_lo >= c.half + margin or t_hi <= -c.half - margin:
+        return False
+    a = wp.dot(rel, c.u1) + c.centre[0]
+    a_lo = a - size * (wp.max(c.u1[0], 0.0) + wp.max(c.u1[1], 0.0) + wp.max(c.u1[2], 0.0))
+    a_hi = a - size * (wp.min(c.u1[0], 0.0) + wp.min(c.u1[1], 0.0) + wp.min(c.u1[2], 0.0))
+    if a_lo > c.hi[0] + margin or a_hi < c.lo[0] - margin:
+        return False
+    b = wp.dot(rel, c.u2) + c.centre[1]
+    b_lo = b - size * (wp.max(c.u2[0], 0.0) + wp.max(c.u2[1], 0.0) + wp.max(c.u2[2], 0.0))
+    b_hi = b - size * (wp.min(c.u2[0], 0.0) + wp.min(c.u2[1], 0.0) + wp.min(c.u2[2], 0.0))
+    if b_lo > c.hi[1] + margin or b_hi < c.lo[1] - margin:
+        return False
+    return True
+
+
+@wp.struct
+class CubeBlocks:
+    # block b owns the cubes origin[b] + [0, dims[b]) (x fastest), numbered from base[b];
+    # cube g is cubes[g] and its impacts are impacts[offsets[g]:offsets[g + 1]]
+    cubes: wp.array(dtype=wp.vec3i)
+    origin: wp.array(dtype=wp.vec3i)
+    dims: wp.array(dtype=wp.vec3i)
+    base: wp.array(dtype=wp.int32)
+    offsets: wp.array(dtype=wp.int32)
+    impacts: wp.array(dtype=wp.vec3)
+
+
+@wp.kernel
+def gather_surface(
+    p: SurfaceParams,
+    coeffs: wp.array2d(dtype=wp.vec3),
+    points: wp.array(dtype=wp.vec3d),
+    normals: wp.array(dtype=wp.vec3),
+    tangents: wp.array(dtype=wp.vec3),
+    use_tangents: int,
+    block_of: wp.array(dtype=wp.int32),
+    blocks: CubeBlocks,
+    first: int,
+    out: wp.array(dtype=wp.vec3),
+):
+    """``evaluate_surface`` for points grouped in blocks whose cubes' impacts were
+    drawn once: the same cubes in the same order and the same impacts in the same
+    order, so the same sum; cubes that cannot reach the point are skipped."""
+    k = wp.tid() + first
+    n = normals[k]
+    u1, u2 = point_frame(p, n, tangents, k, use_tangents)
+    look = slab_lookup(p, coeffs, u1, u2, n)
+    half = p.half
+    centre = p.centre
+    lo = p.lo
+    hi = p.hi
+    order = p.order
+    y = points[k]
+    c = p.cells.size
+    x0, x1, y0, y1, z0, z1 = cube_span(y, frame_extent(p.half, u1, u2, n), c)
+    b = block_of[k]
+    o = blocks.origin[b]
+    dm = blocks.dims[b]
+    base = blocks.base[b]
+    # the host sizes each block to hold its points' cubes; the clamps only guard memory
+    x0 = wp.max(x0, o[0])
+    y0 = wp.max(y0, o[1])
+    z0 = wp.max(z0, o[2])
+    x1 = wp.min(x1, o[0] + dm[0] - 1)
+    y1 = wp.min(y1, o[1] + dm[1] - 1)
+    z1 = wp.min(z1, o[2] + dm[2] - 1)
+    acc = wp.vec3(0.0)
+    for cz in range(z0, z1 + 1):
+        for cy in range(y0, y1 + 1):
+            row = base + ((cz - o[2]) * dm[1] + (cy - o[1])) * dm[0] - o[0]
+            for cx in range(x0, x1 + 1):
+                rel = cube_offset(y, cx, cy, cz, c)
+                if cube_may_count(look, rel, c):
+                    g = row + cx
+                    for j in range(blocks.offsets[g], blocks.offsets[g + 1]):
+                        # add_slab, with its fields held in registers
+                        d = impact_offset3(rel, blocks.impacts[j], c)
+                        t = wp.dot(d, n)
+                        if wp.abs(t) < half:
+                            acc = slab_term(coeffs, u1, u2, t, half, centre, lo, hi, order, d, acc)
+    out[k] = normalize_surface(p, acc)
+
+
+# ------------------------------------------------ clusters of nearby points
+@wp.func
+def range_meets(rel: wp.vec3, a: wp.vec3, size: float, lo: float, hi: float):
+    # does ⟨rel − u size, a⟩ over u ∈ [0, 1]³ meet [lo, hi]?
+    x = wp.dot(rel, a)
+    x_lo = x - size * (wp.max(a[0], 0.0) + wp.max(a[1], 0.0) + wp.max(a[2], 0.0))
+    x_hi = x - size * (wp.min(a[0], 0.0) + wp.min(a[1], 0.0) + wp.min(a[2], 0.0))
+    return x_lo <= hi and x_hi >= lo
+
+
+@wp.struct
+class Clusters:
+    # cluster m holds the points first[m] .. first[m + 1] − 1 (all of one block); the
+    # impacts that may reach them are listed in the walk's order as runs of one cube
+    # each: run k < runs[m] is cube run_cube[cap_runs·m + k], its impacts (positions in
+    # cell units, as drawn) are u[cap·m + run_end[cap_runs·m + k − 1] .. cap·m +
+    # run_end[cap_runs·m + k] − 1]; runs −1: no list (too few points, or it overflowed)
+    first: wp.array(dtype=wp.int32)
+    cap: int
+    cap_runs: int
+    runs: wp.array(dtype=wp.int32)
+    run_cube: wp.array(dtype=wp.int32)
+    run_end: wp.array(dtype=wp.int32)
+    u: wp.array(dtype=wp.vec3)
+
+
+@wp.kernel
+def list_cluster_impacts(
+    p: SurfaceParams,
+    points: wp.array(dtype=wp.vec3d),
+    normals: wp.array(dtype=wp.vec3),
+    tangents: wp.array(dtype=wp.vec3),
+    use_tangents: int,
+    block_of: wp.array(dtype=wp.int32),
+    blocks: CubeBlocks,
+    clusters: Clusters,
+    min_points: int,
+):
+    """The impacts that may reach some point of a cluster, in the walk's order
+    (clusters of fewer than ``min_points`` points get none: length −1).
+
+    For a point y_i with frame (u1_i, u2_i, n_i) an impact q counts only if
+    |⟨y_i − q, n_i⟩| < r/2 and its frame coordinates lie in the support, so
+    |y_i − q| ≤ R = (r/2)√3. With y_c, n̄, ū1, ū2 the cluster's means, ρ its
+    radius and ν, μ1, μ2 the largest distances of n_i, u1_i, u2_i from their
+    means, ⟨y_c − q, n̄⟩ lies within r/2 + ρ + Rν of 0, and ⟨y_c − q, ū1⟩,
+    ⟨y_c − q, ū2⟩ within ρ + Rμ of the support's range. Impacts outside those
+    ranges are left off the list: none of them can reach a point."""
+    m = wp.tid()
+    k0 = clusters.first[m]
+    k1 = clusters.first[m + 1]
+    if k1 - k0 < min_points:
+        clusters.runs[m] = -1
+        return
+    c = p.cells.size
+    # means of the positions (relative to the first point) and of the frames
+    y0 = points[k0]
+    mean_off = wp.vec3(0.0)
+    nbar = wp.vec3(0.0)
+    ubar = wp.vec3(0.0)
+    vbar = wp.vec3(0.0)
+    x0 = int(2147483647)
+    x1 = int(-2147483647)
+    yy0 = int(2147483647)
+    yy1 = int(-2147483647)
+    z0 = int(2147483647)
+    z1 = int(-2147483647)
+    for k in range(k0, k1):
+        n = normals[k]
+        u1, u2 = point_frame(p, n, tangents, k, use_tangents)
+        y = points[k]
+        mean_off = mean_off + wp.vec3(float(y[0] - y0[0]), float(y[1] - y0[1]), float(y[2] - y0[2]))
+        nbar = nbar + n
+        ubar = ubar + u1
+        vbar = vbar + u2
+        a0, a1, b0, b1, e0, e1 = cube_span(y, frame_extent(p.half, u1, u2, n), c)
+        x0 = wp.min(x0, a0)
+        x1 = wp.max(x1, a1)
+        yy0 = wp.min(yy0, b0)
+        yy1 = wp.max(yy1, b1)
+        z0 = wp.min(z0, e0)
+        z1 = wp.max(z1, e1)
+    inv = 1.0 / float(k1 - k0)
+    mean_off = mean_off * inv
+    nbar = nbar * inv
+    ubar = ubar * inv
+    vbar = vbar * inv
+    yc = wp.vec3d(y0[0] + wp.float64(mean_off[0]), y0[1] + wp.float64(mean_off[1]), y0[2] + wp.float64(mean_off[2]))
+    rho = float(0.0)
+    nu = float(0.0)
+    mu1 = float(0.0)
+    mu2 = float(0.0)
+    for k in range(k0, k1):
+        n = normals[k]
+        u1, u2 = point_frame(p, n, tangents, k, use_tangents)
+        y = points[k]
+        rho = wp.max(rho, wp.length(wp.vec3(float(y[0] - yc[0]), float(y[1] - yc[1]), float(y[2] - yc[2]))))
+        nu = wp.max(nu, wp.length(n - nbar))
+        mu1 = wp.max(mu1, wp.length(u1 - ubar))
+        mu2 = wp.max(mu2, wp.length(u2 - vbar))
+    big_r = p.half * 1.7320508 * 1.001
+    margin = 1.0e-3 * (p.half + c) + 1.0e-5 * (rho + big_r)
+    t_lim = p.half + rho + big_r * nu + margin
+    a_lo = p.lo[0] - p.centre[0] - rho - big_r * mu1 - margin
+    a_hi = p.hi[0] - p.centre[0] + rho + big_r * mu1 + margin
+    b_lo = p.lo[1] - p.centre[1] - rho - big_r * mu2 - margin
+    b_hi = p.hi[1] - p.centre[1] + rho + big_r * mu2 + margin
+    b = block_of[k0]
+    o = blocks.origin[b]
+    dm = blocks.dims[b]
+    base = blocks.base[b]
+    x0 = wp.max(x0, o[0])
+    yy0 = wp.max(yy0, o[1])
+    z0 = wp.max(z0, o[2])
+    x1 = wp.min(x1, o[0] + dm[0] - 1)
+    yy1 = wp.min(yy1, o[1] + dm[1] - 1)
+    z1 = wp.min(z1, o[2] + dm[2] - 1)
+    count = int(0)
+    runs = int(0)
+    ok = bool(True)
+    out0 = m * clusters.cap
+    run0 = m * clusters.cap_runs
+    for cz in range(z0, z1 + 1):
+        for cy in range(yy0, yy1 + 1):
+            row = base + ((cz - o[2]) * dm[1] + (cy - o[1])) * dm[0] - o[0]
+            for cx in range(x0, x1 + 1):
+                rel = cube_offset(yc, cx, cy, cz, c)
+                if ok and range_meets(rel, nbar, c, -t_lim, t_lim) and range_meets(rel, ubar, c, a_lo, a_hi) and \
+                        range_meets(rel, vbar, c, b_lo, b_hi):
+                    g = row + cx
+                    opened = bool(False)
+                    for j in range(blocks.offsets[g], blocks.offsets[g + 1]):
+                        u = blocks.impacts[j]
+                        d = impact_offset3(rel, u, c)
+                        t = wp.dot(d, nbar)
+                        if wp.abs(t) < t_lim:
+                            a = wp.dot(d, ubar)
+                            bb = wp.dot(d, vbar)
+                            if a >= a_lo and a <= a_hi and bb >= b_lo and bb <= b_hi:
+                                if not opened:
+                                    opened = True
+                                    if runs < clusters.cap_runs:
+                                        clusters.run_cube[run0 + runs] = g
+                                    runs += 1
+                                if count < clusters.cap:
+                                    clusters.u[out0 + count] = u
+                                count += 1
+                    if opened and runs <= clusters.cap_runs:
+                        clusters.run_end[run0 + runs - 1] = count
+                    if count > clusters.cap or runs > clusters.cap_runs:
+                        ok = False
+    if not ok:
+        runs = -1
+    clusters.runs[m] = runs
+
+
+@wp.kernel
+def gather_clustered(
+    p: SurfaceParams,
+    coeffs: wp.array2d(dtype=wp.vec3),
+    points: wp.array(dtype=wp.vec3d),
+    normals: wp.array(dtype=wp.vec3),
+    tangents: wp.array(dtype=wp.vec3),
+    use_tangents: int,
+    block_of: wp.array(dtype=wp.int32),
+    blocks: CubeBlocks,
+    cluster_of: wp.array(dtype=wp.int32),
+    clusters: Clusters,
+    first_cluster: int,
+    first: int,
+    out: wp.array(dtype=wp.vec3),
+):
+    """``gather_surface`` through the cluster's list: the list keeps the walk's order
+    and holds every impact that can reach the point, and impacts of cubes outside
+    the point's own walk are skipped, so the terms and their order are the walk's."""
+    k = wp.tid() + first
+    m = cluster_of[k] - first_cluster
+    runs = clusters.runs[m]
+    n = normals[k]
+    u1, u2 = point_frame(p, n, tangents, k, use_tangents)
+    look = slab_lookup(p, coeffs, u1, u2, n)
+    half = p.half
+    centre = p.centre
+    lo = p.lo
+    hi = p.hi
+    order = p.order
+    y = points[k]
+    c = p.cells.size
+    x0, x1, y0, y1, z0, z1 = cube_span(y, frame_extent(p.half, u1, u2, n), c)
+    b = block_of[k]
+    o = blocks.origin[b]
+    dm = blocks.dims[b]
+    base = blocks.base[b]
+    acc = wp.vec3(0.0)
+    if runs < 0:  # no list: walk the block's cubes
+        x0 = wp.max(x0, o[0])
+        y0 = wp.max(y0, o[1])
+        z0 = wp.max(z0, o[2])
+        x1 = wp.min(x1, o[0] + dm[0] - 1)
+        y1 = wp.min(y1, o[1] + dm[1] - 1)
+        z1 = wp.min(z1, o[2] + dm[2] - 1)
+        for cz in range(z0, z1 + 1):
+            for cy in range(y0, y1 + 1):
+                row = base + ((cz - o[2]) * dm[1] + (cy - o[1])) * dm[0] - o[0]
+                for cx in range(x0, x1 + 1):
+                    rel = cube_offset(y, cx, cy, cz, c)
+                    if cube_may_count(look, rel, c):
+                        g = row + cx
+                        for j in range(blocks.offsets[g], blocks.offsets[g + 1]):
+                            d = impact_offset3(rel, blocks.impacts[j], c)
+                            t = wp.dot(d, n)
+                            if wp.abs(t) < half:
+                                acc = slab_term(coeffs, u1, u2, t, half, centre, lo, hi, order, d, acc)
+    else:
+        u0 = m * clusters.cap
+        r0 = m * clusters.cap_runs
+        start = int(0)
+        for r in range(runs):
+            end = clusters.run_end[r0 + r]
+            cc = blocks.cubes[clusters.run_cube[r0 + r]]
+            if cc[0] >= x0 and cc[0] <= x1 and cc[1] >= y0 and cc[1] <= y1 and cc[2] >= z0 and cc[2] <= z1:
+                rel = cube_offset(y, cc[0], cc[1], cc[2], c)
+                for e in range(u0 + start, u0 + end):
+                    d = impact_offset3(rel, clusters.u[e], c)
+                    t = wp.dot(d, n)
+                    if wp.abs(t) < half:
+                        acc = slab_term(coeffs, u1, u2, t, half, centre, lo, hi, order, d, acc)
+            start = end
+    out[k] = normalize_surface(p, acc)
 
 
 @wp.struct
 class Camera:
-    origin: wp.vec3  # texel units
+    origin: wp.vec3  # world units, relative to the mesh's local origin
     right: wp.vec3
     up: wp.vec3
     forward: wp.vec3
     tan_half_fov: float  # vertical
     aspect: float  # width / height
     light: wp.vec3  # unit direction towards the light
-    background: wp.vec3
 
 
 @wp.kernel
-def render_surface(
-    p: SurfaceParams,
-    coeffs: wp.array2d(dtype=wp.vec3),
+def cast_rays(
     mesh: wp.uint64,
     vertex_normals: wp.array(dtype=wp.vec3),
     indices: wp.array(dtype=wp.int32),
     cam: Camera,
     row0: int,
-    out: wp.array2d(dtype=wp.vec3),
+    faces: wp.array2d(dtype=wp.int32),
+    bary: wp.array2d(dtype=wp.vec2),
+    normals: wp.array2d(dtype=wp.vec3),
+    shade: wp.array2d(dtype=float),
 ):
-    """Ray-cast one pixel: surface noise at the hit, simple diffuse shading."""
+    """Ray-cast one pixel: the face hit (−1 for none), the barycentric weights of
+    its first two vertices, the shading normal and the diffuse shade. The mesh
+    and the camera are in world units relative to a local origin (the host adds
+    it back in float64)."""
     i, j = wp.tid()
     i = i + row0
-    h = out.shape[0]
-    w = out.shape[1]
+    h = faces.shape[0]
+    w = faces.shape[1]
     sx = (2.0 * (float(j) + 0.5) / float(w) - 1.0) * cam.tan_half_fov * cam.aspect
     sy = (1.0 - 2.0 * (float(i) + 0.5) / float(h)) * cam.tan_half_fov
     d = wp.normalize(cam.forward + cam.right * sx + cam.up * sy)
     q = wp.mesh_query_ray(mesh, cam.origin, d, 1.0e30)
     if not q.result:
-        out[i, j] = cam.background
+        faces[i, j] = -1
         return
     f = q.face
     n = (vertex_normals[indices[3 * f]] * q.u + vertex_normals[indices[3 * f + 1]] * q.v
@@ -176,12 +572,11 @@ def render_surface(
     n = wp.normalize(n)
     if wp.dot(n, q.normal) < 0.866:
         n = q.normal
-    y = cam.origin + d * q.t
-    u1, u2 = tangent_frame(n, p.up, p.side)
-    colour = surface_value(p, coeffs, y, u1, u2, n)
-    shade = 0.3 + 0.7 * wp.abs(wp.dot(n, cam.light))
-    out[i, j] = wp.vec3(wp.clamp(colour[0], 0.0, 1.0), wp.clamp(colour[1], 0.0, 1.0),
-                        wp.clamp(colour[2], 0.0, 1.0)) * shade
+    faces[i, j] = f
+    bary[i, j] = wp.vec2(q.u, q.v)
+    normals[i, j] = n
+    shade[i, j] = 0.3 + 0.7 * wp.abs(wp.dot(n, cam.light))
 
 
-__all__ = ["PAD", "SurfaceParams", "Camera", "evaluate_surface", "render_surface", "tangent_frame"]
+__all__ = ["PAD", "SurfaceParams", "Camera", "CubeBlocks", "evaluate_surface", "count_cubes", "emit_cubes",
+           "gather_surface", "Clusters", "list_cluster_impacts", "gather_clustered", "cast_rays", "tangent_frame"]

@@ -130,7 +130,7 @@ def case_render_mesh():
 
 
 def case_texture_mesh():
-    mesh = wt.texture_mesh(_mesh(), _texton(), 0.05, 60.0, 2, max_edge=8.0, device=DEVICE)
+    mesh = wt.texture_mesh(_mesh(), _texton(), 0.05, 60.0, 2, max_edge=8.0, device=DEVICE, warn=False)
     return np.asarray(mesh.visual.vertex_colors)
 
 

@@ -37,8 +37,8 @@ LAYERS = {
     "filtering": 8,
     "synthesis": 9, "plane": 9,
     "mixing": 10, "surface": 10,
-    "batch": 11, "demo": 11, "view_core": 11,
-    "view": 12,
+    "bake": 11, "demo": 11, "view_core": 11,
+    "batch": 12, "view": 12,
     "cli": 13,
     "__init__": 14,
 }

@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 import pickle
 import re
+import sys
 from concurrent.futures import Executor, Future
 from pathlib import Path
 
@@ -20,6 +21,7 @@ import trimesh
 from PIL import Image
 
 from warp_texton import Texton, TextonError, texture_mesh
+from warp_texton.surface import linear_to_srgb
 from warp_texton.batch import JobResult, SurfaceJob, expand_meshes, run_batch, run_surface_job
 from helpers import parts, run_cli
 
@@ -67,14 +69,16 @@ def load(path) -> trimesh.Trimesh:
     return trimesh.load(str(path), force="mesh", process=False)
 
 
-def expected_colours(mesh_path, texton_path, seed=0, mni=60.0):
-    """What a job computes: texel = bounding-box diagonal / 256, then texture_mesh."""
+def expected_colours(mesh_path, texton_path, seed=0, mni=60.0, linear=False):
+    """What a job computes: texel = bounding-box diagonal / 256, then texture_mesh
+    (linear colours for glTF's COLOR_0)."""
     from warp_texton import load_texton
 
     mesh = load(mesh_path)
     lo, hi = mesh.bounds
     texel = float(np.linalg.norm(hi - lo)) / 256.0
-    out = texture_mesh(mesh, load_texton(texton_path), texel, mni=mni, seed=seed, device="cpu")
+    out = texture_mesh(mesh, load_texton(texton_path), texel, mni=mni, seed=seed, device="cpu", linear=linear,
+                       warn=False)
     return np.asarray(out.visual.vertex_colors)
 
 
@@ -231,7 +235,7 @@ class TestRunBatch:
 
         jobs = [SurfaceJob(str(mesh_dir / "ball.ply"), str(texton_path), str(tmp_path / "o"))]
         (res,) = run_batch(jobs, executor=LostWorkers())
-        assert res.status == "failed" and res.message == "RuntimeError: worker lost"
+        assert res.status == "failed" and res.message == f"{jobs[0].mesh}: RuntimeError: worker lost"
         assert res.mesh == str(mesh_dir / "ball.ply")
 
 
@@ -254,10 +258,16 @@ class TestCli:
             c = np.asarray(mesh.visual.vertex_colors)
             assert c.shape == (len(source.vertices), 4)
             np.testing.assert_allclose(mesh.vertices, source.vertices, atol=1e-6)
-            np.testing.assert_array_equal(c, expected_colours(mesh_dir / src, texton_path))
+            np.testing.assert_array_equal(c, expected_colours(mesh_dir / src, texton_path, linear=fmt == "glb"))
             # the texton's mean colour: 162 (ball) or 288 (ring) vertices ≥ 20 texels apart
-            # (independent), sd 0.08 each: 5 sd of the mean ≤ 0.032 ≪ the 0.2 between channels
-            assert np.all(np.abs(c[:, :3].mean(axis=0) / 255 - MEAN) < 5 * 0.08 / np.sqrt(len(c)) + 0.5 / 255)
+            # (independent), sd 0.08 each: 5 sd of the mean ≤ 0.032 ≪ the 0.2 between channels.
+            # glTF's COLOR_0 is linear: decoded back to sRGB, its 8-bit steps reach 0.5/255 × 3.1
+            # at the darkest channel (linear 0.07, where d sRGB / d linear ≈ 3.1)
+            g = c[:, :3] / 255
+            if fmt == "glb":
+                g = linear_to_srgb(g)
+            step = 0.5 / 255 * (3.1 if fmt == "glb" else 1.0)
+            assert np.all(np.abs(g.mean(axis=0) - MEAN) < 5 * 0.08 / np.sqrt(len(c)) + step)
         assert parts(out) == []
 
     def test_render_has_the_asked_size(self, tmp_path, mesh_dir, texton_path, capsys):
@@ -444,3 +454,235 @@ def test_dask_reruns_a_job_whose_input_changed(tmp_path, mesh_dir, texton_path, 
     assert res.status == "done"
     assert (out / "ball.ply").stat().st_mtime != OLD, "the job was not run: the output is stale"
     assert len(load(out / "ball.ply").vertices) == 642
+
+
+# --------------------------------------------------------------------------- #
+# Baked textures, up axes, textons from images, Ctrl-C, a cluster             #
+# --------------------------------------------------------------------------- #
+def err_lines(err: str) -> list[str]:
+    return [ln for ln in err.splitlines() if ln.startswith("warp-texton: error:")]
+
+
+class TestBakeCli:
+    def test_bake_writes_glb_with_a_texture(self, tmp_path, mesh_dir, texton_path, capsys):
+        pytest.importorskip("xatlas")
+        out = tmp_path / "out"
+        status = surface(mesh_dir, texton_path, out, extra=["--bake", "64"])
+        captured = capsys.readouterr()
+        assert status == 0, captured.err
+        assert summary(captured.err) == (2, 0, 0)
+        assert sorted(p.name for p in out.iterdir()) == ["ball.glb", "ring.glb"]
+        for stem in ("ball", "ring"):
+            (mesh,) = trimesh.load(out / f"{stem}.glb", process=False).geometry.values()
+            assert isinstance(mesh.visual, trimesh.visual.TextureVisuals)
+            assert mesh.visual.material.baseColorTexture.size == (64, 64)
+            # the note tells how fine the texture is
+            assert re.search(rf"note: .*{stem}\.\w+: 64x64 texture, [\d.]+ texels per texton texel", captured.err)
+        assert parts(out) == []
+
+    def test_bake_obj_texture_and_render_then_skip(self, tmp_path, mesh_dir, texton_path, capsys):
+        pytest.importorskip("xatlas")
+        out = tmp_path / "out"
+        extra = ["--bake", "32", "--format", "obj", "--texture", "exr", "--render", "16x12", "-q"]
+        assert surface(mesh_dir, texton_path, out, "ball.ply", extra=extra) == 0
+        names = ["ball.mtl", "ball.obj", "ball.png", "ball_render.png", "ball_texture.exr"]
+        assert sorted(p.name for p in out.iterdir()) == names
+        with Image.open(out / "ball_render.png") as im:
+            assert im.size == (16, 12)
+        capsys.readouterr()
+        assert surface(mesh_dir, texton_path, out, "ball.ply", extra=extra) == 0
+        assert summary(capsys.readouterr().err) == (0, 1, 0)
+
+    @pytest.mark.parametrize(
+        "extra, match",
+        [
+            (["--bake", "0"], r"--bake must be at least 1"),
+            (["--bake", "20000"], r"--bake must be at most 16384"),
+            (["--bake", "x"], r"invalid int value"),
+            (["--bake", "32", "--format", "ply"], r"--bake writes --format glb or obj"),
+            (["--bake", "32", "--max-edge", "2"], r"--max-edge subdivides for vertex colours"),
+            (["--texture", "png"], r"--texture applies to baked textures: add --bake RES"),
+            (["--uv", "atlas"], r"--uv applies to baked textures"),
+            (["--bake", "32", "--exr-linear"], r"--exr-linear applies to --texture exr"),
+            (["--bake", "32", "--supersample", "0"], r"--supersample must be at least 1"),
+            (["--view", "30"], r"--view must be AZIMUTH,ELEVATION"),
+            (["--view", "30,95"], r"--view: view elevation must be finite and strictly between -90 and 90"),
+            (["--fov", "200"], r"--fov must be below 180"),
+            (["--up", "w"], r"invalid choice: 'w'"),
+        ],
+    )
+    def test_usage_errors(self, tmp_path, mesh_dir, texton_path, capsys, extra, match):
+        out = tmp_path / "out"
+        status = surface(mesh_dir, texton_path, out, extra=extra)
+        captured = capsys.readouterr()
+        assert status == 2
+        lines = captured.err.splitlines()
+        assert len(lines) == 1 and re.search(match, lines[0]), captured.err
+        assert "Traceback" not in captured.err
+        assert not out.exists() or list(out.iterdir()) == []
+
+    def test_missing_xatlas_fails_each_mesh_with_the_reason(self, tmp_path, mesh_dir, texton_path, capsys,
+                                                             monkeypatch):
+        monkeypatch.setitem(sys.modules, "xatlas", None)  # as if not installed
+        out = tmp_path / "out"
+        status = surface(mesh_dir, texton_path, out, extra=["--bake", "32", "-q"])
+        captured = capsys.readouterr()
+        assert status == 1 and summary(captured.err) == (0, 0, 2)
+        lines = err_lines(captured.err)
+        assert len(lines) == 2
+        for line, name in zip(lines, ("ball.ply", "ring.obj")):
+            assert re.match(rf"warp-texton: error: \S*{re.escape(name)}: making a UV atlas needs the xatlas package: "
+                            r"pip install 'warp-texton\[mesh\]'", line), line
+        assert list(out.iterdir()) == []
+
+    def test_bad_meshes_are_named_in_the_package_words(self, tmp_path, mesh_dir, texton_path, capsys):
+        header = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n" \
+                 "element face 1\nproperty list uchar int vertex_indices\nend_header\n"
+        (mesh_dir / "nan.ply").write_text(header + "0 0 0\n1 0 nan\n0 1 0\n3 0 1 2\n")
+        (mesh_dir / "index.ply").write_text(header + "0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n")
+        far = trimesh.creation.icosphere(subdivisions=1)
+        far.apply_translation((1e12, 0, 0))
+        far.export(mesh_dir / "far.ply")
+        out = tmp_path / "out"
+        status = surface(mesh_dir, texton_path, out, "nan.ply", "index.ply", "far.ply", "ball.ply",
+                         extra=["--texel-size", "0.01", "-q"])
+        captured = capsys.readouterr()
+        assert status == 1 and summary(captured.err) == (1, 0, 3)
+        lines = err_lines(captured.err)
+        assert re.search(r"nan\.ply: 1 vertices have NaN or infinite coordinates$", lines[0]), lines[0]
+        assert re.search(r"index\.ply: faces index vertices that do not exist \(indices up to 7, 3 vertices\)$",
+                         lines[1]), lines[1]
+        assert re.search(r"far\.ply: the mesh's vertices lie too far from the origin for this texel_size: "
+                         r"1e\+14 texels", lines[2]), lines[2]
+        assert "Traceback" not in captured.err
+        assert sorted(p.name for p in out.iterdir()) == ["ball.ply"]
+
+    def test_vertex_spacing_warning_names_each_mesh_once(self, tmp_path, mesh_dir, texton_path, capsys):
+        status = surface(mesh_dir, texton_path, tmp_path / "out", extra=["-q"])
+        captured = capsys.readouterr()
+        assert status == 0
+        warns = [ln for ln in captured.err.splitlines() if ln.startswith("warp-texton: warning:")]
+        assert len(warns) == 2
+        for line, name in zip(warns, ("ball.ply", "ring.obj")):
+            assert re.search(rf"{re.escape(name)}: vertices are [\d.]+ texels apart .*--bake RES.*--max-edge 1",
+                             line), line
+
+
+class TestUpAxisJobs:
+    def test_auto_up_is_y_for_gltf(self):
+        from warp_texton.batch import resolve_up
+
+        assert resolve_up("auto", "a/b.GLB") == "y" and resolve_up("auto", "x.gltf") == "y"
+        assert resolve_up("auto", "x.ply") == "z" and resolve_up("auto", "x.obj") == "z"
+        assert resolve_up("x", "x.glb") == "x"
+        with pytest.raises(TextonError, match="up must be one of auto, x, y, z"):
+            resolve_up("w", "x.ply")
+
+    def test_the_job_renders_with_its_up_view_and_fov(self, tmp_path, mesh_dir, texton_path):
+        from warp_texton import load_texton, render_mesh
+
+        box = trimesh.creation.box(extents=(1.0, 3.0, 1.0))
+        box.export(tmp_path / "tall.glb")
+        job = SurfaceJob(str(tmp_path / "tall.glb"), str(texton_path), str(tmp_path / "out"), render=(24, 24),
+                         view=(-30.0, 15.0), fov=50.0, device="cpu")
+        assert run_surface_job(job).status == "done"
+        mesh = load(tmp_path / "tall.glb")
+        lo, hi = mesh.bounds
+        texel = float(np.linalg.norm(hi - lo)) / 256
+        want = render_mesh(mesh, load_texton(texton_path), (24, 24), texel, up="y", view=(-30.0, 15.0), fov=50.0,
+                           device="cpu")
+        got = np.asarray(Image.open(tmp_path / "out" / "tall.png"), np.float32) / 255
+        np.testing.assert_allclose(got, want, atol=0.5 / 255 + 1e-6)
+
+
+class TestTextonImage:
+    def test_an_image_is_analysed_once_for_the_batch(self, tmp_path, mesh_dir, capsys, monkeypatch):
+        import warp_texton.analysis as analysis
+        from warp_texton import analyze, read_image
+
+        rng = np.random.default_rng(0)
+        img = (0.5 + 0.1 * rng.standard_normal((48, 48, 3))).clip(0, 1)
+        Image.fromarray((img * 255).round().astype(np.uint8)).save(tmp_path / "wood.png")
+        calls = []
+        real = analysis.analyze
+
+        def counting(*a, **k):
+            calls.append(1)
+            return real(*a, **k)
+
+        monkeypatch.setattr(analysis, "analyze", counting)
+        out = tmp_path / "out"
+        status = surface(mesh_dir, tmp_path / "wood.png", out, extra=["--size", "8", "--seed", "3", "-q"])
+        assert status == 0, capsys.readouterr().err
+        assert len(calls) == 1
+        # the same files as with the texton of that image saved first
+        texton = real(read_image(tmp_path / "wood.png"), size=8, seed=3)
+        texton.save(tmp_path / "wood.exr")
+        assert surface(mesh_dir, tmp_path / "wood.exr", tmp_path / "ref", extra=["--seed", "3", "-q"]) == 0
+        for name in ("ball.ply", "ring.ply"):
+            assert (out / name).read_bytes() == (tmp_path / "ref" / name).read_bytes()
+        assert analyze is not None
+
+
+class TestInterrupt:
+    def test_ctrl_c_cancels_the_queue_and_exits_130(self, tmp_path, mesh_dir, texton_path, capsys, monkeypatch):
+        import _thread
+        import threading
+        import time
+
+        import warp_texton.batch as batch
+
+        for k in range(4):
+            trimesh.creation.icosphere(subdivisions=2).export(mesh_dir / f"m{k}.ply")
+        real = batch.run_surface_job
+
+        def slow(job, token=None):
+            time.sleep(0.4)
+            return real(job, token)
+
+        monkeypatch.setattr(batch, "run_surface_job", slow)
+        out = tmp_path / "out"
+
+        def interrupt_after_the_first_mesh():
+            deadline = time.monotonic() + 20
+            while not (out / "m0.ply").exists() and time.monotonic() < deadline:
+                time.sleep(0.01)
+            _thread.interrupt_main()
+
+        threading.Thread(target=interrupt_after_the_first_mesh, daemon=True).start()
+        status = surface(mesh_dir, texton_path, out, *(f"m{k}.ply" for k in range(4)), extra=["-q", "--jobs", "1"])
+        captured = capsys.readouterr()
+        assert status == 130
+        assert "Traceback" not in captured.err + captured.out
+        last = captured.err.strip().splitlines()[-1]
+        m = re.match(r"^warp-texton: interrupted: (\d+) done, 0 skipped, 0 failed, (\d+) cancelled$", last)
+        assert m, captured.err
+        done, cancelled = int(m.group(1)), int(m.group(2))
+        assert done >= 1 and cancelled >= 1 and done + cancelled == 4
+        written = sorted(p.name for p in out.iterdir())
+        assert len(written) == done and parts(out) == []
+        for name in written:
+            assert len(load(out / name).vertices) == 162  # whole files only
+
+
+@pytest.mark.slow
+def test_cli_scheduler_runs_on_a_dask_cluster(tmp_path, mesh_dir, texton_path, capsys):
+    distributed = pytest.importorskip("dask.distributed")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=None) as cluster:
+        status = surface(mesh_dir, texton_path, tmp_path / "dask", extra=["--scheduler", cluster.scheduler_address,
+                                                                         "-q"])
+        captured = capsys.readouterr()
+        assert status == 0, captured.err
+        assert summary(captured.err) == (2, 0, 0)
+    assert surface(mesh_dir, texton_path, tmp_path / "threads", extra=["-q"]) == 0
+    for name in ("ball.ply", "ring.ply"):
+        assert (tmp_path / "dask" / name).read_bytes() == (tmp_path / "threads" / name).read_bytes()
+
+
+def test_cli_scheduler_that_cannot_be_reached(tmp_path, mesh_dir, texton_path, capsys):
+    pytest.importorskip("dask.distributed")
+    status = surface(mesh_dir, texton_path, tmp_path / "out", extra=["--scheduler", "tcp://127.0.0.1:9", "-q"])
+    captured = capsys.readouterr()
+    assert status == 2 and len(captured.err.splitlines()) == 1
+    assert re.match(r"warp-texton: error: --scheduler tcp://127\.0\.0\.1:9: cannot connect", captured.err)

@@ -37,6 +37,9 @@ from warp_texton import Camera, Texton, TextonError, render_mesh, surface_noise,
 from warp_texton.bspline import bspline
 from warp_texton.surface import UP, vertex_normals
 
+# the vertex-colour spacing warning is tested in TestVertexSpacing; elsewhere it is expected
+pytestmark = pytest.mark.filterwarnings("ignore:.*texels apart:UserWarning")
+
 A = np.array(UP)  # the frame rule's `up` (0, 0, 1)
 B = np.array((1.0, 0.0, 0.0))  # and its `side`
 
@@ -782,6 +785,18 @@ def _pyvista_examples():
 
 
 PYVISTA_EXAMPLES = _pyvista_examples()
+
+
+def _bunny():
+    """The Stanford bunny (a range scan with holes, Z up) as pymeshfix ships it, or None."""
+    spec = importlib.util.find_spec("pymeshfix")  # no import: pymeshfix needs VTK
+    if spec is None or not spec.submodule_search_locations:
+        return None
+    path = Path(spec.submodule_search_locations[0]) / "examples" / "StanfordBunny.ply"
+    return path if path.is_file() else None
+
+
+BUNNY = _bunny()
 REAL_MESHES = ("nut.ply", "ant.ply", "airplane.ply", "sphere.ply")
 
 
@@ -845,6 +860,29 @@ class TestDeviceMatchesCpu:
         b = surface_noise(t, p, n, 0.03, seed=5, device=gpu)
         np.testing.assert_allclose(a, b, atol=1e-4 * noise_sd(t))
 
+    def test_blocks_match_cpu(self, gpu):
+        # clusters, lists and the gather on the device: the CPU walk's values
+        t = random_texton(channels=3, seed=43)
+        mesh = trimesh.creation.icosphere(subdivisions=5)
+        n = vertex_normals(mesh)
+        a = surface_noise(t, mesh.vertices, n, 0.01, seed=6, device="cpu", method="points")
+        b = surface_noise(t, mesh.vertices, n, 0.01, seed=6, device=gpu, method="blocks")
+        np.testing.assert_allclose(a, b, atol=1e-4 * noise_sd(t))
+
+    def test_bake_matches_cpu(self, gpu):
+        from warp_texton import bake_mesh
+
+        t = small_texton()
+        mesh = trimesh.creation.icosphere(subdivisions=3)
+        mesh.visual = trimesh.visual.TextureVisuals(uv=(mesh.vertices[:, :2] + 1) / 2)  # overlapping: refused
+        with pytest.raises(TextonError, match="overlap"):
+            bake_mesh(mesh, t, 0.02, 64, device=gpu)
+        plane = plane_mesh(n=5)
+        plane.visual = trimesh.visual.TextureVisuals(uv=np.asarray(plane.vertices)[:, :2])
+        a = bake_mesh(plane, t, 1 / 64, 64, device="cpu").texture
+        b = bake_mesh(plane, t, 1 / 64, 64, device=gpu).texture
+        np.testing.assert_allclose(a, b, atol=1e-4 * noise_sd(t))
+
     def test_render_matches_cpu(self, gpu):
         t = small_texton()
         mesh = trimesh.creation.torus(1.0, 0.3)
@@ -852,3 +890,259 @@ class TestDeviceMatchesCpu:
         b = render_mesh(mesh, t, (40, 40), device=gpu)
         # a ray grazing an edge may hit another face on the other device: allow a few pixels
         assert np.mean(np.any(np.abs(a - b) > 1e-4, axis=2)) < 0.01
+
+
+# --------------------------------------------------------------------------- #
+# 10. Blocks of points = the per-point walk                                   #
+# --------------------------------------------------------------------------- #
+def _same_values(a, b, t, device):
+    """The block path and the walk sum the same terms in the same order.
+
+    On the CPU both kernels compile the same @wp.func expressions (cube_offset,
+    impact_offset3, slab_term) into the same operations, so they agree bit for bit.
+    Elsewhere a compiler may fuse a·b + c differently in the two kernels: each
+    term then moves by a few float32 ulps (≈ 1e-6 of it) and a sum of ≤ 10³ terms
+    of size ≤ 1 by ≤ 1e-3 · 1e-6 · 10³ … well below 1e-4 of the noise's sd.
+    """
+    if str(device) == "cpu":
+        np.testing.assert_array_equal(a, b)
+    else:
+        np.testing.assert_allclose(a, b, atol=1e-4 * noise_sd(t))
+
+
+class TestBlocks:
+    @pytest.mark.parametrize("order", [0, 1, 3, 5])
+    def test_blocks_equal_the_walk_on_random_points(self, order, device):
+        rng = np.random.default_rng(100 + order)
+        t = random_texton(tuple(int(v) for v in rng.integers(3, 11, 2)), channels=3, order=order, seed=rng)
+        p = rng.uniform(-40, 40, (4000, 3))
+        n = rng.normal(size=(4000, 3))
+        for tangents in (None, np.cross(n, rng.normal(size=3))):
+            kw = dict(seed=int(rng.integers(0, 2**32)), mni=float(rng.uniform(5, 80)), tangents=tangents,
+                      device=device)
+            a = surface_noise(t, p, n, 0.07, method="blocks", **kw)
+            b = surface_noise(t, p, n, 0.07, method="points", **kw)
+            _same_values(a, b, t, device)
+            assert a.std(axis=0).min() > 0.3 * noise_sd(t)
+
+    @pytest.mark.parametrize("shape", ["sphere", "torus", "noisy"])
+    def test_blocks_equal_the_walk_on_meshes(self, shape, device):
+        rng = np.random.default_rng(7)
+        t = random_texton(channels=1, seed=8)
+        if shape == "sphere":
+            mesh = trimesh.creation.icosphere(subdivisions=4, radius=3.0)
+        elif shape == "torus":
+            mesh = trimesh.creation.torus(2.0, 0.6)
+            mesh.apply_translation((-3e4, 1e4, 2e3))  # far from the origin too
+        else:  # normals that jump from vertex to vertex: clusters with wide frames
+            mesh = trimesh.creation.icosphere(subdivisions=3)
+            mesh.vertices = mesh.vertices + rng.normal(scale=0.05, size=mesh.vertices.shape)
+        n = vertex_normals(mesh)
+        a = surface_noise(t, mesh.vertices, n, 0.01, seed=3, device=device, method="blocks")
+        b = surface_noise(t, mesh.vertices, n, 0.01, seed=3, device=device, method="points")
+        _same_values(a, b, t, device)
+
+    def test_overflowing_cluster_lists_fall_back_to_the_block(self, device, monkeypatch):
+        import warp_texton.surface as S
+
+        t = random_texton(channels=3, seed=9)
+        mesh = trimesh.creation.icosphere(subdivisions=4)
+        n = vertex_normals(mesh)
+        want = surface_noise(t, mesh.vertices, n, 0.02, device=device, method="points")
+        for cap, per_round, cubes in ((8, 1 << 13, 1 << 20), (1024, 3, 50)):  # every list overflows; tiny rounds
+            monkeypatch.setattr(S, "CLUSTER_CAP", cap)
+            monkeypatch.setattr(S, "CLUSTERS_PER_ROUND", per_round)
+            monkeypatch.setattr(S, "CUBES_PER_ROUND", cubes)
+            _same_values(surface_noise(t, mesh.vertices, n, 0.02, device=device, method="blocks"), want, t, device)
+
+    def test_auto_walks_few_points_and_blocks_many(self, device, monkeypatch):
+        import warp_texton.surface as S
+
+        t = random_texton(channels=1, seed=3)
+        p = np.random.default_rng(4).normal(size=(300, 3))
+        used = []
+        monkeypatch.setattr(S, "gather_blocks", lambda *a: used.append("blocks") or np.zeros((len(a[3]), 3),
+                                                                                           np.float32))
+        surface_noise(t, p, p, 0.05, device=device)
+        assert used == []
+        monkeypatch.setattr(S, "AUTO_MIN_POINTS", 100)
+        surface_noise(t, p, p, 0.05, device=device)
+        assert used == ["blocks"]
+
+    def test_memory_budget(self, device):
+        from warp_texton.limits import set_memory_budget
+
+        p = np.random.default_rng(5).normal(size=(5000, 3))
+        set_memory_budget("1M")
+        try:
+            with pytest.raises(TextonError, match=r"surface noise at 5000 points needs about .* over the memory "
+                                                  r"budget of 1 MiB"):
+                surface_noise(T1, p, p, 0.05, device=device, method="blocks")
+        finally:
+            set_memory_budget(None)
+
+    def test_method_is_checked(self, device):
+        with pytest.raises(TextonError, match="method must be one of auto, blocks, points"):
+            surface_noise(T1, P1, N1, 1.0, device=device, method="fast")
+        with pytest.raises(TextonError, match="method must be one of auto, blocks, points"):
+            render_mesh(trimesh.creation.icosphere(1), T1, (8, 8), device=device, method="fast")
+
+
+# --------------------------------------------------------------------------- #
+# 11. Far from the origin: float64 cube lookup                                #
+# --------------------------------------------------------------------------- #
+class TestFarFromOrigin:
+    def test_noise_varies_at_sub_texel_steps_far_away(self, device):
+        """At 3·10⁸ texels a float32 position has a step of 32 texels: points 10⁻² texel apart
+        would share their offsets and values. In float64 the values move continuously:
+        by at most Lip·δ, and by something on nearly every point."""
+        t = random_texton(channels=1, seed=11)
+        rng = np.random.default_rng(12)
+        n = rng.normal(size=(3000, 3))
+        u1, _ = tangent_frames(n)
+        far = np.array([3e8, -2e8, 1e8]) + rng.uniform(-500, 500, (3000, 3))
+        delta = 1e-2
+        a = surface_noise(t, far, n, 1.0, seed=4, device=device)[:, 0]
+        b = surface_noise(t, far + delta * u1, n, 1.0, seed=4, device=device)[:, 0]
+        assert np.mean(a != b) > 0.95
+        # continuous: in the linear regime twice the step moves the values twice as much
+        # (float32 offsets would give 0 or jumps of the order of the sd instead)
+        c = surface_noise(t, far + 2 * delta * u1, n, 1.0, seed=4, device=device)[:, 0]
+        ratio = np.abs(c - a).mean() / np.abs(b - a).mean()
+        assert 1.7 < ratio < 2.3, ratio
+        assert np.abs(a - b).max() < 0.1 * noise_sd(t)
+        # the values far away have the texton's mean and variance (points ≥ r√3 apart: independent)
+        p, nn, texel = independent_points("tilted plane", t)
+        g = surface_noise(t, p + np.array([3e8, -2e8, 1e8]) * texel, nn, texel, seed=5, device=device)[:, 0]
+        c0 = t.covariance()[0, 0]
+        assert abs(g.mean() - t.mean[0]) < 5 * math.sqrt(c0 / len(g))
+        assert abs(g.var() / c0 - 1) < 5 * math.sqrt(2 / len(g)) + 0.05
+
+    def test_render_of_a_far_mesh(self, device):
+        t = small_texton(channels=1, sd=0.08, mean=(0.55,))
+        near = trimesh.creation.icosphere(subdivisions=4)
+        far = near.copy()
+        far.apply_translation((2e6, -1e6, 5e5))  # 1.5e8 texels at texel 0.01: float32 steps of 8 texels
+        cam_near = Camera(position=(0, -4.0, 1.0), target=(0, 0, 0), fov=40.0)
+        shift = np.array([2e6, -1e6, 5e5])
+        cam_far = Camera(tuple(np.array(cam_near.position) + shift), tuple(shift), fov=40.0)
+        a = render_mesh(near, t, (48, 48), 0.01, cam_near, device=device)
+        b = render_mesh(far, t, (48, 48), 0.01, cam_far, device=device)
+        hit_a, hit_b = np.any(a != np.float32(0.92), axis=2), np.any(b != np.float32(0.92), axis=2)
+        assert np.mean(hit_a != hit_b) < 0.01 and hit_b.mean() > 0.3  # the same silhouette
+        # noise, not flat patches: neighbouring hit pixels differ as much as near the origin
+        da = np.abs(np.diff(a[:, :, 0], axis=1))[hit_a[:, 1:] & hit_a[:, :-1]].mean()
+        db = np.abs(np.diff(b[:, :, 0], axis=1))[hit_b[:, 1:] & hit_b[:, :-1]].mean()
+        assert 0.7 < db / da < 1.4
+
+    def test_meshes_beyond_the_cube_range_raise_the_surface_noise_error(self, device):
+        mesh = trimesh.creation.icosphere(subdivisions=1)
+        mesh.apply_translation((1e8, 0, 0))
+        with pytest.raises(TextonError, match="too far from the origin") as points_error:
+            surface_noise(T1, mesh.vertices, mesh.vertices, 0.01, device=device)
+        with pytest.raises(TextonError, match="too far from the origin") as render_error:
+            render_mesh(mesh, T1, (8, 8), texel_size=0.01, device=device)
+        tail = str(points_error.value).split(": ", 1)[1]
+        assert str(render_error.value).endswith(tail)  # the same limit and advice
+        with pytest.raises(TextonError, match="too far from the origin"):
+            texture_mesh(mesh, T1, 0.01, device=device)
+
+    @pytest.mark.parametrize("texel", [1e-300, 1e-12])
+    def test_absurd_texel_sizes_are_refused(self, texel, device):
+        mesh = trimesh.creation.icosphere(subdivisions=1)
+        with pytest.raises(TextonError, match="too far from the origin for this texel_size"):
+            render_mesh(mesh, T1, (8, 8), texel_size=texel, device=device)
+
+
+# --------------------------------------------------------------------------- #
+# 12. Up axes, views, vertex spacing                                          #
+# --------------------------------------------------------------------------- #
+class TestUpAxis:
+    @pytest.mark.parametrize("up", ["x", "y", "z", (1.0, 2.0, -0.5)])
+    def test_up_rotation_is_a_rotation_taking_z_to_up(self, up):
+        from warp_texton.surface import up_rotation, up_vector
+
+        r = up_rotation(up)
+        np.testing.assert_allclose(r.T @ r, np.eye(3), atol=1e-12)
+        assert np.linalg.det(r) == pytest.approx(1.0)
+        np.testing.assert_allclose(r[:, 2], up_vector(up), atol=1e-12)
+
+    def test_y_up_is_gltf(self):
+        from warp_texton.surface import frame_rule, up_rotation
+
+        # glTF: +Y up, +Z towards the front viewer, +X right; the Z-up frame's front is −Y
+        r = up_rotation("y")
+        np.testing.assert_array_equal(r @ [0, -1.0, 0], [0, 0, 1.0])
+        np.testing.assert_array_equal(r @ [1.0, 0, 0], [1.0, 0, 0])
+        a, b = frame_rule("y")
+        np.testing.assert_array_equal(a, [0, 1.0, 0])
+        np.testing.assert_array_equal(b, [1.0, 0, 0])
+        # the default side of the x axis is y (x itself would be parallel to up)
+        np.testing.assert_array_equal(frame_rule("x")[1], [0, 1.0, 0])
+
+    def test_view_direction(self):
+        from warp_texton.surface import view_direction
+
+        np.testing.assert_allclose(view_direction((-90, 0)), [0, -1, 0], atol=1e-12)  # the front
+        np.testing.assert_allclose(view_direction((0, 90 - 1e-9)), [0, 0, 1], atol=1e-9)
+        np.testing.assert_allclose(view_direction((-90, 0), up="y"), [0, 0, 1], atol=1e-12)
+        for bad in ((0, 90), (0, float("nan")), (1, 2, 3), "ab"):
+            with pytest.raises(TextonError, match="view"):
+                view_direction(bad)
+
+    @pytest.mark.parametrize("up", ["y", "x"])
+    def test_a_tall_box_renders_upright_for_its_up_axis(self, up, device):
+        """A box 3 units tall along the up axis: its silhouette must be taller than wide
+        when rendered with that up (sideways with the Z default)."""
+        t = small_texton()
+        extents = {"y": (1.0, 3.0, 1.0), "x": (3.0, 1.0, 1.0)}[up]
+        box = trimesh.creation.box(extents=extents)
+        for axis, tall in ((up, True), ("z", False)):
+            img = render_mesh(box, t, (64, 64), up=axis, view=(-60, 10), device=device)
+            rows, cols = np.nonzero(np.any(img != np.float32(0.92), axis=2))
+            height, width = np.ptp(rows), np.ptp(cols)
+            assert (height > 1.5 * width) == tall, (axis, height, width)
+
+    def test_real_meshes_upright_by_default(self, device):
+        """pyvista's airplane (and the Stanford bunny shipped by pymeshfix): Z-up PLY files. Upright: the
+        up axis projects upwards in the image (the camera's up is the world's), and the mesh's
+        lowest parts (along up) land in the lowest rows of the render."""
+        for name, path in (("airplane", PYVISTA_EXAMPLES and PYVISTA_EXAMPLES / "airplane.ply"),
+                           ("bunny", BUNNY)):
+            if path is None or not Path(path).is_file():
+                pytest.skip(f"{name} mesh not installed (pip install --no-deps pyvista pymeshfix)")
+            mesh = trimesh.load(path, force="mesh", process=False)
+            cam = Camera.framing(mesh)
+            np.testing.assert_array_equal(cam.up, [0, 0, 1.0])
+            t = small_texton()
+            img = render_mesh(mesh, t, (64, 64), device=device)
+            hit = np.any(img != np.float32(0.92), axis=2)
+            rows = np.nonzero(hit)[0]
+            # the bottom slab of the mesh (lowest 10 % along z) projects below its top slab
+            v = np.asarray(mesh.vertices)
+            z = v[:, 2]
+            low, high = v[z < np.percentile(z, 10)].mean(axis=0), v[z > np.percentile(z, 90)].mean(axis=0)
+            eye, target = np.array(cam.position), np.array(cam.target)
+            f = (target - eye) / np.linalg.norm(target - eye)
+            right = np.cross(f, cam.up)
+            right /= np.linalg.norm(right)
+            up_img = np.cross(right, f)
+            assert (low - eye) @ up_img / ((low - eye) @ f) < (high - eye) @ up_img / ((high - eye) @ f), name
+            assert rows.size > 100, name
+
+
+class TestVertexSpacing:
+    def test_spacing_and_the_warning(self, device):
+        from warp_texton.surface import vertex_spacing
+
+        mesh = plane_mesh(n=11, size=1.0)  # edges 0.1 and diagonals 0.141: median 0.1
+        assert vertex_spacing(mesh, 0.01) == pytest.approx(10.0)
+        with pytest.warns(UserWarning, match=r"^floor\.ply: vertices are 10 texels apart .*--bake RES\).*"
+                                             r"--max-edge 1\)"):
+            texture_mesh(mesh, T1, 0.01, name="floor.ply", device=device)
+        import warnings
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            texture_mesh(mesh, T1, 0.01, max_edge=1.0, device=device)  # subdivided: no warning
+            texture_mesh(mesh, T1, 0.2, device=device)  # edges of half a texel

@@ -24,14 +24,17 @@ from .synthesis import synthesize, evaluate
 from .plane import render_plane
 from .mixing import mix_textons, synthesize_mixed
 from .surface import Camera, render_mesh, surface_noise, tangent_frames, texture_mesh
+from .bake import BakedMesh, bake_mesh, render_baked, write_baked
 
 __all__ = [
+    "BakedMesh",
     "Camera",
     "FilterOptions",
     "Texton",
     "TextonError",
     "__version__",
     "analyze",
+    "bake_mesh",
     "dsn",
     "evaluate",
     "gaussian_texture",
@@ -40,6 +43,7 @@ __all__ = [
     "model_error",
     "periodic_component",
     "read_image",
+    "render_baked",
     "render_mesh",
     "render_plane",
     "surface_noise",
@@ -47,5 +51,6 @@ __all__ = [
     "synthesize_mixed",
     "tangent_frames",
     "texture_mesh",
+    "write_baked",
     "write_image",
 ]

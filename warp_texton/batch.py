@@ -18,41 +18,89 @@ from concurrent.futures import Executor, ThreadPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from .bake import bake_outputs
 from .errors import TextonError
+from .texton import Texton
 
 FORMATS = ("ply", "obj", "glb")
+#: ``up`` of a job: "auto" is Y for glTF/GLB (Y-up by definition), Z for the other formats.
+UP_CHOICES = ("auto", "x", "y", "z")
+#: Extensions whose format declares Y up.
+Y_UP_SUFFIXES = (".glb", ".gltf")
+
+
+def resolve_up(up: str, mesh_path: str) -> str:
+    """The up axis of a job: "auto" → "y" for .glb/.gltf, "z" otherwise."""
+    if up not in UP_CHOICES:
+        raise TextonError(f"up must be one of {', '.join(UP_CHOICES)}, got {up!r}")
+    if up == "auto":
+        return "y" if Path(mesh_path).suffix.lower() in Y_UP_SUFFIXES else "z"
+    return up
 
 
 @dataclass(frozen=True)
 class SurfaceJob:
-    """Texture one mesh file; outputs go to ``out_dir`` named after its stem."""
+    """Texture one mesh file; outputs go to ``out_dir`` named after its stem.
+
+    ``texton`` is a texton file or a :class:`Texton` (a batch analyses an
+    example image once and hands the texton to every job). With ``bake`` (a
+    texture side), the noise goes into a texture on UVs (see
+    :func:`warp_texton.bake_mesh`) and ``fmt`` is "glb" (default) or "obj";
+    without it, into vertex colours, ``fmt`` "ply" (default), "obj" or "glb".
+    """
 
     mesh: str
-    texton: str
+    texton: str | Texton
     out_dir: str
     texel_size: float | None = None  # world units per texel; None: surface.default_texel_size
     mni: float = 60.0
     seed: int = 0
     max_edge: float | None = None
     render: tuple[int, int] | None = None  # (height, width) of a PNG render, or None
-    fmt: str = "ply"
+    fmt: str | None = None  # None: "glb" with bake, else "ply"
     overwrite: bool = False
     device: str | None = None
+    bake: int | None = None  # texture side, or None for vertex colours
+    uv: str = "auto"  # "auto", "mesh" or "atlas" (see bake_mesh)
+    texture: str | None = None  # also write the texture alone: "png" or "exr"
+    exr_linear: bool = False  # an EXR texture holds the sRGB-decoded (linear) values
+    supersample: int | None = None  # samples per texel side of a bake; None: by the footprint
+    up: str = "auto"  # the mesh's up axis: "auto", "x", "y" or "z"
+    view: tuple[float, float] | None = None  # (azimuth, elevation) of the render, degrees
+    fov: float | None = None  # vertical field of view of the render, degrees
+
+    @property
+    def format(self) -> str:
+        return self.fmt or ("glb" if self.bake is not None else "ply")
 
     def outputs(self) -> list[Path]:
-        stem = Path(self.mesh).stem
-        out = [Path(self.out_dir) / f"{stem}.{self.fmt}"]
+        stem = Path(self.out_dir) / Path(self.mesh).stem
+        if self.bake is not None:
+            out = bake_outputs(stem, self.format, self.texture)
+        else:
+            out = [stem.with_name(f"{stem.name}.{self.format}")]
         if self.render is not None:
-            out.append(Path(self.out_dir) / f"{stem}.png")
+            out.append(stem.with_name(f"{stem.name}_render.png" if self.bake is not None and self.format == "obj"
+                                      else f"{stem.name}.png"))
         return out
 
 
 @dataclass(frozen=True)
 class JobResult:
     mesh: str
-    status: str  # "done", "skipped" or "failed"
+    status: str  # "done", "skipped", "failed" or "cancelled"
     message: str = ""
     outputs: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+
+
+class BatchInterrupted(KeyboardInterrupt):
+    """Ctrl-C during :func:`run_batch`: queued jobs were cancelled, running ones
+    finished; ``results`` says what each job did ("cancelled" for the queued)."""
+
+    def __init__(self, results):
+        super().__init__("interrupted")
+        self.results = results
 
 
 def expand_meshes(args) -> list[str]:
@@ -79,6 +127,7 @@ def expand_meshes(args) -> list[str]:
 
 
 def _load_mesh(path: str):
+    import numpy as np
     import trimesh
 
     p = Path(path)
@@ -90,6 +139,13 @@ def _load_mesh(path: str):
         raise TextonError(f"{path}: not a mesh that trimesh can read ({exc})") from None
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise TextonError(f"{path}: the file holds no triangles")
+    faces = np.asarray(mesh.faces)
+    if faces.min() < 0 or faces.max() >= len(mesh.vertices):
+        raise TextonError(f"{path}: faces index vertices that do not exist (indices up to {int(faces.max())}, "
+                          f"{len(mesh.vertices)} vertices)")
+    bad = ~np.isfinite(np.asarray(mesh.vertices, dtype=np.float64)).all(axis=1)
+    if bad.any():
+        raise TextonError(f"{path}: {int(bad.sum())} vertices have NaN or infinite coordinates")
     return mesh
 
 
@@ -100,37 +156,59 @@ def run_surface_job(job: SurfaceJob, token: str | None = None) -> JobResult:
     submission so that executors that cache results of equal calls (Dask's
     pure tasks) always run the job, whose inputs may have changed on disk.
     """
-    from .io import atomic_path, write_image
-    from .surface import default_texel_size, render_mesh, texture_mesh
-    from .texton import load_texton
-
     outputs = job.outputs()
     if not job.overwrite and all(p.exists() for p in outputs):
         return JobResult(job.mesh, "skipped", "outputs exist (use --overwrite)", [str(p) for p in outputs])
+    notes: list[str] = []
     try:
-        Path(job.out_dir).mkdir(parents=True, exist_ok=True)  # on a cluster worker too
-        texton = load_texton(job.texton)
-        mesh = _load_mesh(job.mesh)
-        texel = default_texel_size(mesh) if job.texel_size is None else job.texel_size
-        textured = texture_mesh(mesh, texton, texel, mni=job.mni, seed=job.seed, max_edge=job.max_edge,
-                                device=job.device)
-        buf = io.BytesIO()
-        textured.export(buf, file_type=job.fmt)
-        img = None
-        if job.render is not None:  # computed before anything is written: all outputs or none
-            img = render_mesh(mesh, texton, job.render, texel_size=texel, mni=job.mni, seed=job.seed,
-                              device=job.device)
-        with atomic_path(outputs[0]) as tmp:
-            Path(tmp).write_bytes(buf.getvalue())
-        if img is not None:
-            write_image(outputs[1], img)
+        _run(job, outputs, notes)
     except TextonError as exc:
-        return JobResult(job.mesh, "failed", str(exc))
+        message = str(exc)
+        return JobResult(job.mesh, "failed", message if message.startswith(job.mesh) else f"{job.mesh}: {message}")
     except OSError as exc:
         return JobResult(job.mesh, "failed", f"{exc.filename or job.mesh}: {exc.strerror or exc}")
     except Exception as exc:  # a broken file must not stop the batch
         return JobResult(job.mesh, "failed", f"{job.mesh}: {type(exc).__name__}: {exc}")
-    return JobResult(job.mesh, "done", "", [str(p) for p in outputs])
+    return JobResult(job.mesh, "done", "", [str(p) for p in outputs], notes)
+
+
+def _run(job: SurfaceJob, outputs: list[Path], notes: list[str]) -> None:
+    from .bake import bake_mesh, write_baked
+    from .io import atomic_path, write_image
+    from .surface import default_texel_size, render_mesh, texture_mesh, vertex_spacing
+    from .texton import load_texton
+
+    Path(job.out_dir).mkdir(parents=True, exist_ok=True)  # on a cluster worker too
+    texton = job.texton if isinstance(job.texton, Texton) else load_texton(job.texton)
+    up = resolve_up(job.up, job.mesh)
+    mesh = _load_mesh(job.mesh)
+    texel = default_texel_size(mesh) if job.texel_size is None else job.texel_size
+    stem = Path(job.out_dir) / Path(job.mesh).stem
+    img = None
+    if job.render is not None:  # computed before anything is written: all outputs or none
+        img = render_mesh(mesh, texton, job.render, texel_size=texel, mni=job.mni, seed=job.seed,
+                          device=job.device, up=up, view=job.view, fov=job.fov)
+    if job.bake is not None:
+        baked = bake_mesh(mesh, texton, texel, job.bake, mni=job.mni, seed=job.seed, uv=job.uv,
+                          supersample=job.supersample, device=job.device, up=up, name=job.mesh)
+        write_baked(baked, stem, job.format, job.texture, job.exr_linear)
+        notes.append(f"{job.mesh}: {job.bake}x{job.bake} texture, {baked.texels_per_texton_texel:.3g} texels per "
+                     f"texton texel (median), noise samples per texel: {baked.samples:.3g} (mean), UVs from the "
+                     f"{baked.uv_source}")
+    else:
+        # glTF's COLOR_0 is linear by definition; PLY and OBJ keep the noise's sRGB-coded values
+        textured = texture_mesh(mesh, texton, texel, mni=job.mni, seed=job.seed, max_edge=job.max_edge,
+                                device=job.device, up=up, linear=job.format == "glb", warn=False)
+        spacing = vertex_spacing(textured, texel)
+        if spacing > 1.0:
+            notes.append(f"{job.mesh}: vertices are {spacing:.3g} texels apart (median edge), so vertex colours "
+                         "blur the texture; bake a texture (--bake RES) or subdivide (--max-edge 1)")
+        buf = io.BytesIO()
+        textured.export(buf, file_type=job.format)
+        with atomic_path(outputs[0]) as tmp:
+            Path(tmp).write_bytes(buf.getvalue())
+    if img is not None:
+        write_image(outputs[-1], img)
 
 
 def check_unique_outputs(jobs) -> None:
@@ -151,6 +229,9 @@ def run_batch(jobs, executor: Executor | None = None, jobs_in_parallel: int = 1,
 
     Returns the results in the order of ``jobs``. Any ``concurrent.futures``
     executor works, e.g. ``dask.distributed.Client(...).get_executor()``.
+    Ctrl-C cancels the jobs still queued, lets the running ones finish (their
+    files are written whole, or not at all) and raises :class:`BatchInterrupted`
+    with every job's result.
     """
     jobs = list(jobs)
     own = executor is None
@@ -161,22 +242,44 @@ def run_batch(jobs, executor: Executor | None = None, jobs_in_parallel: int = 1,
         from tqdm.auto import tqdm
 
         bar = tqdm(total=len(jobs), desc="surface", unit="mesh")
+    results: list[JobResult | None] = [None] * len(jobs)
+    futures = {}
+
+    def collect(fut, k):
+        try:
+            results[k] = fut.result()
+        except Exception as exc:  # the executor itself failed (e.g. a lost worker)
+            results[k] = JobResult(jobs[k].mesh, "failed", f"{jobs[k].mesh}: {type(exc).__name__}: {exc}")
+        if bar is not None:
+            bar.update()
+            if results[k].status == "failed":
+                bar.write(f"warp-texton: error: {results[k].message}", file=sys.stderr)
+
     try:
-        futures = {executor.submit(run_surface_job, job, uuid.uuid4().hex): k for k, job in enumerate(jobs)}
-        results: list[JobResult | None] = [None] * len(jobs)
+        for k, job in enumerate(jobs):
+            futures[executor.submit(run_surface_job, job, uuid.uuid4().hex)] = k
         for fut in as_completed(futures):
-            k = futures[fut]
-            try:
-                results[k] = fut.result()
-            except Exception as exc:  # the executor itself failed (e.g. a lost worker)
-                results[k] = JobResult(jobs[k].mesh, "failed", f"{type(exc).__name__}: {exc}")
-            if bar is not None:
-                bar.update()
-                if results[k].status == "failed":
-                    bar.write(f"warp-texton: error: {results[k].message}", file=sys.stderr)
+            collect(fut, futures[fut])
+    except KeyboardInterrupt:
+        for fut in futures:
+            fut.cancel()
+        for fut, k in futures.items():
+            if results[k] is not None:
+                continue
+            if fut.cancelled():
+                results[k] = JobResult(jobs[k].mesh, "cancelled", "interrupted before it started")
+                continue
+            try:  # a running job finishes: its outputs are complete or absent
+                fut.result()
+                collect(fut, k)
+            except BaseException:
+                results[k] = JobResult(jobs[k].mesh, "cancelled", "interrupted")
+        for k, job in enumerate(jobs[len(futures):], start=len(futures)):
+            results[k] = JobResult(job.mesh, "cancelled", "interrupted before it started")
+        raise BatchInterrupted(results) from None
     finally:
         if bar is not None:
             bar.close()
         if own:
-            executor.shutdown()
+            executor.shutdown(wait=True, cancel_futures=True)
     return results

@@ -34,7 +34,10 @@ EPILOG_MIX = """examples:
 """
 EPILOG_SURFACE = """examples:
   warp-texton surface scans/*.ply --texton wood.exr --out-dir textured --render 512x512
+  warp-texton surface scans/*.ply --texton wood.png --out-dir baked --bake 2048 --texture png
+  warp-texton surface model.glb --texton wood.exr --out-dir out --bake 1024 --format obj --render 800x600 --view 30,20
   warp-texton surface @meshes.txt --texton wood.texton --out-dir out --texel-size 0.002 --format glb --jobs 2
+  warp-texton surface 'scans/*.ply' --texton wood.exr --out-dir out --bake 2048 --scheduler tcp://head:8786
 """
 EPILOG_VIEW = """examples:
   warp-texton view wood.png                      # then open http://127.0.0.1:8000/
@@ -202,25 +205,47 @@ def build_parser() -> argparse.ArgumentParser:
     _add_analyze_options(p, seed=False)
 
     p = sub.add_parser("surface", help="texture meshes with surface noise (batch)",
-                       description="Colour the vertices of meshes with surface texton noise (CGF §6), no UVs "
-                                   "needed, and optionally render each one. Outputs are named after each "
+                       description="Put surface texton noise (CGF §6) on meshes: baked into a texture on UVs "
+                                   "(--bake RES: the mesh's own UVs, or an atlas made by xatlas) or as vertex "
+                                   "colours, and optionally render each one. Outputs are named after each "
                                    "input's stem; finished outputs are skipped unless --overwrite. One bad "
                                    "mesh is reported and the others still finish; the exit status is 1 if any "
-                                   "failed.",
+                                   "failed, 130 if interrupted.",
                        epilog=EPILOG_SURFACE, formatter_class=fmt)
     p.add_argument("meshes", nargs="+", metavar="MESH", help="mesh files, glob patterns, or @list.txt")
-    p.add_argument("--texton", required=True, help="texton file (.exr or .texton)")
+    p.add_argument("--texton", required=True,
+                   help="texton file (.exr or .texton) or example image (analysed once for the batch)")
     p.add_argument("--out-dir", required=True, help="folder for the outputs (created if missing)")
     p.add_argument("--texel-size", type=float, help="world units per texel (default: bounding-box diagonal / 256)")
     p.add_argument("--mni", type=float, default=60.0, help="mean number of impacts per point")
-    p.add_argument("--seed", type=int, default=0, help="random seed")
+    p.add_argument("--seed", type=int, default=0, help="random seed (analysis and noise)")
+    p.add_argument("--bake", type=int, metavar="RES",
+                   help="bake the noise into a RES x RES texture on UVs (GLB or OBJ+MTL+PNG)")
+    p.add_argument("--uv", choices=("auto", "mesh", "atlas"), default="auto",
+                   help="with --bake: the mesh's UVs when it has them (auto), only them (mesh), or a new atlas")
+    p.add_argument("--texture", choices=("png", "exr"),
+                   help="with --bake: also write the texture alone as NAME_texture.png (8-bit sRGB) or .exr")
+    p.add_argument("--exr-linear", action="store_true",
+                   help="an EXR texture holds linear values (the sRGB decoding) instead of the noise's own values")
+    p.add_argument("--supersample", type=int, metavar="N",
+                   help="with --bake: N x N samples per texel (default: by each texel's footprint)")
     p.add_argument("--max-edge", type=float, help="subdivide until no edge is longer than this many texels")
     p.add_argument("--render", metavar="WxH", help="also write a PNG render of this size, e.g. 512x512")
-    p.add_argument("--format", choices=("ply", "obj", "glb"), default="ply", help="mesh output format")
+    p.add_argument("--up", choices=("auto", "x", "y", "z"), default="auto",
+                   help="the meshes' up axis: auto is y for .glb/.gltf (Y-up by definition), z otherwise")
+    p.add_argument("--view", metavar="AZ,EL",
+                   help="render camera azimuth and elevation in degrees (default -55,25: front left, above; "
+                        "a negative azimuth as --view=-30,20)")
+    p.add_argument("--fov", type=float, help="render vertical field of view, degrees (default 35)")
+    p.add_argument("--format", choices=("ply", "obj", "glb"),
+                   help="mesh output format (default: glb with --bake, else ply)")
     p.add_argument("--overwrite", action="store_true", help="redo meshes whose outputs exist")
     p.add_argument("--jobs", type=int, default=1, help="meshes processed at once")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run the batch on this dask.distributed scheduler (paths must be visible to its workers)")
     p.add_argument("--device", help="cpu, cuda or cuda:N (default: CUDA when available)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    _add_analyze_options(p, seed=False)
 
     p = sub.add_parser("view", help="interactive explorer in a web browser",
                        description="Serve an interactive viewer of the texton noise of INPUT (an example image, "
@@ -369,13 +394,35 @@ def _cmd_mix(args) -> None:
         print(f"{out}: {shape[1]}x{shape[0]} mix of {args.steps} textons ({time.perf_counter() - t0:.2f} s)")
 
 
-def _cmd_surface(args) -> int:
-    from ._checks import check_positive, check_seed, check_shape
-    from .batch import SurfaceJob, check_unique_outputs, expand_meshes, run_batch
-    from ._runtime import resolve_device
-    from .texton import load_texton
+def _surface_texton(args):
+    """The batch's texton: a texton file, or an example image analysed once (a bad one fails the batch)."""
+    from .texton import is_texton_path, load_texton
 
-    load_texton(args.texton)  # a bad texton fails the whole batch, once
+    if is_texton_path(args.texton):
+        load_texton(args.texton)  # checked once here; the jobs read it themselves
+        return args.texton
+    try:
+        return _texton_of(argparse.Namespace(**{**vars(args), "input": args.texton}))
+    except TextonError as exc:
+        message = str(exc)
+        raise TextonError(message if args.texton in message else f"--texton {args.texton}: {message}") from None
+
+
+def _cmd_surface(args) -> int:
+    try:
+        return _run_surface(args)
+    except KeyboardInterrupt:  # before or after the batch itself (which reports its own)
+        print("warp-texton: interrupted", file=sys.stderr)
+        return 130
+
+
+def _run_surface(args) -> int:
+    from ._checks import check_int, check_positive, check_seed, check_shape
+    from .batch import BatchInterrupted, SurfaceJob, check_unique_outputs, expand_meshes, run_batch
+    from ._runtime import resolve_device
+    from .bake import MAX_RESOLUTION
+    from .surface import view_direction
+
     render = None
     if args.render is not None:
         try:
@@ -394,19 +441,81 @@ def _cmd_surface(args) -> int:
         check_positive(args.texel_size, "--texel-size")
     if args.max_edge is not None:
         check_positive(args.max_edge, "--max-edge")
+    if args.bake is not None:
+        check_int(args.bake, "--bake", minimum=1)
+        if args.bake > MAX_RESOLUTION:
+            raise TextonError(f"--bake must be at most {MAX_RESOLUTION} texels per side, got {args.bake}")
+        if args.format == "ply":
+            raise TextonError("--bake writes --format glb or obj (a PLY file cannot carry a texture)")
+        if args.max_edge is not None:
+            raise TextonError("--max-edge subdivides for vertex colours; a --bake texture does not need it")
+    else:
+        for name, value in (("--texture", args.texture), ("--supersample", args.supersample),
+                            ("--exr-linear", args.exr_linear or None), ("--uv", None if args.uv == "auto" else 1)):
+            if value is not None:
+                raise TextonError(f"{name} applies to baked textures: add --bake RES")
+    if args.supersample is not None:
+        check_int(args.supersample, "--supersample", minimum=1)
+    if args.exr_linear and args.texture != "exr":
+        raise TextonError("--exr-linear applies to --texture exr")
+    view = None
+    if args.view is not None:
+        try:
+            view = tuple(float(v) for v in args.view.split(","))
+            if len(view) != 2:
+                raise ValueError
+        except ValueError:
+            raise TextonError(f"--view must be AZIMUTH,ELEVATION in degrees, e.g. 30,20, got {args.view!r}") from None
+        try:
+            view_direction(view)
+        except TextonError as exc:
+            raise TextonError(f"--view: {exc}") from None
+    if args.fov is not None:
+        check_positive(args.fov, "--fov")
+        if args.fov >= 180:
+            raise TextonError(f"--fov must be below 180 degrees, got {args.fov}")
     device = resolve_device(args.device)
-    meshes = expand_meshes(args.meshes)
-    out = Path(args.out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    jobs = [SurfaceJob(m, args.texton, str(out), args.texel_size, args.mni, args.seed, args.max_edge, render,
-                       args.format, args.overwrite, device) for m in meshes]
-    check_unique_outputs(jobs)
-    results = run_batch(jobs, jobs_in_parallel=args.jobs, progress=not args.quiet)
-    counts = {s: sum(r.status == s for r in results) for s in ("done", "skipped", "failed")}
+    executor = client = None
+    if args.scheduler is not None:
+        try:
+            from dask.distributed import Client
+        except ImportError:
+            raise TextonError("--scheduler needs dask.distributed: pip install 'warp-texton[dask]'") from None
+        try:
+            client = Client(args.scheduler, timeout=10)
+        except Exception as exc:
+            raise TextonError(f"--scheduler {args.scheduler}: cannot connect ({type(exc).__name__}: {exc})") from None
+        executor = client.get_executor()
+    try:
+        texton = _surface_texton(args)
+        meshes = expand_meshes(args.meshes)
+        out = Path(args.out_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        jobs = [SurfaceJob(m, texton, str(out), args.texel_size, args.mni, args.seed, args.max_edge, render,
+                           args.format, args.overwrite, device, bake=args.bake, uv=args.uv, texture=args.texture,
+                           exr_linear=args.exr_linear, supersample=args.supersample, up=args.up, view=view,
+                           fov=args.fov) for m in meshes]
+        check_unique_outputs(jobs)
+        interrupted = False
+        try:
+            results = run_batch(jobs, executor=executor, jobs_in_parallel=args.jobs, progress=not args.quiet)
+        except BatchInterrupted as exc:
+            results, interrupted = exc.results, True
+    finally:
+        if client is not None:
+            client.close()
+    counts = {s: sum(r.status == s for r in results) for s in ("done", "skipped", "failed", "cancelled")}
     for r in results:
-        if r.status == "failed" and args.quiet:
+        if r.status == "failed" and (args.quiet or interrupted):
             print(f"warp-texton: error: {r.message}", file=sys.stderr)
-    print(f"{counts['done']} done, {counts['skipped']} skipped, {counts['failed']} failed", file=sys.stderr)
+        for note in r.warnings:
+            if "texels apart" in note or not args.quiet:
+                print(f"warp-texton: {'warning' if 'texels apart' in note else 'note'}: {note}", file=sys.stderr)
+    line = f"{counts['done']} done, {counts['skipped']} skipped, {counts['failed']} failed"
+    if interrupted:
+        print(f"warp-texton: interrupted: {line}, {counts['cancelled']} cancelled", file=sys.stderr)
+        return 130
+    print(line, file=sys.stderr)
     return 1 if counts["failed"] else 0
 
 

@@ -1,0 +1,499 @@
+"""Baked textures: surface texton noise written into an image on a mesh's UVs.
+
+Renderers, game engines, Blender and MeshLab show a texture through UV
+coordinates. :func:`bake_mesh` keeps the mesh's own UVs when they are usable,
+or makes a UV atlas with xatlas (the optional extra ``mesh``), then
+
+1. rasterises the UV triangles: each texel centre gets its triangle, its
+   barycentric position, the 3-D point and the interpolated normal there
+   (the renderer's rule: the face normal across creases sharper than 30°);
+2. evaluates the surface noise (CGF §6) there, averaging ``n_x × n_y``
+   samples over the texel's footprint on the surface where one texel covers
+   more than a texton texel (the supersampling anti-aliases a coarse bake);
+3. extends every chart by a gutter of ``gutter`` texels: a texel past a chart
+   edge takes the triangle of the nearest chart texel and the noise where that
+   triangle's plane continues (the chart's surface, extrapolated), so bilinear
+   and mip-mapped lookups near chart edges see the noise continue, no seam.
+
+Colours: the texture holds the noise's own values, which are sRGB-coded like
+the example images (PNG and glTF base-colour textures are sRGB); EXR textures
+hold them as they are unless ``linear=True`` asks for the sRGB decoding.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import warp as wp
+
+from ._checks import check_int, check_positive, check_seed
+from ._runtime import resolve_device, split_launch
+from .errors import TextonError
+from .kernels import bake as KB
+from .limits import check_memory
+from .surface import (UP, cast_rays, check_background, check_mesh, check_method, evaluate_points, srgb_to_linear,
+                      surface_params, surface_setup, texel_positions, vertex_normals)
+from .texton import Texton
+
+#: UV sources: the mesh's own UVs when it has them ("auto"), always them ("mesh"), or a new atlas ("atlas").
+UV_MODES = ("auto", "mesh", "atlas")
+#: Largest texture side.
+MAX_RESOLUTION = 16384
+#: Supersampling: samples per texton texel along each side of a texel's
+#: footprint (measured: see docs/model.md, "Baked textures"), and at most this
+#: many samples per side.
+SAMPLE_DENSITY = 1.0
+MAX_SAMPLES_SIDE = 8
+#: Samples evaluated at once (bounds the memory of a bake).
+SAMPLES_PER_ROUND = 1 << 21
+#: Host memory of a bake per texel of the texture, at the peak.
+BYTES_PER_TEXEL = 360.0
+#: Refuse mesh UVs when more than this fraction of the covered texels is claimed twice.
+MAX_OVERLAP = 0.02
+#: The crease rule of the renderer: beyond 30° the face normal is used.
+CREASE_COS = 0.866
+
+
+@dataclass(frozen=True)
+class BakedMesh:
+    """What :func:`bake_mesh` makes.
+
+    mesh : trimesh.Trimesh
+        The mesh with UVs (vertices split along the atlas's seams), the vertex
+        normals the noise was evaluated with (the input's, so smooth across
+        seams) and a PBR material whose base-colour texture is ``texture``
+        (8-bit sRGB).
+    texture : float32 array (RES, RES, C)
+        The noise on the texture's texels (row 0 at the top, v = 1), gutter
+        included; texels outside every chart and gutter hold the texton's mean.
+    coverage : bool array (RES, RES)
+        Texels whose centre lies on a triangle (the gutter around them is not counted).
+    texels_per_texton_texel : float
+        Median, over the covered texels, of the texture's texels per texton
+        texel on the surface (√ of the footprint's area): below 1 a texel
+        averages several texton texels.
+    samples : float
+        Mean number of noise samples per covered texel.
+    uv_source : str
+        "mesh" or "atlas".
+    """
+
+    mesh: object
+    texture: np.ndarray
+    coverage: np.ndarray
+    texels_per_texton_texel: float
+    samples: float
+    uv_source: str
+
+    @property
+    def resolution(self) -> int:
+        return int(self.texture.shape[0])
+
+
+def mesh_uvs(mesh) -> np.ndarray | None:
+    """The mesh's per-vertex UVs as float64 (V, 2), or None when it has none."""
+    visual = getattr(mesh, "visual", None)
+    uv = getattr(visual, "uv", None) if getattr(visual, "kind", None) == "texture" else None
+    if uv is None:
+        return None
+    try:
+        uv = np.asarray(uv, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise TextonError("its UVs are not numbers") from None
+    return uv
+
+
+def check_uvs(uv: np.ndarray, vertices: int) -> np.ndarray:
+    """UVs a bake can use: (V, 2), finite, inside [0, 1]² (a texture is not repeated)."""
+    if uv.ndim != 2 or uv.shape != (vertices, 2):
+        raise TextonError(f"its UVs have shape {uv.shape}, not one (u, v) per vertex ({vertices}, 2)")
+    if not np.isfinite(uv).all():
+        raise TextonError(f"its UVs hold {int((~np.isfinite(uv)).sum())} NaN or infinite values")
+    lo, hi = uv.min(), uv.max()
+    if lo < -1e-6 or hi > 1 + 1e-6:
+        raise TextonError(f"its UVs reach [{lo:.3g}, {hi:.3g}], outside [0, 1]: a repeated texture cannot hold "
+                          "a bake")
+    return np.clip(uv, 0.0, 1.0)
+
+
+def make_atlas(vertices: np.ndarray, faces: np.ndarray, resolution: int, padding: int):
+    """A UV atlas by xatlas: (vertex map into the input vertices, faces, UVs in [0, 1]²)."""
+    try:
+        import xatlas
+    except ImportError:
+        raise TextonError("making a UV atlas needs the xatlas package: pip install 'warp-texton[mesh]' "
+                          "(or give a mesh with UVs)") from None
+    atlas = xatlas.Atlas()
+    atlas.add_mesh(np.ascontiguousarray(vertices, np.float32), np.ascontiguousarray(faces, np.uint32))
+    pack = xatlas.PackOptions()
+    pack.resolution = int(resolution)
+    pack.padding = int(padding)
+    pack.bilinear = True
+    atlas.generate(xatlas.ChartOptions(), pack)
+    vmap, new_faces, uv = atlas[0]
+    return np.asarray(vmap, np.int64), np.asarray(new_faces, np.int64), np.asarray(uv, np.float64)
+
+
+def default_gutter(resolution: int) -> int:
+    """Texels of gutter around each chart: 2 up to 512², then 1/256 of the side (8 at 2048)."""
+    return max(2, resolution // 256)
+
+
+def _claim(corners: np.ndarray, resolution: int, device) -> tuple[np.ndarray, np.ndarray]:
+    """(owner, cover): per texel, the face that owns it (−1: none) and how many faces hold its centre."""
+    n_faces = corners.shape[0] // 3
+    with wp.ScopedDevice(device):
+        c = wp.array(corners, dtype=wp.vec2d)
+        owner = wp.full((resolution, resolution), -1, dtype=wp.int32)
+        cover = wp.zeros((resolution, resolution), dtype=wp.int32)
+
+        def launch(a, b):
+            wp.launch(KB.claim_texels, dim=b - a, inputs=[c, a, owner, cover])
+
+        # atomics make the parts safe to run side by side on the CPU's threads
+        split_launch(device, KB, n_faces, launch)
+        return owner.numpy(), cover.numpy()
+
+
+def _normals_at(bary: np.ndarray, tri: np.ndarray, vnormals: np.ndarray, fnormals: np.ndarray) -> np.ndarray:
+    """The renderer's normal: vertex normals interpolated, the face normal where they
+    leave it by more than 30° or vanish."""
+    n = (vnormals[tri[:, 0]] * bary[:, :1] + vnormals[tri[:, 1]] * bary[:, 1:2]
+         + vnormals[tri[:, 2]] * bary[:, 2:])
+    length = np.linalg.norm(n, axis=1)
+    ok = length > 1e-6
+    n[ok] /= length[ok, None]
+    bad = ~ok | (np.sum(n * fnormals, axis=1) < CREASE_COS)
+    n[bad] = fnormals[bad]
+    return n
+
+
+def bake_mesh(
+    mesh,
+    texton: Texton,
+    texel_size: float,
+    resolution: int = 1024,
+    mni: float = 60.0,
+    seed: int = 0,
+    *,
+    uv: str = "auto",
+    supersample: int | None = None,
+    gutter: int | None = None,
+    device=None,
+    up=UP,
+    side=None,
+    name: str = "mesh",
+    method: str = "auto",
+) -> BakedMesh:
+    """Bake surface texton noise into a ``resolution``² texture on the mesh's UVs.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+    texton : Texton
+    texel_size : float
+        World units per texton texel (as :func:`warp_texton.texture_mesh`).
+    resolution : int
+        Texture side in texels (1 to 16384).
+    mni, seed, device, up, side, method
+        As in :func:`warp_texton.surface_noise`.
+    uv : "auto", "mesh" or "atlas"
+        "auto": the mesh's UVs when it has them, else an xatlas atlas; "mesh":
+        its UVs or an error; "atlas": a new atlas, ignoring any UVs.
+    supersample : int, optional
+        Samples per side of each texel (1: the texel centre only). Default:
+        per texel, ``ceil(SAMPLE_DENSITY ×`` texton texels along each side of
+        its footprint``)``, from 1 to ``MAX_SAMPLES_SIDE``.
+    gutter : int, optional
+        Texels of dilation past chart edges (default :func:`default_gutter`).
+    name : str
+        How errors name the mesh.
+
+    Returns
+    -------
+    BakedMesh
+
+    References
+    ----------
+    CGF §6 (surface noise without UVs, evaluated here at the texels' surface points).
+
+    Examples
+    --------
+    >>> import numpy as np, trimesh
+    >>> from warp_texton import Texton, bake_mesh
+    >>> t = Texton(np.random.default_rng(0).standard_normal((8, 8, 1)) / 8, [0.5])
+    >>> plane = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], [[0, 1, 2], [0, 2, 3]],
+    ...                         visual=trimesh.visual.TextureVisuals(uv=[[0, 0], [1, 0], [1, 1], [0, 1]]))
+    >>> baked = bake_mesh(plane, t, texel_size=1 / 64, resolution=64, device="cpu")
+    >>> baked.texture.shape, baked.uv_source, round(baked.texels_per_texton_texel, 3)
+    ((64, 64, 1), 'mesh', 1.0)
+    """
+    import trimesh
+
+    mesh = check_mesh(mesh)
+    if not isinstance(texton, Texton):
+        raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
+    texel = check_positive(texel_size, "texel_size")
+    res = check_int(resolution, "resolution", minimum=1)
+    if res > MAX_RESOLUTION:
+        raise TextonError(f"resolution must be at most {MAX_RESOLUTION}, got {res}")
+    if uv not in UV_MODES:
+        raise TextonError(f"uv must be one of {', '.join(UV_MODES)}, got {uv!r}")
+    if supersample is not None:
+        supersample = check_int(supersample, "supersample", minimum=1)
+        if supersample > 64:
+            raise TextonError(f"supersample must be at most 64 samples per side, got {supersample}")
+    gutter = default_gutter(res) if gutter is None else check_int(gutter, "gutter", minimum=0)
+    seed = check_seed(seed)
+    check_method(method)
+    # the owners, the distance transform of the gutter and each texel's face, map, footprint
+    # and sums: about BYTES_PER_TEXEL at the peak (measured: 1.7 GB for 2048²)
+    check_memory(res * res * BYTES_PER_TEXEL, f"a {res}x{res} bake", "use a smaller resolution")
+    setup = surface_setup(texton, mni)
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    texel_positions(vertices, texel, setup, "the mesh's vertices")
+    vnormals = vertex_normals(mesh, up)
+    own_uv = mesh_uvs(mesh) if uv != "atlas" else None
+    if own_uv is None and uv == "mesh":
+        raise TextonError(f"{name}: has no UVs (uv='mesh'); use uv='auto' or 'atlas' to make an atlas")
+    if own_uv is not None:
+        try:
+            uvs = check_uvs(own_uv, len(vertices))
+        except TextonError as exc:
+            raise TextonError(f"{name}: {exc}; use uv='atlas' (--uv atlas) to ignore them") from None
+        source = "mesh"
+    else:
+        # charts 2 gutters apart: each gutter texel is nearer its own chart than any other
+        vmap, faces, uvs = make_atlas(vertices, faces, res, 2 * max(gutter, 1))
+        vertices, vnormals = vertices[vmap], vnormals[vmap]
+        source = "atlas"
+    device = resolve_device(device)
+    # texel coordinates: x = u W, y = (1 − v) H (row 0 at the top)
+    corners = np.stack([uvs[:, 0] * res, (1.0 - uvs[:, 1]) * res], axis=1)[faces].reshape(-1, 2)
+    owner, cover = _claim(np.ascontiguousarray(corners), res, device)
+    covered = owner >= 0
+    n_cov = int(covered.sum())
+    if n_cov == 0:
+        raise TextonError(f"{name}: no texel centre lies on a triangle of its UVs at {res}x{res}; use a larger "
+                          "resolution")
+    overlap = float(np.count_nonzero(cover > 1)) / n_cov
+    if source == "mesh" and overlap > MAX_OVERLAP:
+        raise TextonError(f"{name}: its UVs overlap ({100 * overlap:.1f} % of the covered texels lie on two or more "
+                          "triangles), so one texel would stand for several surface points; use uv='atlas' "
+                          "(--uv atlas) to ignore them")
+    owner = _extend(owner, covered, gutter)
+    rows, cols = np.nonzero(owner >= 0)
+    inner = covered[rows, cols]
+    f = owner[rows, cols].astype(np.int64)
+    tri = faces[f]
+    # each face's affine map texel coordinates → (barycentric weights, 3-D point)
+    a2, b2, c2 = corners.reshape(-1, 3, 2)[f].transpose(1, 0, 2)
+    e1, e2 = b2 - a2, c2 - a2
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    p3 = vertices[tri]  # (n, 3 corners, 3)
+    fn = np.cross(p3[:, 1] - p3[:, 0], p3[:, 2] - p3[:, 0])
+    fl = np.linalg.norm(fn, axis=1)
+    fn = np.where(fl[:, None] > 0, fn / np.where(fl > 0, fl, 1.0)[:, None], vnormals[tri[:, 0]])
+    # d(point)/d(texel x), d(point)/d(texel y) in texton texels: the footprint's sides
+    inv = np.stack([np.stack([e2[:, 1], -e2[:, 0]], 1), np.stack([-e1[:, 1], e1[:, 0]], 1)], 1) / det[:, None, None]
+    jac = np.einsum("nkc,nkd->ncd", np.stack([p3[:, 1] - p3[:, 0], p3[:, 2] - p3[:, 0]], 1), inv) / texel
+    side_x = np.linalg.norm(jac[:, :, 0], axis=1)
+    side_y = np.linalg.norm(jac[:, :, 1], axis=1)
+    area = np.linalg.norm(np.cross(jac[:, :, 0], jac[:, :, 1]), axis=1)
+    per_texel = float(np.median(1.0 / np.sqrt(np.maximum(area[inner], 1e-300))))
+    if supersample is None:
+        nx = np.clip(np.ceil(side_x * SAMPLE_DENSITY), 1, MAX_SAMPLES_SIDE).astype(np.int64)
+        ny = np.clip(np.ceil(side_y * SAMPLE_DENSITY), 1, MAX_SAMPLES_SIDE).astype(np.int64)
+    else:
+        nx = ny = np.full(len(f), supersample, np.int64)
+    total = int(np.sum(nx * ny))
+    check_memory(min(total, SAMPLES_PER_ROUND) * 120.0 + len(f) * 64.0, f"a {res}x{res} bake with {total} samples",
+                 "use a smaller resolution or supersample")
+    p = surface_params(texton, setup, seed, "exact", up, side)
+    sums = np.zeros((len(f), 3), np.float64)
+    for sx, sy in sorted(set(zip(nx.tolist(), ny.tolist()))):
+        group = np.flatnonzero((nx == sx) & (ny == sy))
+        ox, oy = np.meshgrid((np.arange(sx) + 0.5) / sx - 0.5, (np.arange(sy) + 0.5) / sy - 0.5)
+        offsets = np.stack([ox.ravel(), oy.ravel()], axis=1)  # sample offsets from the texel centre
+        per_round = max(1, SAMPLES_PER_ROUND // len(offsets))
+        for g0 in range(0, len(group), per_round):
+            g = group[g0:g0 + per_round]
+            centre = np.stack([cols[g] + 0.5, rows[g] + 0.5], axis=1)
+            q = (centre[:, None, :] + offsets[None, :, :] - a2[g][:, None, :]).reshape(-1, 2)
+            k = np.repeat(g, len(offsets))
+            # barycentric weights from the face's affine map; samples past its edges
+            # extrapolate on its plane (the texel's footprint on the tangent plane)
+            w12 = np.einsum("nij,nj->ni", inv[k], q)
+            bary = np.stack([1.0 - w12[:, 0] - w12[:, 1], w12[:, 0], w12[:, 1]], axis=1)
+            pts = np.einsum("nc,ncd->nd", bary, p3[k])
+            nrm = _normals_at(bary, tri[k], vnormals, fn[k])
+            vals = evaluate_points(p, setup, pts / texel, nrm, None, device, method)
+            sums[g] += vals.reshape(len(g), len(offsets), 3).sum(axis=1)  # g holds distinct texels
+    values = (sums / (nx * ny)[:, None]).astype(np.float32)
+    c = texton.channels
+    texture = np.empty((res, res, c), np.float32)
+    texture[:] = np.asarray(texton.mean, np.float32)[:c]
+    texture[rows, cols] = values[:, :c]
+    out = _textured(vertices, faces, uvs, vnormals, texture, trimesh)
+    return BakedMesh(out, texture, covered, per_texel, float(np.sum((nx * ny)[inner])) / n_cov, source)
+
+
+def _extend(owner: np.ndarray, covered: np.ndarray, gutter: int) -> np.ndarray:
+    """The owner map with the gutter: texels within ``gutter`` of a chart (and in none)
+    take the triangle of the nearest chart texel."""
+    if gutter <= 0 or covered.all():
+        return owner
+    import scipy.ndimage as ndi
+
+    dist, (ii, jj) = ndi.distance_transform_edt(~covered, return_indices=True)
+    ring = (dist > 0) & (dist <= gutter)
+    out = owner.copy()
+    out[ring] = owner[ii[ring], jj[ring]]
+    return out
+
+
+def to_8bit(texture: np.ndarray) -> np.ndarray:
+    """RGB 8-bit of a texture (grey spread to RGB), values clipped to [0, 1]."""
+    t = np.clip(texture, 0.0, 1.0)
+    if t.shape[2] == 1:
+        t = np.repeat(t, 3, axis=2)
+    return np.round(t * 255.0).astype(np.uint8)
+
+
+def _textured(vertices, faces, uvs, normals, texture, trimesh):
+    # the bake's normals travel with the mesh (glTF NORMAL), so that renderers shade
+    # across the atlas's seams as the noise was evaluated: smoothly
+    from PIL import Image
+
+    image = Image.fromarray(to_8bit(texture))
+    material = trimesh.visual.material.PBRMaterial(name="warp_texton", baseColorTexture=image,
+                                                   metallicFactor=0.0, roughnessFactor=1.0)
+    visual = trimesh.visual.TextureVisuals(uv=uvs, material=material)
+    return trimesh.Trimesh(vertices=vertices, faces=faces, vertex_normals=normals, visual=visual, process=False)
+
+
+#: Files a bake writes for each mesh format (besides the optional texture file).
+BAKE_FORMATS = ("glb", "obj")
+#: Formats of the texture file: 8-bit PNG or float32 EXR.
+TEXTURE_FORMATS = ("png", "exr")
+
+
+def bake_outputs(stem: Path, fmt: str, texture: str | None = None) -> list[Path]:
+    """The files :func:`write_baked` writes for ``stem`` (a path without extension)."""
+    stem = Path(stem)
+    out = [stem.with_suffix(".glb")] if fmt == "glb" else [stem.with_suffix(".obj"), stem.with_suffix(".mtl"),
+                                                            stem.with_suffix(".png")]
+    if texture is not None:
+        out.append(stem.parent / f"{stem.name}_texture.{texture}")
+    return out
+
+
+def write_baked(baked: BakedMesh, stem, fmt: str = "glb", texture: str | None = None, linear: bool = False) -> list[Path]:
+    """Write a bake: ``STEM.glb`` (the texture embedded as the PBR base colour), or
+    ``STEM.obj`` + ``STEM.mtl`` + ``STEM.png``; and with ``texture`` the texture alone,
+    ``STEM_texture.png`` (8-bit sRGB) or ``STEM_texture.exr`` (float32: the noise's
+    values, or with ``linear`` their sRGB decoding). All files appear together or none.
+    """
+    from .io import atomic_path, write_image
+
+    if fmt not in BAKE_FORMATS:
+        raise TextonError(f"a baked mesh is written as {' or '.join(BAKE_FORMATS)}, got {fmt!r}")
+    if texture is not None and texture not in TEXTURE_FORMATS:
+        raise TextonError(f"texture must be one of {', '.join(TEXTURE_FORMATS)}, got {texture!r}")
+    paths = bake_outputs(stem, fmt, texture)
+    blobs: dict[Path, bytes] = {}
+    if fmt == "glb":
+        blobs[paths[0]] = baked.mesh.export(file_type="glb")
+    else:
+        from trimesh.exchange.obj import export_obj
+
+        text, files = export_obj(baked.mesh, include_normals=False, include_texture=True, return_texture=True,
+                                 mtl_name=paths[1].name)
+        png = next(v for k, v in files.items() if not k.endswith(".mtl"))
+        mtl = files[paths[1].name].decode("utf-8")
+        # the texture alone gives the colour: a diffuse factor of 1 (Kd multiplies map_Kd in viewers)
+        fixed = {"map_Kd": f"map_Kd {paths[2].name}", "Kd": "Kd 1.00000000 1.00000000 1.00000000"}
+        mtl = "\n".join(fixed.get(ln.split(" ")[0], ln) for ln in mtl.splitlines())
+        blobs[paths[0]] = text.encode("utf-8")
+        blobs[paths[1]] = (mtl + "\n").encode("utf-8")
+        blobs[paths[2]] = png
+    with contextlib.ExitStack() as stack:
+        # every temporary file is written before the first rename: all files or none
+        for path, data in blobs.items():
+            Path(stack.enter_context(atomic_path(path))).write_bytes(data)
+        if texture is not None:
+            img = baked.texture
+            if texture == "exr" and linear:
+                img = srgb_to_linear(np.clip(img, 0.0, 1.0)).astype(np.float32)
+            tmp = Path(stack.enter_context(atomic_path(paths[-1])))
+            write_image(tmp.with_name(tmp.name + f".{texture}"), img)
+            (tmp.with_name(tmp.name + f".{texture}")).replace(tmp)
+    return paths
+
+
+def lookup(texture: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """Bilinear lookups of ``texture`` (R, R, C) at ``uv`` (N, 2), as a renderer makes them:
+    texel (i, j) at ((j + ½)/R, 1 − (i + ½)/R), clamped at the border."""
+    r, c = texture.shape[0], texture.shape[1]
+    x = np.asarray(uv[:, 0], np.float64) * c - 0.5
+    y = (1.0 - np.asarray(uv[:, 1], np.float64)) * r - 0.5
+    x0 = np.floor(x)
+    y0 = np.floor(y)
+    fx = (x - x0)[:, None]
+    fy = (y - y0)[:, None]
+    x0 = x0.astype(np.int64)
+    y0 = y0.astype(np.int64)
+    xs = np.clip(x0, 0, c - 1), np.clip(x0 + 1, 0, c - 1)
+    ys = np.clip(y0, 0, r - 1), np.clip(y0 + 1, 0, r - 1)
+    t = np.asarray(texture, np.float64)
+    top = t[ys[0], xs[0]] * (1 - fx) + t[ys[0], xs[1]] * fx
+    bottom = t[ys[1], xs[0]] * (1 - fx) + t[ys[1], xs[1]] * fx
+    return top * (1 - fy) + bottom * fy
+
+
+def render_baked(baked, shape=(512, 512), camera=None, *, up=UP, view=None, fov=None, light=None,
+                 background=(0.92, 0.92, 0.92), device=None) -> np.ndarray:
+    """Render a textured mesh as a renderer shows it: each pixel's hit looks its UV up
+    in the texture (bilinear), shaded as :func:`warp_texton.render_mesh` shades.
+
+    Parameters
+    ----------
+    baked : BakedMesh or trimesh.Trimesh
+        A bake, or a mesh with UVs and a material holding an image (a GLB or OBJ
+        written by :func:`write_baked`, read back with trimesh).
+    shape, camera, up, view, fov, light, background, device
+        As in :func:`warp_texton.render_mesh`: the same camera gives the same
+        pixels, so the two renders compare pixel by pixel.
+
+    Returns
+    -------
+    float32 array (height, width, 3) in [0, 1]
+    """
+    if isinstance(baked, BakedMesh):
+        mesh, texture = baked.mesh, np.clip(baked.texture, 0.0, 1.0)
+    else:
+        mesh = check_mesh(baked)
+        uv = mesh_uvs(mesh)
+        material = getattr(mesh.visual, "material", None)
+        image = getattr(material, "baseColorTexture", None) or getattr(material, "image", None)
+        if uv is None or image is None:
+            raise TextonError("baked must be a BakedMesh or a mesh with UVs and a texture image")
+        texture = np.asarray(image.convert("RGB"), np.float64) / 255.0
+    uv = check_uvs(np.asarray(mesh.visual.uv, np.float64), len(mesh.vertices))
+    bg = check_background(background)
+    hits = cast_rays(mesh, shape, camera, up=up, view=view, fov=fov, light=light, device=device)
+    img = np.empty(hits.face.shape + (3,), np.float32)
+    img[:] = bg.astype(np.float32)
+    hit = hits.hit
+    if hit.any():
+        tri = hits.faces[hits.face[hit]]
+        at = np.einsum("nk,nkd->nd", hits.bary[hit], uv[tri])
+        values = lookup(texture, at)
+        if values.shape[1] == 1:
+            values = np.repeat(values, 3, axis=1)
+        img[hit] = values * hits.shade[hit][:, None]
+    return img
