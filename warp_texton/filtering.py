@@ -143,6 +143,22 @@ def _fraction(value) -> float:
     return float(value)
 
 
+#: What one filtered pixel costs, in raster pixels (a walk over its cells per
+#: lookup): it sizes the strips of filtered rasters and plane views.
+POINT_COST = 8
+
+
+def pixel_cost(options: FilterOptions, filtered: bool = True) -> int:
+    """What one pixel costs with ``options``, in raster pixels."""
+    if not filtered:
+        return 1
+    if options.kind == "supersample":
+        return POINT_COST * options.supersample ** 2
+    if options.kind == "anisotropic":
+        return POINT_COST * max(1, options.max_aniso // 2)
+    return POINT_COST
+
+
 # ------------------------------------------------------------------ pyramid
 def texton_pyramid(texton: Texton) -> list[np.ndarray]:
     """The MIP levels of a texton's coefficients: level ℓ + 1 holds the means of

@@ -173,6 +173,27 @@ def noise_params(texton: Texton, setup: NoiseSetup, seed: int, poisson: str = "e
     return p
 
 
+def params_record(texton: Texton, setup: NoiseSetup, seed: int, poisson: str = "exact") -> np.ndarray:
+    """:func:`noise_params` as a record of its NumPy dtype (the same values), made
+    without Warp's struct objects, which cost more than a small raster to build."""
+    if poisson not in POISSON_MODES:
+        raise TextonError(f"poisson must be one of {', '.join(POISSON_MODES)}, got {poisson!r}")
+    rec = np.zeros((), dtype=record_dtype(K.NoiseParams))
+    c = rec["cells"]
+    c["size"] = setup.cell
+    c["period"] = setup.period_cells
+    c["mean_count"] = setup.lam_cell
+    c["seed"] = seed
+    c["exact_poisson"] = 1 if poisson == "exact" else 0
+    rec["order"] = texton.order
+    rec["lo"] = setup.lo
+    rec["hi"] = setup.hi
+    rec["lam"] = setup.lam
+    rec["mean"][: texton.channels] = texton.mean
+    rec["integral"][: texton.channels] = texton.integral
+    return rec
+
+
 def params_mean(p: K.NoiseParams) -> np.ndarray:
     """The noise mean held by ``p``, as three float32 values."""
     return np.array([p.mean[0], p.mean[1], p.mean[2]], np.float32)
@@ -231,7 +252,7 @@ class RasterWindow:
     raster that ``origin`` and ``step`` place (see :func:`raster_geometry`), with
     texton ``texton`` of the batch's :class:`TextonStack`."""
 
-    p: object  # kernels.noise2d.NoiseParams
+    p: object  # kernels.noise2d.NoiseParams, or its record (params_record)
     setup: NoiseSetup
     texton: int
     order: int
@@ -338,7 +359,10 @@ def window_table(windows, blocks, stack: TextonStack, shape):
     first_cell = 0
     for b, (win, (cx0, cy0, ncx, ncy)) in enumerate(zip(windows, blocks)):
         t = table[b]
-        put_params(t["p"], win.p)
+        if isinstance(win.p, np.ndarray):
+            t["p"] = win.p
+        else:
+            put_params(t["p"], win.p)
         t["origin"] = win.origin
         t["step_x"] = win.step[:, 0]
         t["step_y"] = win.step[:, 1]
@@ -465,6 +489,46 @@ class Canvas:
             return self.data if channels == 3 else self.data[..., 0:channels].contiguous()
         a = self.host if self.host is not None else self.data.numpy()
         return a if channels == 3 else np.ascontiguousarray(a[..., :channels])
+
+
+def fill_pixels(out, index: np.ndarray, mean, device, compute) -> None:
+    """``out`` (an (N,) vec3 array) holds ``mean`` except at ``index``, where
+    ``compute(target)`` writes its values (into ``out`` itself when every pixel
+    is computed, else through a scatter on the device)."""
+    n = out.shape[0]
+    with wp.ScopedDevice(device):
+        if index.size == n:
+            compute(out)
+            return
+        out.fill_(wp.vec3(*(float(v) for v in mean)))
+        if index.size:
+            values = wp.empty(index.size, dtype=wp.vec3)
+            compute(values)
+            wp.launch(K.scatter_values, dim=index.size, inputs=[values, wp.array(index.astype(np.int64), dtype=wp.int64), out])
+
+
+#: Work of one strip of a large raster (or one group of a batch), in raster
+#: pixels: a few tenths of a second on two cores, so that a progress bar moves
+#: and Ctrl-C stops within one strip.
+STRIP_WORK = 1 << 22
+
+
+def strips(h: int, w: int, cost: int = 1):
+    """Row ranges (r0, r1) cutting an H × W raster into strips of about STRIP_WORK,
+    for pixels that each cost ``cost`` raster pixels."""
+    rows = max(1, STRIP_WORK // max(1, w * cost))
+    return [(r0, min(h, r0 + rows)) for r0 in range(0, h, rows)]
+
+
+def result_bytes(count: int, h: int, w: int, channels: int, device, output: str) -> int:
+    """Bytes of a float32 (count, H, W, 3) canvas plus what handing it over copies."""
+    n = count * h * w
+    extra = 0
+    if channels != 3:
+        extra = n * channels * 4  # the channels taken out of the canvas
+    elif output == "numpy" and not is_cpu(device):
+        extra = n * 3 * 4  # the copy to the host
+    return n * 12 + extra
 
 
 OUTPUTS = ("numpy", "warp")

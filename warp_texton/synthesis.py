@@ -22,21 +22,15 @@ from typing import NamedTuple
 import numpy as np
 
 from ._checks import check_int, check_positive, check_seed, check_shape
-from ._runtime import is_cpu, progress_bar, resolve_device
+from ._runtime import progress_bar, resolve_device
 from .errors import TextonError
-from .filtering import FilterOptions, RasterPixels, check_jacobian, filter_pixels, needs_filtering
+from .filtering import FilterOptions, RasterPixels, check_jacobian, filter_pixels, needs_filtering, pixel_cost
 from .limits import check_memory
-from .noise import (CELL_FACTOR, Canvas, RasterWindow, TextonStack, check_cell_range, check_output, noise_params,
-                    noise_setup, point_values, raster_geometry, raster_impacts, raster_reach, rasters)
+from .noise import (CELL_FACTOR, STRIP_WORK, Canvas, RasterWindow, TextonStack, check_cell_range, check_output,
+                    noise_params, noise_setup, params_record, point_values, raster_geometry, raster_impacts,
+                    raster_reach, rasters, result_bytes, strips)
 from .texton import Texton
 
-#: Work of one strip of a large raster (or one group of a batch), in raster
-#: pixels: a few tenths of a second on two cores, so that a progress bar moves
-#: and Ctrl-C stops within one strip.
-STRIP_WORK = 1 << 22
-#: What one filtered pixel costs, in raster pixels (one walk over its cells
-#: per lookup; measured on the CPU): it sizes the strips of filtered rasters.
-POINT_COST = 8
 #: Pixel windows are placed with int32 indices in the kernels.
 MAX_PIXEL_INDEX = 1 << 30
 #: Bytes per impact in a raster's block: its offset (2 float32) and its cell (int32).
@@ -57,34 +51,6 @@ def check_pixel_offset(pixel_offset) -> tuple[int, int]:
             raise TextonError(f"{name} must be within ±2**30, got {v}")
         out.append(int(v))
     return out[0], out[1]
-
-
-def pixel_cost(options: FilterOptions, filtered: bool) -> int:
-    """What one pixel costs, in raster pixels (sizes strips)."""
-    if not filtered:
-        return 1
-    if options.kind == "supersample":
-        return POINT_COST * options.supersample ** 2
-    if options.kind == "anisotropic":
-        return POINT_COST * max(1, options.max_aniso // 2)
-    return POINT_COST
-
-
-def strips(h: int, w: int, cost: int):
-    """Row ranges (r0, r1) cutting an H × W raster into strips of about STRIP_WORK."""
-    rows = max(1, STRIP_WORK // max(1, w * cost))
-    return [(r0, min(h, r0 + rows)) for r0 in range(0, h, rows)]
-
-
-def result_bytes(count: int, h: int, w: int, channels: int, device, output: str) -> int:
-    """Bytes of the float32 (count, H, W, 3) canvas plus what handing it over copies."""
-    n = count * h * w
-    extra = 0
-    if channels != 3:
-        extra = n * channels * 4  # the channels taken out of the canvas
-    elif output == "numpy" and not is_cpu(device):
-        extra = n * 3 * 4  # the copy to the host
-    return n * 12 + extra
 
 
 def synthesize(
@@ -194,9 +160,10 @@ def synthesize(
     options = FilterOptions.of(filter)
     J = step if jacobian is None else check_jacobian(jacobian, (h, w))
     device = resolve_device(device)
-    p = noise_params(texton, setup, seed, poisson)
     raster_reach(origin, step, (h, w), setup, first)  # far positions are refused before any allocation
     filtered = needs_filtering(J, options)
+    # the filters take Warp's struct; plain rasters its record, quicker to make
+    p = (noise_params if filtered else params_record)(texton, setup, seed, poisson)
     parts = strips(h, w, pixel_cost(options, filtered))
     r0, r1 = parts[0]
     window = RasterWindow(p, setup, 0, texton.order, origin, step, (first[0], first[1]), float(scale))
@@ -536,9 +503,12 @@ def synthesize_batch(
         kw = params.item(k)
         origin, step = raster_geometry((h, w), kw["scale"], kw["rotation"], kw["offset"])
         raster_reach(origin, step, (h, w), setups[i])
-        p = noise_params(textons[i], setups[i], kw["seed"], poisson)
-        win = RasterWindow(p, setups[i], i, textons[i].order, origin, step, (0, 0), kw["scale"])
-        (filtered if needs_filtering(step, options) else windows).append((k, win))
+        if needs_filtering(step, options):
+            p = noise_params(textons[i], setups[i], kw["seed"], poisson)
+            filtered.append((k, RasterWindow(p, setups[i], i, textons[i].order, origin, step, (0, 0), kw["scale"])))
+        else:
+            p = params_record(textons[i], setups[i], kw["seed"], poisson)
+            windows.append((k, RasterWindow(p, setups[i], i, textons[i].order, origin, step, (0, 0), kw["scale"])))
     canvas = Canvas((count, h, w), device)
     rows = canvas.rows(w)
     per_group = max(1, STRIP_WORK // (h * w))
