@@ -408,7 +408,7 @@ def _run_distributed(address: str, task, grid, bar) -> int:
         futures = [client.submit(task, *g, key=f"texton-chunk-{os.getpid()}-{time.time_ns()}-{i}", pure=False)
                    for i, g in enumerate(grid)]
         total = 0
-        for future in as_completed(futures):
+        for future in as_completed(futures, loop=client.loop):
             total += future.result()
             bar.update(1)
         return total

@@ -486,7 +486,8 @@ class Canvas:
 
     def result(self, channels: int, output: str):
         if output == "warp":
-            return self.data if channels == 3 else self.data[..., 0:channels].contiguous()
+            return self.data if channels == 3 else \
+                self.data[(slice(None),) * len(self.shape) + (slice(0, channels),)].contiguous()
         a = self.host if self.host is not None else self.data.numpy()
         return a if channels == 3 else np.ascontiguousarray(a[..., :channels])
 
