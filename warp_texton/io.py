@@ -287,17 +287,23 @@ def convert_pixels(img: np.ndarray, dtype: str) -> tuple[np.ndarray, int]:
 
     uint8/uint16 store [0, 1] scaled to the type's range, rounded; values
     outside are clipped. float16 clips to its finite range ±65504; float32
-    stores the values as they are.
+    stores the values as they are. (Large chunks go through here: pixels are
+    tested one by one only when the extremes are out of range, and the
+    scaling works in place.)
     """
     img = np.asarray(img, np.float32)
     if dtype == "float32":
         return img, 0
     lo, hi = (-65504.0, 65504.0) if dtype == "float16" else (0.0, 1.0)
-    clipped = int(np.count_nonzero(((img < lo) | (img > hi)).any(axis=-1)))
+    clipped = 0
+    if img.size and not (img.min() >= lo and img.max() <= hi):
+        clipped = int(np.count_nonzero(((img < lo) | (img > hi)).any(axis=-1)))
+        img = np.clip(img, lo, hi)
     if dtype == "float16":
-        return np.clip(img, lo, hi).astype(np.float16), clipped
-    top = float(np.iinfo(dtype).max)
-    return np.round(np.clip(img, 0.0, 1.0) * top).astype(dtype), clipped
+        return img.astype(np.float16), clipped
+    scaled = img * np.float32(np.iinfo(dtype).max)  # a new array: the caller's stays as it was
+    np.rint(scaled, out=scaled)
+    return scaled.astype(dtype), clipped
 
 
 def report_clipped(name, clipped: int, total: int, dtype: str) -> None:
