@@ -208,9 +208,7 @@ def _store_chunk(plan: _Plan, store: str, dtype: str, r0: int, r1: int, c0: int,
     """Compute one chunk, write it into the store, return its clipped pixel count."""
     import zarr
 
-    values = _chunk(plan, r0, r1, c0, c1)
-    data, clipped = convert_pixels(values, dtype)
-    del values
+    data, clipped = convert_pixels(_chunk(plan, r0, r1, c0, c1), dtype, in_place=True)
     if not (Path(store) / "zarr.json").exists():
         return 0  # the write was abandoned (Ctrl-C) and its folder removed: write nothing
     zarr.open_array(store, mode="r+")[r0:r1, c0:c1, :] = data

@@ -282,14 +282,15 @@ def check_dtype(path, dtype=None) -> str:
     return name
 
 
-def convert_pixels(img: np.ndarray, dtype: str) -> tuple[np.ndarray, int]:
+def convert_pixels(img: np.ndarray, dtype: str, *, in_place: bool = False) -> tuple[np.ndarray, int]:
     """(pixels as ``dtype``, number of pixels with a value clipped).
 
     uint8/uint16 store [0, 1] scaled to the type's range, rounded; values
     outside are clipped. float16 clips to its finite range ±65504; float32
-    stores the values as they are. (Large chunks go through here: pixels are
-    tested one by one only when the extremes are out of range, and the
-    scaling works in place.)
+    stores the values as they are. Large chunks go through here: pixels are
+    tested one by one only when the extremes are out of range, and
+    ``in_place`` lets the clipping and scaling reuse ``img`` (float32; the
+    caller gives it up) instead of allocating copies.
     """
     img = np.asarray(img, np.float32)
     if dtype == "float32":
@@ -297,11 +298,15 @@ def convert_pixels(img: np.ndarray, dtype: str) -> tuple[np.ndarray, int]:
     lo, hi = (-65504.0, 65504.0) if dtype == "float16" else (0.0, 1.0)
     clipped = 0
     if img.size and not (img.min() >= lo and img.max() <= hi):
-        clipped = int(np.count_nonzero(((img < lo) | (img > hi)).any(axis=-1)))
-        img = np.clip(img, lo, hi)
+        over = img.min(axis=-1) < lo
+        over |= img.max(axis=-1) > hi
+        clipped = int(np.count_nonzero(over))
+        del over
+        img = np.clip(img, lo, hi, out=img if in_place else None)
+        in_place = True  # a copy of ours now
     if dtype == "float16":
         return img.astype(np.float16), clipped
-    scaled = img * np.float32(np.iinfo(dtype).max)  # a new array: the caller's stays as it was
+    scaled = np.multiply(img, np.float32(np.iinfo(dtype).max), out=img if in_place else None)
     np.rint(scaled, out=scaled)
     return scaled.astype(dtype), clipped
 
