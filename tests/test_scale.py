@@ -98,6 +98,13 @@ class TestWindows:
         assert len(warp_texton.noise.strips(60, 50)) == 9
         np.testing.assert_array_equal(synthesize(t, (60, 50), **kw), whole)
 
+    @pytest.mark.parametrize("filter", ("anisotropic", FilterOptions("supersample", supersample=2)))
+    def test_plane_strips_equal_one_pass(self, monkeypatch, filter, device):
+        t = random_texton(channels=3, seed=75)
+        whole = render_plane(t, (40, 30), tilt=80.0, filter=filter, device=device)
+        monkeypatch.setattr(warp_texton.noise, "STRIP_WORK", 30 * 8 * 2)
+        np.testing.assert_array_equal(render_plane(t, (40, 30), tilt=80.0, filter=filter, device=device), whole)
+
     def test_windows_still_equal_evaluate(self, device):
         # the new offsets keep raster == points to float rounding (1e-4 of the noise's sd)
         t = random_texton(channels=3, order=1, seed=74)
@@ -374,8 +381,12 @@ class TestDask:
                                       silence_logs=50) as cluster:
             write_zarr(path, t, (64, 80), (24, 30), "float32", scheduler=cluster.scheduler_address, seed=3,
                        scale=0.7, rotation=20.0, device="cpu")
-        np.testing.assert_array_equal(zarr.open_array(str(path))[:],
-                                      synthesize(t, (64, 80), seed=3, scale=0.7, rotation=20.0, device="cpu"))
+            with distributed.Client(cluster) as client:  # the lazy array, computed by the cluster's processes
+                lazy = synthesize_dask(t, (64, 80), (24, 30), seed=3, scale=0.7, rotation=20.0, device="cpu")
+                computed = client.compute(lazy[10:50, 25:70]).result()
+        whole = synthesize(t, (64, 80), seed=3, scale=0.7, rotation=20.0, device="cpu")
+        np.testing.assert_array_equal(zarr.open_array(str(path))[:], whole)
+        np.testing.assert_array_equal(computed, whole[10:50, 25:70])
 
     def test_existing_store_is_refused_then_replaced_with_overwrite(self, zarr, tmp_path):
         t = random_texton(seed=117)
