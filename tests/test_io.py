@@ -442,13 +442,13 @@ class TestOutputFormats:
 
     def test_clipped_pixels_are_counted_and_reported_once(self, tmp_path, recwarn):
         img = np.full((100, 100, 3), 0.5, np.float32)
-        img[0, :5] = [-0.1, 0.5, 0.5]  # 5 pixels of 10000: below the 0.1 % threshold, counted, not reported
-        assert write_image(tmp_path / "a.png", img) == 5
+        img[0, :50] = [-0.1, 0.5, 0.5]  # 50 pixels of 10000: below the 1 % threshold, counted, not reported
+        assert write_image(tmp_path / "a.png", img) == 50
         assert len(recwarn) == 0
-        img[1, :20, 2] = 1.5  # 25 pixels: 0.25 %, reported once
-        assert write_image(tmp_path / "b.png", img) == 25
+        img[1:3, :, 2] = 1.5  # 250 pixels: 2.5 %, reported once
+        assert write_image(tmp_path / "b.png", img) == 250
         assert len(recwarn) == 1
-        assert "25 of 10000 pixels (0.25 %) had values outside [0, 1], clipped for uint8" in str(recwarn[0].message)
+        assert "250 of 10000 pixels (2.5 %) had values outside [0, 1], clipped for uint8" in str(recwarn[0].message)
         assert write_image(tmp_path / "c.exr", img) == 0  # float32 keeps them
 
     @pytest.mark.parametrize("path, kw, match", [
