@@ -12,7 +12,7 @@ zero margin of PAD texels so that every tap of every order reads in bounds.
 
 import warp as wp
 
-from .impacts import GOLDEN, Cells, avalanche, cell_state, cell_walk, draw_count, next_impact
+from .impacts import GOLDEN, Cells, avalanche, cell_span, cell_state, cell_walk, draw_count, next_impact
 
 # Forward evaluation only: no adjoints, which halves compile time.
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
@@ -106,92 +106,133 @@ def normalize(acc: wp.vec3, p: NoiseParams):
     return p.mean + (acc - p.integral * p.lam) / wp.sqrt(p.lam)
 
 
+# ------------------------------------------------------------------ windows
+@wp.struct
+class Window:
+    # One raster of a batch (a single raster is a batch of one). Pixel (I, J) of
+    # the *global* raster sits at origin + step_x (J + ½) + step_y (I + ½), in
+    # float64; the window holds its pixels (first[0] + i, first[1] + j) and
+    # stores them in the output rows out_row + i. Its impacts are those of the
+    # ncx × ncy cells from cell0 (global cell indices), numbered first_cell… in
+    # the batch's cell arrays. Its texton is rows [texton_row, texton_row +
+    # texton_rows) and columns [0, texton_cols) of the coefficient stack
+    # (mixed noise stacks its textons there, texton_rows apart).
+    p: NoiseParams
+    origin: wp.vec2d
+    step_x: wp.vec2d
+    step_y: wp.vec2d
+    inv: wp.mat22d  # noise-space offset -> (column, row) offset
+    fstep_x: wp.vec2  # the steps in float32, for offsets between nearby pixels
+    fstep_y: wp.vec2
+    first: wp.vec2i  # (row, column) of the window's pixel (0, 0) in the global raster
+    out_row: int
+    width: int
+    cell0: wp.vec2i
+    ncx: int
+    ncy: int
+    first_cell: int
+    texton_row: int
+    texton_rows: int
+    texton_cols: int
+    grid: int  # 1: order 1 at scale 1 without rotation (splat_grid applies)
+
+
+@wp.func
+def block_cell(w: Window, c: int):
+    # global (cx, cy) of cell c of the batch, which lies in w's block
+    l = c - w.first_cell
+    return w.cell0[0] + l % w.ncx, w.cell0[1] + l / w.ncx
+
+
+@wp.func
+def impact_from_origin(w: Window, c: int, q: wp.vec2):
+    # the impact at offset q in cell c, relative to the raster's origin, in float64:
+    # a function of the global cell and the offset alone, whichever window asks
+    cx, cy = block_cell(w, c)
+    size = w.p.cells.size
+    return wp.vec2d(wp.float64(cx) * wp.float64(size[0]) + wp.float64(q[0]) - w.origin[0],
+                    wp.float64(cy) * wp.float64(size[1]) + wp.float64(q[1]) - w.origin[1])
+
+
 # ----------------------------------------------------------------- impacts
 @wp.kernel
-def count_impacts(p: NoiseParams, cell0: wp.vec2i, ncx: int, counts: wp.array(dtype=wp.int32)):
-    """Impact count of every cell of a rectangular block of cells."""
-    t = wp.tid()
-    cx = cell0[0] + t % ncx
-    cy = cell0[1] + t / ncx
-    n, s = draw_count(cell_state(p.cells, cx, cy), p.cells.mean_count, p.cells.exact_poisson)
-    counts[t] = n
+def count_impacts(windows: wp.array(dtype=Window), cell_window: wp.array(dtype=wp.int32),
+                  counts: wp.array(dtype=wp.int32)):
+    """Impact count of every cell of every window's block."""
+    c = wp.tid()
+    w = windows[cell_window[c]]
+    cx, cy = block_cell(w, c)
+    n, s = draw_count(cell_state(w.p.cells, cx, cy), w.p.cells.mean_count, w.p.cells.exact_poisson)
+    counts[c] = n
 
 
 @wp.kernel
 def emit_impacts(
-    p: NoiseParams,
-    cell0: wp.vec2i,
-    ncx: int,
+    windows: wp.array(dtype=Window),
+    cell_window: wp.array(dtype=wp.int32),
     offsets: wp.array(dtype=wp.int32),
     impacts: wp.array(dtype=wp.vec2),
+    impact_cell: wp.array(dtype=wp.int32),
 ):
-    """Positions of every cell's impacts, relative to the block corner (cell0's corner)."""
-    t = wp.tid()
-    lx = t % ncx
-    ly = t / ncx
-    n, s = draw_count(cell_state(p.cells, cell0[0] + lx, cell0[1] + ly), p.cells.mean_count, p.cells.exact_poisson)
-    start = offsets[t]
-    stop = wp.min(start + n, offsets[t + 1])
-    size = p.cells.size
+    """Every cell's impacts as (its cell, its float32 offset from the cell's corner).
+
+    Offsets are u · cell size, as the point walks compute them: an impact
+    is stored the same way whichever block it is drawn in.
+    """
+    c = wp.tid()
+    w = windows[cell_window[c]]
+    cx, cy = block_cell(w, c)
+    n, s = draw_count(cell_state(w.p.cells, cx, cy), w.p.cells.mean_count, w.p.cells.exact_poisson)
+    start = offsets[c]
+    stop = wp.min(start + n, offsets[c + 1])
+    size = w.p.cells.size
     for k in range(start, stop):
         u, s = next_impact(s)
-        impacts[k] = wp.vec2((float(lx) + u[0]) * size[0], (float(ly) + u[1]) * size[1])
+        impacts[k] = wp.vec2(u[0] * size[0], u[1] * size[1])
+        impact_cell[k] = c
 
 
 @wp.kernel
-def emit_signs(p: NoiseParams, cell0: wp.vec2i, ncx: int, offsets: wp.array(dtype=wp.int32),
-               signs: wp.array(dtype=float)):
+def emit_signs(windows: wp.array(dtype=Window), cell_window: wp.array(dtype=wp.int32),
+               offsets: wp.array(dtype=wp.int32), signs: wp.array(dtype=float)):
     """Random signs ε = ±1 of every impact (mixed noise, CGF §7).
 
     Hashed from the cell's seed and the impact's rank in its cell, apart from
     the position stream, so plain and mixed noise place the same impacts.
     """
-    t = wp.tid()
-    h = cell_state(p.cells, cell0[0] + t % ncx, cell0[1] + t / ncx)
-    for k in range(offsets[t], offsets[t + 1]):
-        bit = avalanche(h ^ (wp.uint32(k - offsets[t] + 1) * GOLDEN)) >> wp.uint32(31)
+    c = wp.tid()
+    w = windows[cell_window[c]]
+    cx, cy = block_cell(w, c)
+    h = cell_state(w.p.cells, cx, cy)
+    for k in range(offsets[c], offsets[c + 1]):
+        bit = avalanche(h ^ (wp.uint32(k - offsets[c] + 1) * GOLDEN)) >> wp.uint32(31)
         signs[k] = 1.0 - 2.0 * float(bit)
 
 
 # ------------------------------------------------------------------ rasters
 @wp.struct
-class Raster:
-    # pixel (i, j) sits at noise position base + (j + 0.5) * step_x + (i + 0.5) * step_y
-    base: wp.vec2  # relative to the impact origin
-    step_x: wp.vec2
-    step_y: wp.vec2
-    width: int
-    height: int
-
-
-@wp.func
-def pixel_position(r: Raster, i: int, j: int):
-    return r.base + r.step_x * (float(j) + 0.5) + r.step_y * (float(i) + 0.5)
-
-
-@wp.struct
 class Marks:
-    # Mixed noise: impact k adds signs[k] · h_{labels[k]}; textons are stacked
-    # in the coefficient array, `rows` rows each. Plain noise: marked = 0.
+    # Mixed noise: impact k adds signs[k] · h_{labels[k]}, the textons stacked
+    # texton_rows apart in the window's coefficient rows. Plain noise: marked = 0.
     marked: int
-    rows: int
     labels: wp.array(dtype=wp.int32)
     signs: wp.array(dtype=float)
 
 
 @wp.func
 def mark_of(m: Marks, k: int):
-    # (first coefficient row of the impact's texton, its sign)
+    # (the impact's texton in the window's stack, its sign)
     if m.marked == 0:
         return 0, 1.0
-    return m.labels[k] * m.rows, m.signs[k]
+    return m.labels[k], m.signs[k]
 
 
 @wp.kernel
 def label_impacts(
+    windows: wp.array(dtype=Window),
+    cell_window: wp.array(dtype=wp.int32),
     impacts: wp.array(dtype=wp.vec2),
-    r: Raster,
-    inv: wp.mat22,
+    impact_cell: wp.array(dtype=wp.int32),
     strips: int,
     regions: int,
     rho: wp.array2d(dtype=float),
@@ -202,63 +243,23 @@ def label_impacts(
     so a texture's region appears about half a texton right of and below its
     region in the map.
 
-    ``strips`` = 1: ``regions`` vertical strips across the raster's width;
+    ``strips`` = 1: ``regions`` vertical strips across the window's width;
     otherwise the nearest pixel of the ρ map (clamped at the border) picks
     texton round(ρ (regions − 1)).
     """
     k = wp.tid()
-    pix = inv * (impacts[k] - r.base)  # (column, row) + ½
+    c = impact_cell[k]
+    w = windows[cell_window[c]]
+    q = w.inv * impact_from_origin(w, c, impacts[k])  # global (column, row) + ½
+    px = float(q[0] - wp.float64(w.first[1]))
+    py = float(q[1] - wp.float64(w.first[0]))
     if strips != 0:
-        lab = int(wp.floor(pix[0] / float(r.width) * float(regions)))
+        lab = int(wp.floor(px / float(w.width) * float(regions)))
     else:
-        j = wp.clamp(int(wp.floor(pix[0])), 0, rho.shape[1] - 1)
-        i = wp.clamp(int(wp.floor(pix[1])), 0, rho.shape[0] - 1)
+        j = wp.clamp(int(wp.floor(px)), 0, rho.shape[1] - 1)
+        i = wp.clamp(int(wp.floor(py)), 0, rho.shape[0] - 1)
         lab = int(wp.floor(rho[i, j] * float(regions - 1) + 0.5))
     labels[k] = wp.clamp(lab, 0, regions - 1)
-
-
-@wp.kernel
-def splat_impacts(
-    p: NoiseParams,
-    r: Raster,
-    inv: wp.mat22,
-    coeffs: wp.array2d(dtype=wp.vec3),
-    impacts: wp.array(dtype=wp.vec2),
-    marks: Marks,
-    row0: int,
-    row1: int,
-    acc: wp.array2d(dtype=wp.vec3),
-):
-    """Add each impact's texton to the rows [row0, row1) of ``acc`` (no atomics).
-
-    ``acc`` holds raw sums; ``normalize_raster`` turns them into noise values.
-
-    For the CPU: one launch runs its threads one after another on one core,
-    and concurrent launches own disjoint row bands, so plain writes are safe.
-    ``inv`` maps a noise-space offset to (column, row) pixel offsets.
-    """
-    k = wp.tid()
-    q = impacts[k]
-    t0, sign = mark_of(marks, k)
-    # pixel-space bounding box of the support [lo, hi] placed at q
-    c = q - r.base
-    b00 = inv * (c + wp.vec2(p.lo[0], p.lo[1]))
-    b01 = inv * (c + wp.vec2(p.hi[0], p.lo[1]))
-    b10 = inv * (c + wp.vec2(p.lo[0], p.hi[1]))
-    b11 = inv * (c + wp.vec2(p.hi[0], p.hi[1]))
-    jmin = wp.min(wp.min(b00[0], b01[0]), wp.min(b10[0], b11[0]))
-    jmax = wp.max(wp.max(b00[0], b01[0]), wp.max(b10[0], b11[0]))
-    imin = wp.min(wp.min(b00[1], b01[1]), wp.min(b10[1], b11[1]))
-    imax = wp.max(wp.max(b00[1], b01[1]), wp.max(b10[1], b11[1]))
-    j_lo = wp.max(int(wp.ceil(jmin - 0.5)), 0)
-    j_hi = wp.min(int(wp.floor(jmax - 0.5)), r.width - 1)
-    i_lo = wp.max(int(wp.ceil(imin - 0.5)), row0)
-    i_hi = wp.min(int(wp.floor(imax - 0.5)), row1 - 1)
-    for i in range(i_lo, i_hi + 1):
-        for j in range(j_lo, j_hi + 1):
-            d = pixel_position(r, i, j) - q
-            if inside(d, p):
-                acc[i, j] = acc[i, j] + texton_value(coeffs, t0, marks.rows, d, p.order) * sign
 
 
 # One footprint row of a grid splat, as a flat unit-stride loop over the 3·count
@@ -294,43 +295,27 @@ def splat_row(
 ): ...
 
 
-@wp.kernel
-def splat_impacts_grid(
-    base: wp.vec2,
-    coeffs: wp.array2d(dtype=wp.vec3),
-    impacts: wp.array(dtype=wp.vec2),
-    marks: Marks,
-    width: int,
-    row0: int,
-    row1: int,
-    acc: wp.array2d(dtype=wp.vec3),
-):
-    """``splat_impacts`` for a bilinear texton on an unrotated raster at scale 1.
-
-    Pixel (i, j) sits at base + (j + ½, i + ½), so an impact's offset to every
-    pixel has the same fractional part: its texton is the coefficient array
-    blended with four fixed weights. The zero margin of ``coeffs`` makes taps
-    past the support vanish, so no support test is needed.
-    """
-    k = wp.tid()
-    q = impacts[k]
-    t0, sign = mark_of(marks, k)
-    # d(i, j) = (j + B + fx, i + A + fy): the integer and fractional parts of the offset
-    ox = base[0] + 0.5 - q[0]
-    oy = base[1] + 0.5 - q[1]
-    fbx = wp.floor(ox)
-    fby = wp.floor(oy)
-    fx = ox - fbx
-    fy = oy - fby
-    bx = int(fbx) + PAD
-    ay = int(fby) + PAD
-    rows = marks.rows
-    cols = coeffs.shape[1]
-    # pixels whose top-left tap (ay + i, bx + j) lies in [0, rows-1) x [0, cols-1)
-    i_lo = wp.max(-ay, row0)
-    i_hi = wp.min(rows - 2 - ay, row1 - 1)
+@wp.func
+def splat_grid(w: Window, P: wp.vec2d, coeffs: wp.array2d(dtype=wp.vec3), t0: int, sign: float,
+               di: int, r_lo: int, r_hi: int, acc: wp.array2d(dtype=wp.vec3)):
+    # A bilinear texton on an unrotated raster at scale 1: the offset from the
+    # impact to global pixel (I, J) is (J + tx, I + ty) with t = ½ − P, so every
+    # pixel sees the same fraction and the texton is the coefficient array
+    # blended with four fixed weights. The zero margin of the coefficients makes
+    # taps past the support vanish, so no support test is needed.
+    tx = wp.float64(0.5) - P[0]
+    ty = wp.float64(0.5) - P[1]
+    fbx = wp.floor(tx)
+    fby = wp.floor(ty)
+    fx = float(tx - fbx)
+    fy = float(ty - fby)
+    # padded tap (row, column) of output pixel (i, j): (i + ay, j + bx)
+    bx = int(fbx) + w.first[1] + PAD
+    ay = int(fby) + di + PAD
+    i_lo = wp.max(-ay, r_lo)
+    i_hi = wp.min(w.texton_rows - 2 - ay, r_hi)
     j_lo = wp.max(-bx, 0)
-    j_hi = wp.min(cols - 2 - bx, width - 1)
+    j_hi = wp.min(w.texton_cols - 2 - bx, w.width - 1)
     count = j_hi - j_lo + 1
     if count > 0:
         for i in range(i_lo, i_hi + 1):
@@ -338,44 +323,139 @@ def splat_impacts_grid(
                       (1.0 - fy) * sign, fy * sign, 1.0 - fx, fx)
 
 
+@wp.func
+def splat_general(w: Window, P: wp.vec2d, coeffs: wp.array2d(dtype=wp.vec3), t0: int, sign: float,
+                  di: int, r_lo: int, r_hi: int, acc: wp.array2d(dtype=wp.vec3)):
+    # The pixels whose offset can fall in the support box: the box of its
+    # corners in pixel units, in float64 from global indices, so that every
+    # window tests the same pixels.
+    p = w.p
+    lo = wp.vec2d(wp.float64(p.lo[0]), wp.float64(p.lo[1]))
+    hi = wp.vec2d(wp.float64(p.hi[0]), wp.float64(p.hi[1]))
+    b00 = w.inv * (P + lo)
+    b11 = w.inv * (P + hi)
+    b01 = w.inv * (P + wp.vec2d(hi[0], lo[1]))
+    b10 = w.inv * (P + wp.vec2d(lo[0], hi[1]))
+    half = wp.float64(0.5)
+    jmin = wp.min(wp.min(b00[0], b01[0]), wp.min(b10[0], b11[0]))
+    jmax = wp.max(wp.max(b00[0], b01[0]), wp.max(b10[0], b11[0]))
+    imin = wp.min(wp.min(b00[1], b01[1]), wp.min(b10[1], b11[1]))
+    imax = wp.max(wp.max(b00[1], b01[1]), wp.max(b10[1], b11[1]))
+    big_j0 = int(wp.ceil(jmin - half))
+    big_i0 = int(wp.ceil(imin - half))
+    big_j1 = int(wp.floor(jmax - half))
+    big_i1 = int(wp.floor(imax - half))
+    # offsets are taken from the anchor pixel (big_i0, big_j0), which depends on
+    # the impact alone: every window computes the same float32 offsets
+    da = w.step_x * (wp.float64(big_j0) + half) + w.step_y * (wp.float64(big_i0) + half) - P
+    anchor = wp.vec2(float(da[0]), float(da[1]))
+    dj = w.first[1]
+    i_lo = wp.max(big_i0 - di, r_lo)
+    i_hi = wp.min(big_i1 - di, r_hi)
+    j_lo = wp.max(big_j0 - dj, 0)
+    j_hi = wp.min(big_j1 - dj, w.width - 1)
+    for i in range(i_lo, i_hi + 1):
+        row = anchor + w.fstep_y * float(i + di - big_i0)
+        for j in range(j_lo, j_hi + 1):
+            d = row + w.fstep_x * float(j + dj - big_j0)
+            if inside(d, p):
+                acc[i, j] = acc[i, j] + texton_value(coeffs, t0, w.texton_rows, d, p.order) * sign
+
+
 @wp.kernel
-def normalize_raster(p: NoiseParams, row0: int, acc: wp.array2d(dtype=wp.vec3)):
-    i, j = wp.tid()
-    acc[row0 + i, j] = normalize(acc[row0 + i, j], p)
+def splat_impacts(
+    windows: wp.array(dtype=Window),
+    cell_window: wp.array(dtype=wp.int32),
+    coeffs: wp.array2d(dtype=wp.vec3),
+    impacts: wp.array(dtype=wp.vec2),
+    impact_cell: wp.array(dtype=wp.int32),
+    marks: Marks,
+    k0: int,
+    height: int,
+    row0: int,
+    row1: int,
+    acc: wp.array2d(dtype=wp.vec3),
+):
+    """Add the textons of impacts k0… to the output rows [row0, row1) of ``acc``
+    (no atomics); ``normalize_rows`` turns the raw sums into noise values.
+
+    For the CPU: one launch runs its threads one after another on one core,
+    and concurrent launches own disjoint row bands, so plain writes are safe.
+    Each pixel adds its impacts in the order of their cells (row-major in the
+    global cell grid) and of their rank in the cell, whatever window holds it.
+    """
+    k = wp.tid() + k0
+    c = impact_cell[k]
+    w = windows[cell_window[c]]
+    lab, sign = mark_of(marks, k)
+    r_lo = wp.max(row0, w.out_row)
+    r_hi = wp.min(row1, w.out_row + height) - 1
+    if r_lo <= r_hi:
+        P = impact_from_origin(w, c, impacts[k])
+        t0 = w.texton_row + lab * w.texton_rows
+        di = w.first[0] - w.out_row  # global row of output row i: i + di
+        if w.grid != 0:
+            splat_grid(w, P, coeffs, t0, sign, di, r_lo, r_hi, acc)
+        else:
+            splat_general(w, P, coeffs, t0, sign, di, r_lo, r_hi, acc)
+
+
+@wp.kernel
+def normalize_rows(windows: wp.array(dtype=Window), height: int, row0: int, acc: wp.array2d(dtype=wp.vec3)):
+    """Raw sums to noise values, one output row per thread."""
+    i = wp.tid() + row0
+    p = windows[i / height].p
+    for j in range(acc.shape[1]):
+        acc[i, j] = normalize(acc[i, j], p)
 
 
 @wp.kernel
 def gather_raster(
-    p: NoiseParams,
-    r: Raster,
+    windows: wp.array(dtype=Window),
     coeffs: wp.array2d(dtype=wp.vec3),
     impacts: wp.array(dtype=wp.vec2),
     offsets: wp.array(dtype=wp.int32),
     marks: Marks,
-    ncx: int,
-    ncy: int,
+    height: int,
     row0: int,
     out: wp.array2d(dtype=wp.vec3),
 ):
-    """One thread per pixel of rows row0…: sum the textons of the impacts of nearby cells."""
+    """One thread per pixel of output rows row0…: sum the textons of the impacts of nearby cells.
+
+    The pixel's position relative to the corner of its first cell is computed
+    in float64 from its global index, so every window gives it the same value.
+    """
     i, j = wp.tid()
     i = i + row0
-    x = pixel_position(r, i, j)  # relative to the block origin, i.e. cell0's corner
+    w = windows[i / height]
+    p = w.p
+    half = wp.float64(0.5)
+    x = w.origin + w.step_x * (wp.float64(j + w.first[1]) + half) \
+        + w.step_y * (wp.float64(i - w.out_row + w.first[0]) + half)
+    cx_lo, cx_hi, cy_lo, cy_hi = cell_span(x, p.lo, p.hi, p.cells.size)
     size = p.cells.size
-    cx_lo = wp.max(int(wp.floor((x[0] - p.hi[0]) / size[0])), 0)
-    cx_hi = wp.min(int(wp.floor((x[0] - p.lo[0]) / size[0])), ncx - 1)
-    cy_lo = wp.max(int(wp.floor((x[1] - p.hi[1]) / size[1])), 0)
-    cy_hi = wp.min(int(wp.floor((x[1] - p.lo[1]) / size[1])), ncy - 1)
+    ref = wp.vec2(float(x[0] - wp.float64(cx_lo) * wp.float64(size[0])),
+                  float(x[1] - wp.float64(cy_lo) * wp.float64(size[1])))
     acc = wp.vec3(0.0)
-    for cy in range(cy_lo, cy_hi + 1):
-        for cx in range(cx_lo, cx_hi + 1):
-            c = cy * ncx + cx
+    for cy in range(wp.max(cy_lo, w.cell0[1]), wp.min(cy_hi, w.cell0[1] + w.ncy - 1) + 1):
+        ry = ref[1] - float(cy - cy_lo) * size[1]
+        for cx in range(wp.max(cx_lo, w.cell0[0]), wp.min(cx_hi, w.cell0[0] + w.ncx - 1) + 1):
+            rel = wp.vec2(ref[0] - float(cx - cx_lo) * size[0], ry)
+            c = w.first_cell + (cy - w.cell0[1]) * w.ncx + (cx - w.cell0[0])
             for k in range(offsets[c], offsets[c + 1]):
-                d = x - impacts[k]
+                d = rel - impacts[k]
                 if inside(d, p):
-                    t0, sign = mark_of(marks, k)
-                    acc = acc + texton_value(coeffs, t0, marks.rows, d, p.order) * sign
+                    lab, sign = mark_of(marks, k)
+                    acc = acc + texton_value(coeffs, w.texton_row + lab * w.texton_rows, w.texton_rows, d,
+                                             p.order) * sign
     out[i, j] = normalize(acc, p)
+
+
+@wp.kernel
+def scatter_values(values: wp.array(dtype=wp.vec3), index: wp.array(dtype=wp.int64), out: wp.array(dtype=wp.vec3)):
+    """out[index[t]] = values[t]: computed pixels into an image that holds the mean elsewhere."""
+    t = wp.tid()
+    out[index[t]] = values[t]
 
 
 # ------------------------------------------------------------------- points

@@ -36,7 +36,7 @@ LAYERS = {
     "noise": 7,
     "filtering": 8,
     "synthesis": 9, "plane": 9,
-    "mixing": 10, "surface": 10,
+    "mixing": 10, "surface": 10, "dask": 10,
     "bake": 11, "demo": 11, "view_core": 11,
     "batch": 12, "view": 12,
     "cli": 13,

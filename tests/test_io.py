@@ -373,3 +373,94 @@ class TestWriteErrors:
         with pytest.raises(TextonError, match="1 NaN or infinite"):
             write_image(path, np.array([[0.0, np.inf]]))
         assert_nothing_written(path)
+
+
+# ------------------------------------------------------------------ output formats (issue 14)
+class TestOutputFormats:
+    @pytest.mark.parametrize("channels", [1, 3])
+    def test_half_exr(self, tmp_path, rng, channels):
+        img = (rng.standard_normal((6, 9, channels)) * 3).astype(np.float32)
+        img[0, 0, 0] = 1e6  # beyond the half range: clipped to its largest finite value
+        path = tmp_path / "h.exr"
+        with pytest.warns(UserWarning, match="1 of 54 pixels .* clipped for float16"):
+            assert write_image(path, img, dtype="float16") == 1
+        f = OpenEXR.File(str(path))
+        pix = f.channels()["Y" if channels == 1 else "RGB"].pixels
+        assert pix.dtype == np.float16
+        want = np.clip(img, -65504, 65504).astype(np.float16).astype(np.float32)
+        np.testing.assert_array_equal(read_image(path), want)
+
+    @pytest.mark.parametrize("name", ["zip", "zips", "piz", "rle", "none", "b44", "dwaa"])
+    def test_exr_compression(self, tmp_path, rng, name):
+        img = rng.random((16, 16, 3)).astype(np.float32)
+        path = tmp_path / "c.exr"
+        write_image(path, img, compression=name)
+        want = OpenEXR.NO_COMPRESSION if name == "none" else getattr(OpenEXR, f"{name.upper()}_COMPRESSION")
+        assert OpenEXR.File(str(path)).header()["compression"] == want
+        if want not in LOSSY_EXR:
+            np.testing.assert_array_equal(read_image(path), img)
+
+    @pytest.mark.parametrize("channels", [1, 3])
+    def test_16bit_png(self, tmp_path, channels):
+        k = np.random.default_rng(channels).integers(0, 65536, (16, 15, channels))
+        k[0, :2] = [0], [65535]  # both ends of the range
+        img = k / 65535.0
+        path = tmp_path / "d.png"
+        assert write_image(path, img, dtype="uint16") == 0
+        with open(path, "rb") as f:
+            head = f.read(26)
+        assert head[24] == 16 and head[25] == (0 if channels == 1 else 2)  # bit depth, colour type
+        np.testing.assert_array_equal(read_image(path), img.astype(np.float32))
+
+    @pytest.mark.parametrize("dtype", ["float32", "float16", "uint16", "uint8"])
+    def test_tiff(self, tmp_path, rng, dtype):
+        tifffile = pytest.importorskip("tifffile")
+        img = rng.random((10, 12, 3)).astype(np.float32)
+        path = tmp_path / "t.tif"
+        write_image(path, img, dtype=dtype)
+        assert tifffile.imread(str(path)).dtype == np.dtype(dtype)
+        back = read_image(path)
+        if dtype.startswith("uint"):
+            top = np.iinfo(dtype).max
+            want = (np.round(img * top) / top).astype(np.float32)
+        else:
+            want = img.astype(dtype).astype(np.float32)
+        np.testing.assert_array_equal(back, want)
+
+    def test_large_tiff_is_tiled(self, tmp_path, rng, monkeypatch):
+        tifffile = pytest.importorskip("tifffile")
+        import warp_texton.io
+
+        monkeypatch.setattr(warp_texton.io, "TIFF_TILED_BYTES", 1000)
+        img = rng.random((600, 700, 1)).astype(np.float32)
+        path = tmp_path / "big.tiff"
+        write_image(path, img, compression="zlib")
+        with tifffile.TiffFile(str(path)) as tif:
+            page = tif.pages[0]
+            assert page.is_tiled and (page.tilelength, page.tilewidth) == (512, 512)
+        np.testing.assert_array_equal(read_image(path), img)
+
+    def test_clipped_pixels_are_counted_and_reported_once(self, tmp_path, recwarn):
+        img = np.full((100, 100, 3), 0.5, np.float32)
+        img[0, :50] = [-0.1, 0.5, 0.5]  # 50 pixels of 10000: below the 1 % threshold, counted, not reported
+        assert write_image(tmp_path / "a.png", img) == 50
+        assert len(recwarn) == 0
+        img[1:3, :, 2] = 1.5  # 250 pixels: 2.5 %, reported once
+        assert write_image(tmp_path / "b.png", img) == 250
+        assert len(recwarn) == 1
+        assert "250 of 10000 pixels (2.5 %) had values outside [0, 1], clipped for uint8" in str(recwarn[0].message)
+        assert write_image(tmp_path / "c.exr", img) == 0  # float32 keeps them
+
+    @pytest.mark.parametrize("path, kw, match", [
+        ("a.jpg", dict(dtype="uint16"), r"\.jpg stores uint8, not 'uint16'"),
+        ("a.png", dict(dtype="float32"), r"\.png stores uint8, uint16"),
+        ("a.exr", dict(dtype="uint8"), r"\.exr stores float32, float16"),
+        ("a.png", dict(compression="zip"), "compression applies to .exr and .tif/.tiff outputs"),
+        ("a.exr", dict(compression="jpeg"), "compression must be one of zip, zips, piz"),
+        ("a.tif", dict(compression="jpeg"), "compression must be one of zlib, zstd, lzw, none for TIFF"),
+        ("a.bmp", {}, r"unsupported extension '\.bmp'; use .png, .jpg, .jpeg, .exr, .tif or .tiff"),
+    ])
+    def test_bad_options(self, tmp_path, path, kw, match):
+        with pytest.raises(TextonError, match=match):
+            write_image(tmp_path / path, np.zeros((2, 2, 3)), **kw)
+        assert_nothing_written(tmp_path / path)

@@ -916,8 +916,8 @@ class TestCli:
         self.assert_user_error(capsys, ["mix", textures[0], missing, "-o", out, *FAST], re.escape(f"{missing}: no such file"), out)
 
     def test_unsupported_output_extension(self, tmp_path, textures, capsys):
-        out = tmp_path / "mix.tiff"
-        self.assert_user_error(capsys, ["mix", *textures, "-o", out, *FAST], r"unsupported extension '\.tiff'", out)
+        out = tmp_path / "mix.bmp"
+        self.assert_user_error(capsys, ["mix", *textures, "-o", out, *FAST], r"unsupported extension '\.bmp'", out)
 
     @staticmethod
     def assert_user_error(capsys, argv, match, out):

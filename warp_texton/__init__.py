@@ -20,7 +20,7 @@ from .texton import Texton, load_texton
 from .analysis import analyze, model_error
 from .dsn import dsn
 from .filtering import FilterOptions
-from .synthesis import synthesize, evaluate
+from .synthesis import Batch, BatchParams, synthesize, synthesize_batch, evaluate
 from .plane import render_plane
 from .mixing import mix_textons, synthesize_mixed
 from .surface import Camera, render_mesh, surface_noise, tangent_frames, texture_mesh
@@ -28,6 +28,8 @@ from .bake import BakedMesh, bake_mesh, render_baked, write_baked
 
 __all__ = [
     "BakedMesh",
+    "Batch",
+    "BatchParams",
     "Camera",
     "FilterOptions",
     "Texton",
@@ -48,6 +50,7 @@ __all__ = [
     "render_plane",
     "surface_noise",
     "synthesize",
+    "synthesize_batch",
     "synthesize_mixed",
     "tangent_frames",
     "texture_mesh",

@@ -10,7 +10,7 @@ from __future__ import annotations
 import os
 import sys
 import threading
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, wait
 
 import numpy as np
 import warp as wp
@@ -96,7 +96,8 @@ def split_launch(device, module, n: int, launch, per_thread: int = CHUNKS_PER_TH
     On the CPU, [0, n) is cut into about ``per_thread`` contiguous parts per
     thread, launched from a thread pool; parts must write disjoint outputs.
     On CUDA, one call covers [0, n). ``module`` (the kernels' module) is
-    loaded first, so that threads never compile it concurrently.
+    loaded first, so that threads never compile it concurrently. An exception
+    (or Ctrl-C) drops the parts not yet started and waits for the running ones.
     """
     if n <= 0:
         return
@@ -107,8 +108,50 @@ def split_launch(device, module, n: int, launch, per_thread: int = CHUNKS_PER_TH
     threads = cpu_threads()
     cuts = np.linspace(0, n, min(n, per_thread * threads) + 1).astype(int).tolist()
     parts = [(a, b) for a, b in zip(cuts[:-1], cuts[1:]) if b > a]
-    with ThreadPoolExecutor(threads) as pool:
-        list(pool.map(lambda part: launch(*part), parts))
+    if threading.current_thread().name.startswith(POOL_NAME):
+        for a, b in parts:  # called from a launch: the pool's threads are busy with its parts
+            launch(a, b)
+        return
+    pool = launch_pool()
+    futures = [pool.submit(launch, a, b) for a, b in parts]
+    try:
+        for future in futures:
+            future.result()
+    except BaseException:
+        # an error, or Ctrl-C in this thread: the parts not started are dropped,
+        # only the running launches (one part each) are waited for
+        for future in futures:
+            future.cancel()
+        wait(futures)
+        raise
+
+
+#: Name prefix of the launch pool's threads.
+POOL_NAME = "warp-texton-launch"
+_pool: ThreadPoolExecutor | None = None
+_pool_lock = threading.Lock()
+
+
+def launch_pool() -> ThreadPoolExecutor:
+    """The process's pool of ``cpu_threads()`` threads for CPU launches, made on
+    first use and kept: starting threads at every call costs more than a small
+    raster (and much more on a loaded machine)."""
+    global _pool
+    with _pool_lock:
+        if _pool is None:
+            _pool = ThreadPoolExecutor(cpu_threads(), thread_name_prefix=POOL_NAME)
+        return _pool
+
+
+def _forget_pool() -> None:
+    # a forked child inherits the pool object but not its threads
+    global _pool, _pool_lock
+    _pool = None
+    _pool_lock = threading.Lock()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_pool)
 
 
 def map_points(device, module, n: int, values) -> np.ndarray:
@@ -121,3 +164,28 @@ def map_points(device, module, n: int, values) -> np.ndarray:
 
     split_launch(device, module, n, launch)
     return out
+
+
+class _NoBar:
+    """Stands for a progress bar when none is shown."""
+
+    def update(self, n=1):
+        pass
+
+    def close(self):
+        pass
+
+
+#: A progress bar appears once its work has run this many seconds.
+PROGRESS_DELAY = 2.0
+
+
+def progress_bar(enabled: bool, total: int, desc: str, unit: str):
+    """A tqdm bar over ``total`` units when ``enabled`` (shown once the work has
+    run for PROGRESS_DELAY seconds, so that short calls print nothing), else a
+    stand-in with the same ``update``/``close``."""
+    if not enabled:
+        return _NoBar()
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, desc=desc, unit=unit, leave=False, delay=PROGRESS_DELAY)

@@ -22,6 +22,9 @@ EPILOG_SYNTHESIZE = """examples:
   warp-texton synthesize wood.png -o tile.exr --width 512 --height 512 --period 512 512
   warp-texton synthesize wood.texton -o far.png --scale 0.25 --rotation 30 --mni 10
   warp-texton synthesize wood.texton -o far_aa.png --scale 0.1 --filter anisotropic
+  warp-texton synthesize wood.texton -o wood16.png --dtype uint16
+  warp-texton synthesize wood.texton -o big.zarr --width 65536 --height 65536 --chunk 4096 --dtype uint8
+  warp-texton synthesize wood.texton -o big.zarr --width 65536 --height 65536 --scheduler tcp://10.0.0.5:8786
 """
 EPILOG_PLANE = """examples:
   warp-texton render-plane wood.exr -o plane.png --width 1024 --height 1024
@@ -83,10 +86,11 @@ def _add_analyze_options(p: argparse.ArgumentParser, seed: bool = True) -> None:
                    help="skip the colour-covariance correction")
 
 
-def _add_noise_image_options(p: argparse.ArgumentParser, what: str) -> None:
+def _add_noise_image_options(p: argparse.ArgumentParser, what: str, zarr: bool = False) -> None:
     """INPUT, -o, the image size, MNI and seed of the commands that write noise images."""
     p.add_argument("input", help="texton file or example image")
-    p.add_argument("-o", "--output", required=True, help="output image: .png, .jpg or .exr")
+    p.add_argument("-o", "--output", required=True,
+                   help="output image: .png, .jpg, .exr or .tif" + (", or a .zarr store" if zarr else ""))
     p.add_argument("--width", type=int, default=512, help=f"{what} width in pixels")
     p.add_argument("--height", type=int, default=512, help=f"{what} height in pixels")
     p.add_argument("--mni", type=float, default=30.0, help="mean number of impacts per point")
@@ -106,6 +110,52 @@ def _add_filter_options(p: argparse.ArgumentParser, default: str) -> None:
     p.add_argument("--fade-energy", type=float, default=FADE_ENERGY,
                    help="end the MIP pyramid at the first level keeping less than this fraction of the "
                         "variance; larger footprints fade to the mean (0 keeps every level)")
+
+
+def _add_format_options(p: argparse.ArgumentParser, zarr: bool = False) -> None:
+    """How the output stores its pixels (and, with ``zarr``, how a .zarr store is written)."""
+    from .io import EXR_COMPRESSIONS, TIFF_COMPRESSIONS
+
+    g = p.add_argument_group("output format")
+    g.add_argument("--dtype", choices=("uint8", "uint16", "float16", "float32"),
+                   help="stored pixel type: PNG uint8 (default) or uint16; EXR float32 (default) or float16; TIFF "
+                        "any, default float32" + ("; Zarr any, default float16" if zarr else "")
+                        + ". Integer types clip to [0, 1] and say how many pixels were clipped")
+    g.add_argument("--half", action="store_true", help="short for --dtype float16")
+    g.add_argument("--compression", choices=sorted(set(EXR_COMPRESSIONS) | set(TIFF_COMPRESSIONS)),
+                   help=f"EXR: {', '.join(EXR_COMPRESSIONS)} (default zip; pxr24, b44, b44a, dwaa, dwab are lossy); "
+                        f"TIFF: {', '.join(TIFF_COMPRESSIONS)} (default zlib)")
+    if zarr:
+        g = p.add_argument_group("Zarr output (-o NAME.zarr): chunk by chunk, larger than memory")
+        g.add_argument("--chunk", type=int, help="chunk side in pixels (default 4096, at most the raster's)")
+        g.add_argument("--scheduler", default="threads",
+                       help="threads, processes, or the address of a dask.distributed scheduler (tcp://HOST:8786), "
+                            "whose workers must see the output path")
+        g.add_argument("--workers", type=int, help="local threads or processes (default: the cores)")
+        g.add_argument("--overwrite", action="store_true", help="replace an existing store once the new one is done")
+
+
+def _dtype_of(args):
+    """--dtype, or float16 for --half."""
+    if args.half and args.dtype not in (None, "float16"):
+        raise TextonError(f"--half and --dtype {args.dtype} disagree; give one of them")
+    return "float16" if args.half else args.dtype
+
+
+def _interruptible(command):
+    """Ctrl-C stops the command with one line and no traceback; every write is
+    atomic, so nothing is left half written."""
+
+    def run(args):
+        try:
+            return command(args)
+        except KeyboardInterrupt:
+            print("warp-texton: interrupted; nothing written", file=sys.stderr)
+            return 130
+
+    run.__name__ = command.__name__
+    run.__doc__ = command.__doc__
+    return run
 
 
 def _filter_options(args):
@@ -157,7 +207,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "texton (.texton, or an EXR written by 'analyze') or an example image, "
                                    "which is analysed first with the analysis options.",
                        epilog=EPILOG_SYNTHESIZE, formatter_class=fmt)
-    _add_noise_image_options(p, "raster")
+    _add_noise_image_options(p, "raster", zarr=True)
     p.add_argument("--scale", type=float, default=1.0, help="pixels per texel")
     p.add_argument("--rotation", type=float, default=0.0, help="rotation of the noise, degrees")
     p.add_argument("--offset", type=float, nargs=2, default=(0.0, 0.0), metavar=("X", "Y"),
@@ -167,6 +217,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_filter_options(p, default="none")
     p.add_argument("--device", help="cpu, cuda or cuda:N (default: CUDA when available)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress or summary")
+    _add_format_options(p, zarr=True)
     _add_analyze_options(p, seed=False)
 
     p = sub.add_parser("render-plane", help="an infinite textured ground plane in perspective",
@@ -183,6 +234,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_filter_options(p, default="anisotropic")
     p.add_argument("--device", help="cpu, cuda or cuda:N (default: CUDA when available)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress or summary")
+    _add_format_options(p)
     _add_analyze_options(p, seed=False)
 
     p = sub.add_parser("mix", help="progressive mix of two textures (texton noise)",
@@ -324,35 +376,84 @@ def _texton_of(args):
                    support=args.support, progress=not args.quiet)
 
 
+@_interruptible
 def _cmd_synthesize(args) -> None:
-    from .io import check_image_path, write_image
+    from .io import check_dtype, check_image_path, write_image
     from .synthesis import synthesize
 
-    out = check_image_path(args.output)
+    out = Path(args.output)
+    dtype = _dtype_of(args)
+    if out.suffix.lower() == ".zarr":
+        return _synthesize_zarr(args, out, dtype)
+    zarr_only = [name for name, value in (("--chunk", args.chunk), ("--workers", args.workers),
+                                          ("--overwrite", args.overwrite or None),
+                                          ("--scheduler", None if args.scheduler == "threads" else args.scheduler))
+                 if value is not None]
+    if zarr_only:
+        raise TextonError(f"{', '.join(zarr_only)} apply to .zarr outputs only")
+    out = check_image_path(out)
+    check_dtype(out, dtype)
     options = _filter_options(args)
     t0 = time.perf_counter()
     texton = _texton_of(args)
     noise = synthesize(texton, shape=(args.height, args.width), mni=args.mni, seed=args.seed, scale=args.scale,
                        rotation=args.rotation, offset=tuple(args.offset), period=args.period, device=args.device,
-                       filter=options)
-    write_image(out, noise)
+                       filter=options, progress=not args.quiet)
+    write_image(out, noise, dtype=dtype, compression=args.compression)
     if not args.quiet:
         print(f"{out}: {args.width}x{args.height} texton noise, MNI {args.mni:g} "
               f"({time.perf_counter() - t0:.2f} s)")
 
 
+def _synthesize_zarr(args, out: Path, dtype) -> None:
+    """synthesize -o NAME.zarr: the raster written chunk by chunk (warp_texton.dask)."""
+    try:
+        from .dask import CHUNK, ZARR_DTYPE, ZARR_DTYPES, check_big_shape, check_scheduler, write_zarr
+    except ImportError:
+        raise TextonError('.zarr outputs need Dask and Zarr: pip install "warp-texton[dask]"') from None
+    check_scheduler(args.scheduler)
+    if dtype is not None and dtype not in ZARR_DTYPES:
+        raise TextonError(f"--dtype for a Zarr store must be one of {', '.join(ZARR_DTYPES)}, got {dtype}")
+    if args.workers is not None and args.workers < 1:
+        raise TextonError(f"--workers must be at least 1, got {args.workers}")
+    if args.compression is not None:
+        raise TextonError("--compression applies to .exr and .tif outputs; Zarr chunks are zstd-compressed")
+    if out.exists() and not args.overwrite:
+        raise TextonError(f"{out}: exists; give --overwrite to replace it")
+    h, w = check_big_shape((args.height, args.width))
+    chunk = args.chunk if args.chunk is not None else (min(CHUNK, h), min(CHUNK, w))
+    if args.chunk is not None and args.chunk < 1:
+        raise TextonError(f"--chunk must be a positive number of pixels, got {args.chunk}")
+    if args.chunk is not None and args.chunk > max(h, w):
+        raise TextonError(f"--chunk {args.chunk} exceeds the {w}x{h} raster; use at most {max(h, w)}")
+    if isinstance(chunk, int):
+        chunk = (min(chunk, h), min(chunk, w))
+    t0 = time.perf_counter()
+    texton = _texton_of(args)
+    report = write_zarr(out, texton, (h, w), chunk, dtype or ZARR_DTYPE, scheduler=args.scheduler,
+                        workers=args.workers, overwrite=args.overwrite, progress=not args.quiet,
+                        mni=args.mni, seed=args.seed, scale=args.scale, rotation=args.rotation,
+                        offset=tuple(args.offset), period=args.period, device=args.device,
+                        filter=_filter_options(args))
+    if not args.quiet:
+        print(f"{out}: {w}x{h} texton noise, MNI {args.mni:g}, {report['dtype']} Zarr in chunks of "
+              f"{chunk[0]}x{chunk[1]} ({time.perf_counter() - t0:.2f} s)")
+
+
+@_interruptible
 def _cmd_render_plane(args) -> None:
-    from .io import check_image_path, write_image
+    from .io import check_dtype, check_image_path, write_image
     from .plane import render_plane
 
     out = check_image_path(args.output)
+    dtype = check_dtype(out, _dtype_of(args))
     options = _filter_options(args)
     t0 = time.perf_counter()
     texton = _texton_of(args)
     image = render_plane(texton, (args.height, args.width), height=args.camera_height, tilt=args.tilt,
                          fov=args.fov, texel_size=args.texel_size, mni=args.mni, seed=args.seed,
                          filter=options, device=args.device, progress=not args.quiet)
-    write_image(out, image)
+    write_image(out, image, dtype=dtype, compression=args.compression)
     if not args.quiet:
         print(f"{out}: {args.width}x{args.height} plane, filter {args.filter}, MNI {args.mni:g} "
               f"({time.perf_counter() - t0:.2f} s)")

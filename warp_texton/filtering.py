@@ -26,7 +26,7 @@ import numpy as np
 import warp as wp
 
 from ._checks import check_int
-from ._runtime import map_points
+from ._runtime import map_points, split_launch
 from .errors import TextonError
 from .kernels import filter2d as F
 from .kernels.noise2d import PAD
@@ -141,6 +141,22 @@ def _fraction(value) -> float:
     if not 0.0 <= float(value) <= 1.0:
         raise TextonError(f"fade_energy must be in [0, 1] (0 keeps every MIP level), got {value!r}")
     return float(value)
+
+
+#: What one filtered pixel costs, in raster pixels (a walk over its cells per
+#: lookup): it sizes the strips of filtered rasters and plane views.
+POINT_COST = 8
+
+
+def pixel_cost(options: FilterOptions, filtered: bool = True) -> int:
+    """What one pixel costs with ``options``, in raster pixels."""
+    if not filtered:
+        return 1
+    if options.kind == "supersample":
+        return POINT_COST * options.supersample ** 2
+    if options.kind == "anisotropic":
+        return POINT_COST * max(1, options.max_aniso // 2)
+    return POINT_COST
 
 
 # ------------------------------------------------------------------ pyramid
@@ -277,18 +293,29 @@ class PixelSet:
 
 class RasterPixels(PixelSet):
     """The pixels of a raster: (i, j) at origin + step ((j + ½), (i + ½)),
-    footprints ``J`` (constant (2, 2) or per pixel (H, W, 2, 2))."""
+    footprints ``J`` (constant (2, 2) or per pixel (H, W, 2, 2)).
 
-    def __init__(self, shape, origin, step, J):
+    ``first`` = (row, column) makes it the window of the pixels ``first`` + (i, j)
+    of the raster that ``origin`` and ``step`` place: centres and keys (which
+    seed the supersampling jitter) are those of the global pixels, so windows
+    are exactly the same pixels as one large raster.
+    """
+
+    def __init__(self, shape, origin, step, J, first=(0, 0)):
         h, w = shape
         self.width = w
         self.count = h * w
-        self.keys = np.arange(h * w)
+        self.first = (int(first[0]), int(first[1]))
+        i, j = np.divmod(np.arange(h * w, dtype=np.int64), w)
+        # the global (row, column), packed: independent of the window's width
+        self.keys = ((i + self.first[0]) << 32) + (j + self.first[1])
         self.origin, self.step = origin, step
         self.flat = J.reshape(-1, 2, 2)
 
     def _centres(self, idx):
         i, j = np.divmod(idx, self.width)
+        i = i + self.first[0]
+        j = j + self.first[1]
         return self.origin + np.stack([j + 0.5, i + 0.5], -1) @ self.step.T
 
     def centres(self, start, stop):
@@ -307,17 +334,26 @@ class RasterPixels(PixelSet):
 
 # --------------------------------------------------------------- evaluation
 def filter_pixels(p, texton: Texton, setup: NoiseSetup, pixels: PixelSet, options: FilterOptions, device,
-                  seed: int, progress: bool = False) -> np.ndarray:
-    """(pixels.count, 3) values of the noise of ``p`` at ``pixels``, filtered as ``options`` say."""
+                  seed: int, progress: bool = False, out=None) -> np.ndarray | None:
+    """(pixels.count, 3) values of the noise of ``p`` at ``pixels``, filtered as ``options`` say.
+
+    With ``out`` (a (pixels.count,) vec3 array on ``device``) the values are
+    written there and nothing is returned.
+    """
     if options.kind == "none":
-        return point_values(p, setup.coeffs, pixels.centres(0, pixels.count), device)
+        return point_values(p, setup.coeffs, pixels.centres(0, pixels.count), device, out)
     if options.kind == "supersample":
-        return supersampled(p, setup.coeffs, pixels, options.supersample, seed, device, cell_limit(setup), progress)
-    return filtered_points(p, texton, pixels, options, device)
+        values = supersampled(p, setup.coeffs, pixels, options.supersample, seed, device, cell_limit(setup), progress)
+        if out is None:
+            return values
+        out.assign(values)  # averaged on the host: one upload
+        return None
+    return filtered_points(p, texton, pixels, options, device, out)
 
 
-def filtered_points(p, texton: Texton, pixels: PixelSet, options: FilterOptions, device) -> np.ndarray:
-    """(N, 3) "mip" or "anisotropic" values at the pixels' centres and footprints."""
+def filtered_points(p, texton: Texton, pixels: PixelSet, options: FilterOptions, device, out=None) -> np.ndarray | None:
+    """(N, 3) "mip" or "anisotropic" values at the pixels' centres and footprints
+    (written into ``out`` when given)."""
     f = F.Filter()
     f.mode = F.MIP if options.kind == "mip" else F.ANISOTROPIC
     f.max_aniso = options.max_aniso
@@ -325,12 +361,19 @@ def filtered_points(p, texton: Texton, pixels: PixelSet, options: FilterOptions,
     with wp.ScopedDevice(device):
         pyr = pyramid_struct(texton, options.fade_energy)
 
-        def values(start, stop):
+        def launch(start, stop, res):
             pts, J = pixels.centres(start, stop), pixels.footprints(start, stop)
-            res = wp.zeros(stop - start, dtype=wp.vec3)
             wp.launch(F.filtered_points, dim=stop - start, inputs=[
                 p, pyr, f, wp.array(pts, dtype=wp.vec2d),
                 wp.array(J.astype(np.float32), dtype=wp.mat22), int(J.shape[0] > 1), res])
+
+        if out is not None:
+            split_launch(device, F, pixels.count, lambda start, stop: launch(start, stop, out[start:stop]))
+            return None
+
+        def values(start, stop):
+            res = wp.zeros(stop - start, dtype=wp.vec3)
+            launch(start, stop, res)
             return res.numpy()
 
         return map_points(device, F, pixels.count, values)
@@ -341,7 +384,7 @@ def subpixel_jitter(seed: int, keys: np.ndarray, n: int) -> np.ndarray:
     an n × n grid, jittered by a hash of (seed, pixel key, sample), so that a
     pixel's samples do not depend on which other pixels are computed with it."""
     cells = (np.stack(np.meshgrid(np.arange(n), np.arange(n), indexing="xy"), -1).reshape(-1, 2)).astype(np.float64)
-    key = (np.asarray(keys, np.uint64)[:, None, None] * np.uint64(n * n * 2)
+    key = (np.asarray(keys).astype(np.uint64)[:, None, None] * np.uint64(n * n * 2)
            + np.arange(n * n, dtype=np.uint64)[None, :, None] * np.uint64(2)
            + np.arange(2, dtype=np.uint64)[None, None, :])
     u = _splitmix64(key ^ _splitmix64(np.uint64(seed) + np.uint64(0x5EED)))

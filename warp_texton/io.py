@@ -1,8 +1,11 @@
-"""Reading and writing images: PNG/JPEG through Pillow, EXR through OpenEXR 3.x.
+"""Reading and writing images: PNG/JPEG through Pillow, EXR through OpenEXR 3.x,
+16-bit RGB PNG through imagecodecs and TIFF through tifffile (the ``formats`` extra).
 
 Images are float32 arrays (H, W, C) with C in {1, 3}. Every write goes to a
 temporary file in the destination folder and is renamed into place, so a
-failed write leaves no partial file.
+failed write leaves no partial file. Integer formats clip to [0, 1]; the
+number of clipped pixels is returned and, above CLIP_WARN of the image,
+reported once as a warning.
 """
 
 from __future__ import annotations
@@ -21,6 +24,22 @@ from .errors import TextonError
 #: Extensions ``write_image`` accepts, with the Pillow format used for each.
 PIL_FORMATS = {".png": "PNG", ".jpg": "JPEG", ".jpeg": "JPEG"}
 EXR = ".exr"
+TIFF = (".tif", ".tiff")
+#: The pixel types each extension stores, the first being the default.
+DTYPES = {".png": ("uint8", "uint16"), ".jpg": ("uint8",), ".jpeg": ("uint8",), EXR: ("float32", "float16"),
+          ".tif": ("float32", "float16", "uint16", "uint8"), ".tiff": ("float32", "float16", "uint16", "uint8")}
+#: EXR compressions by name; pxr24 (for float32), b44, b44a, dwaa and dwab are lossy.
+EXR_COMPRESSIONS = ("zip", "zips", "piz", "rle", "none", "pxr24", "b44", "b44a", "dwaa", "dwab")
+#: TIFF compressions by name (zstd and lzw through imagecodecs).
+TIFF_COMPRESSIONS = ("zlib", "zstd", "lzw", "none")
+#: Warn when more than this fraction of the pixels is clipped by an integer format:
+#: the tails of a faithful Gaussian texture clip a few tenths of a percent.
+CLIP_WARN = 1e-2
+#: TIFF files larger than this are written in tiles of TIFF_TILE pixels (and as
+#: BigTIFF past 2**32 bytes), which image viewers and GIS read piecewise.
+TIFF_TILED_BYTES = 64 << 20
+TIFF_TILE = 512
+FORMATS_EXTRA = "pip install 'warp-texton[formats]'"
 
 
 def _umask() -> int:
@@ -61,19 +80,26 @@ def _exr_module():
     return OpenEXR
 
 
-def exr_header(**attributes) -> dict:
-    """A float32, ZIP-compressed (lossless) scanline EXR header plus ``attributes``."""
+def exr_header(compression: str = "zip", **attributes) -> dict:
+    """A scanline EXR header, ``compression`` by name (default ZIP, lossless), plus ``attributes``."""
     exr = _exr_module()
-    return {"compression": exr.ZIP_COMPRESSION, "type": exr.scanlineimage, **attributes}
+    if compression not in EXR_COMPRESSIONS:
+        raise TextonError(f"compression must be one of {', '.join(EXR_COMPRESSIONS)} for EXR, got {compression!r}")
+    return {"compression": getattr(exr, f"{compression.upper()}_COMPRESSION" if compression != "none"
+                                   else "NO_COMPRESSION"), "type": exr.scanlineimage, **attributes}
 
 
-def write_exr(path, img: np.ndarray, **attributes) -> None:
-    """Write a float32 (H, W, 1|3) array as an EXR ("Y" or "RGB" channels), atomically."""
+def write_exr(path, img: np.ndarray, half: bool = False, compression: str = "zip", **attributes) -> None:
+    """Write an (H, W, 1|3) array as an EXR ("Y" or "RGB" channels), atomically:
+    float32, or half floats with ``half`` (values beyond ±65504 become ±65504)."""
     exr = _exr_module()
+    header = exr_header(compression, **attributes)
     img = np.ascontiguousarray(img, dtype=np.float32)
+    if half:
+        img = convert_pixels(img, "float16")[0]
     channels = {"Y": np.ascontiguousarray(img[:, :, 0])} if img.shape[2] == 1 else {"RGB": img}
     with atomic_path(path) as tmp:
-        exr.File(exr_header(**attributes), channels).write(str(tmp))
+        exr.File(header, channels).write(str(tmp))
 
 
 def read_exr_header(path) -> dict:
@@ -137,12 +163,61 @@ def _pil_to_array(im, path) -> np.ndarray:
     return np.asarray(im, dtype=np.float64) / 255.0
 
 
+def _scaled(a: np.ndarray, path) -> np.ndarray:
+    """Integer pixels scaled by their type's range; floats as they are."""
+    if a.ndim == 3 and a.shape[2] in (2, 4):
+        warnings.warn(f"{path}: dropping the alpha channel", stacklevel=4)
+        a = a[:, :, : a.shape[2] - 1]
+    if np.issubdtype(a.dtype, np.integer):
+        return a.astype(np.float64) / float(np.iinfo(a.dtype).max)
+    return a
+
+
+def _read_tiff(path):
+    """A TIFF through tifffile (float and 16-bit RGB, which Pillow cannot read), or
+    None without tifffile (Pillow reads the common cases then)."""
+    try:
+        import tifffile
+    except ImportError:
+        return None
+    try:
+        a = np.asarray(tifffile.imread(str(path)))
+    except Exception as exc:
+        raise TextonError(f"{path}: not a TIFF image that can be read ({exc})") from None
+    if a.ndim == 3 and a.shape[0] in (1, 3, 4) and a.shape[2] not in (1, 3, 4):
+        a = np.moveaxis(a, 0, -1)  # planar (C, H, W)
+    if a.dtype == bool or a.ndim not in (2, 3):
+        raise TextonError(f"{path}: a TIFF of shape {a.shape} and type {a.dtype} is not an image")
+    return as_image(_scaled(a, path), str(path))
+
+
+def _read_png48(path):
+    """A 16-bit RGB(A) PNG through imagecodecs (Pillow reads it as 8 bits), or None
+    for other PNGs."""
+    with open(path, "rb") as f:
+        head = f.read(26)
+    if len(head) < 26 or head[:8] != b"\x89PNG\r\n\x1a\n" or head[24] != 16 or head[25] not in (2, 6):
+        return None
+    try:
+        import imagecodecs
+    except ImportError:
+        warnings.warn(f"{path}: a 16-bit RGB PNG read with 8 bits; {FORMATS_EXTRA} reads all 16", stacklevel=3)
+        return None
+    try:
+        a = imagecodecs.png_decode(path.read_bytes())
+    except Exception as exc:
+        raise TextonError(f"{path}: not a PNG that can be read ({exc})") from None
+    return as_image(_scaled(np.asarray(a), path), str(path))
+
+
 def read_image(path) -> np.ndarray:
     """Read an image file as float32 (H, W, C), C in {1, 3}.
 
     PNG, JPEG and the other formats Pillow reads are scaled from 8 or 16 bits
-    to [0, 1]; EXR (by extension) is read through OpenEXR as stored. An alpha
-    channel is dropped with a warning.
+    to [0, 1]; EXR (by extension) is read through OpenEXR as stored; TIFF
+    through tifffile when installed (integers scaled, floats as stored), and
+    16-bit RGB PNG through imagecodecs. An alpha channel is dropped with a
+    warning.
 
     Raises
     ------
@@ -161,8 +236,17 @@ def read_image(path) -> np.ndarray:
         raise TextonError(f"{path}: no such file")
     if not path.is_file():
         raise TextonError(f"{path}: not a file")
-    if path.suffix.lower() == EXR:
+    ext = path.suffix.lower()
+    if ext == EXR:
         return read_exr(path)[0]
+    if ext in TIFF:
+        tiff = _read_tiff(path)
+        if tiff is not None:
+            return tiff
+    if ext == ".png":
+        png = _read_png48(path)
+        if png is not None:
+            return png
     from PIL import Image
 
     try:
@@ -181,32 +265,159 @@ def check_image_path(path) -> Path:
     before long work, so that a bad name fails at once)."""
     path = Path(path)
     ext = path.suffix.lower()
-    if ext != EXR and ext not in PIL_FORMATS:
-        raise TextonError(f"{path}: unsupported extension {ext or '(none)'!r}; use .png, .jpg, .jpeg or .exr")
+    if ext not in DTYPES:
+        raise TextonError(f"{path}: unsupported extension {ext or '(none)'!r}; "
+                          "use .png, .jpg, .jpeg, .exr, .tif or .tiff")
     return path
 
 
-def write_image(path, img) -> None:
-    """Write an image atomically: EXR as float32 (lossless), PNG/JPEG as 8 bits.
+def check_dtype(path, dtype=None) -> str:
+    """The pixel type ``write_image`` stores at ``path``: ``dtype`` if that format
+    takes it, else the format's default."""
+    ext = check_image_path(path).suffix.lower()
+    if dtype is None:
+        return DTYPES[ext][0]
+    name = np.dtype(dtype).name if not isinstance(dtype, str) else dtype
+    if name not in DTYPES[ext]:
+        raise TextonError(f"{path}: {ext} stores {', '.join(DTYPES[ext])}, not {dtype!r}")
+    return name
 
-    PNG and JPEG values are clipped to [0, 1] and rounded to 8 bits. The file
-    appears only once it is complete.
+
+def convert_pixels(img: np.ndarray, dtype: str, *, in_place: bool = False) -> tuple[np.ndarray, int]:
+    """(pixels as ``dtype``, number of pixels with a value clipped).
+
+    uint8/uint16 store [0, 1] scaled to the type's range, rounded; values
+    outside are clipped. float16 clips to its finite range ±65504; float32
+    stores the values as they are. Large chunks go through here: pixels are
+    tested one by one only when the extremes are out of range, and
+    ``in_place`` lets the clipping and scaling reuse ``img`` (float32; the
+    caller gives it up) instead of allocating copies.
+    """
+    img = np.asarray(img, np.float32)
+    if dtype == "float32":
+        return img, 0
+    lo, hi = (-65504.0, 65504.0) if dtype == "float16" else (0.0, 1.0)
+    clipped = 0
+    if img.size and not (img.min() >= lo and img.max() <= hi):
+        over = img.min(axis=-1) < lo
+        over |= img.max(axis=-1) > hi
+        clipped = int(np.count_nonzero(over))
+        del over
+        img = np.clip(img, lo, hi, out=img if in_place else None)
+        in_place = True  # a copy of ours now
+    if dtype == "float16":
+        return img.astype(np.float16), clipped
+    scaled = np.multiply(img, np.float32(np.iinfo(dtype).max), out=img if in_place else None)
+    np.rint(scaled, out=scaled)
+    return scaled.astype(dtype), clipped
+
+
+def report_clipped(name, clipped: int, total: int, dtype: str) -> None:
+    """Warn once when more than CLIP_WARN of ``total`` pixels were clipped."""
+    if total and clipped > CLIP_WARN * total:
+        keep = "use .exr, .tif or .zarr with a float type to keep them" if dtype.startswith("uint") else \
+            "use float32 to keep them"
+        where = "[0, 1]" if dtype.startswith("uint") else "the float16 range"
+        warnings.warn(f"{name}: {clipped} of {total} pixels ({100.0 * clipped / total:.2g} %) had values outside "
+                      f"{where}, clipped for {dtype}; {keep}", stacklevel=3)
+
+
+def write_image(path, img, *, dtype=None, compression=None) -> int:
+    """Write an image atomically; return the number of pixels clipped.
+
+    By extension: ``.exr`` float32 (or ``dtype="float16"``), ``.png`` 8 bits (or
+    ``dtype="uint16"``), ``.jpg``/``.jpeg`` 8 bits, ``.tif``/``.tiff`` float32,
+    float16, uint16 or uint8 (tiled when large, BigTIFF past 4 GiB).
+    Integer types hold [0, 1] scaled to their range: values outside are
+    clipped, and when more than CLIP_WARN of the pixels are, a warning says
+    how many. The file appears only once it is complete.
+
+    Parameters
+    ----------
+    path : str or Path
+    img : array (H, W) or (H, W, C)
+    dtype : str, optional
+        "uint8", "uint16", "float16" or "float32", as the format allows.
+    compression : str, optional
+        EXR: one of EXR_COMPRESSIONS (default "zip", lossless); TIFF: one of
+        TIFF_COMPRESSIONS (default "zlib"). PNG is always deflated.
+
+    Returns
+    -------
+    int: pixels with a value clipped to the stored range.
 
     Raises
     ------
     TextonError
-        For an unsupported extension, a missing folder, or a bad image.
+        For an unsupported extension or type, a missing folder, or a bad image.
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile, os
+    >>> from warp_texton import write_image
+    >>> folder = tempfile.mkdtemp()
+    >>> write_image(os.path.join(folder, "a.png"), np.full((4, 4, 3), 0.5), dtype="uint16")
+    0
     """
     path = check_image_path(path)
     ext = path.suffix.lower()
+    dtype = check_dtype(path, dtype)
     img = as_image(img, "img")
+    if compression is not None and ext not in (EXR, *TIFF):
+        raise TextonError(f"{path}: compression applies to .exr and .tif/.tiff outputs, not {ext}")
     if ext == EXR:
-        write_exr(path, img)
-        return
-    from PIL import Image
+        clipped = convert_pixels(img, dtype)[1]
+        write_exr(path, img, half=dtype == "float16", compression=compression or "zip")
+    elif ext in TIFF:
+        data, clipped = convert_pixels(img, dtype)
+        _write_tiff(path, data, compression or "zlib")
+    else:
+        data, clipped = convert_pixels(img, dtype)
+        if dtype == "uint16":
+            _write_png16(path, data)
+        else:
+            from PIL import Image
 
-    q = np.round(np.clip(img, 0.0, 1.0) * 255.0).astype(np.uint8)
-    pil = Image.fromarray(q[:, :, 0] if q.shape[2] == 1 else q)
+            pil = Image.fromarray(data[:, :, 0] if data.shape[2] == 1 else data)
+            with atomic_path(path) as tmp:
+                kwargs = {"quality": 95} if PIL_FORMATS[ext] == "JPEG" else {}
+                pil.save(tmp, format=PIL_FORMATS[ext], **kwargs)
+    report_clipped(path, clipped, img.shape[0] * img.shape[1], dtype)
+    return clipped
+
+
+def _optional(name: str, what: str):
+    try:
+        return __import__(name)
+    except ImportError:
+        raise TextonError(f"{what} needs the {name} package: {FORMATS_EXTRA}") from None
+
+
+def _write_png16(path, data: np.ndarray) -> None:
+    """A 16-bit PNG: grey through Pillow; RGB through imagecodecs (Pillow writes no 48-bit PNG)."""
+    if data.shape[2] == 1:
+        from PIL import Image
+
+        pil = Image.fromarray(np.ascontiguousarray(data[:, :, 0]))
+        with atomic_path(path) as tmp:
+            pil.save(tmp, format="PNG")
+        return
+    codecs = _optional("imagecodecs", "a 16-bit RGB PNG")
+    encoded = codecs.png_encode(np.ascontiguousarray(data))
     with atomic_path(path) as tmp:
-        kwargs = {"quality": 95} if PIL_FORMATS[ext] == "JPEG" else {}
-        pil.save(tmp, format=PIL_FORMATS[ext], **kwargs)
+        Path(tmp).write_bytes(encoded)
+
+
+def _write_tiff(path, data: np.ndarray, compression: str) -> None:
+    if compression not in TIFF_COMPRESSIONS:
+        raise TextonError(f"compression must be one of {', '.join(TIFF_COMPRESSIONS)} for TIFF, got {compression!r}")
+    tifffile = _optional("tifffile", "TIFF output")
+    if compression in ("zstd", "lzw"):
+        _optional("imagecodecs", f"{compression} TIFF compression")
+    big = data.nbytes > TIFF_TILED_BYTES
+    kwargs = {"tile": (TIFF_TILE, TIFF_TILE)} if big else {}
+    with atomic_path(path) as tmp:
+        tifffile.imwrite(tmp, data[:, :, 0] if data.shape[2] == 1 else data,
+                         photometric="minisblack" if data.shape[2] == 1 else "rgb",
+                         compression=None if compression == "none" else compression,
+                         bigtiff=data.nbytes > (1 << 32) - (1 << 26), **kwargs)

@@ -17,6 +17,7 @@ mixing, surface); it validates what it computes from, not user options.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -77,7 +78,8 @@ def noise_setup(texton: Texton, mni: float, period=None, cell_factor: float = CE
         raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
     mni = check_positive(mni, "mni")
     cell_factor = check_positive(cell_factor, "cell_factor")
-    if texton.support_area == 0:
+    area = texton.support_area  # a mask computation: once
+    if area == 0:
         raise TextonError("texton: every coefficient is zero, so its noise is the constant mean; nothing to synthesize")
     r, s = texton.size
     reach = support_reach(texton.order)
@@ -96,7 +98,7 @@ def noise_setup(texton: Texton, mni: float, period=None, cell_factor: float = CE
     # The kernels hold the cell side in float32: use that same value on the host,
     # so that host-placed blocks and kernel-placed cells coincide far from the origin.
     cell = tuple(float(np.float32(c)) for c in cell)
-    lam = mni / texton.support_area
+    lam = mni / area
     per_point = (math.ceil((hi[0] - lo[0]) / cell[0]) + 1) * (math.ceil((hi[1] - lo[1]) / cell[1]) + 1)
     if per_point > MAX_CELLS_PER_POINT:
         raise TextonError(
@@ -171,6 +173,27 @@ def noise_params(texton: Texton, setup: NoiseSetup, seed: int, poisson: str = "e
     return p
 
 
+def params_record(texton: Texton, setup: NoiseSetup, seed: int, poisson: str = "exact") -> np.ndarray:
+    """:func:`noise_params` as a record of its NumPy dtype (the same values), made
+    without Warp's struct objects, which cost more than a small raster to build."""
+    if poisson not in POISSON_MODES:
+        raise TextonError(f"poisson must be one of {', '.join(POISSON_MODES)}, got {poisson!r}")
+    rec = np.zeros((), dtype=record_dtype(K.NoiseParams))
+    c = rec["cells"]
+    c["size"] = setup.cell
+    c["period"] = setup.period_cells
+    c["mean_count"] = setup.lam_cell
+    c["seed"] = seed
+    c["exact_poisson"] = 1 if poisson == "exact" else 0
+    rec["order"] = texton.order
+    rec["lo"] = setup.lo
+    rec["hi"] = setup.hi
+    rec["lam"] = setup.lam
+    rec["mean"][: texton.channels] = texton.mean
+    rec["integral"][: texton.channels] = texton.integral
+    return rec
+
+
 def params_mean(p: K.NoiseParams) -> np.ndarray:
     """The noise mean held by ``p``, as three float32 values."""
     return np.array([p.mean[0], p.mean[1], p.mean[2]], np.float32)
@@ -197,11 +220,17 @@ def raster_geometry(shape, scale, rotation, offset):
     return np.array([ox, oy]), step
 
 
-def raster_reach(origin, step, shape, setup: NoiseSetup):
+def raster_reach(origin, step, shape, setup: NoiseSetup, first=(0, 0)):
     """(x0, x1, y0, y1): the texel box whose cells the raster reads (its corners'
-    box grown by the support), refused where cell indices would not fit int32."""
+    box grown by the support), refused where cell indices would not fit int32.
+
+    ``first`` = (row, column): the raster is the window of that many pixels
+    down and right of ``origin`` in the raster that ``origin`` and ``step`` place.
+    """
     h, w = shape
-    corners = origin[:, None] + step @ np.array([[0, w, 0, w], [0, 0, h, h]], dtype=np.float64)
+    r0, c0 = first
+    corners = origin[:, None] + step @ np.array([[c0, c0 + w, c0, c0 + w], [r0, r0, r0 + h, r0 + h]],
+                                                dtype=np.float64)
     x0, x1 = corners[0].min() - setup.hi[0], corners[0].max() - setup.lo[0]
     y0, y1 = corners[1].min() - setup.hi[1], corners[1].max() - setup.lo[1]
     check_cell_range(x0, x1, setup.cell[0], "the raster's positions")
@@ -217,27 +246,153 @@ class Regions:
     rho: np.ndarray | None  # (H, W) float32 ρ map, or None for vertical strips
 
 
-def draw_block(p, cell0, ncx: int, ncy: int):
-    """Impacts of the ncx × ncy cells from cell0, grouped by cell, with offsets
-    (on the current device)."""
-    n_cells = ncx * ncy
-    counts = wp.zeros(n_cells + 1, dtype=wp.int32)
-    wp.launch(K.count_impacts, dim=n_cells, inputs=[p, wp.vec2i(*cell0), ncx, counts])
-    offsets = wp.zeros(n_cells + 1, dtype=wp.int32)
-    wp.utils.array_scan(counts, offsets, inclusive=False)
-    total = int(offsets[n_cells: n_cells + 1].numpy()[0])
-    impacts = wp.zeros(max(total, 1), dtype=wp.vec2)
-    if total:
-        wp.launch(K.emit_impacts, dim=n_cells, inputs=[p, wp.vec2i(*cell0), ncx, offsets, impacts])
-    return impacts[:total] if total else impacts[:0], offsets
+@dataclass(frozen=True)
+class RasterWindow:
+    """One raster of a batch: the noise of ``p`` at pixels ``first`` + (i, j) of the
+    raster that ``origin`` and ``step`` place (see :func:`raster_geometry`), with
+    texton ``texton`` of the batch's :class:`TextonStack`."""
+
+    p: object  # kernels.noise2d.NoiseParams, or its record (params_record)
+    setup: NoiseSetup
+    texton: int
+    order: int
+    origin: np.ndarray
+    step: np.ndarray
+    first: tuple = (0, 0)
+    scale: float = 1.0  # for messages only
 
 
-def raster(p, setup: NoiseSetup, coeffs: np.ndarray, order: int, shape, origin, step, device,
-           method: str, scale, regions: Regions | None = None) -> np.ndarray:
-    """Evaluate the noise of ``p`` on a raster: (H, W, 3) float32 of normalised values.
+@dataclass(frozen=True)
+class TextonStack:
+    """Padded textons stacked along the rows (one common width): entry k holds
+    ``count[k]`` textons of ``rows[k]`` rows each from row ``row0[k]``, ``cols[k]`` wide."""
 
-    ``coeffs`` holds one padded texton, or ``regions.count`` of them stacked
-    along the rows for mixed noise (then values are Σ ε h / √λ, without mean).
+    coeffs: np.ndarray  # (total rows, width, 3) float32
+    row0: tuple
+    rows: tuple
+    cols: tuple
+
+    @classmethod
+    def of(cls, entries) -> "TextonStack":
+        """Stack padded coefficient arrays (rows, cols, 3), or (R, rows, cols, 3) for
+        the R textons of mixed noise (one entry)."""
+        entries = [np.asarray(e, np.float32) for e in entries]
+        entries = [e[None] if e.ndim == 3 else e for e in entries]
+        width = max(e.shape[2] for e in entries)
+        total = sum(e.shape[0] * e.shape[1] for e in entries)
+        coeffs = np.zeros((total, width, 3), np.float32)
+        row0, at = [], 0
+        for e in entries:
+            n, r, c = e.shape[:3]
+            coeffs[at:at + n * r, :c] = e.reshape(n * r, c, 3)
+            row0.append(at)
+            at += n * r
+        return cls(coeffs, tuple(row0), tuple(e.shape[1] for e in entries), tuple(e.shape[2] for e in entries))
+
+
+def window_block(win: RasterWindow, shape):
+    """(cx0, cy0, ncx, ncy): the cells whose impacts can reach the window."""
+    h, w = shape
+    cw, ch = win.setup.cell
+    x0, x1, y0, y1 = raster_reach(win.origin, win.step, shape, win.setup, win.first)
+    cx0, cy0 = math.floor(x0 / cw), math.floor(y0 / ch)
+    ncx, ncy = math.floor(x1 / cw) - cx0 + 1, math.floor(y1 / ch) - cy0 + 1
+    if ncx * ncy > MAX_CELLS:
+        raise TextonError(
+            f"scale {win.scale} makes this {h}x{w} raster cover {ncx * ncy} noise cells "
+            f"(at most {MAX_CELLS}); use a larger scale or a smaller raster"
+        )
+    return cx0, cy0, ncx, ncy
+
+
+def raster_impacts(windows, shape, blocks=None) -> float:
+    """The expected number of impacts the windows' blocks hold, plus ten standard
+    deviations; refused above MAX_IMPACTS (the kernels index impacts with int32)."""
+    blocks = [window_block(win, shape) for win in windows] if blocks is None else blocks
+    expected = 0.0
+    for win, (_, _, ncx, ncy) in zip(windows, blocks):
+        expected += win.setup.lam * ncx * ncy * win.setup.cell[0] * win.setup.cell[1]
+    bound = expected + 10 * math.sqrt(expected)
+    if bound > MAX_IMPACTS:
+        raise TextonError(
+            f"this raster needs about {expected:.3g} impacts (at most {MAX_IMPACTS}); "
+            "use a lower mni, a larger scale or a smaller raster"
+        )
+    return bound
+
+
+@functools.cache
+def record_dtype(struct) -> np.dtype:
+    """The NumPy dtype of a Warp struct's records (Warp builds it anew at every call)."""
+    return np.dtype(struct.numpy_dtype())
+
+
+def struct_array(table: np.ndarray, struct, device):
+    """(a ``wp.array`` of ``struct`` holding the records of ``table``, the array that
+    owns its memory): the bytes go over as they are, which skips Warp's
+    per-call parsing of the struct's NumPy dtype. Keep the owner alive while
+    the array is used."""
+    raw = np.ascontiguousarray(table).view(np.uint8)
+    owner = wp.array(raw, dtype=wp.uint8, device=device, copy=not is_cpu(device))
+    return wp.array(ptr=owner.ptr, dtype=struct, shape=(table.shape[0],), device=device), owner
+
+
+def put_params(rec, p) -> None:
+    """Copy the NoiseParams ``p`` into the structured record ``rec`` of its NumPy dtype."""
+    c = p.cells
+    rec["cells"]["size"] = (c.size[0], c.size[1])
+    rec["cells"]["period"] = (c.period[0], c.period[1])
+    rec["cells"]["mean_count"] = c.mean_count
+    rec["cells"]["seed"] = c.seed
+    rec["cells"]["exact_poisson"] = c.exact_poisson
+    for name in ("order", "lam"):
+        rec[name] = getattr(p, name)
+    for name in ("lo", "hi", "mean", "integral"):
+        rec[name] = tuple(getattr(p, name))
+
+
+def window_table(windows, blocks, stack: TextonStack, shape):
+    """The kernels' Window records (NumPy structured) and each window's cell count."""
+    h, w = shape
+    table = np.zeros(len(windows), dtype=record_dtype(K.Window))
+    ncells = np.zeros(len(windows), np.int64)
+    first_cell = 0
+    for b, (win, (cx0, cy0, ncx, ncy)) in enumerate(zip(windows, blocks)):
+        t = table[b]
+        if isinstance(win.p, np.ndarray):
+            t["p"] = win.p
+        else:
+            put_params(t["p"], win.p)
+        t["origin"] = win.origin
+        t["step_x"] = win.step[:, 0]
+        t["step_y"] = win.step[:, 1]
+        t["inv"] = np.linalg.inv(win.step)
+        t["fstep_x"] = win.step[:, 0]
+        t["fstep_y"] = win.step[:, 1]
+        t["first"] = win.first
+        t["out_row"] = b * h
+        t["width"] = w
+        t["cell0"] = (cx0, cy0)
+        t["ncx"] = ncx
+        t["ncy"] = ncy
+        t["first_cell"] = first_cell
+        t["texton_row"] = stack.row0[win.texton]
+        t["texton_rows"] = stack.rows[win.texton]
+        t["texton_cols"] = stack.cols[win.texton]
+        t["grid"] = int(win.order == 1 and np.array_equal(win.step, np.eye(2)))
+        ncells[b] = ncx * ncy
+        first_cell += ncx * ncy
+    return table, ncells
+
+
+def rasters(windows, stack: TextonStack, shape, device, method: str, out,
+            regions: Regions | None = None) -> None:
+    """Evaluate the noise of every window into ``out``, a (len(windows) · H, W) vec3
+    array on ``device`` (zeroed for the splat): window b fills rows b·H….
+
+    All windows share one count/emit pass and one splat (CPU, split into row
+    bands over threads) or gather launch. ``regions`` (one window only) makes
+    mixed noise: values are then Σ ε h / √λ, without the mean.
     """
     h, w = shape
     if method not in METHODS:
@@ -247,37 +402,29 @@ def raster(p, setup: NoiseSetup, coeffs: np.ndarray, order: int, shape, origin, 
         method = "splat" if on_cpu else "gather"
     if method == "splat" and not on_cpu:
         raise TextonError('method "splat" runs on the CPU only (its launches must not overlap); use "gather"')
-    cw, ch = setup.cell
-    # Noise-space bounding box of the raster, grown by the support: the block of cells to draw.
-    x0, x1, y0, y1 = raster_reach(origin, step, (h, w), setup)
-    cx0, cy0 = math.floor(x0 / cw), math.floor(y0 / ch)
-    ncx, ncy = math.floor(x1 / cw) - cx0 + 1, math.floor(y1 / ch) - cy0 + 1
-    if ncx * ncy > MAX_CELLS:
-        raise TextonError(
-            f"scale {scale} makes this {h}x{w} raster cover {ncx * ncy} noise cells "
-            f"(at most {MAX_CELLS}); use a larger scale or a smaller raster"
-        )
-    expected = setup.lam * ncx * ncy * cw * ch
-    if expected + 10 * math.sqrt(expected) > MAX_IMPACTS:
-        raise TextonError(
-            f"this raster needs about {expected:.3g} impacts (at most {MAX_IMPACTS}); "
-            "use a lower mni, a larger scale or a smaller raster"
-        )
+    blocks = [window_block(win, shape) for win in windows]
+    raster_impacts(windows, shape, blocks)
+    table, ncells = window_table(windows, blocks, stack, shape)
+    n_cells = int(ncells.sum())
+    first_cells = np.concatenate([[0], np.cumsum(ncells)])
     with wp.ScopedDevice(device):
-        impacts, offsets = draw_block(p, (cx0, cy0), ncx, ncy)
-        n = impacts.shape[0]
-        r = K.Raster()
-        # positions relative to the block corner, computed in float64 before rounding
-        base = origin - np.array([cx0 * cw, cy0 * ch])
-        r.base = wp.vec2(*base)
-        r.step_x = wp.vec2(*step[:, 0])
-        r.step_y = wp.vec2(*step[:, 1])
-        r.width = w
-        r.height = h
-        inv = wp.mat22(*np.linalg.inv(step).ravel())
-        stack = wp.array(coeffs.reshape(-1, coeffs.shape[-2], 3), dtype=wp.vec3)
+        wins, owner = struct_array(table, K.Window, device)
+        cell_window = wp.array(np.repeat(np.arange(len(windows), dtype=np.int32), ncells), dtype=wp.int32)
+        counts = wp.zeros(n_cells + 1, dtype=wp.int32)
+        wp.launch(K.count_impacts, dim=n_cells, inputs=[wins, cell_window, counts])
+        offsets = wp.zeros(n_cells + 1, dtype=wp.int32)
+        wp.utils.array_scan(counts, offsets, inclusive=False)
+        if on_cpu:
+            starts = offsets.numpy()[first_cells]  # a view: no copy on the CPU
+        else:
+            starts = offsets[n_cells: n_cells + 1].numpy()
+        n = int(starts[-1])
+        impacts = wp.empty(max(n, 1), dtype=wp.vec2)
+        impact_cell = wp.empty(max(n, 1), dtype=wp.int32)
+        if n:
+            wp.launch(K.emit_impacts, dim=n_cells, inputs=[wins, cell_window, offsets, impacts, impact_cell])
+        coeffs = wp.array(stack.coeffs, dtype=wp.vec3)
         marks = K.Marks()
-        marks.rows = coeffs.shape[-3]
         if regions is None:
             marks.marked = 0
             marks.labels = wp.zeros(1, dtype=wp.int32)
@@ -288,38 +435,141 @@ def raster(p, setup: NoiseSetup, coeffs: np.ndarray, order: int, shape, origin, 
             marks.signs = wp.zeros(max(n, 1), dtype=float)
             rho = regions.rho if regions.rho is not None else np.zeros((1, 1), np.float32)
             if n:
-                wp.launch(K.emit_signs, dim=ncx * ncy, inputs=[p, wp.vec2i(cx0, cy0), ncx, offsets, marks.signs])
-                wp.launch(K.label_impacts, dim=n, inputs=[impacts, r, inv, int(regions.rho is None),
-                                                          regions.count, wp.array(rho, dtype=float), marks.labels])
-        if on_cpu:
-            # calloc'd pages are zeroed lazily, by the threads that first touch them
-            host = np.zeros((h, w, 3), np.float32)
-            out = wp.array(host, dtype=wp.vec3, copy=False)
-        else:
-            out = wp.empty((h, w), dtype=wp.vec3)
+                wp.launch(K.emit_signs, dim=n_cells, inputs=[wins, cell_window, offsets, marks.signs])
+                wp.launch(K.label_impacts, dim=n, inputs=[wins, cell_window, impacts, impact_cell,
+                                                          int(regions.rho is None), regions.count,
+                                                          wp.array(rho, dtype=float), marks.labels])
         if method == "splat":
-            on_grid = order == 1 and np.array_equal(step, np.eye(2))
 
             def band(r0, r1):
-                if n and on_grid:
-                    wp.launch(K.splat_impacts_grid, dim=n, inputs=[r.base, stack, impacts, marks, w, r0, r1, out])
-                elif n:
-                    wp.launch(K.splat_impacts, dim=n, inputs=[p, r, inv, stack, impacts, marks, r0, r1, out])
-                wp.launch(K.normalize_raster, dim=(r1 - r0, w), inputs=[p, r0, out])
+                k0, k1 = int(starts[r0 // h]), int(starts[(r1 - 1) // h + 1])
+                if k1 > k0:
+                    wp.launch(K.splat_impacts, dim=k1 - k0,
+                              inputs=[wins, cell_window, coeffs, impacts, impact_cell, marks, k0, h, r0, r1, out])
+                wp.launch(K.normalize_rows, dim=r1 - r0, inputs=[wins, h, r0, out])
         else:
 
             def band(r0, r1):
                 wp.launch(K.gather_raster, dim=(r1 - r0, w),
-                          inputs=[p, r, stack, impacts, offsets, marks, ncx, ncy, r0, out])
+                          inputs=[wins, coeffs, impacts, offsets, marks, h, r0, out])
 
-        split_launch(device, K, h, band, BANDS_PER_THREAD)
-        return host if on_cpu else out.numpy()
+        split_launch(device, K, len(windows) * h, band, BANDS_PER_THREAD)
 
 
-def point_values(p, coeffs: np.ndarray, pts: np.ndarray, device) -> np.ndarray:
-    """(N, 3) unfiltered noise at float64 points (N, 2), split over threads on the CPU."""
+class Canvas:
+    """Float32 output memory ``shape`` + (3,) that the kernels write through vec3
+    views: NumPy on the CPU (zero pages, touched first by the threads that fill
+    them), a ``wp.array`` on a CUDA device.
+
+    ``result(channels, output)`` hands it over as NumPy (``output="numpy"``; a
+    copy from a GPU) or as a ``wp.array`` on the device (``output="warp"``).
+    """
+
+    def __init__(self, shape, device):
+        self.shape = tuple(int(s) for s in shape)
+        self.device = device
+        if is_cpu(device):
+            self.host = np.zeros(self.shape + (3,), np.float32)
+            self.data = wp.array(self.host, dtype=wp.float32, device=device, copy=False)
+        else:
+            self.host = None
+            self.data = wp.zeros(self.shape + (3,), dtype=wp.float32, device=device)
+        self.size = int(np.prod(self.shape))
+
+    def pixels(self, start: int, stop: int):
+        """Values start…stop (row-major order) as a 1-D vec3 view."""
+        return wp.array(ptr=self.data.ptr + start * 12, dtype=wp.vec3, shape=(stop - start,), device=self.device)
+
+    def rows(self, width: int):
+        """All values as a (size / width, width) vec3 view."""
+        return wp.array(ptr=self.data.ptr, dtype=wp.vec3, shape=(self.size // width, width), device=self.device)
+
+    def result(self, channels: int, output: str):
+        if output == "warp":
+            return self.data if channels == 3 else \
+                self.data[(slice(None),) * len(self.shape) + (slice(0, channels),)].contiguous()
+        a = self.host if self.host is not None else self.data.numpy()
+        return a if channels == 3 else np.ascontiguousarray(a[..., :channels])
+
+
+def fill_pixels(out, index: np.ndarray, mean, device, compute) -> None:
+    """``out`` (an (N,) vec3 array) holds ``mean`` except at ``index``, where
+    ``compute(target)`` writes its values (into ``out`` itself when every pixel
+    is computed, else through a scatter on the device)."""
+    n = out.shape[0]
+    with wp.ScopedDevice(device):
+        if index.size == n:
+            compute(out)
+            return
+        out.fill_(wp.vec3(*(float(v) for v in mean)))
+        if index.size:
+            values = wp.empty(index.size, dtype=wp.vec3)
+            compute(values)
+            wp.launch(K.scatter_values, dim=index.size, inputs=[values, wp.array(index.astype(np.int64), dtype=wp.int64), out])
+
+
+#: Work of one strip of a large raster (or one group of a batch), in raster
+#: pixels: a few tenths of a second on two cores, so that a progress bar moves
+#: and Ctrl-C stops within one strip.
+STRIP_WORK = 1 << 22
+
+
+def strips(h: int, w: int, cost: int = 1):
+    """Row ranges (r0, r1) cutting an H × W raster into strips of about STRIP_WORK,
+    for pixels that each cost ``cost`` raster pixels."""
+    rows = max(1, STRIP_WORK // max(1, w * cost))
+    return [(r0, min(h, r0 + rows)) for r0 in range(0, h, rows)]
+
+
+def result_bytes(count: int, h: int, w: int, channels: int, device, output: str) -> int:
+    """Bytes of a float32 (count, H, W, 3) canvas plus what handing it over copies."""
+    n = count * h * w
+    extra = 0
+    if channels != 3:
+        extra = n * channels * 4  # the channels taken out of the canvas
+    elif output == "numpy" and not is_cpu(device):
+        extra = n * 3 * 4  # the copy to the host
+    return n * 12 + extra
+
+
+OUTPUTS = ("numpy", "warp")
+
+
+def check_output(output) -> str:
+    """``"numpy"`` or ``"warp"``."""
+    if not isinstance(output, str) or output not in OUTPUTS:
+        raise TextonError(f"output must be one of {', '.join(OUTPUTS)}, got {output!r}")
+    return output
+
+
+def raster(p, setup: NoiseSetup, coeffs: np.ndarray, order: int, shape, origin, step, device,
+           method: str, scale, regions: Regions | None = None) -> np.ndarray:
+    """Evaluate the noise of ``p`` on a raster: (H, W, 3) float32 of normalised values.
+
+    ``coeffs`` holds one padded texton, or ``regions.count`` of them stacked
+    (R, rows, cols, 3) for mixed noise (then values are Σ ε h / √λ, without mean).
+    """
+    canvas = Canvas(shape, device)
+    win = RasterWindow(p, setup, 0, order, origin, step, (0, 0), scale)
+    rasters([win], TextonStack.of([coeffs]), shape, device, method, canvas.rows(shape[1]), regions)
+    return canvas.result(3, "numpy")
+
+
+def point_values(p, coeffs: np.ndarray, pts: np.ndarray, device, out=None) -> np.ndarray | None:
+    """(N, 3) unfiltered noise at float64 points (N, 2), split over threads on the CPU.
+
+    With ``out`` (an (N,) vec3 array on ``device``) the values are written there
+    and nothing is returned.
+    """
     with wp.ScopedDevice(device):
         c = wp.array(coeffs, dtype=wp.vec3)
+        if out is not None:
+            def launch(start, stop):
+                wp.launch(K.evaluate_points, dim=stop - start,
+                          inputs=[p, c, wp.array(pts[start:stop], dtype=wp.vec2d), out[start:stop]])
+
+            split_launch(device, K, pts.shape[0], launch)
+            return None
 
         def values(start, stop):
             res = wp.zeros(stop - start, dtype=wp.vec3)

@@ -12,10 +12,12 @@ import math
 import numpy as np
 
 from ._checks import check_positive, check_seed, check_shape
-from ._runtime import resolve_device
+from ._runtime import progress_bar, resolve_device
 from .errors import TextonError
-from .filtering import FilterOptions, PixelSet, filter_pixels
-from .noise import cell_limit, noise_params, noise_setup, params_mean
+from .filtering import FilterOptions, PixelSet, filter_pixels, pixel_cost
+from .limits import check_memory
+from .noise import (Canvas, cell_limit, check_output, fill_pixels, noise_params, noise_setup, params_mean,
+                    result_bytes, strips)
 from .texton import Texton
 
 
@@ -112,7 +114,8 @@ def render_plane(
     device=None,
     *,
     progress: bool = False,
-) -> np.ndarray:
+    output: str = "numpy",
+):
     """An infinite ground plane textured with texton noise, seen in perspective (CGF Fig. 3).
 
     Parameters
@@ -139,12 +142,16 @@ def render_plane(
         ``supersample`` or ``fade_energy``.
     device : str, optional
     progress : bool
-        Show a progress bar while supersampling.
+        Show a progress bar over the rows of a large view (once it has run for
+        two seconds).
+    output : {"numpy", "warp"}
+        A NumPy array, or a ``wp.array`` on ``device`` that is never copied to
+        the host (see :func:`warp_texton.synthesize`).
 
     Returns
     -------
-    float32 array (height, width, C); pixels that see no plane (above the
-    horizon, or beyond ±2**29 noise cells) hold the texton mean.
+    float32 array (height, width, C), NumPy or ``wp.array``; pixels that see no
+    plane (above the horizon, or beyond ±2**29 noise cells) hold the texton mean.
 
     Examples
     --------
@@ -156,14 +163,31 @@ def render_plane(
     """
     view = PlaneView(shape, height, tilt, fov, texel_size)
     h, w = view.shape
-    out = plane_pixels(texton, view, np.arange(h * w), mni, seed, filter, device, progress=progress)
-    return np.ascontiguousarray(out.reshape(h, w, -1))
+    output = check_output(output)
+    options = FilterOptions.of(filter)
+    noise_setup(texton, mni)  # a bad texton or mni is refused before anything is allocated
+    check_seed(seed)
+    device = resolve_device(device)
+    check_memory(result_bytes(1, h, w, texton.channels, device, output) + h * w * 16,
+                 f"a {h}x{w} plane view", "use a smaller shape")
+    canvas = Canvas((h, w), device)
+    parts = strips(h, w, pixel_cost(options, True))
+    bar = progress_bar(progress and len(parts) > 1, h, "render-plane", "row")
+    try:
+        for r0, r1 in parts:
+            plane_pixels(texton, view, np.arange(r0 * w, r1 * w), mni, seed, options, device,
+                         progress=progress and len(parts) == 1, out=canvas.pixels(r0 * w, r1 * w))
+            bar.update(r1 - r0)
+    finally:
+        bar.close()
+    return canvas.result(texton.channels, output)
 
 
 def plane_pixels(texton: Texton, view: PlaneView, pixels, mni: float = 30.0, seed: int = 0,
-                 filter="anisotropic", device=None, *, progress: bool = False) -> np.ndarray:
+                 filter="anisotropic", device=None, *, progress: bool = False, out=None) -> np.ndarray | None:
     """(N, C) values of the flat pixel indices ``pixels`` of :func:`render_plane`'s image
-    (benchmarks compare filters on a subset of pixels this way)."""
+    (benchmarks compare filters on a subset of pixels this way). With ``out`` (an
+    (N,) vec3 array on the device) all three channels are written there instead."""
     options = FilterOptions.of(filter)
     seed = check_seed(seed)
     setup = noise_setup(texton, mni)
@@ -176,10 +200,14 @@ def plane_pixels(texton: Texton, view: PlaneView, pixels, mni: float = 30.0, see
     # positions whose cells the kernels could not index see the mean
     limit = cell_limit(setup)
     hit = np.isfinite(centre).all(axis=1) & (np.abs(centre) < limit).all(axis=1)
-    out = np.empty((ii.size, 3), np.float32)
-    out[:] = params_mean(p)
     idx = np.flatnonzero(hit)
     wants_footprints = options.kind in ("mip", "anisotropic")
     seen = PlanePixels(view, keys[idx], np.ascontiguousarray(centre[idx]), wants_footprints)
+    if out is not None:
+        fill_pixels(out, idx, params_mean(p), device,
+                    lambda target: filter_pixels(p, texton, setup, seen, options, device, seed, progress, target))
+        return None
+    out = np.empty((ii.size, 3), np.float32)
+    out[:] = params_mean(p)
     out[idx] = filter_pixels(p, texton, setup, seen, options, device, seed, progress)
     return out[:, : texton.channels]
