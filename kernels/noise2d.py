@@ -192,22 +192,24 @@ def label_impacts(
     impacts: wp.array(dtype=wp.vec2),
     r: Raster,
     inv: wp.mat22,
+    centre: wp.vec2,
     strips: int,
     regions: int,
     rho: wp.array2d(dtype=float),
     labels: wp.array(dtype=wp.int32),
 ):
-    """The texton of each impact: the region of the raster its position falls in
-    (CGF §7: 1{x_j ∈ D_r}). Textons hang from their impact at coefficient (0, 0),
-    so a texture's region appears about half a texton right of and below its
-    region in the map.
+    """The texton of each impact: the region of the raster that the centre of its
+    texton falls in (CGF §7: 1{x_j ∈ D_r} for a kernel centred on x_j). Textons
+    are stored from coefficient (0, 0) at the impact, so the centre of the
+    support box, ``centre`` texels from the impact, stands for x_j: a texture
+    then covers its region of the map, half a texton past it on every side.
 
     ``strips`` = 1: ``regions`` vertical strips across the raster's width;
     otherwise the nearest pixel of the ρ map (clamped at the border) picks
     texton round(ρ (regions − 1)).
     """
     k = wp.tid()
-    pix = inv * (impacts[k] - r.base)  # (column, row) + ½
+    pix = inv * (impacts[k] + centre - r.base)  # (column, row) + ½
     if strips != 0:
         lab = int(wp.floor(pix[0] / float(r.width) * float(regions)))
     else:

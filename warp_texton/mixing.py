@@ -234,9 +234,9 @@ def synthesize_mixed(
     textons : sequence of Texton
         R textons of one size, order and channel count (e.g. from :func:`mix_textons`).
     weights : "strips" or array (H, W) of ρ in [0, 1]
-        Regions are read at each impact's position (CGF §7); since a texton
-        hangs from its impact by its corner, textures appear about half a
-        texton right of and below their regions.
+        Regions are read where each impact's texton has its centre (CGF §7
+        tests x_j ∈ D_r for a kernel centred on x_j), so textures cover their
+        regions and blend over about a texton's width across the borders.
         "strips": R vertical strips across the raster, as in CGF Fig. 5; the
         mean goes linearly from the first texton's to the last's. A map: each
         impact takes texton round(ρ (R − 1)) at the nearest pixel; the mean at

@@ -289,7 +289,8 @@ def raster(p, setup: NoiseSetup, coeffs: np.ndarray, order: int, shape, origin, 
             rho = regions.rho if regions.rho is not None else np.zeros((1, 1), np.float32)
             if n:
                 wp.launch(K.emit_signs, dim=ncx * ncy, inputs=[p, wp.vec2i(cx0, cy0), ncx, offsets, marks.signs])
-                wp.launch(K.label_impacts, dim=n, inputs=[impacts, r, inv, int(regions.rho is None),
+                centre = wp.vec2(0.5 * (setup.lo[0] + setup.hi[0]), 0.5 * (setup.lo[1] + setup.hi[1]))
+                wp.launch(K.label_impacts, dim=n, inputs=[impacts, r, inv, centre, int(regions.rho is None),
                                                           regions.count, wp.array(rho, dtype=float), marks.labels])
         if on_cpu:
             # calloc'd pages are zeroed lazily, by the threads that first touch them
