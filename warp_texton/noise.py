@@ -23,9 +23,10 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from ._checks import check_positive
+from ._checks import check_mni, check_positive, check_real
 from ._runtime import BANDS_PER_THREAD, init_warp, is_cpu, map_points, split_launch
 from .errors import TextonError
+from .limits import check_memory, check_work
 from .kernels import noise2d as K
 from .kernels.impacts import Cells
 from .texton import Texton
@@ -48,6 +49,14 @@ MAX_CELL_MEAN = 1.0e5
 MAX_CELL_INDEX = 1 << 30
 #: The block's impacts are indexed by int32 offsets.
 MAX_IMPACTS = 1 << 30
+#: Largest scale (pixels per texel): the kernels hold pixel positions in float32
+#: relative to the block of cells, whose ~2**-24 relative precision reaches a
+#: pixel step at about 1e5 pixels per texel.
+MAX_SCALE = 1.0e4
+#: Host bytes per impact of a raster's block: its position (vec2), and for mixed
+#: noise its label and sign.
+IMPACT_BYTES = 8
+MARKED_IMPACT_BYTES = 16
 
 
 def support_reach(order: int) -> float:
@@ -65,6 +74,7 @@ class NoiseSetup:
     lo: tuple[float, float]
     hi: tuple[float, float]
     coeffs: np.ndarray  # (r + 2 PAD, s + 2 PAD, 3) float32
+    mni: float = 0.0  # λ · area(supp h)
 
     @property
     def lam_cell(self) -> float:
@@ -75,7 +85,7 @@ def noise_setup(texton: Texton, mni: float, period=None, cell_factor: float = CE
     """Intensity, cell grid and support box of the noise of ``texton``."""
     if not isinstance(texton, Texton):
         raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
-    mni = check_positive(mni, "mni")
+    mni = check_mni(mni)
     cell_factor = check_positive(cell_factor, "cell_factor")
     if texton.support_area == 0:
         raise TextonError("texton: every coefficient is zero, so its noise is the constant mean; nothing to synthesize")
@@ -91,6 +101,14 @@ def noise_setup(texton: Texton, mni: float, period=None, cell_factor: float = CE
         px, py = check_period(period)
         nx = max(1, round(px / side))
         ny = max(1, round(py / side))
+        if max(nx, ny) > MAX_CELL_INDEX:
+            # the kernels wrap int32 cell indices modulo the period's cell count: beyond
+            # 2**30 cells the count itself would wrap and the period silently change
+            raise TextonError(
+                f"period ({px:.6g}, {py:.6g}) texels spans {nx} x {ny} noise cells of {side:.3g} texels; "
+                f"a period can span at most 2**30 cells, i.e. {MAX_CELL_INDEX * side:.4g} texels for this "
+                "texton and cell_factor (the noise is defined within that range anyway); use a smaller period"
+            )
         cell = (px / nx, py / ny)
         period_cells = (nx, ny)
     # The kernels hold the cell side in float32: use that same value on the host,
@@ -109,7 +127,7 @@ def noise_setup(texton: Texton, mni: float, period=None, cell_factor: float = CE
             f"cell_factor {cell_factor:g} makes cells hold {lam * cell[0] * cell[1]:.3g} impacts on average "
             f"(at most {MAX_CELL_MEAN:g}); use a smaller cell_factor (default {CELL_FACTOR})"
         )
-    return NoiseSetup(lam, cell, period_cells, lo, hi, padded_coeffs(texton))
+    return NoiseSetup(lam, cell, period_cells, lo, hi, padded_coeffs(texton), mni)
 
 
 def padded_coeffs(texton: Texton) -> np.ndarray:
@@ -132,11 +150,79 @@ def check_cell_range(lo: float, hi: float, cell: float, what: str) -> None:
 
 def check_period(period) -> tuple[float, float]:
     """A pair (Px, Py) of positive numbers."""
-    try:
-        px, py = period
-    except (TypeError, ValueError):
-        raise TextonError(f"period must be a pair (Px, Py) of positive numbers, got {period!r}") from None
+    px, py = _pair(period, "period", "(Px, Py) of positive numbers")
     return check_positive(px, "period[0]"), check_positive(py, "period[1]")
+
+
+def _pair(value, name: str, what: str):
+    if isinstance(value, (str, bytes)):
+        raise TextonError(f"{name} must be a pair {what}, got {value!r:.60}")
+    try:
+        a, b = value
+    except Exception:  # not iterable, wrong length
+        raise TextonError(f"{name} must be a pair {what}, got {value!r:.60}") from None
+    return a, b
+
+
+def check_pair(value, name: str) -> tuple[float, float]:
+    """A pair (x, y) of finite numbers."""
+    x, y = _pair(value, name, "(x, y) of numbers")
+    return check_real(x, f"{name}[0]"), check_real(y, f"{name}[1]")
+
+
+#: Operations (the unit of limits.check_work) per impact a point's cell walk
+#: visits: a walk draws each visited cell's impacts again for every point, where
+#: a raster draws them once and splats; measured at about 15 raster lookups per
+#: walk visit on the CPU (benchmarks/bench_limits.py).
+WALK_COST = 16.0
+
+
+def walk_cost(setup: NoiseSetup, width, height):
+    """Operations of a cell walk over a box of ``width`` × ``height`` texels (arrays
+    broadcast): the impacts of the cells it covers, times WALK_COST."""
+    cw, ch = setup.cell
+    cells = (np.ceil(np.asarray(width) / cw) + 1) * (np.ceil(np.asarray(height) / ch) + 1)
+    return WALK_COST * cells * setup.lam_cell
+
+
+def visits_per_point(setup: NoiseSetup) -> float:
+    """Operations of one point's cell walk over the texton's support box."""
+    return float(walk_cost(setup, setup.hi[0] - setup.lo[0], setup.hi[1] - setup.lo[1]))
+
+
+def lookup_cost(order: int, on_grid: bool) -> float:
+    """Operations per texton lookup of a raster splat or gather: 1 on the vectorised
+    path (bilinear, unrotated, scale 1), else about 2 (order + 1)² for the taps
+    of the general path (measured 8 for order 1; benchmarks/bench_limits.py)."""
+    return 1.0 if on_grid else 2.0 * (order + 1) ** 2
+
+
+def check_points_cost(setup: NoiseSetup, count: int, what: str, evaluations: float = 1.0,
+                      bytes_per_point: float = 64.0) -> None:
+    """Refuse ``count`` point evaluations (``evaluations`` walks each) beyond the budgets."""
+    check_memory(count * bytes_per_point, what, "use fewer points")
+    check_work(count * evaluations * visits_per_point(setup), f"{what} at MNI {setup.mni:.4g}",
+               "use fewer points or a lower mni")
+
+
+def check_raster_cost(setup: NoiseSetup, shape, ncells: int, stacked: int = 1, marked: bool = False,
+                      lookup: float = 1.0) -> None:
+    """Refuse a raster whose impact block, output or work exceed the budgets.
+
+    Memory: counts and offsets per cell, the block's impacts (with labels and
+    signs when ``marked``), the (H, W, 3) float32 raster and its copy to C
+    channels, the coefficient stack. Work: the impacts drawn plus, for every
+    pixel, the impacts whose support covers it (MNI on average) at ``lookup``
+    operations each (:func:`lookup_cost`).
+    """
+    h, w = shape
+    expected = setup.lam * ncells * setup.cell[0] * setup.cell[1]
+    impacts = expected + 10 * math.sqrt(expected)
+    per_impact = MARKED_IMPACT_BYTES if marked else IMPACT_BYTES
+    nbytes = 8.0 * ncells + per_impact * impacts + 2 * 12.0 * h * w + stacked * setup.coeffs.nbytes
+    what = f"a {w}x{h} raster at MNI {setup.mni:.4g}"
+    check_memory(nbytes, what, "use a smaller raster, a larger scale or a lower mni")
+    check_work(impacts + float(h) * w * setup.mni * lookup, what, "use a smaller raster or a lower mni")
 
 
 def cell_limit(setup: NoiseSetup) -> float:
@@ -180,13 +266,11 @@ def raster_geometry(shape, scale, rotation, offset):
     """Pixel (i, j) ↦ x = offset + R(rotation) ((j + ½)/scale, (i + ½)/scale):
     returns (origin (2,), step (2, 2)) in float64, columns the steps along j and i."""
     scale = check_positive(scale, "scale")
-    try:
-        rotation = float(rotation)
-        ox, oy = (float(v) for v in offset)
-    except (TypeError, ValueError):
-        raise TextonError(f"rotation must be a number and offset a pair (x, y), got {rotation!r}, {offset!r}") from None
-    if not (math.isfinite(rotation) and math.isfinite(ox) and math.isfinite(oy)):
-        raise TextonError("rotation and offset must be finite")
+    if scale > MAX_SCALE:
+        raise TextonError(f"scale must be at most {MAX_SCALE:g} pixels per texel (float32 positions cannot "
+                          f"resolve finer pixels), got {scale:g}")
+    rotation = check_real(rotation, "rotation")
+    ox, oy = check_pair(offset, "offset")
     th = math.radians(rotation)
     rot = np.array([[math.cos(th), -math.sin(th)], [math.sin(th), math.cos(th)]])
     with np.errstate(over="ignore"):
@@ -263,6 +347,9 @@ def raster(p, setup: NoiseSetup, coeffs: np.ndarray, order: int, shape, origin, 
             f"this raster needs about {expected:.3g} impacts (at most {MAX_IMPACTS}); "
             "use a lower mni, a larger scale or a smaller raster"
         )
+    grid_path = method == "splat" and order == 1 and np.array_equal(step, np.eye(2))
+    check_raster_cost(setup, (h, w), ncx * ncy, coeffs.size // setup.coeffs.size, regions is not None,
+                      lookup_cost(order, grid_path))
     with wp.ScopedDevice(device):
         impacts, offsets = draw_block(p, (cx0, cy0), ncx, ncy)
         n = impacts.shape[0]

@@ -11,10 +11,10 @@ import math
 
 import numpy as np
 
-from ._checks import check_positive, check_seed, check_shape
+from ._checks import check_positive, check_real, check_seed, check_shape
 from ._runtime import resolve_device
 from .errors import TextonError
-from .filtering import FilterOptions, PixelSet, filter_pixels
+from .filtering import COST_SAMPLES, FilterOptions, PixelSet, check_filter_cost, filter_pixels
 from .noise import cell_limit, noise_params, noise_setup, params_mean
 from .texton import Texton
 
@@ -35,10 +35,7 @@ class PlaneView:
         self.shape = check_shape(shape)
         self.height = check_positive(height, "height (the camera's height above the plane)")
         self.texel_size = check_positive(texel_size, "texel_size")
-        try:
-            tilt, fov = float(tilt), float(fov)
-        except (TypeError, ValueError):
-            raise TextonError(f"tilt and fov must be numbers (degrees), got {tilt!r}, {fov!r}") from None
+        tilt, fov = check_real(tilt, "tilt"), check_real(fov, "fov")
         if not (0.0 <= tilt < 90.0):
             raise TextonError(f"tilt must be in [0, 90) degrees (0 looks straight down), got {tilt!r}")
         if not (0.0 < fov < 180.0):
@@ -171,6 +168,11 @@ def plane_pixels(texton: Texton, view: PlaneView, pixels, mni: float = 30.0, see
     p = noise_params(texton, setup, seed)
     h, w = view.shape
     keys = np.asarray(pixels, np.int64)
+    # the budgets, before the per-pixel arrays: footprints of pixels spread over the image
+    picks = keys[np.linspace(0, keys.size - 1, min(keys.size, COST_SAMPLES)).astype(np.int64)] if keys.size else keys
+    pi, pj = np.divmod(picks, w)
+    sample = view.footprints(pi + 0.5, pj + 0.5)  # NaN above the horizon: those pixels cost nothing
+    check_filter_cost(texton, setup, keys.size, sample, options, f"a {w}x{h} plane view")
     ii, jj = np.divmod(keys, w)
     centre = view.texels(ii + 0.5, jj + 0.5)
     # positions whose cells the kernels could not index see the mean

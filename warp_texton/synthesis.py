@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._checks import check_seed, check_shape
+from ._checks import as_real_array, check_seed, check_shape
 from ._runtime import resolve_device
 from .errors import TextonError
-from .filtering import FilterOptions, RasterPixels, check_jacobian, filter_pixels, needs_filtering
-from .noise import (CELL_FACTOR, check_cell_range, noise_params, noise_setup, point_values, raster,
+from .filtering import (COST_SAMPLES, FilterOptions, RasterPixels, check_filter_cost, check_jacobian,
+                        filter_pixels, needs_filtering)
+from .noise import (CELL_FACTOR, check_cell_range, check_points_cost, noise_params, noise_setup, point_values, raster,
                     raster_geometry, raster_reach)
 from .texton import Texton
 
@@ -106,6 +107,9 @@ def synthesize(
     p = noise_params(texton, setup, seed, poisson)
     if needs_filtering(J, options):
         raster_reach(origin, step, (h, w), setup)
+        sample = J.reshape(-1, 2, 2)
+        sample = sample[np.linspace(0, len(sample) - 1, min(len(sample), COST_SAMPLES)).astype(np.int64)]
+        check_filter_cost(texton, setup, h * w, sample, options, f"a {w}x{h} raster")
         out = filter_pixels(p, texton, setup, RasterPixels((h, w), origin, step, J), options, device, seed)
         out = out.reshape(h, w, 3)
     else:
@@ -147,10 +151,7 @@ def evaluate(
     >>> evaluate(t, [[0.5, 0.5], [1e6, -3.25]], device="cpu").shape
     (2, 1)
     """
-    try:
-        pts = np.asarray(points, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise TextonError("points must be an array of shape (N, 2) of numbers") from None
+    pts = as_real_array(points, "points", "an array of shape (N, 2) of numbers")
     if pts.ndim != 2 or pts.shape[1] != 2:
         raise TextonError(f"points must have shape (N, 2), got {pts.shape}")
     if not np.isfinite(pts).all():
@@ -160,6 +161,7 @@ def evaluate(
     if pts.size:
         check_cell_range(pts[:, 0].min() - setup.hi[0], pts[:, 0].max() - setup.lo[0], setup.cell[0], "points")
         check_cell_range(pts[:, 1].min() - setup.hi[1], pts[:, 1].max() - setup.lo[1], setup.cell[1], "points")
+    check_points_cost(setup, pts.shape[0], f"{pts.shape[0]} points")
     device = resolve_device(device)
     p = noise_params(texton, setup, seed, poisson)
     out = point_values(p, setup.coeffs, np.ascontiguousarray(pts), device)
