@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import TextonError
+from .limits import check_memory
 
 #: Channel counts an image may have once loaded: grey or RGB.
 CHANNELS = (1, 3)
@@ -67,6 +68,8 @@ def as_real_array(value, name: str, what: str = "an array of numbers") -> np.nda
         raise TextonError(f"{name} must be {what}, got {value!r:.80}") from None
     if a.dtype.kind not in "iuf":
         raise TextonError(f"{name} must be {what}, got {_describe(a, value)}")
+    if a.dtype != np.float64:
+        check_memory(8.0 * a.size, f"{name}: {a.size} values", f"give fewer values for {name}")
     with np.errstate(over="ignore"):
         return a.astype(np.float64, copy=False)
 
@@ -125,6 +128,9 @@ def as_image(u, name: str = "u", *, finite: bool = True, limit: float | None = M
         )
     if a.shape[0] == 0 or a.shape[1] == 0:
         raise TextonError(f"{name}: the image is empty (shape {a.shape})")
+    # the float32 copy (and a float64 one for integers): an array view may be far larger than its memory
+    check_memory(a.shape[0] * a.shape[1] * min(a.shape[2], 3) * (12.0 if a.dtype.kind in "uib" else 4.0),
+                 f"{name}: a {a.shape[1]}x{a.shape[0]} image", "use a smaller image")
     c = a.shape[2]
     if c == 4:
         warnings.warn(f"{name}: dropping the alpha channel of an RGBA image", stacklevel=3)

@@ -493,7 +493,7 @@ def cli_message(message: str, args) -> str:
         if name.startswith("shape") or " " in name:
             continue
         word = re.escape(name)
-        message = re.sub(rf"(?<![\w\-.'])({word})(?= (?:<=|>=|<|>|=|-?\d|'))", OPTION_NAMES[name], message)
+        message = re.sub(rf"(?<![\w\-.'])({word})(?= (?:<=|>=|<|>|=|-?\d))", OPTION_NAMES[name], message)
         message = re.sub(rf"(?:{_AFTER_WORDS})({word})(?![\w\[])", OPTION_NAMES[name], message)
     return message
 

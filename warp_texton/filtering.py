@@ -366,7 +366,7 @@ def check_filter_cost(texton: Texton, setup: NoiseSetup, count: int, J: np.ndarr
     work = float(count) * filter_work(texton, setup, J, options)
     hint = {"supersample": "use a smaller supersample, a smaller image or a lower mni",
             "anisotropic": "use a smaller max_aniso, a larger fade_energy, a smaller image or a lower mni"}
-    check_work(work, f"{what} with filter {options.kind!r} at MNI {setup.mni:.4g}",
+    check_work(work, f"{what} with filter {options.kind!r} at MNI {setup.mni:.6g}",
                hint.get(options.kind, "use a smaller image or a lower mni"))
 
 

@@ -47,7 +47,7 @@ def _name_max(folder: Path) -> int:
         return NAME_MAX
 
 
-def _host_tag() -> str:
+def host_tag() -> str:
     import socket
     import zlib
 
@@ -89,7 +89,7 @@ def remove_leftovers(path) -> list[Path]:
     path = Path(path)
     parent = path.parent if str(path.parent) else Path(".")
     prefix = _part_prefix(path.name, _name_max(parent))
-    host = _host_tag()
+    host = host_tag()
     removed = []
     try:
         candidates = [e for e in os.scandir(parent) if e.name.startswith(prefix) and e.name.endswith(PART_SUFFIX)]
@@ -138,8 +138,8 @@ def atomic_path(path):
     On any exception (Ctrl-C and SystemExit included; the command line turns
     SIGTERM into SystemExit) the temporary file is removed and ``path`` is
     untouched. An I/O failure of the write (disk full, quota, read-only file
-    system; OSError, or the RuntimeError of OpenEXR) is raised as an OSError
-    naming ``path``. A process killed outright (SIGKILL) leaves its temporary
+    system) is raised as an OSError naming ``path``, not the temporary file
+    (:func:`write_exr` turns OpenEXR's RuntimeError into one too). A process killed outright (SIGKILL) leaves its temporary
     file, named ``.NAME.PID-HOST.RANDOM.part``; the next write to the same path
     on this machine removes it (:func:`remove_leftovers`).
     """
@@ -150,7 +150,7 @@ def atomic_path(path):
     if path.is_dir():
         raise TextonError(f"{path}: is a folder; give a file name")
     remove_leftovers(path)
-    prefix = _part_prefix(path.name, _name_max(parent)) + f"{os.getpid()}-{_host_tag()}."
+    prefix = _part_prefix(path.name, _name_max(parent)) + f"{os.getpid()}-{host_tag()}."
     try:
         fd, tmp = tempfile.mkstemp(dir=parent, prefix=prefix, suffix=PART_SUFFIX)
     except OSError as exc:
@@ -162,19 +162,12 @@ def atomic_path(path):
         try:
             yield tmp
             os.replace(tmp, path)
-        except (OSError, RuntimeError) as exc:
-            if isinstance(exc, OSError) or _looks_like_io(exc):
-                raise _write_error(exc, path, tmp) from None
-            raise
+        except OSError as exc:
+            raise _write_error(exc, path, tmp) from None
     except BaseException:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
-
-
-def _looks_like_io(exc: RuntimeError) -> bool:
-    text = str(exc).lower()
-    return any(w in text for w in ("write", "space", "i/o", "permission", "quota", "file"))
 
 
 def _exr_module():
@@ -195,7 +188,10 @@ def write_exr(path, img: np.ndarray, **attributes) -> None:
     img = np.ascontiguousarray(img, dtype=np.float32)
     channels = {"Y": np.ascontiguousarray(img[:, :, 0])} if img.shape[2] == 1 else {"RGB": img}
     with atomic_path(path) as tmp:
-        exr.File(exr_header(**attributes), channels).write(str(tmp))
+        try:
+            exr.File(exr_header(**attributes), channels).write(str(tmp))
+        except RuntimeError as exc:  # how OpenEXR reports a failed write (disk full, I/O error...)
+            raise _write_error(exc, path, tmp) from None
 
 
 def read_exr_header(path) -> dict:

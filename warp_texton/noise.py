@@ -94,26 +94,34 @@ def noise_setup(texton: Texton, mni: float, period=None, cell_factor: float = CE
     lo = (-reach, -reach)
     hi = (s - 1 + reach, r - 1 + reach)
     side = cell_factor * max(hi[0] - lo[0], hi[1] - lo[1])
+    if not 0.0 < float(np.float32(side)) < math.inf:
+        raise TextonError(f"cell_factor {cell_factor:g} makes cells of {side:.3g} texels, which float32 cannot "
+                          f"hold; use a cell_factor near the default {CELL_FACTOR}")
     if period is None:
         cell = (side, side)
         period_cells = (0, 0)
     else:
         px, py = check_period(period)
-        nx = max(1, round(px / side))
-        ny = max(1, round(py / side))
-        if max(nx, ny) > MAX_CELL_INDEX:
+        if max(px, py) / side > MAX_CELL_INDEX:
             # the kernels wrap int32 cell indices modulo the period's cell count: beyond
             # 2**30 cells the count itself would wrap and the period silently change
             raise TextonError(
-                f"period ({px:.6g}, {py:.6g}) texels spans {nx} x {ny} noise cells of {side:.3g} texels; "
+                f"period ({px:.6g}, {py:.6g}) texels spans {px / side:.4g} x {py / side:.4g} noise cells of "
+                f"{side:.3g} texels; "
                 f"a period can span at most 2**30 cells, i.e. {MAX_CELL_INDEX * side:.4g} texels for this "
                 "texton and cell_factor (the noise is defined within that range anyway); use a smaller period"
             )
+        nx = max(1, round(px / side))
+        ny = max(1, round(py / side))
         cell = (px / nx, py / ny)
         period_cells = (nx, ny)
     # The kernels hold the cell side in float32: use that same value on the host,
     # so that host-placed blocks and kernel-placed cells coincide far from the origin.
-    cell = tuple(float(np.float32(c)) for c in cell)
+    with np.errstate(over="ignore"):
+        cell = tuple(float(np.float32(c)) for c in cell)
+    if not all(0.0 < c < math.inf for c in cell):  # a period far below a texel
+        raise TextonError(f"period {period!r} makes cells of {cell[0]:.3g} x {cell[1]:.3g} texels, which float32 "
+                          "cannot hold; use a period of at least a texel")
     lam = mni / texton.support_area
     per_point = (math.ceil((hi[0] - lo[0]) / cell[0]) + 1) * (math.ceil((hi[1] - lo[1]) / cell[1]) + 1)
     if per_point > MAX_CELLS_PER_POINT:
@@ -124,8 +132,8 @@ def noise_setup(texton: Texton, mni: float, period=None, cell_factor: float = CE
         )
     if lam * cell[0] * cell[1] > MAX_CELL_MEAN:
         raise TextonError(
-            f"cell_factor {cell_factor:g} makes cells hold {lam * cell[0] * cell[1]:.3g} impacts on average "
-            f"(at most {MAX_CELL_MEAN:g}); use a smaller cell_factor (default {CELL_FACTOR})"
+            f"mni {mni:g} with cell_factor {cell_factor:g} makes cells hold {lam * cell[0] * cell[1]:.3g} impacts "
+            f"on average (at most {MAX_CELL_MEAN:g}); use a lower mni or a smaller cell_factor (default {CELL_FACTOR})"
         )
     return NoiseSetup(lam, cell, period_cells, lo, hi, padded_coeffs(texton), mni)
 
@@ -201,7 +209,7 @@ def check_points_cost(setup: NoiseSetup, count: int, what: str, evaluations: flo
                       bytes_per_point: float = 64.0) -> None:
     """Refuse ``count`` point evaluations (``evaluations`` walks each) beyond the budgets."""
     check_memory(count * bytes_per_point, what, "use fewer points")
-    check_work(count * evaluations * visits_per_point(setup), f"{what} at MNI {setup.mni:.4g}",
+    check_work(count * evaluations * visits_per_point(setup), f"{what} at MNI {setup.mni:.6g}",
                "use fewer points or a lower mni")
 
 
@@ -220,7 +228,7 @@ def check_raster_cost(setup: NoiseSetup, shape, ncells: int, stacked: int = 1, m
     impacts = expected + 10 * math.sqrt(expected)
     per_impact = MARKED_IMPACT_BYTES if marked else IMPACT_BYTES
     nbytes = 8.0 * ncells + per_impact * impacts + 2 * 12.0 * h * w + stacked * setup.coeffs.nbytes
-    what = f"a {w}x{h} raster at MNI {setup.mni:.4g}"
+    what = f"a {w}x{h} raster at MNI {setup.mni:.6g}"
     check_memory(nbytes, what, "use a smaller raster, a larger scale or a lower mni")
     check_work(impacts + float(h) * w * setup.mni * lookup, what, "use a smaller raster or a lower mni")
 

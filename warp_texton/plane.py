@@ -153,26 +153,28 @@ def render_plane(
     """
     view = PlaneView(shape, height, tilt, fov, texel_size)
     h, w = view.shape
-    out = plane_pixels(texton, view, np.arange(h * w), mni, seed, filter, device, progress=progress)
+    out = plane_pixels(texton, view, None, mni, seed, filter, device, progress=progress)
     return np.ascontiguousarray(out.reshape(h, w, -1))
 
 
 def plane_pixels(texton: Texton, view: PlaneView, pixels, mni: float = 30.0, seed: int = 0,
                  filter="anisotropic", device=None, *, progress: bool = False) -> np.ndarray:
     """(N, C) values of the flat pixel indices ``pixels`` of :func:`render_plane`'s image
-    (benchmarks compare filters on a subset of pixels this way)."""
+    (benchmarks compare filters on a subset of pixels this way); None: every pixel."""
     options = FilterOptions.of(filter)
     seed = check_seed(seed)
     setup = noise_setup(texton, mni)
     device = resolve_device(device)
     p = noise_params(texton, setup, seed)
     h, w = view.shape
-    keys = np.asarray(pixels, np.int64)
+    keys = None if pixels is None else np.asarray(pixels, np.int64)
+    count = h * w if keys is None else keys.size
     # the budgets, before the per-pixel arrays: footprints of pixels spread over the image
-    picks = keys[np.linspace(0, keys.size - 1, min(keys.size, COST_SAMPLES)).astype(np.int64)] if keys.size else keys
-    pi, pj = np.divmod(picks, w)
+    picks = np.linspace(0, count - 1, min(count, COST_SAMPLES)).astype(np.int64) if count else np.zeros(0, np.int64)
+    pi, pj = np.divmod(picks if keys is None else keys[picks], w)
     sample = view.footprints(pi + 0.5, pj + 0.5)  # NaN above the horizon: those pixels cost nothing
-    check_filter_cost(texton, setup, keys.size, sample, options, f"a {w}x{h} plane view")
+    check_filter_cost(texton, setup, count, sample, options, f"a {w}x{h} plane view")
+    keys = np.arange(count) if keys is None else keys
     ii, jj = np.divmod(keys, w)
     centre = view.texels(ii + 0.5, jj + 0.5)
     # positions whose cells the kernels could not index see the mean

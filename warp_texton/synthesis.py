@@ -14,8 +14,8 @@ from ._runtime import resolve_device
 from .errors import TextonError
 from .filtering import (COST_SAMPLES, FilterOptions, RasterPixels, check_filter_cost, check_jacobian,
                         filter_pixels, needs_filtering)
-from .noise import (CELL_FACTOR, check_cell_range, check_points_cost, noise_params, noise_setup, point_values, raster,
-                    raster_geometry, raster_reach)
+from .noise import (CELL_FACTOR, METHODS, check_cell_range, check_points_cost, noise_params, noise_setup,
+                    point_values, raster, raster_geometry, raster_reach)
 from .texton import Texton
 
 
@@ -99,6 +99,8 @@ def synthesize(
     """
     h, w = check_shape(shape)
     seed = check_seed(seed)
+    if not isinstance(method, str) or method not in METHODS:
+        raise TextonError(f"method must be one of {', '.join(METHODS)}, got {method!r:.60}")
     setup = noise_setup(texton, mni, period, cell_factor)
     origin, step = raster_geometry((h, w), scale, rotation, offset)
     options = FilterOptions.of(filter)

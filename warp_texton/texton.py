@@ -20,9 +20,10 @@ import numpy as np
 import scipy.ndimage as ndi
 
 from ._version import __version__
-from ._checks import CHANNELS, MAX_VALUE, as_real_array, check_path, check_range
+from ._checks import CHANNELS, MAX_VALUE, as_real_array, check_path, check_range, check_shape
 from .bspline import ORDERS, kernel_width, sampled_autocorrelation
 from .errors import TextonError
+from .limits import check_memory
 from .io import EXR, atomic_path, check_output_name, is_texton_header, read_exr, read_exr_header, write_exr
 
 TEXTON_EXT = ".texton"
@@ -138,7 +139,8 @@ class Texton:
         """
         from .bspline import bhat
 
-        m, n = shape
+        m, n = check_shape(shape)
+        check_memory(40.0 * m * n * self.channels, f"the spectrum of a texton on a {m}x{n} grid", "use a smaller grid")
         r, s = self.size
         if r > m or s > n:
             raise TextonError(f"a {r}x{s} texton does not fit on a {m}x{n} grid")
