@@ -404,7 +404,8 @@ def render_mesh_args(draw):
 
 @st.composite
 def camera_args(draw):
-    return dict(position=draw(st.tuples(*[floats(-10.0, 10.0)] * 3)), target=(0.0, 0.0, 0.0),
+    position = draw(st.tuples(*[floats(-10.0, 10.0)] * 3).filter(lambda p: math.hypot(*p) > 1e-3))
+    return dict(position=position, target=(0.0, 0.0, 0.0),
                 up=(0.0, 0.0, 1.0), fov=draw(floats(1.0, 170.0)))
 
 
