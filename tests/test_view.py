@@ -597,4 +597,4 @@ def test_cli_view_errors_are_one_line(rgb_path, capsys):
 
     assert main(["view", str(rgb_path), "--port", "70000"]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("warp-texton: error: port must be") and err.count("\n") == 1
+    assert err.startswith("warp-texton: error: --port must be") and err.count("\n") == 1

@@ -466,6 +466,7 @@ OPTION_NAMES = {
     "supersample": "--supersample", "max_aniso": "--max-aniso", "fade_energy": "--fade-energy",
     "device": "--device", "tilt": "--tilt", "fov": "--fov", "texel_size": "--texel-size",
     "max_edge": "--max-edge", "weights map": "--map", "weights": "--map", "rhos": "--steps",
+    "port": "--port", "host": "--host", "png_level": "--png-level", "mix": "--mix",
 }
 _AFTER_WORDS = "|".join(f"(?<={w} )" for w in ("lower", "higher", "smaller", "larger", "fewer", "more"))
 
