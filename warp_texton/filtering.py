@@ -18,7 +18,6 @@ from a :class:`FilterOptions` to the kernels.
 
 from __future__ import annotations
 
-import math
 import numbers
 from dataclasses import dataclass
 
