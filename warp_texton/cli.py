@@ -433,8 +433,8 @@ def _cmd_view(args) -> int:
                        verbose=args.verbose)
     except KeyboardInterrupt:
         return 130
-    print(f"warp-texton view: serving {args.input} at {handle.url} (Ctrl-C to stop)", flush=True)
-    try:
+    try:  # the line is inside: a Ctrl-C right after it (the page may already be open) still stops cleanly
+        print(f"warp-texton view: serving {args.input} at {handle.url} (Ctrl-C to stop)", flush=True)
         handle.wait()
     except KeyboardInterrupt:
         print("\nwarp-texton view: stopped", file=sys.stderr)
