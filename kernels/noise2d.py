@@ -233,15 +233,17 @@ def label_impacts(
     cell_window: wp.array(dtype=wp.int32),
     impacts: wp.array(dtype=wp.vec2),
     impact_cell: wp.array(dtype=wp.int32),
+    centre: wp.vec2,
     strips: int,
     regions: int,
     rho: wp.array2d(dtype=float),
     labels: wp.array(dtype=wp.int32),
 ):
-    """The texton of each impact: the region of the raster its position falls in
-    (CGF §7: 1{x_j ∈ D_r}). Textons hang from their impact at coefficient (0, 0),
-    so a texture's region appears about half a texton right of and below its
-    region in the map.
+    """The texton of each impact: the region of the raster that the centre of its
+    texton falls in (CGF §7: 1{x_j ∈ D_r} for a kernel centred on x_j). Textons
+    are stored from coefficient (0, 0) at the impact, so the centre of the
+    support box, ``centre`` texels from the impact, stands for x_j: a texture
+    then covers its region of the map, half a texton past it on every side.
 
     ``strips`` = 1: ``regions`` vertical strips across the window's width;
     otherwise the nearest pixel of the ρ map (clamped at the border) picks
@@ -250,7 +252,8 @@ def label_impacts(
     k = wp.tid()
     c = impact_cell[k]
     w = windows[cell_window[c]]
-    q = w.inv * impact_from_origin(w, c, impacts[k])  # global (column, row) + ½
+    at = impact_from_origin(w, c, impacts[k]) + wp.vec2d(wp.float64(centre[0]), wp.float64(centre[1]))
+    q = w.inv * at  # global (column, row) + ½ of the texton's centre
     px = float(q[0] - wp.float64(w.first[1]))
     py = float(q[1] - wp.float64(w.first[0]))
     if strips != 0:

@@ -10,10 +10,25 @@ analysis finds with the truth rather than with a single noisy periodogram.
 
 from __future__ import annotations
 
+import os
 import warnings
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, settings
+
+# Profiles of the property suite (tests/test_properties.py). "ci", the default, is
+# deterministic (derandomized, no example database) and bounded: each function gets
+# 80 examples, about two minutes in all on two cores. "slow" draws at random
+# and many more: python -m pytest tests/test_properties.py --hypothesis-profile slow
+# (or HYPOTHESIS_PROFILE=slow).
+_RELAXED = [HealthCheck.too_slow, HealthCheck.data_too_large, HealthCheck.filter_too_much,
+            HealthCheck.function_scoped_fixture, HealthCheck.differing_executors]
+settings.register_profile("ci", derandomize=True, database=None, max_examples=80, deadline=None,
+                          suppress_health_check=_RELAXED, print_blob=True)
+settings.register_profile("slow", max_examples=500, deadline=None, suppress_health_check=_RELAXED,
+                          print_blob=True)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 
 def pytest_addoption(parser):

@@ -108,10 +108,15 @@ class TestAnalyzeSmoke:
         # the stored RME is the one model_error recomputes from the image
         assert md["model_error"] == pytest.approx(model_error(u, t), rel=1e-9)
 
-    def test_smallest_image_for_size(self, grass_image):
-        # S − S must fit: 2*size − 1 pixels per side is exactly enough
-        t = analyze(grass_image[:31, :31], size=16, iterations=2)
-        assert t.size == (16, 16)
+    def test_size_up_to_the_image(self, grass_image):
+        # CGF Algorithm 1 needs only S ⊂ Ω: a texton as large as the image's smaller side
+        t = analyze(grass_image[:31, :40], size=31, iterations=2)
+        assert t.size == (31, 31) and np.count_nonzero(t.coeffs) > 0.9 * 31 * 31
+        # on a square image as large as the texton, the model's spectrum is the image's
+        # sampled spectrum up to the support restriction: its model error is the smallest
+        small = analyze(grass_image[:31, :31], size=16, iterations=20)
+        full = analyze(grass_image[:31, :31], size=31, iterations=20)
+        assert full.metadata["model_error"] < small.metadata["model_error"]
 
     def test_rgba_alpha_dropped_with_warning(self, adsn_sampler, color_kernel):
         u = adsn_sampler(color_kernel, (48, 48), seed=1)
@@ -132,8 +137,8 @@ class TestAnalyzeExceptions:
     @pytest.mark.parametrize("shape", [(30, 31), (31, 30)])
     def test_image_too_small_for_size(self, shape):
         u = np.random.default_rng(0).random(shape)
-        with pytest.raises(TextonError, match=r"too small for size 16.*2\*size-1 = 31"):
-            analyze(u, size=16)
+        with pytest.raises(TextonError, match=r"u: the image \(\d+x\d+\) is too small for size 31; .*size <= 30"):
+            analyze(u, size=31)
 
     @pytest.mark.parametrize("size", [1, 0, -3])
     def test_size_below_two(self, u, size):

@@ -211,12 +211,12 @@ class TestUserErrors:
 
     def test_size_too_large(self, tmp_path, texture, capsys):
         out = tmp_path / "t.exr"
-        assert_user_error(capsys, ["analyze", texture, "-o", out, "--size", 20, "--iterations", 3, "-q"],
-                          r"too small for size 20.*choose size <= 16", out)
+        assert_user_error(capsys, ["analyze", texture, "-o", out, "--size", 33, "--iterations", 3, "-q"],
+                          r"in.png: the image \(32x32\) is too small for --size 33.*choose --size <= 32", out)
 
-    @pytest.mark.parametrize("flag, value, match", [("--size", 1, "size must be at least 2"),
-                                                    ("--iterations", 0, "iterations must be at least 1"),
-                                                    ("--seed", -1, "seed must be an integer in")])
+    @pytest.mark.parametrize("flag, value, match", [("--size", 1, "error: --size must be at least 2"),
+                                                    ("--iterations", 0, "error: --iterations must be at least 1"),
+                                                    ("--seed", -1, "error: --seed must be an integer in")])
     def test_bad_numbers(self, tmp_path, texture, capsys, flag, value, match):
         out = tmp_path / "t.exr"
         assert_user_error(capsys, ["analyze", texture, "-o", out, flag, value, "-q"], match, out)
@@ -247,7 +247,7 @@ class TestUserErrors:
 
     def test_bad_gaussian_size(self, tmp_path, texture, capsys):
         out = tmp_path / "g.png"
-        assert_user_error(capsys, ["gaussian", texture, "-o", out, "--width", -5], r"width\) must be at least 1",
+        assert_user_error(capsys, ["gaussian", texture, "-o", out, "--width", -5], r"error: --width must be at least 1, got -5",
                           out)
 
     def test_failed_run_keeps_existing_output(self, tmp_path, texture, capsys):

@@ -286,8 +286,9 @@ class TestAtomicWrite:
 
         monkeypatch.setattr(OpenEXR, "File", BrokenFile)
         path = tmp_path / "out.exr"
-        with pytest.raises(RuntimeError, match="disk went away"):
+        with pytest.raises(OSError, match="disk went away") as err:  # named after the output, one line on the CLI
             write_image(path, np.zeros((2, 2)))
+        assert err.value.filename == str(path)
         assert_nothing_written(path)
 
     def test_missing_folder(self, tmp_path):

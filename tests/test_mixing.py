@@ -159,11 +159,13 @@ def mean_estimate_sd(texton: Texton, n: int) -> np.ndarray:
 class ColumnModel:
     """Per-column moments of strip-mixed noise, and the sampling error of their estimates.
 
-    With R strips of width W / R (scale 1, offset 0), an impact at x_j takes texton
-    r = clamp(floor(x_j R / W)); pixel column j sits at x = j + ½. For a node at x-offset d from
-    the impact the impact lies at x − d, so column j's vertical covariance is
+    With R strips of width W / R (scale 1, offset 0), an impact at x_j takes the texton of the
+    strip its texton's centre falls in, r = clamp(floor((x_j + c) R / W)) with c = (s − 1)/2 for
+    an r × s texton; pixel column j sits at x = j + ½. For a node at x-offset d from the impact
+    the impact lies at x − d, so column j's vertical covariance is
         C_j(τ) = Σ_q w_q ∫ h_{r(x − d_q)}(d_q, y) h_{r(x − d_q)}(d_q, y + τ) dy,
-    exact because the strip borders fall on cell edges (half-integers with sub = 2). The
+    exact because the strip borders fall on cell edges (half-integers with sub = 2; x + c is a
+    half-integer or an integer). The
     variance profile is C_j(0). For n pixels of column j (rows of independent rasters):
         Var(mean)          ≤ (1/n) Σ_τ |C_j|(τ)       (|C_j| built from |h||h_τ|),
         Var(mean of g'²)   ≤ (1/n) Σ_τ [2 C_j(τ)² + κ_j(τ)],  κ_j(τ) = (1/λ) Σ_q w_q ∫ h² h²_τ dy,
@@ -178,7 +180,8 @@ class ColumnModel:
         lam = mni / textons[0].support_area  # synthesize_mixed takes λ from textons[0]
         R = len(textons)
         x = np.arange(width) + 0.5
-        labels = np.clip(np.floor((x[:, None] - d[None, :]) * R / width), 0, R - 1).astype(int)  # (W, Q)
+        c = (textons[0].size[1] - 1) / 2  # the texton's centre, texels right of its impact
+        labels = np.clip(np.floor((x[:, None] - d[None, :] + c) * R / width), 0, R - 1).astype(int)  # (W, Q)
         per = terms[labels, :, np.arange(len(d))[None, :], :]  # (W, Q, 3, lags)
         c, _, k4 = (np.einsum("q,jqt->jt", wx, per[:, :, i, :]) for i in (0, 1, 2))
         self.variance = c[:, c.shape[1] // 2]
@@ -511,10 +514,12 @@ class TestStripsAndMaps:
         n = H * len(seeds)
         sd = np.sqrt(col.var_var_unit / n)  # 2.5-3 % of the local variance
         v0 = t.covariance()[0, 0]
-        # plateaus of the model: exactly C(0) where only left impacts reach (x + 1 < 32),
-        # 4 C(0) where only right ones do (x − 8 ≥ 32)
-        np.testing.assert_allclose(col.variance[:30], v0, rtol=1e-9)
-        np.testing.assert_allclose(col.variance[40:], 4 * v0, rtol=1e-9)
+        # plateaus of the model: an impact p is labelled by its texton's centre p + 3.5, and
+        # reaches x in [p − 1, p + 8]; exactly C(0) where only left impacts reach (x + 1 + 3.5
+        # ≤ 32), 4 C(0) where only right ones do (x − 8 + 3.5 ≥ 32): symmetric about the border
+        np.testing.assert_allclose(col.variance[:28], v0, rtol=1e-9)
+        np.testing.assert_allclose(col.variance[36:], 4 * v0, rtol=1e-9)
+        assert col.variance[28] > v0 * (1 + 1e-6) and col.variance[35] < 4 * v0 * (1 - 1e-6)
         z = (v - col.variance) / sd
         assert np.abs(z).max() < 5.0, np.round(z, 1)  # 64 correlated columns: 5σ
         # a step at the border column (labelling pixels instead of impacts) is rejected
@@ -527,11 +532,13 @@ class TestStripsAndMaps:
         assert model_jump < 0.25 * 3 * v0, model_jump / (3 * v0)  # 0.19 here
         jumps = np.abs(np.diff(v))
         assert jumps.max() < model_jump + 10 * sd.max(), (jumps.max(), model_jump)
-        # measured: at least 6 columns lie strictly between the plateaus, beyond 5σ of each
+        # measured: at least 6 columns lie strictly between the plateaus, beyond 5σ of each,
+        # all of them within the transition band centred on the border
         between = (v > v0 + 5 * sd) & (v < 4 * v0 - 5 * sd)
-        assert between.sum() >= 6 and np.all(np.flatnonzero(between) >= 30), np.flatnonzero(between)
-        assert np.all(v[W // 2 - 1: W // 2 + 8] > v0 - 5 * sd[:30].max())
-        assert np.all(v[W // 2 - 1: W // 2 + 8] < 4 * v0 + 5 * sd[40:].max())
+        idx = np.flatnonzero(between)
+        assert between.sum() >= 6 and np.all((idx >= 28) & (idx < 36)), idx
+        assert np.all(v[W // 2 - 4: W // 2 + 4] > v0 - 5 * sd[:28].max())
+        assert np.all(v[W // 2 - 4: W // 2 + 4] < 4 * v0 + 5 * sd[36:].max())
 
     def test_strips_ramp_the_mean_and_keep_each_textons_variance(self, device):
         u, v = pair(1)
@@ -552,10 +559,10 @@ class TestStripsAndMaps:
         # the variance profile is the model's (5σ over 192 columns)
         z_var = (var - col.variance) / np.sqrt(col.var_var_unit / n)
         assert np.abs(z_var).max() < 5.0, np.abs(z_var).max()
-        # far from the borders (≥ 8 columns right and 2 left of a border) each strip has its
-        # texton's variance, which differ: the plateaus are distinct
+        # far from the borders (≥ 4 columns from a border, either side: impacts are labelled
+        # at their texton's centre) each strip has its texton's variance, which differ
         for r, t in enumerate(ts):
-            plateau = np.arange(r * 64 + 8, (r + 1) * 64 - 2)
+            plateau = np.arange(r * 64 + 4, (r + 1) * 64 - 4)
             np.testing.assert_allclose(col.variance[plateau], t.covariance()[0, 0], rtol=1e-9)
             # pooled over the plateau's pixels, which only see this texton's impacts
             pooled_sd = lag0_estimate_sd(t, n * len(plateau))[0, 0]
@@ -570,7 +577,8 @@ class TestStripsAndMaps:
         # [t, −t] it is L − R (L, R: the impacts labelled 0 and 1), with [t, 2t] L + 2R:
         # an exact identity. R vanishes where no impact of region 1 reaches, L where none of
         # region 0 does: in pixel units an impact at p reaches pixel centres in
-        # p + [lo, hi]·scale, lo = −1, hi = 8 for an 8 × 8 bilinear texton.
+        # p + [lo, hi]·scale, lo = −1, hi = 8 for an 8 × 8 bilinear texton, and is labelled by
+        # its texton's centre p + 3.5·scale.
         t = random_texton(seed=60, mean=0.5)
         H, W = 48, 64
         s = geometry.get("scale", 1.0)
@@ -591,8 +599,8 @@ class TestStripsAndMaps:
         n_across = H if kind == "map-rows" else W
         centre = np.arange(n_across) + 0.5
         border = n_across / 2
-        no_right = centre + 1.0 * s < border  # no impact p ≥ border has p − s·1 ≤ centre ... (lo = −1)
-        no_left = centre - 8.0 * s >= border
+        no_right = centre + 4.5 * s <= border  # impacts reaching it have p + 3.5 s ≤ centre + 4.5 s (h = 0 at equality)
+        no_left = centre - 4.5 * s >= border  # ... and p + 3.5 s ≥ centre − 8 s + 3.5 s
         if kind == "map-rows":
             right, left = right.transpose(1, 0, 2), left.transpose(1, 0, 2)
         # zero up to the float32 rounding of the field (~3e-8 at a mean of 0.5)
@@ -617,10 +625,11 @@ class TestStripsAndMaps:
         x = (np.arange(W) + 0.5) / W
         mean_map = np.where(np.arange(W) < W // 2, 0.3, 0.7)
         np.testing.assert_allclose(g[:, :, 0] - mean_map, strips[:, :, 0] - ((1 - x) * 0.3 + x * 0.7), atol=1e-5)
-        # each half, away from the border (impacts reach 1 column left, 8 right), has its
-        # texton's mean and variance; these pixels only see that texton's impacts
+        # each half, away from the border (labelled at their centre, 3.5 columns right of the
+        # impact, impacts reach 4.5 columns either side of it), has its texton's mean and
+        # variance; these pixels only see that texton's impacts
         g = g[:, :, 0].astype(np.float64)
-        for t, cols in ((ta, slice(0, W // 2 - 2)), (tb, slice(W // 2 + 8, W))):
+        for t, cols in ((ta, slice(0, W // 2 - 5)), (tb, slice(W // 2 + 5, W))):
             part = g[:, cols]
             c0 = t.covariance()[0, 0]
             assert abs(np.mean((part - float(t.mean[0])) ** 2) - c0) < 5 * lag0_estimate_sd(t, part.size)[0, 0]
@@ -774,7 +783,7 @@ class TestErrors:
     @pytest.mark.parametrize(
         "kw, match",
         [
-            (dict(size=25), r"u, v: the common image size 48x48 is too small for size 25; .* 2\*size-1 = 49"),
+            (dict(size=49), r"u, v: the common image size \(48x48\) is too small for size 49; .*size <= 48"),
             (dict(size=1), "size must be at least 2"),
             (dict(size=8.0), "size must be an integer"),
             (dict(order=2), "order must be one of 0, 1, 3, 5"),
@@ -792,9 +801,9 @@ class TestErrors:
         # the common size is the smaller of each side: 48 × 20 here
         u, _ = pair(1, shape=(64, 20))
         _, v = pair(1)
-        with pytest.raises(TextonError, match=r"common image size 48x20 is too small for size 12"):
-            mix_textons(u, v, [0.5], size=12, iterations=1)
-        assert mix_textons(u, v, [0.5], size=10, iterations=1)[0].size == (10, 10)
+        with pytest.raises(TextonError, match=r"common image size \(48x20\) is too small for size 21"):
+            mix_textons(u, v, [0.5], size=21, iterations=1)
+        assert mix_textons(u, v, [0.5], size=20, iterations=1)[0].size == (20, 20)
 
     @pytest.mark.parametrize(
         "which, image, match",
@@ -899,7 +908,7 @@ class TestCli:
             (["--steps", 0], r"--steps must be at least 2, got 0"),
             (["--map", "MASK", "--width", 50], r"--map is 64x32; --width/--height must match it \(got 50x32\)"),
             (["--map", "MASK", "--height", 33], r"--map is 64x32; .*\(got 64x33\)"),
-            (["--size", 20], r"too small for size 20"),
+            (["--size", 33], r"too small for --size 33"),
             (["--steps", "two"], r"argument --steps: invalid int value"),
         ],
     )

@@ -187,7 +187,7 @@ BAD_TILES = [
     ({"seed": "-1"}, "seed must be an integer"),
     ({"seed": str(2**32)}, "seed must be an integer"),
     ({"size": "100000"}, "size must be an integer in [4, 128]"),
-    ({"size": "40"}, "size"),  # too large for a 64 x 64 input: the analysis says why
+    ({"size": "65"}, "size"),  # larger than the 64 x 64 input: the analysis says why
     ({"order": "2"}, "order must be one of"),
     ({"cc": "yes"}, "cc must be one of"),
     ({"rot": "inf"}, "rot must be a number"),
@@ -414,7 +414,7 @@ def test_serve_refuses_bad_arguments(rgb_path, tmp_path):
     with pytest.raises(TextonError, match="not an image"):
         serve(bad, port=0)
     with pytest.raises(TextonError, match="size"):
-        serve(rgb_path, port=0, size=60, device=DEVICE)  # too large for 64 x 64
+        serve(rgb_path, port=0, size=65, device=DEVICE)  # larger than the 64 x 64 input
     with pytest.raises(TextonError, match="filter must be one of"):
         serve(rgb_path, port=0, filter="supersample")
 
@@ -597,4 +597,4 @@ def test_cli_view_errors_are_one_line(rgb_path, capsys):
 
     assert main(["view", str(rgb_path), "--port", "70000"]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("warp-texton: error: port must be") and err.count("\n") == 1
+    assert err.startswith("warp-texton: error: --port must be") and err.count("\n") == 1

@@ -17,16 +17,57 @@ complex128 full-grid version.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import scipy.fft as sfft
 
-from ._checks import as_image, check_int, check_seed
+from ._checks import as_image, check_bool, check_int, check_seed
 from .bspline import ORDERS, bhat
 from .errors import TextonError
+from .limits import check_memory, check_work
 from .gaussian import FFT_WORKERS, normalized_kernel, relative_model_error_half
-from .texton import Texton, lag0_covariance
+from .texton import MAX_TEXTON_SIDE, Texton, lag0_covariance
 
 SUPPORTS = ("square", "disk")
+#: Bytes per image value (pixel × channel) that the analysis holds at its peak:
+#: the periodic component and the kernel in float64, their spectra (complex128
+#: and complex64 half-planes), the target and its conjugate, the iterates.
+ANALYSIS_BYTES_PER_VALUE = 96
+
+
+def check_support(support) -> str:
+    """The name of a support shape."""
+    if not isinstance(support, str) or support not in SUPPORTS:
+        raise TextonError(f"support must be one of {', '.join(SUPPORTS)}, got {support!r:.60}")
+    return support
+
+
+def check_size_fits(size: int, grid, name: str, what: str = "the image") -> None:
+    """The support must lie inside the image (CGF Algorithm 1: S ⊂ Ω)."""
+    m, n = grid
+    if size > min(m, n):
+        raise TextonError(
+            f"{name}: {what} ({m}x{n}) is too small for size {size}; the texton's support must lie inside "
+            f"the image (choose size <= {min(m, n)})"
+        )
+
+
+def analysis_work(grid, channels: int, iterations: int) -> float:
+    """Operations of the alternating projections on an M × N grid: per iteration
+    and channel, a forward and an inverse 2-D FFT (M N log2(M N) each)."""
+    m, n = grid
+    return 2.0 * iterations * channels * m * n * math.log2(max(m * n, 2))
+
+
+def check_analysis_cost(grid, channels: int, iterations: int, what: str, textons: int = 1, size: int = 0) -> None:
+    """Refuse an analysis (``textons`` of them, ``size`` × ``size``, on one grid) beyond
+    the memory or work budget."""
+    m, n = grid
+    nbytes = ANALYSIS_BYTES_PER_VALUE * float(m) * n * channels + 8.0 * textons * size * size * channels
+    check_memory(nbytes, what, "use a smaller image" + (" or fewer rhos" if textons > 1 else ""))
+    check_work(textons * analysis_work(grid, channels, iterations), what + f" with {iterations} iterations",
+               "use fewer iterations or a smaller image" + (" or fewer rhos" if textons > 1 else ""))
 
 
 def support_mask(size: int, support: str = "square") -> np.ndarray:
@@ -115,10 +156,17 @@ def analyze(
     Parameters
     ----------
     u : array (H, W) or (H, W, C), C in {1, 3}
-        Example texture; H and W must be at least ``2 * size - 1`` so that the
-        covariance support S − S fits (EUSIPCO §3).
+        Example texture. An integer array is scaled by its dtype's range
+        (``uint8`` / 255...), as image files are; values must lie within
+        ±1e10 (docs/limits.md).
     size : int
-        Side of the square support, or diameter of the disk support (≥ 2).
+        Side of the square support, or diameter of the disk support: from 2
+        to the image's smaller side (the support must lie inside the image,
+        CGF Algorithm 1) and at most 4096. Textons larger than about half the
+        image (past ``(min(H, W) + 1) // 2``, where the covariance support
+        S − S no longer fits in the image, the assumption of EUSIPCO §3) model
+        the image's own periodogram: its estimation noise and its large
+        features, which the noise then repeats (see docs/limits.md).
     order : {0, 1, 3, 5}
         Interpolation order: 0 gives the discrete synthesis-oriented texton of
         EUSIPCO Algorithm 2, 1 the bilinear texton of CGF Algorithm 1, 3 and 5
@@ -158,17 +206,17 @@ def analyze(
     ((16, 16, 1), 1)
     """
     u = as_image(u)
-    size = check_int(size, "size", minimum=2)
+    size = check_int(size, "size", minimum=2, maximum=MAX_TEXTON_SIDE)
     order = check_int(order, "order", choices=ORDERS)
     iterations = check_int(iterations, "iterations", minimum=1)
     seed = check_seed(seed)
-    support_mask(size, support)  # checks the support's name before any work
+    periodic = check_bool(periodic, "periodic")
+    color_correction = check_bool(color_correction, "color_correction")
+    progress = check_bool(progress, "progress")
+    check_support(support)
     m, n, c = u.shape
-    if min(m, n) < 2 * size - 1:
-        raise TextonError(
-            f"u: the image ({m}x{n}) is too small for size {size}; both sides must be "
-            f"at least 2*size-1 = {2 * size - 1} (or choose size <= {(min(m, n) + 1) // 2})"
-        )
+    check_size_fits(size, (m, n), "u")
+    check_analysis_cost((m, n), c, iterations, f"analysing a {n}x{m} image")
     mean, t = normalized_kernel(u, periodic=periodic)
     t_hat = sfft.rfft2(t, axes=(0, 1), workers=FFT_WORKERS)
     flat = t.reshape(-1, c)
@@ -289,6 +337,10 @@ def model_error(u, texton: Texton, periodic: bool | None = None) -> float:
         raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
     if periodic is None:
         periodic = bool(texton.metadata.get("periodic", True))
+    periodic = check_bool(periodic, "periodic")
+    u = as_image(u)
+    check_memory(ANALYSIS_BYTES_PER_VALUE * float(u.size), f"the model error of a {u.shape[1]}x{u.shape[0]} image",
+                 "use a smaller image")
     _, t = normalized_kernel(u, periodic=periodic)
     if t.shape[2] != texton.channels:
         raise TextonError(

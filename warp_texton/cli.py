@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import re
+import signal
 import sys
+import threading
 import time
 import warnings
 from pathlib import Path
@@ -140,22 +143,6 @@ def _dtype_of(args):
     if args.half and args.dtype not in (None, "float16"):
         raise TextonError(f"--half and --dtype {args.dtype} disagree; give one of them")
     return "float16" if args.half else args.dtype
-
-
-def _interruptible(command):
-    """Ctrl-C stops the command with one line and no traceback; every write is
-    atomic, so nothing is left half written."""
-
-    def run(args):
-        try:
-            return command(args)
-        except KeyboardInterrupt:
-            print("warp-texton: interrupted; nothing written", file=sys.stderr)
-            return 130
-
-    run.__name__ = command.__name__
-    run.__doc__ = command.__doc__
-    return run
 
 
 def _filter_options(args):
@@ -376,7 +363,6 @@ def _texton_of(args):
                    support=args.support, progress=not args.quiet)
 
 
-@_interruptible
 def _cmd_synthesize(args) -> None:
     from .io import check_dtype, check_image_path, write_image
     from .synthesis import synthesize
@@ -440,7 +426,6 @@ def _synthesize_zarr(args, out: Path, dtype) -> None:
               f"{chunk[0]}x{chunk[1]} ({time.perf_counter() - t0:.2f} s)")
 
 
-@_interruptible
 def _cmd_render_plane(args) -> None:
     from .io import check_dtype, check_image_path, write_image
     from .plane import render_plane
@@ -468,11 +453,13 @@ def _load_texture(path):
 
 def _cmd_mix(args) -> None:
     from .io import check_image_path, read_image, write_image
+    from .limits import check_memory
     from .mixing import mix_textons, synthesize_mixed
 
     out = check_image_path(args.output)
     if args.steps < 2:
         raise TextonError(f"--steps must be at least 2, got {args.steps}")
+    check_memory(16.0 * args.steps, f"--steps {args.steps}", "use fewer --steps")  # before the list of rhos
     weights = "strips"
     if args.map is not None:
         rho = read_image(args.map)
@@ -638,8 +625,8 @@ def _cmd_view(args) -> int:
                        verbose=args.verbose)
     except KeyboardInterrupt:
         return 130
-    print(f"warp-texton view: serving {args.input} at {handle.url} (Ctrl-C to stop)", flush=True)
-    try:
+    try:  # the line is inside: a Ctrl-C right after it (the page may already be open) still stops cleanly
+        print(f"warp-texton view: serving {args.input} at {handle.url} (Ctrl-C to stop)", flush=True)
         handle.wait()
     except KeyboardInterrupt:
         print("\nwarp-texton view: stopped", file=sys.stderr)
@@ -660,6 +647,55 @@ COMMANDS = {
 }
 
 
+#: Parameter names of the library (as its messages spell them) -> the options that set them.
+OPTION_NAMES = {
+    "shape[0] (height)": "--height", "shape[1] (width)": "--width", "shape": "--width/--height",
+    "height (the camera's height above the plane)": "--camera-height",
+    "offset[0]": "--offset X", "offset[1]": "--offset Y", "offset": "--offset",
+    "period[0]": "--period PX", "period[1]": "--period PY", "period": "--period",
+    "size": "--size", "order": "--order", "iterations": "--iterations", "seed": "--seed", "support": "--support",
+    "mni": "--mni", "scale": "--scale", "rotation": "--rotation", "filter": "--filter",
+    "supersample": "--supersample", "max_aniso": "--max-aniso", "fade_energy": "--fade-energy",
+    "device": "--device", "tilt": "--tilt", "fov": "--fov", "texel_size": "--texel-size",
+    "max_edge": "--max-edge", "weights map": "--map", "weights": "--map", "rhos": "--steps",
+    "port": "--port", "host": "--host", "png_level": "--png-level", "mix": "--mix",
+}
+_AFTER_WORDS = "|".join(f"(?<={w} )" for w in ("lower", "higher", "smaller", "larger", "fewer", "more"))
+
+
+def _file_names(args) -> dict:
+    """The library's names of the inputs (u, v, texton) -> the files given for them."""
+    if args.command == "mix":
+        return {"u, v": f"{args.a}, {args.b}", "u": args.a, "v": args.b}
+    if getattr(args, "input", None) is not None:
+        return {"u": args.input, "texton": args.input}
+    return {}
+
+
+def cli_message(message: str, args) -> str:
+    """A library message in the command line's words: the parameter it starts with, the
+    values it quotes ("for size 33", "size <= 32") and the changes it suggests ("a lower
+    mni") name the option that sets them, and an input (``u``) the file given for it."""
+    files = _file_names(args)
+    names = {**OPTION_NAMES, **files}
+    for name in sorted(names, key=len, reverse=True):
+        if message.startswith(name) and not re.match(r"[\w]", message[len(name):len(name) + 1]):
+            message = names[name] + message[len(name):]
+            break
+    for name in sorted(OPTION_NAMES, key=len, reverse=True):
+        if name.startswith("shape") or " " in name:
+            continue
+        word = re.escape(name)
+        message = re.sub(rf"(?<![\w\-.'])({word})(?= (?:<=|>=|<|>|=|-?\d))", OPTION_NAMES[name], message)
+        message = re.sub(rf"(?:{_AFTER_WORDS})({word})(?![\w\[])", OPTION_NAMES[name], message)
+    return message
+
+
+def _terminated(signum, frame):
+    # SIGTERM as SystemExit: every atomic write in progress removes its temporary file
+    raise SystemExit(128 + signum)
+
+
 def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -668,18 +704,31 @@ def main(argv=None) -> int:
         return 2
     saved_format = warnings.formatwarning
     warnings.formatwarning = lambda msg, *a, **k: f"warp-texton: warning: {msg}\n"
+    saved_term = None
+    if threading.current_thread() is threading.main_thread():
+        saved_term = signal.signal(signal.SIGTERM, _terminated)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("default")
             status = COMMANDS[args.command](args)
     except TextonError as exc:
-        print(f"warp-texton: error: {exc}", file=sys.stderr)
+        print(f"warp-texton: error: {cli_message(str(exc), args)}", file=sys.stderr)
         return 2
     except OSError as exc:  # disk full, permission denied... still one line
-        print(f"warp-texton: error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"warp-texton: error: {where}{exc.strerror or exc}", file=sys.stderr)
         return 2
+    except MemoryError:
+        print("warp-texton: error: out of memory; the request fits the memory budget but not the memory free now: "
+              "lower WARP_TEXTON_MEMORY_BUDGET or ask for less (docs/limits.md)", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("\nwarp-texton: interrupted; nothing written", file=sys.stderr)
+        return 130
     finally:
         warnings.formatwarning = saved_format
+        if saved_term is not None:
+            signal.signal(signal.SIGTERM, saved_term)
     return status or 0
 
 

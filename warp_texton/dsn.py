@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 import scipy.fft as sfft
 
-from ._checks import check_positive, check_seed, check_shape
+from ._checks import check_mni, check_seed, check_shape
 from .errors import TextonError
+from .limits import check_memory, check_work
 from .texton import Texton
 
 
@@ -48,19 +49,26 @@ def dsn(texton: Texton, shape, mni: float = 30.0, seed: int = 0) -> np.ndarray:
     if not isinstance(texton, Texton):
         raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
     h, w = check_shape(shape)
-    mni = check_positive(mni, "mni")
+    mni = check_mni(mni)
     seed = check_seed(seed)
-    a = texton.coeffs.astype(np.float64)
-    r, s, c = a.shape
+    r, s, c = texton.coeffs.shape
     area = int(np.count_nonzero(texton.support_mask)) or r * s
     lam = mni / area
     # Ω̄ = Ω − S_h: impacts up to (r−1, s−1) above-left of the frame still reach it.
     eh, ew = h + r - 1, w + s - 1
+    grid = (sfft.next_fast_len(eh, real=True), sfft.next_fast_len(ew, real=True))
+    impacts = lam * eh * ew
+    impacts += 10 * np.sqrt(impacts)
+    cells = float(grid[0]) * grid[1]
+    what = f"discrete spot noise of {w}x{h} pixels at MNI {mni:g}"
+    # impact indices (int64), the count image, the spectra (complex128 half-planes) and the convolution per channel
+    check_memory(8.0 * impacts + cells * (16.0 + 24.0 * c), what, "use a lower mni or a smaller shape")
+    check_work(impacts + 3.0 * (c + 1) * cells * np.log2(max(cells, 2.0)), what, "use a lower mni or a smaller shape")
+    a = texton.coeffs.astype(np.float64)
     rng = np.random.default_rng(seed)
     n = rng.poisson(lam * eh * ew)
     idx = rng.integers(0, eh * ew, size=n)
     counts = np.bincount(idx, minlength=eh * ew).reshape(eh, ew).astype(np.float64)
-    grid = (sfft.next_fast_len(eh, real=True), sfft.next_fast_len(ew, real=True))
     p_hat = sfft.rfft2(counts, s=grid, workers=-1)
     a_hat = sfft.rfft2(a, s=grid, axes=(0, 1), workers=-1)
     conv = sfft.irfft2(p_hat[:, :, None] * a_hat, s=grid, axes=(0, 1), workers=-1)

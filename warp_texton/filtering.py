@@ -18,19 +18,19 @@ from a :class:`FilterOptions` to the kernels.
 
 from __future__ import annotations
 
-import math
 import numbers
 from dataclasses import dataclass
 
 import numpy as np
 import warp as wp
 
-from ._checks import check_int
+from ._checks import as_real_array, check_int
 from ._runtime import map_points, split_launch
 from .errors import TextonError
 from .kernels import filter2d as F
 from .kernels.noise2d import PAD
-from .noise import NoiseSetup, cell_limit, params_mean, point_values, support_reach
+from .limits import check_memory, check_work
+from .noise import NoiseSetup, cell_limit, params_mean, point_values, support_reach, visits_per_point, walk_cost
 from .texton import Texton, lag0_covariance
 
 FILTERS = ("none", "mip", "anisotropic", "supersample")
@@ -58,11 +58,19 @@ SUPERSAMPLE = 20
 #: Bounds on ``supersample`` and ``max_aniso`` (a pixel's work grows with them).
 MAX_SUPERSAMPLE = 64
 MAX_MAX_ANISO = 64
+#: Bound on ``lod_bias``: a texton of 4096 texels has 13 levels, so a larger
+#: bias only selects the first or the last one.
+MAX_LOD_BIAS = 64
 #: Footprint entries are clamped to ±this many texels: far past the coarsest
 #: MIP level, where the filtered noise is its mean, and safe in float32.
 MAX_FOOTPRINT = 1.0e12
 #: Sub-pixel evaluations per batch when supersampling (bounds host memory).
 SUPERSAMPLE_BATCH = 1 << 22
+#: Footprints sampled (evenly over the pixels) to estimate a filter's work.
+COST_SAMPLES = 4096
+#: Host bytes per filtered pixel: keys, centres and footprints (float64), the
+#: float32 copies sent to the kernels, the (N, 3) result and its reshaped copy.
+FILTER_BYTES_PER_PIXEL = 160
 
 
 @dataclass(frozen=True)
@@ -120,8 +128,9 @@ class FilterOptions:
         object.__setattr__(self, "fade_energy", _fraction(self.fade_energy))
         if self.lod_bias is not None:
             if isinstance(self.lod_bias, bool) or not isinstance(self.lod_bias, numbers.Real) \
-                    or not math.isfinite(self.lod_bias):
-                raise TextonError(f"lod_bias must be a finite number, got {self.lod_bias!r}")
+                    or not -MAX_LOD_BIAS <= self.lod_bias <= MAX_LOD_BIAS:
+                raise TextonError(f"lod_bias must be a number in [-{MAX_LOD_BIAS}, {MAX_LOD_BIAS}] (MIP levels), "
+                                  f"got {self.lod_bias!r:.60}")
             object.__setattr__(self, "lod_bias", float(self.lod_bias))
 
     @classmethod
@@ -232,10 +241,7 @@ def check_jacobian(jacobian, shape) -> np.ndarray:
     filtering along the missing direction); entries beyond ±MAX_FOOTPRINT are
     clamped there, where the filtered noise is its mean.
     """
-    try:
-        J = np.asarray(jacobian, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise TextonError("jacobian must be an array of shape (2, 2) or (H, W, 2, 2) of numbers") from None
+    J = as_real_array(jacobian, "jacobian", "an array of shape (2, 2) or (H, W, 2, 2) of numbers")
     h, w = shape
     if J.shape not in ((2, 2), (h, w, 2, 2)):
         raise TextonError(f"jacobian must have shape (2, 2) or ({h}, {w}, 2, 2) for this raster, got {J.shape}")
@@ -333,9 +339,67 @@ class RasterPixels(PixelSet):
 
 
 # --------------------------------------------------------------- evaluation
+def filter_work(texton: Texton, setup: NoiseSetup, J: np.ndarray, options: FilterOptions) -> float:
+    """Mean operations per pixel of ``options`` for sampled footprints ``J`` (n, 2, 2);
+    NaN footprints stand for pixels that see no noise (a plane's sky) and cost nothing.
+
+    "none" walks the texton's support box once, "supersample" n² times. A
+    "mip"/"anisotropic" pixel walks the box of its coarser level (level ℓ holds
+    ⌈s / 2^ℓ⌉ coefficients 2^ℓ texels apart: about the texton's side plus 2^ℓ
+    times the ψ support; the finer level's when it needs one level only) grown
+    by the spread of its lookups, and evaluates its lookups at each impact
+    there (the walk of kernels/filter2d.py: filtered_points); pixels past the
+    kept levels are the mean.
+    """
+    J = np.asarray(J, np.float64).reshape(-1, 2, 2)
+    seen = np.isfinite(J).all(axis=(1, 2))
+    share = float(seen.mean()) if J.shape[0] else 1.0
+    walk = visits_per_point(setup)
+    if options.kind == "none":
+        return walk * share
+    if options.kind == "supersample":
+        return walk * options.supersample ** 2 * share
+    J = J[seen]
+    if not J.shape[0]:
+        return 0.0
+    n, lod = footprint_levels(J, options)
+    m = np.einsum("...ij,...kj->...ik", J, J)
+    major = np.sqrt(0.5 * (m[..., 0, 0] + m[..., 1, 1])
+                    + np.sqrt(0.25 * (m[..., 0, 0] - m[..., 1, 1]) ** 2 + m[..., 0, 1] ** 2))
+    levels = texton_pyramid(texton)
+    kept = kept_levels(texton, levels, options.fade_energy)
+    width = 2.0 * support_reach(texton.order)
+    level_sides = np.array([[2.0 ** ell * (lv.shape[1] - 1 + width), 2.0 ** ell * (lv.shape[0] - 1 + width)]
+                            for ell, lv in enumerate(levels)])  # the box of h_ℓ, as pyramid_struct sets it
+    with np.errstate(invalid="ignore", over="ignore"):
+        lod = np.nan_to_num(np.maximum(lod, 0.0), nan=float(kept), posinf=float(kept))
+        past = lod >= kept
+        lod = np.where(past, 0.0, lod)
+        l0 = np.floor(lod)
+        level = np.where(lod > l0, np.minimum(l0 + 1, kept - 1), l0)
+        spread = np.minimum(major, MAX_FOOTPRINT) * (1.0 - 1.0 / n)  # the lookups' extent along the axis
+        side_x = level_sides[level.astype(int), 0] + spread
+        side_y = level_sides[level.astype(int), 1] + spread
+        lookups = n * setup.lam * side_x * side_y  # at most n per impact in the box
+        cost = np.where(past, 0.0, walk_cost(setup, side_x, side_y) + lookups)
+    return float(np.mean(cost)) * share
+
+
+def check_filter_cost(texton: Texton, setup: NoiseSetup, count: int, J: np.ndarray, options: FilterOptions,
+                      what: str) -> None:
+    """Refuse filtering ``count`` pixels (sampled footprints ``J``) beyond the budgets."""
+    check_memory(float(count) * FILTER_BYTES_PER_PIXEL, what, "use a smaller image")
+    work = float(count) * filter_work(texton, setup, J, options)
+    hint = {"supersample": "use a smaller supersample, a smaller image or a lower mni",
+            "anisotropic": "use a smaller max_aniso, a larger fade_energy, a smaller image or a lower mni"}
+    check_work(work, f"{what} with filter {options.kind!r} at MNI {setup.mni:.6g}",
+               hint.get(options.kind, "use a smaller image or a lower mni"))
+
+
 def filter_pixels(p, texton: Texton, setup: NoiseSetup, pixels: PixelSet, options: FilterOptions, device,
                   seed: int, progress: bool = False, out=None) -> np.ndarray | None:
-    """(pixels.count, 3) values of the noise of ``p`` at ``pixels``, filtered as ``options`` say.
+    """(pixels.count, 3) values of the noise of ``p`` at ``pixels``, filtered as ``options`` say
+    (the front ends check the cost first: :func:`check_filter_cost`).
 
     With ``out`` (a (pixels.count,) vec3 array on ``device``) the values are
     written there and nothing is returned.

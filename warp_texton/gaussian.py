@@ -8,14 +8,24 @@ it is a convolution of t_u with white noise (the ADSN).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import scipy.fft as sfft
 
-from ._checks import as_image, check_seed, check_shape
+from ._checks import as_image, check_bool, check_seed, check_shape
 from .errors import TextonError
+from .limits import check_memory, check_work
 
 #: scipy.fft workers for every FFT of the package: all cores.
 FFT_WORKERS = -1
+#: Bytes per image value (pixel × channel) at the peak of periodic_component:
+#: the image and its border jumps in float64, the smooth part's spectrum
+#: (complex128 half-plane) and the smooth part, the float32 result.
+PERIODIC_BYTES_PER_VALUE = 48
+#: Bytes per value of gaussian_texture's FFT grid: the white noise and its
+#: spectrum, the kernel's spectrum and the product's inverse, per channel.
+ADSN_BYTES_PER_VALUE = 40
 
 
 def periodic_component(u) -> np.ndarray:
@@ -45,7 +55,10 @@ def periodic_component(u) -> np.ndarray:
     >>> p.shape
     (32, 48, 1)
     """
-    u = as_image(u).astype(np.float64)
+    u = as_image(u)
+    check_memory(PERIODIC_BYTES_PER_VALUE * float(u.size), f"the periodic component of a {u.shape[1]}x{u.shape[0]} "
+                 "image", "use a smaller image")
+    u = u.astype(np.float64)
     m, n, _ = u.shape
     # v: the jump of u across the image border, seen from inside.
     v = np.zeros_like(u)
@@ -75,12 +88,15 @@ def normalized_kernel(u, periodic: bool = True, name: str = "u") -> tuple[np.nda
     :class:`TextonError` for an image without variance.
     """
     u = as_image(u, name)
+    periodic = check_bool(periodic, "periodic")
     mean = u.reshape(-1, u.shape[2]).astype(np.float64).mean(axis=0)
     if periodic:
         u = periodic_component(u)
     t = (u.astype(np.float64) - mean) / np.sqrt(u.shape[0] * u.shape[1])
-    if not np.any(np.abs(t) > 1e-12 * max(1.0, float(np.abs(mean).max()))):
-        raise TextonError(f"{name}: the image is constant; there is no variance to model")
+    floor = 1e-12 * max(1.0, float(np.abs(mean).max()))
+    if not np.any(np.abs(t) > floor):
+        raise TextonError(f"{name}: the image is constant (its variations are below {floor:.3g}, 1e-12 of "
+                          "max(1, |mean|)); there is no variance to model")
     return mean, t
 
 
@@ -173,10 +189,17 @@ def gaussian_texture(u, shape=None, seed: int = 0, periodic: bool = True) -> np.
     >>> gaussian_texture(u, shape=(100, 80)).shape
     (100, 80, 1)
     """
-    mean, t = normalized_kernel(u, periodic=periodic)
+    u = as_image(u)
     seed = check_seed(seed)
-    m, n, c = t.shape
+    m, n, c = u.shape
     out_shape = (m, n) if shape is None else check_shape(shape)
+    grid = out_shape if out_shape == (m, n) else (
+        sfft.next_fast_len(out_shape[0] + m - 1, real=True), sfft.next_fast_len(out_shape[1] + n - 1, real=True))
+    what = f"a {out_shape[1]}x{out_shape[0]} Gaussian texture of a {n}x{m} image"
+    check_memory(ADSN_BYTES_PER_VALUE * float(grid[0]) * grid[1] * c, what, "use a smaller shape or image")
+    check_work(3.0 * c * grid[0] * grid[1] * math.log2(max(grid[0] * grid[1], 2)), what,
+               "use a smaller shape or image")
+    mean, t = normalized_kernel(u, periodic=periodic)
     rng = np.random.default_rng(seed)
     if out_shape == (m, n):
         grid = (m, n)

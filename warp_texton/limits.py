@@ -1,19 +1,32 @@
-"""The memory budget: how much memory one call may ask for.
+"""The budgets: how much memory and how much work one call may ask for.
 
-Every function that allocates in proportion to its arguments (rasters, impact
-buffers, batches, textons read from files, renders) estimates its peak
+Memory. Every function that allocates in proportion to its arguments (rasters,
+impact buffers, batches, textons read from files, renders) estimates its peak
 allocation before allocating and refuses with a :class:`TextonError` naming the
 estimate, the budget and what to change, rather than failing half-way or
 swapping. The budget is ``WARP_TEXTON_MEMORY_BUDGET`` (bytes, or with a unit:
 ``512M``, ``8G``, ``1.5T``) when set, else half of the machine's physical
 memory; :func:`set_memory_budget` changes it for the running process.
+
+Work. The same way, every function whose running time grows with its
+arguments (MNI × pixels, analysis iterations × FFT size, mixing steps,
+supersamples...) estimates the number of elementary *operations* it will do
+and refuses beyond ``WARP_TEXTON_WORK_BUDGET`` (a count: ``1e12``, or with a
+unit K, M, G, T as powers of 1000), default :data:`DEFAULT_WORK_BUDGET`;
+:func:`set_work_budget` changes it. An operation is one impact visited by a
+noise evaluation (its position drawn and its texton looked up) or one element
+of one FFT pass (a transform of n values counts n log2 n). The estimates are
+within a small factor of the real counts; docs/limits.md gives the formulas
+and what the default means in seconds.
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import re
+import threading
 
 from .errors import TextonError
 
@@ -23,6 +36,14 @@ BUDGET_ENV = "WARP_TEXTON_MEMORY_BUDGET"
 FALLBACK_BUDGET = 4 << 30
 _UNITS = {"": 1, "B": 1, "K": 1 << 10, "M": 1 << 20, "G": 1 << 30, "T": 1 << 40}
 _override: int | None = None
+#: The environment variable that sets the work budget.
+WORK_ENV = "WARP_TEXTON_WORK_BUDGET"
+#: Default work budget, operations: about a minute of CPU-bound work on one
+#: core of a 2020s CPU for the noise's point paths, seconds for its rasters on
+#: a few cores, well under a second on a GPU (docs/limits.md).
+DEFAULT_WORK_BUDGET = 1.0e11
+_COUNT_UNITS = {"": 1.0, "K": 1e3, "M": 1e6, "G": 1e9, "T": 1e12}
+_work_override: float | None = None
 
 
 def parse_bytes(text: str, name: str = BUDGET_ENV) -> int:
@@ -91,7 +112,93 @@ def check_memory(nbytes: float, what: str, hint: str) -> None:
     budget = memory_budget()
     if not nbytes <= budget:  # NaN and inf are refused too
         size = format_bytes(nbytes) if math.isfinite(nbytes) else "an unbounded amount of memory"
+        example = f"{math.ceil(nbytes / (1 << 30))}G" if math.isfinite(nbytes) else "16G"
         raise TextonError(
             f"{what} needs about {size}, over the memory budget of {format_bytes(budget)}; "
-            f"{hint} (or raise the budget with {BUDGET_ENV}, e.g. {BUDGET_ENV}=16G)"
+            f"{hint} (or raise the budget with {BUDGET_ENV}, e.g. {BUDGET_ENV}={example})"
+        )
+
+
+# ------------------------------------------------------------------- work
+def parse_count(text: str, name: str = WORK_ENV) -> float:
+    """``"2e11"``, ``"200G"`` → 2·10¹¹: a positive count, with an optional unit K, M, G or T
+    (powers of 1000).
+
+    >>> parse_count("5G")
+    5000000000.0
+    """
+    m = re.fullmatch(r"\s*([0-9]*\.?[0-9]+(?:[eE][+-]?[0-9]+)?)\s*([KMGT]?)\s*", str(text), re.IGNORECASE)
+    if not m:
+        raise TextonError(f"{name}: {text!r} is not a count; use a number such as 1e12, or one with K, M, G or T")
+    value = float(m.group(1)) * _COUNT_UNITS[m.group(2).upper()]
+    if not math.isfinite(value) or value < 1:
+        raise TextonError(f"{name}: {text!r} must be at least 1")
+    return value
+
+
+def work_budget() -> float:
+    """The work budget in operations: :func:`set_work_budget`'s value, else the
+    environment variable, else :data:`DEFAULT_WORK_BUDGET`."""
+    if _work_override is not None:
+        return _work_override
+    env = os.environ.get(WORK_ENV)
+    return parse_count(env) if env else DEFAULT_WORK_BUDGET
+
+
+def set_work_budget(operations) -> None:
+    """Set the work budget for this process (a count, or a string such as ``"1T"``);
+    ``None`` goes back to the environment variable or the default."""
+    global _work_override
+    if operations is None:
+        _work_override = None
+    elif isinstance(operations, str):
+        _work_override = parse_count(operations, "work budget")
+    elif isinstance(operations, bool) or not isinstance(operations, (int, float)) or not operations >= 1 \
+            or not math.isfinite(operations):
+        raise TextonError(f"work budget must be a finite number of operations >= 1 or a count such as '1T', "
+                          f"got {operations!r}")
+    else:
+        _work_override = float(operations)
+
+
+_log = threading.local()
+
+
+@contextlib.contextmanager
+def work_log():
+    """Collect the work estimates that calls in this thread check: yields a list
+    that receives ``(what, operations)`` for each :func:`check_work`, accepted
+    or not (the benchmarks compare them with measured times).
+
+    >>> from warp_texton import Texton, synthesize
+    >>> with work_log() as log:
+    ...     _ = synthesize(Texton([[0.1, 0.2], [0.3, 0.4]], [0.5]), (4, 4), device="cpu")
+    >>> log[0][0], log[0][1] > 0
+    ('a 4x4 raster at MNI 30', True)
+    """
+    outer = getattr(_log, "entries", None)
+    entries: list[tuple[str, float]] = []
+    _log.entries = entries
+    try:
+        yield entries
+    finally:
+        _log.entries = outer
+
+
+def check_work(operations: float, what: str, hint: str) -> None:
+    """Refuse a request whose estimated work exceeds the work budget.
+
+    ``what`` names the request (``"a 4096x4096 raster at MNI 30000"``), ``hint``
+    says what to change (``"use a lower mni or a smaller raster"``).
+    """
+    entries = getattr(_log, "entries", None)
+    if entries is not None:
+        entries.append((what, float(operations)))
+    budget = work_budget()
+    if not operations <= budget:  # NaN and inf are refused too
+        size = f"{operations:.3g}" if math.isfinite(operations) else "an unbounded number of"
+        example = f"1e{math.ceil(math.log10(operations))}" if math.isfinite(operations) else "1e13"
+        raise TextonError(
+            f"{what} needs about {size} operations, over the work budget of {budget:.3g}; "
+            f"{hint} (or raise the budget with {WORK_ENV}, e.g. {WORK_ENV}={example})"
         )

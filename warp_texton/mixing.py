@@ -17,14 +17,15 @@ import numpy as np
 import scipy.fft as sfft
 import warp as wp
 
-from ._checks import as_image, check_int, check_positive, check_seed, check_shape
+from ._checks import as_image, as_real_array, check_bool, check_int, check_mni, check_seed, check_shape
 from ._runtime import resolve_device
-from .analysis import support_mask, texton_from_spectrum, texton_half_spectrum, unit_phase
+from .analysis import (check_analysis_cost, check_size_fits, check_support, texton_from_spectrum,
+                       texton_half_spectrum, unit_phase)
 from .bspline import ORDERS
 from .errors import TextonError
 from .gaussian import FFT_WORKERS, normalized_kernel
 from .noise import Regions, noise_params, noise_setup, padded_coeffs, raster, raster_geometry
-from .texton import Texton
+from .texton import MAX_TEXTON_SIDE, Texton
 
 def barycentre_spectrum(tu_hat: np.ndarray, tv_hat: np.ndarray, rho: float) -> np.ndarray:
     """τ̂_ρ = (1 − ρ) τ̂_0 + ρ t̂_v with τ̂_0 = t̂_u · (t̂_u* t̂_v)/|t̂_u* t̂_v| (CGF §7).
@@ -40,10 +41,10 @@ def barycentre_spectrum(tu_hat: np.ndarray, tv_hat: np.ndarray, rho: float) -> n
 
 
 def _check_rhos(rhos) -> list[float]:
-    try:
-        values = [float(r) for r in np.atleast_1d(np.asarray(rhos, dtype=np.float64))]
-    except (TypeError, ValueError):
-        raise TextonError(f"rhos must be numbers in [0, 1], got {rhos!r}") from None
+    a = as_real_array(rhos, "rhos", "numbers in [0, 1]")
+    if a.ndim > 1:
+        raise TextonError(f"rhos must be numbers in [0, 1] (a sequence), got an array of shape {a.shape}")
+    values = [float(r) for r in np.atleast_1d(a)]
     if not values:
         raise TextonError("rhos must hold at least one value in [0, 1]")
     bad = [r for r in values if not (0.0 <= r <= 1.0)]
@@ -126,11 +127,14 @@ def mix_textons(
     [0.0, 0.5, 1.0]
     """
     rhos = _check_rhos(rhos)
-    size = check_int(size, "size", minimum=2)
+    size = check_int(size, "size", minimum=2, maximum=MAX_TEXTON_SIDE)
     order = check_int(order, "order", choices=ORDERS)
     iterations = check_int(iterations, "iterations", minimum=1)
     seed = check_seed(seed)
-    support_mask(size, support)  # validates the name
+    periodic = check_bool(periodic, "periodic")
+    color_correction = check_bool(color_correction, "color_correction")
+    progress = check_bool(progress, "progress")
+    check_support(support)
     # images are converted once (an RGBA input warns once)
     u = u if isinstance(u, Texton) else as_image(u, "u")
     v = v if isinstance(v, Texton) else as_image(v, "v")
@@ -140,11 +144,10 @@ def mix_textons(
     else:
         side = 2 * max(max(t.size) for t in (u, v)) + 2 * size
         grid = (side, side)
-    if min(grid) < 2 * size - 1:
-        raise TextonError(
-            f"u, v: the common image size {grid[0]}x{grid[1]} is too small for size {size}; "
-            f"both sides must be at least 2*size-1 = {2 * size - 1}"
-        )
+    check_size_fits(size, grid, "u, v", "the common image size")
+    c = max(x.shape[2] if not isinstance(x, Texton) else x.channels for x in (u, v))
+    check_analysis_cost(grid, c, iterations, f"mixing {len(rhos)} textons on a {grid[1]}x{grid[0]} grid",
+                        textons=len(rhos), size=size)
     mu, tu_hat, cov_u = _model(u, grid, "u", periodic)
     mv, tv_hat, cov_v = _model(v, grid, "v", periodic)
     c = max(tu_hat.shape[-1], tv_hat.shape[-1])
@@ -196,10 +199,7 @@ def _check_weights(weights, shape) -> np.ndarray | None:
         if weights != "strips":
             raise TextonError(f"weights must be 'strips' or an (H, W) map of values in [0, 1], got {weights!r}")
         return None
-    try:
-        rho = np.asarray(weights, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise TextonError("weights must be 'strips' or an (H, W) map of values in [0, 1]") from None
+    rho = as_real_array(weights, "weights", "'strips' or an (H, W) map of values in [0, 1]")
     if rho.ndim == 3 and rho.shape[2] == 1:
         rho = rho[:, :, 0]
     if rho.shape != tuple(shape):
@@ -234,9 +234,9 @@ def synthesize_mixed(
     textons : sequence of Texton
         R textons of one size, order and channel count (e.g. from :func:`mix_textons`).
     weights : "strips" or array (H, W) of ρ in [0, 1]
-        Regions are read at each impact's position (CGF §7); since a texton
-        hangs from its impact by its corner, textures appear about half a
-        texton right of and below their regions.
+        Regions are read where each impact's texton has its centre (CGF §7
+        tests x_j ∈ D_r for a kernel centred on x_j), so textures cover their
+        regions and blend over about a texton's width across the borders.
         "strips": R vertical strips across the raster, as in CGF Fig. 5; the
         mean goes linearly from the first texton's to the last's. A map: each
         impact takes texton round(ρ (R − 1)) at the nearest pixel; the mean at
@@ -262,7 +262,7 @@ def synthesize_mixed(
     h, w = check_shape(shape)
     rho = _check_weights(weights, (h, w))
     seed = check_seed(seed)
-    mni = check_positive(mni, "mni")
+    mni = check_mni(mni)
     # one λ for every texton: that of the widest support (zero textons are allowed in a mix)
     widest = max(textons, key=lambda t: t.support_area)
     setup = noise_setup(widest, mni)

@@ -24,9 +24,10 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from ._checks import check_positive
+from ._checks import check_mni, check_positive, check_real
 from ._runtime import BANDS_PER_THREAD, init_warp, is_cpu, map_points, split_launch
 from .errors import TextonError
+from .limits import check_memory, check_work
 from .kernels import noise2d as K
 from .kernels.impacts import Cells
 from .texton import Texton
@@ -49,6 +50,14 @@ MAX_CELL_MEAN = 1.0e5
 MAX_CELL_INDEX = 1 << 30
 #: The block's impacts are indexed by int32 offsets.
 MAX_IMPACTS = 1 << 30
+#: Largest scale (pixels per texel): the kernels hold pixel positions in float32
+#: relative to the block of cells, whose ~2**-24 relative precision reaches a
+#: pixel step at about 1e5 pixels per texel.
+MAX_SCALE = 1.0e4
+#: Host bytes per impact of a raster's block: its position (vec2), and for mixed
+#: noise its label and sign.
+IMPACT_BYTES = 8
+MARKED_IMPACT_BYTES = 16
 
 
 def support_reach(order: int) -> float:
@@ -66,6 +75,7 @@ class NoiseSetup:
     lo: tuple[float, float]
     hi: tuple[float, float]
     coeffs: np.ndarray  # (r + 2 PAD, s + 2 PAD, 3) float32
+    mni: float = 0.0  # λ · area(supp h)
 
     @property
     def lam_cell(self) -> float:
@@ -76,7 +86,7 @@ def noise_setup(texton: Texton, mni: float, period=None, cell_factor: float = CE
     """Intensity, cell grid and support box of the noise of ``texton``."""
     if not isinstance(texton, Texton):
         raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
-    mni = check_positive(mni, "mni")
+    mni = check_mni(mni)
     cell_factor = check_positive(cell_factor, "cell_factor")
     area = texton.support_area  # a mask computation: once
     if area == 0:
@@ -86,18 +96,34 @@ def noise_setup(texton: Texton, mni: float, period=None, cell_factor: float = CE
     lo = (-reach, -reach)
     hi = (s - 1 + reach, r - 1 + reach)
     side = cell_factor * max(hi[0] - lo[0], hi[1] - lo[1])
+    if not 0.0 < float(np.float32(side)) < math.inf:
+        raise TextonError(f"cell_factor {cell_factor:g} makes cells of {side:.3g} texels, which float32 cannot "
+                          f"hold; use a cell_factor near the default {CELL_FACTOR}")
     if period is None:
         cell = (side, side)
         period_cells = (0, 0)
     else:
         px, py = check_period(period)
+        if max(px, py) / side > MAX_CELL_INDEX:
+            # the kernels wrap int32 cell indices modulo the period's cell count: beyond
+            # 2**30 cells the count itself would wrap and the period silently change
+            raise TextonError(
+                f"period ({px:.6g}, {py:.6g}) texels spans {px / side:.4g} x {py / side:.4g} noise cells of "
+                f"{side:.3g} texels; "
+                f"a period can span at most 2**30 cells, i.e. {MAX_CELL_INDEX * side:.4g} texels for this "
+                "texton and cell_factor (the noise is defined within that range anyway); use a smaller period"
+            )
         nx = max(1, round(px / side))
         ny = max(1, round(py / side))
         cell = (px / nx, py / ny)
         period_cells = (nx, ny)
     # The kernels hold the cell side in float32: use that same value on the host,
     # so that host-placed blocks and kernel-placed cells coincide far from the origin.
-    cell = tuple(float(np.float32(c)) for c in cell)
+    with np.errstate(over="ignore"):
+        cell = tuple(float(np.float32(c)) for c in cell)
+    if not all(0.0 < c < math.inf for c in cell):  # a period far below a texel
+        raise TextonError(f"period {period!r} makes cells of {cell[0]:.3g} x {cell[1]:.3g} texels, which float32 "
+                          "cannot hold; use a period of at least a texel")
     lam = mni / area
     per_point = (math.ceil((hi[0] - lo[0]) / cell[0]) + 1) * (math.ceil((hi[1] - lo[1]) / cell[1]) + 1)
     if per_point > MAX_CELLS_PER_POINT:
@@ -108,10 +134,10 @@ def noise_setup(texton: Texton, mni: float, period=None, cell_factor: float = CE
         )
     if lam * cell[0] * cell[1] > MAX_CELL_MEAN:
         raise TextonError(
-            f"cell_factor {cell_factor:g} makes cells hold {lam * cell[0] * cell[1]:.3g} impacts on average "
-            f"(at most {MAX_CELL_MEAN:g}); use a smaller cell_factor (default {CELL_FACTOR})"
+            f"mni {mni:g} with cell_factor {cell_factor:g} makes cells hold {lam * cell[0] * cell[1]:.3g} impacts "
+            f"on average (at most {MAX_CELL_MEAN:g}); use a lower mni or a smaller cell_factor (default {CELL_FACTOR})"
         )
-    return NoiseSetup(lam, cell, period_cells, lo, hi, padded_coeffs(texton))
+    return NoiseSetup(lam, cell, period_cells, lo, hi, padded_coeffs(texton), mni)
 
 
 def padded_coeffs(texton: Texton) -> np.ndarray:
@@ -134,11 +160,94 @@ def check_cell_range(lo: float, hi: float, cell: float, what: str) -> None:
 
 def check_period(period) -> tuple[float, float]:
     """A pair (Px, Py) of positive numbers."""
-    try:
-        px, py = period
-    except (TypeError, ValueError):
-        raise TextonError(f"period must be a pair (Px, Py) of positive numbers, got {period!r}") from None
+    px, py = _pair(period, "period", "(Px, Py) of positive numbers")
     return check_positive(px, "period[0]"), check_positive(py, "period[1]")
+
+
+def _pair(value, name: str, what: str):
+    if isinstance(value, (str, bytes)):
+        raise TextonError(f"{name} must be a pair {what}, got {value!r:.60}")
+    try:
+        a, b = value
+    except Exception:  # not iterable, wrong length
+        raise TextonError(f"{name} must be a pair {what}, got {value!r:.60}") from None
+    return a, b
+
+
+def check_pair(value, name: str) -> tuple[float, float]:
+    """A pair (x, y) of finite numbers."""
+    x, y = _pair(value, name, "(x, y) of numbers")
+    return check_real(x, f"{name}[0]"), check_real(y, f"{name}[1]")
+
+
+#: Operations (the unit of limits.check_work) per impact a point's cell walk
+#: visits: a walk draws each visited cell's impacts again for every point, where
+#: a raster draws them once and splats; measured at about 15 raster lookups per
+#: walk visit on the CPU (benchmarks/bench_limits.py).
+WALK_COST = 16.0
+
+
+def walk_cost(setup: NoiseSetup, width, height):
+    """Operations of a cell walk over a box of ``width`` × ``height`` texels (arrays
+    broadcast): the impacts of the cells it covers, times WALK_COST."""
+    cw, ch = setup.cell
+    cells = (np.ceil(np.asarray(width) / cw) + 1) * (np.ceil(np.asarray(height) / ch) + 1)
+    return WALK_COST * cells * setup.lam_cell
+
+
+def visits_per_point(setup: NoiseSetup) -> float:
+    """Operations of one point's cell walk over the texton's support box."""
+    return float(walk_cost(setup, setup.hi[0] - setup.lo[0], setup.hi[1] - setup.lo[1]))
+
+
+def lookup_cost(order: int, on_grid: bool) -> float:
+    """Operations per texton lookup of a raster splat or gather: 1 on the vectorised
+    path (bilinear, unrotated, scale 1), else max(8, 2 (order + 1)²) for the taps
+    of the general path (measured on the CPU, 512² RGB rasters of a 64² texton at
+    MNI 30: about 7, 6, 32-70 and 95-115 times the vectorised path for orders 0,
+    1, 3 and 5)."""
+    return 1.0 if on_grid else max(8.0, 2.0 * (order + 1) ** 2)
+
+
+def check_points_cost(setup: NoiseSetup, count: int, what: str, evaluations: float = 1.0,
+                      bytes_per_point: float = 64.0) -> None:
+    """Refuse ``count`` point evaluations (``evaluations`` walks each) beyond the budgets."""
+    check_memory(count * bytes_per_point, what, "use fewer points")
+    check_work(count * evaluations * visits_per_point(setup), f"{what} at MNI {setup.mni:.6g}",
+               "use fewer points or a lower mni")
+
+
+def raster_cost(windows, blocks, shape, stack, marked: bool = False, splat: bool = True):
+    """(bytes, operations, description) of rasters (one window or a batch).
+
+    Memory: counts and offsets per cell, the blocks' impacts (with labels and
+    signs when ``marked``), each (H, W, 3) float32 raster and its copy to C
+    channels, the coefficient stack. Work: the impacts drawn plus, for every
+    pixel, the impacts whose support covers it (MNI on average) at
+    :func:`lookup_cost` operations each.
+    """
+    h, w = shape
+    ncells = impacts = work = 0.0
+    for win, (_, _, ncx, ncy) in zip(windows, blocks):
+        s = win.setup
+        expected = s.lam * ncx * ncy * s.cell[0] * s.cell[1]
+        impacts += expected + 10 * math.sqrt(expected)
+        ncells += ncx * ncy
+        on_grid = splat and win.order == 1 and np.array_equal(win.step, np.eye(2))
+        work += float(h) * w * s.mni * lookup_cost(win.order, on_grid)
+    per_impact = MARKED_IMPACT_BYTES if marked else IMPACT_BYTES
+    nbytes = 8.0 * ncells + per_impact * impacts + 2 * 12.0 * h * w * len(windows) + stack.coeffs.nbytes
+    mni = max(win.setup.mni for win in windows)
+    what = (f"a {w}x{h} raster at MNI {mni:.6g}" if len(windows) == 1
+            else f"{len(windows)} rasters of {w}x{h} at MNI up to {mni:.6g}")
+    return nbytes, impacts + work, what
+
+
+def check_raster_cost(windows, blocks, shape, stack, marked: bool = False, splat: bool = True) -> None:
+    """Refuse rasters whose impact blocks and output, or work, exceed the budgets."""
+    nbytes, work, what = raster_cost(windows, blocks, shape, stack, marked, splat)
+    check_memory(nbytes, what, "use a smaller raster, a larger scale or a lower mni")
+    check_work(work, what, "use a smaller raster or a lower mni")
 
 
 def cell_limit(setup: NoiseSetup) -> float:
@@ -203,13 +312,11 @@ def raster_geometry(shape, scale, rotation, offset):
     """Pixel (i, j) ↦ x = offset + R(rotation) ((j + ½)/scale, (i + ½)/scale):
     returns (origin (2,), step (2, 2)) in float64, columns the steps along j and i."""
     scale = check_positive(scale, "scale")
-    try:
-        rotation = float(rotation)
-        ox, oy = (float(v) for v in offset)
-    except (TypeError, ValueError):
-        raise TextonError(f"rotation must be a number and offset a pair (x, y), got {rotation!r}, {offset!r}") from None
-    if not (math.isfinite(rotation) and math.isfinite(ox) and math.isfinite(oy)):
-        raise TextonError("rotation and offset must be finite")
+    if scale > MAX_SCALE:
+        raise TextonError(f"scale must be at most {MAX_SCALE:g} pixels per texel (float32 positions cannot "
+                          f"resolve finer pixels), got {scale:g}")
+    rotation = check_real(rotation, "rotation")
+    ox, oy = check_pair(offset, "offset")
     th = math.radians(rotation)
     rot = np.array([[math.cos(th), -math.sin(th)], [math.sin(th), math.cos(th)]])
     with np.errstate(over="ignore"):
@@ -404,6 +511,7 @@ def rasters(windows, stack: TextonStack, shape, device, method: str, out,
         raise TextonError('method "splat" runs on the CPU only (its launches must not overlap); use "gather"')
     blocks = [window_block(win, shape) for win in windows]
     raster_impacts(windows, shape, blocks)
+    check_raster_cost(windows, blocks, shape, stack, regions is not None, method == "splat")
     table, ncells = window_table(windows, blocks, stack, shape)
     n_cells = int(ncells.sum())
     first_cells = np.concatenate([[0], np.cumsum(ncells)])
@@ -436,7 +544,10 @@ def rasters(windows, stack: TextonStack, shape, device, method: str, out,
             rho = regions.rho if regions.rho is not None else np.zeros((1, 1), np.float32)
             if n:
                 wp.launch(K.emit_signs, dim=n_cells, inputs=[wins, cell_window, offsets, marks.signs])
-                wp.launch(K.label_impacts, dim=n, inputs=[wins, cell_window, impacts, impact_cell,
+                # CGF §7 labels x_j for a kernel centred on x_j: the centre of the support box
+                setup = windows[0].setup
+                centre = wp.vec2(0.5 * (setup.lo[0] + setup.hi[0]), 0.5 * (setup.lo[1] + setup.hi[1]))
+                wp.launch(K.label_impacts, dim=n, inputs=[wins, cell_window, impacts, impact_cell, centre,
                                                           int(regions.rho is None), regions.count,
                                                           wp.array(rho, dtype=float), marks.labels])
         if method == "splat":

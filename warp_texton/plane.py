@@ -11,10 +11,10 @@ import math
 
 import numpy as np
 
-from ._checks import check_positive, check_seed, check_shape
+from ._checks import check_positive, check_real, check_seed, check_shape
 from ._runtime import progress_bar, resolve_device
 from .errors import TextonError
-from .filtering import FilterOptions, PixelSet, filter_pixels, pixel_cost
+from .filtering import COST_SAMPLES, FilterOptions, PixelSet, check_filter_cost, filter_pixels, pixel_cost
 from .limits import check_memory
 from .noise import (Canvas, cell_limit, check_output, fill_pixels, noise_params, noise_setup, params_mean,
                     result_bytes, strips)
@@ -37,10 +37,7 @@ class PlaneView:
         self.shape = check_shape(shape)
         self.height = check_positive(height, "height (the camera's height above the plane)")
         self.texel_size = check_positive(texel_size, "texel_size")
-        try:
-            tilt, fov = float(tilt), float(fov)
-        except (TypeError, ValueError):
-            raise TextonError(f"tilt and fov must be numbers (degrees), got {tilt!r}, {fov!r}") from None
+        tilt, fov = check_real(tilt, "tilt"), check_real(fov, "fov")
         if not (0.0 <= tilt < 90.0):
             raise TextonError(f"tilt must be in [0, 90) degrees (0 looks straight down), got {tilt!r}")
         if not (0.0 < fov < 180.0):
@@ -165,9 +162,10 @@ def render_plane(
     h, w = view.shape
     output = check_output(output)
     options = FilterOptions.of(filter)
-    noise_setup(texton, mni)  # a bad texton or mni is refused before anything is allocated
+    setup = noise_setup(texton, mni)  # a bad texton or mni is refused before anything is allocated
     check_seed(seed)
     device = resolve_device(device)
+    check_plane_cost(texton, setup, view, None, options)
     check_memory(result_bytes(1, h, w, texton.channels, device, output) + h * w * 16,
                  f"a {h}x{w} plane view", "use a smaller shape")
     canvas = Canvas((h, w), device)
@@ -186,15 +184,19 @@ def render_plane(
 def plane_pixels(texton: Texton, view: PlaneView, pixels, mni: float = 30.0, seed: int = 0,
                  filter="anisotropic", device=None, *, progress: bool = False, out=None) -> np.ndarray | None:
     """(N, C) values of the flat pixel indices ``pixels`` of :func:`render_plane`'s image
-    (benchmarks compare filters on a subset of pixels this way). With ``out`` (an
-    (N,) vec3 array on the device) all three channels are written there instead."""
+    (benchmarks compare filters on a subset of pixels this way); None: every pixel.
+    With ``out`` (an (N,) vec3 array on the device) all three channels are written
+    there instead."""
     options = FilterOptions.of(filter)
     seed = check_seed(seed)
     setup = noise_setup(texton, mni)
     device = resolve_device(device)
     p = noise_params(texton, setup, seed)
     h, w = view.shape
-    keys = np.asarray(pixels, np.int64)
+    keys = None if pixels is None else np.asarray(pixels, np.int64)
+    count = h * w if keys is None else keys.size
+    check_plane_cost(texton, setup, view, keys, options)  # the budgets, before the per-pixel arrays
+    keys = np.arange(count) if keys is None else keys
     ii, jj = np.divmod(keys, w)
     centre = view.texels(ii + 0.5, jj + 0.5)
     # positions whose cells the kernels could not index see the mean
@@ -211,3 +213,15 @@ def plane_pixels(texton: Texton, view: PlaneView, pixels, mni: float = 30.0, see
     out[:] = params_mean(p)
     out[idx] = filter_pixels(p, texton, setup, seen, options, device, seed, progress)
     return out[:, : texton.channels]
+
+
+def check_plane_cost(texton: Texton, setup, view: PlaneView, keys, options: FilterOptions) -> None:
+    """Refuse the pixels ``keys`` (None: every pixel) of ``view`` when filtering them
+    would exceed the budgets, judged from the footprints of up to COST_SAMPLES
+    pixels spread over them (above the horizon a pixel costs nothing)."""
+    h, w = view.shape
+    count = h * w if keys is None else keys.size
+    picks = np.linspace(0, count - 1, min(count, COST_SAMPLES)).astype(np.int64) if count else np.zeros(0, np.int64)
+    pi, pj = np.divmod(picks if keys is None else keys[picks], w)
+    sample = view.footprints(pi + 0.5, pj + 0.5)
+    check_filter_cost(texton, setup, count, sample, options, f"a {w}x{h} plane view")

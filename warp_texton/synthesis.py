@@ -21,14 +21,16 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ._checks import check_int, check_positive, check_seed, check_shape
+from ._checks import as_real_array, check_int, check_positive, check_seed, check_shape
 from ._runtime import progress_bar, resolve_device
 from .errors import TextonError
-from .filtering import FilterOptions, RasterPixels, check_jacobian, filter_pixels, needs_filtering, pixel_cost
-from .limits import check_memory
-from .noise import (CELL_FACTOR, STRIP_WORK, Canvas, RasterWindow, TextonStack, check_cell_range, check_output,
-                    noise_params, noise_setup, params_record, point_values, raster_geometry, raster_impacts,
-                    raster_reach, rasters, result_bytes, strips)
+from .filtering import (COST_SAMPLES, FilterOptions, RasterPixels, check_filter_cost, check_jacobian,
+                        filter_pixels, needs_filtering, pixel_cost)
+from .limits import check_memory, check_work
+from .noise import (CELL_FACTOR, METHODS, STRIP_WORK, Canvas, RasterWindow, TextonStack, check_cell_range,
+                    check_output, check_points_cost, noise_params, noise_setup, params_record, point_values,
+                    raster_cost, raster_geometry, raster_impacts, raster_reach, rasters, result_bytes, strips,
+                    window_block)
 from .texton import Texton
 
 #: Pixel windows are placed with int32 indices in the kernels.
@@ -153,6 +155,8 @@ def synthesize(
     """
     h, w = check_shape(shape)
     seed = check_seed(seed)
+    if not isinstance(method, str) or method not in METHODS:
+        raise TextonError(f"method must be one of {', '.join(METHODS)}, got {method!r:.60}")
     first = check_pixel_offset(pixel_offset)
     output = check_output(output)
     setup = noise_setup(texton, mni, period, cell_factor)
@@ -164,10 +168,18 @@ def synthesize(
     filtered = needs_filtering(J, options)
     # the filters take Warp's struct; plain rasters its record, quicker to make
     p = (noise_params if filtered else params_record)(texton, setup, seed, poisson)
+    whole = RasterWindow(p, setup, 0, texton.order, origin, step, (first[0], first[1]), float(scale))
+    if filtered:  # the work of every pixel's lookups, judged from footprints spread over the raster
+        sample = J.reshape(-1, 2, 2)
+        sample = sample[np.linspace(0, len(sample) - 1, min(len(sample), COST_SAMPLES)).astype(np.int64)]
+        check_filter_cost(texton, setup, h * w, sample, options, f"a {w}x{h} raster")
+    else:  # the whole raster's work; its memory is that of one strip at a time (checked in rasters)
+        _, work, what = raster_cost([whole], [window_block(whole, (h, w))], (h, w), TextonStack.of([setup.coeffs]),
+                                    splat=method != "gather")
+        check_work(work, what, "use a smaller raster or a lower mni")
     parts = strips(h, w, pixel_cost(options, filtered))
     r0, r1 = parts[0]
-    window = RasterWindow(p, setup, 0, texton.order, origin, step, (first[0], first[1]), float(scale))
-    work = (r1 - r0) * w * 40 if filtered else raster_impacts([window], (r1 - r0, w)) * IMPACT_BYTES
+    work = (r1 - r0) * w * 40 if filtered else raster_impacts([whole], (r1 - r0, w)) * IMPACT_BYTES
     check_memory(result_bytes(1, h, w, texton.channels, device, output) + work,
                  f"a {h}x{w} raster with {texton.channels} channel(s)",
                  "use a smaller shape, or warp_texton.dask.synthesize_dask (or the CLI's .zarr output) "
@@ -229,10 +241,7 @@ def evaluate(
     >>> evaluate(t, [[0.5, 0.5], [1e6, -3.25]], device="cpu").shape
     (2, 1)
     """
-    try:
-        pts = np.asarray(points, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise TextonError("points must be an array of shape (N, 2) of numbers") from None
+    pts = as_real_array(points, "points", "an array of shape (N, 2) of numbers")
     if pts.ndim != 2 or pts.shape[1] != 2:
         raise TextonError(f"points must have shape (N, 2), got {pts.shape}")
     if not np.isfinite(pts).all():
@@ -243,6 +252,7 @@ def evaluate(
     if pts.size:
         check_cell_range(pts[:, 0].min() - setup.hi[0], pts[:, 0].max() - setup.lo[0], setup.cell[0], "points")
         check_cell_range(pts[:, 1].min() - setup.hi[1], pts[:, 1].max() - setup.lo[1], setup.cell[1], "points")
+    check_points_cost(setup, pts.shape[0], f"{pts.shape[0]} points")
     device = resolve_device(device)
     p = noise_params(texton, setup, seed, poisson)
     n = pts.shape[0]

@@ -10,7 +10,9 @@ reference viewer.
 from __future__ import annotations
 
 import json
+import numbers
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -18,10 +20,11 @@ import numpy as np
 import scipy.ndimage as ndi
 
 from ._version import __version__
-from ._checks import CHANNELS
+from ._checks import CHANNELS, MAX_VALUE, as_real_array, check_path, check_range, check_shape
 from .bspline import ORDERS, kernel_width, sampled_autocorrelation
 from .errors import TextonError
-from .io import EXR, atomic_path, read_exr, read_exr_header, write_exr
+from .limits import check_memory
+from .io import EXR, atomic_path, check_output_name, is_texton_header, read_exr, read_exr_header, write_exr
 
 TEXTON_EXT = ".texton"
 #: Version of the metadata layout in EXR textons written by this package.
@@ -56,23 +59,30 @@ class Texton:
     metadata: dict = field(default_factory=dict)
 
     def __post_init__(self):
-        a = np.asarray(self.coeffs)
+        a = as_real_array(self.coeffs, "texton coefficients", "an array (r, s) or (r, s, C) of numbers")
         if a.ndim == 2:
             a = a[:, :, None]
         if a.ndim != 3 or a.shape[2] not in CHANNELS or min(a.shape[:2]) < 1:
             raise TextonError(
                 f"texton coefficients must have shape (r, s, 1) or (r, s, 3), got {a.shape}"
             )
+        if max(a.shape[:2]) > MAX_TEXTON_SIDE:
+            raise TextonError(f"texton coefficients: {a.shape[0]}x{a.shape[1]}; at most {MAX_TEXTON_SIDE} "
+                              "per side (textons are small by design)")
+        check_range(a, "texton coefficients", MAX_VALUE, "values")
         a = np.ascontiguousarray(a, dtype=np.float32)
-        if not np.isfinite(a).all():
-            raise TextonError("texton coefficients contain NaN or infinite values")
-        m = np.atleast_1d(np.asarray(self.mean, dtype=np.float32)).ravel()
-        if m.shape != (a.shape[2],) or not np.isfinite(m).all():
+        m = np.atleast_1d(as_real_array(self.mean, "texton mean", "one number per channel")).ravel()
+        if m.shape != (a.shape[2],):
             raise TextonError(
-                f"texton mean must be {a.shape[2]} finite values (one per channel), got {self.mean!r}"
+                f"texton mean must be {a.shape[2]} finite values (one per channel), got {self.mean!r:.80}"
             )
-        if isinstance(self.order, bool) or self.order not in ORDERS:
-            raise TextonError(f"texton order must be one of {', '.join(map(str, ORDERS))}, got {self.order!r}")
+        check_range(m, "texton mean", MAX_VALUE, "values")
+        m = m.astype(np.float32)
+        if isinstance(self.order, (bool, np.bool_)) or not isinstance(self.order, numbers.Integral) \
+                or self.order not in ORDERS:
+            raise TextonError(f"texton order must be one of {', '.join(map(str, ORDERS))}, got {self.order!r:.60}")
+        if not isinstance(self.metadata, Mapping) or not all(isinstance(k, str) for k in self.metadata):
+            raise TextonError(f"texton metadata must be a dict with string keys, got {self.metadata!r:.80}")
         a.setflags(write=False)
         m.setflags(write=False)
         object.__setattr__(self, "coeffs", a)
@@ -129,7 +139,8 @@ class Texton:
         """
         from .bspline import bhat
 
-        m, n = shape
+        m, n = check_shape(shape)
+        check_memory(40.0 * m * n * self.channels, f"the spectrum of a texton on a {m}x{n} grid", "use a smaller grid")
         r, s = self.size
         if r > m or s > n:
             raise TextonError(f"a {r}x{s} texton does not fit on a {m}x{n} grid")
@@ -139,7 +150,7 @@ class Texton:
     # ------------------------------------------------------------------ files
     def save(self, path) -> None:
         """Write the texton to ``.exr`` or ``.texton`` (by extension), atomically."""
-        path = Path(path)
+        path = check_output_name(path, "path")
         ext = path.suffix.lower()
         if ext == EXR:
             write_exr(
@@ -148,7 +159,7 @@ class Texton:
                 texton_version=EXR_TEXTON_VERSION,
                 texton_order=self.order,
                 texton_mean=[float(v) for v in self.mean],
-                texton_metadata=json.dumps({**self.metadata, "warp_texton": __version__}),
+                texton_metadata=metadata_json({**self.metadata, "warp_texton": __version__}),
             )
         elif ext == TEXTON_EXT:
             text = _format_texton_text(self)
@@ -160,6 +171,27 @@ class Texton:
     def __repr__(self) -> str:
         r, s = self.size
         return f"Texton({r}x{s}, channels={self.channels}, order={self.order}, mean={[round(float(v), 4) for v in self.mean]})"
+
+
+def _json_value(value):
+    # NumPy scalars and arrays are common in metadata: store them as their Python values
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    raise TypeError(type(value).__name__)
+
+
+def metadata_json(metadata: dict) -> str:
+    """``metadata`` as JSON (NumPy values as Python ones); a value JSON cannot hold
+    is refused naming its key."""
+    for key, value in metadata.items():
+        try:
+            json.dumps(value, default=_json_value, allow_nan=False)
+        except (TypeError, ValueError) as exc:
+            raise TextonError(f"texton metadata[{key!r}]: {type(value).__name__} value {value!r:.60} cannot be "
+                              f"saved (metadata must be JSON: numbers, strings, lists, dicts; {exc})") from None
+    return json.dumps(metadata, default=_json_value, allow_nan=False)
 
 
 def lag0_covariance(alpha: np.ndarray, order: int) -> np.ndarray:
@@ -205,8 +237,11 @@ def _format_texton_text(t: Texton) -> str:
     # The format is ASCII: a non-ASCII source name must not make the save fail.
     src = str(t.metadata.get("source", "unknown")).replace("\n", " ")
     src = src.encode("ascii", "replace").decode("ascii")
-    src_shape = t.metadata.get("source_shape") or [0, 0]
-    lines.append(f"Original image: {src} ({int(src_shape[1])} x {int(src_shape[0])})")
+    try:
+        rows, cols = (int(v) for v in t.metadata.get("source_shape") or (0, 0))
+    except (TypeError, ValueError, OverflowError):
+        rows, cols = 0, 0  # the line is informative only
+    lines.append(f"Original image: {src} ({cols} x {rows})")
     return "\n".join(lines) + "\n"
 
 
@@ -267,11 +302,24 @@ def _parse_texton_text(path: Path) -> Texton:
         metadata["source_shape"] = [int(m.group(3)), int(m.group(2))]
     if np.array_equal(a[:, :, 0], a[:, :, 1]) and np.array_equal(a[:, :, 0], a[:, :, 2]) and mean[0] == mean[1] == mean[2]:
         a, mean = a[:, :, :1], mean[:1]
-    return Texton(a.astype(np.float32), mean.astype(np.float32), order, metadata)
+    return _checked_texton(path, a, mean, order, metadata)
+
+
+def _checked_texton(path: Path, coeffs, mean, order, metadata) -> Texton:
+    # values a Texton refuses (beyond MAX_VALUE, say) are a malformed file, named as such
+    try:
+        return Texton(coeffs, mean, order, metadata)
+    except TextonError as exc:
+        raise TextonError(f"{path}: malformed texton file: {exc}") from None
 
 
 def _load_exr_texton(path: Path) -> Texton:
-    coeffs, header = read_exr(path)
+    if not is_texton_header(read_exr_header(path)):
+        raise TextonError(
+            f"{path}: not a texton EXR (missing attribute texton_order); "
+            "an image must be analysed first (warp-texton analyze)"
+        )
+    coeffs, header = read_exr(path, max_side=MAX_TEXTON_SIDE, what="texton")
     missing = [k for k in ("texton_order", "texton_mean") if k not in header]
     if missing:
         raise TextonError(
@@ -279,7 +327,7 @@ def _load_exr_texton(path: Path) -> Texton:
             "an image must be analysed first (warp-texton analyze)"
         )
     order = header["texton_order"]
-    if not isinstance(order, int) or order not in ORDERS:
+    if not isinstance(order, int) or isinstance(order, bool) or order not in ORDERS:
         raise TextonError(f"{path}: malformed texton EXR: order {order!r} is not one of {ORDERS}")
     try:
         mean = np.asarray(header["texton_mean"], dtype=np.float64).ravel()
@@ -298,7 +346,7 @@ def _load_exr_texton(path: Path) -> Texton:
             raise TextonError(f"{path}: malformed texton EXR: metadata is not JSON") from None
         if not isinstance(metadata, dict):
             raise TextonError(f"{path}: malformed texton EXR: metadata is not a JSON object")
-    return Texton(coeffs, mean.astype(np.float32), order, metadata)
+    return _checked_texton(path, coeffs, mean, order, metadata)
 
 
 def load_texton(path) -> Texton:
@@ -312,7 +360,7 @@ def load_texton(path) -> Texton:
     TextonError
         Missing file, unknown extension, or a malformed file.
     """
-    path = Path(path)
+    path = check_path(path, "path")
     if not path.is_file():
         raise TextonError(f"{path}: no such file")
     ext = path.suffix.lower()
@@ -325,13 +373,13 @@ def load_texton(path) -> Texton:
 
 def is_texton_path(path) -> bool:
     """True when ``path`` names a texton file rather than an image."""
-    path = Path(path)
+    path = check_path(path, "path")
     ext = path.suffix.lower()
     if ext == TEXTON_EXT:
         return True
     if ext == EXR and path.is_file():
         try:
-            return "texton_order" in read_exr_header(path)
+            return is_texton_header(read_exr_header(path))
         except TextonError:
             return False
     return False

@@ -622,16 +622,16 @@ class Viewer:
 
     def mixed_tile(self, tile: Tile, analysis: Analysis, noise: Noise, mix: Mix) -> np.ndarray:
         """A tile of mixed noise (no rotation, no filter). An impact takes the texton of
-        ρ at the pixel it lands in, and pixels outside the raster count as its border
-        column, so the tile is computed with a margin holding every impact that
-        reaches it: a texton side to the left, the ψ reach to the right (ρ depends on
-        x only, so rows need none). ρ is a function of the global pixel: tiles join."""
+        ρ at the pixel where its texton's centre lies, and pixels outside the raster
+        count as its border column, so the tile is computed with a margin holding the
+        centre of every impact that reaches it: half a texton side plus the ψ reach on
+        each side (ρ depends on x only, so rows need none). ρ is a function of the
+        global pixel: tiles join."""
         textons = self.mixed_textons(analysis, mix)
         s = 2.0 ** tile.z
         order = textons[0].order
         reach = 0.5 if order == 0 else (order + 1) / 2.0
-        left = math.ceil((textons[0].size[1] - 1 + reach) * s) + 2
-        right = math.ceil(reach * s) + 2
+        left = right = math.ceil(((textons[0].size[1] - 1) / 2 + reach) * s) + 2
         t = tile.size
         w = t + left + right
         j0 = tile.x * t - left  # global pixel column of the raster's first column
