@@ -559,8 +559,7 @@ class TestOneError:
         assert " u:" not in line and "u, v" not in line
 
 
-# ============================================================== owned by issue 12 (reported)
-@pytest.mark.xfail(strict=False, reason=f"{MESH_ISSUE}: @list expansion in batch.expand_meshes")
+# ============================================================== meshes
 @pytest.mark.parametrize("content", [b"\x89PNG\r\n\x1a\n\x00\xff\xfe", "SELF"])
 def test_mesh_lists_binary_or_self_including(tmp_path, content):
     from warp_texton.batch import expand_meshes
@@ -571,7 +570,6 @@ def test_mesh_lists_binary_or_self_including(tmp_path, content):
         expand_meshes([f"@{listing}"])
 
 
-@pytest.mark.xfail(strict=False, reason=f"{MESH_ISSUE}: argument checks in surface.py and batch.py")
 @pytest.mark.parametrize("call", ["surface_noise-up", "texture_mesh-max_faces", "expand_meshes-None",
                                   "render_mesh-texel_size"])
 def test_mesh_functions_raise_texton_error(call):

@@ -750,16 +750,27 @@ class TestRender:
         assert not hit[0].any() and not hit[-1].any() and not hit[:, 0].any() and not hit[:, -1].any()
         np.testing.assert_array_equal(img, render_mesh(mesh, t, (32, 48), device=device))
 
+    @pytest.mark.parametrize("args, kw, match", [
+        (((0, 0, 5.0), (0, 0, 0)), dict(fov=180.0), "camera.fov must be below 180"),
+        (((0, 0, 5.0), (0, 0, 0)), dict(fov=0.0), "camera.fov"),
+        (((0, 0, 5.0), (0, 0, 0)), dict(fov=float("nan")), "camera.fov"),
+        (((0, 0, 5.0), (0, 0, 0)), dict(up=(0, 0, 1.0)), "camera.up is parallel"),
+        (((0, 0, 5.0), (0, 0, 0)), dict(up="abc"), "camera.up must be a non-zero 3-vector"),
+        (((0, 0, 0.0), (0, 0, 0)), {}, "camera.target - camera.position must be a non-zero"),
+        (((0, 0, float("inf")), (0, 0, 0)), {}, "camera.position must be a point"),
+        ((("0", 0, 5.0), (0, 0, 0)), {}, "camera.position must be a point"),
+    ])
+    def test_bad_cameras(self, args, kw, match):
+        """A Camera is checked when it is made, so a bad one never reaches a render."""
+        with pytest.raises(TextonError, match=match):
+            Camera(*args, **kw)
+
     @pytest.mark.parametrize(
         "kw, match",
         [
             (dict(shape=(0, 8)), r"shape\[0\] \(height\) must be at least 1"),
             (dict(shape=8), "shape must be a pair"),
             (dict(shape=(100000, 100000)), "too large"),
-            (dict(camera=Camera((0, 0, 5.0), (0, 0, 0), fov=180.0)), "camera.fov must be below 180"),
-            (dict(camera=Camera((0, 0, 5.0), (0, 0, 0), fov=0.0)), "camera.fov"),
-            (dict(camera=Camera((0, 0, 5.0), (0, 0, 0), up=(0, 0, 1.0))), "camera.up is parallel"),
-            (dict(camera=Camera((0, 0, 0.0), (0, 0, 0))), "camera target - position must be a non-zero"),
             (dict(camera=((0, 0, 5.0), (0, 0, 0))), "camera must be a warp_texton.Camera"),
             (dict(texel_size=0.0), "texel_size"),
             (dict(seed=1.5), "seed"),

@@ -11,6 +11,7 @@ does not stop the others.
 from __future__ import annotations
 
 import glob
+import os
 import io
 import sys
 import uuid
@@ -107,17 +108,39 @@ def expand_meshes(args) -> list[str]:
     """Mesh arguments to paths: plain paths, glob patterns, and ``@list.txt``
     files holding one path or pattern per line (blank lines and # comments
     skipped). Order is kept and duplicates dropped; a pattern that matches
-    nothing stays as is, so that its job reports the missing file."""
+    nothing stays as is, so that its job reports the missing file. ``args`` is
+    a sequence of paths (one path alone is taken as a list of one)."""
+    return _expand(args, ())
+
+
+def _expand(args, lists: tuple) -> list[str]:
+    """``expand_meshes`` inside the ``@lists`` being read (their resolved paths)."""
+    if isinstance(args, (str, os.PathLike)):
+        args = [args]
+    try:
+        args = list(args)
+    except TypeError:
+        raise TextonError(f"args must be a list of mesh paths, got {args!r:.60}") from None
     out: list[str] = []
     for arg in args:
+        if isinstance(arg, os.PathLike):
+            arg = os.fspath(arg)
+        if not isinstance(arg, str):
+            raise TextonError(f"args: {arg!r:.60} is not a path; give file names, glob patterns or @list.txt")
         if arg.startswith("@"):
             listing = Path(arg[1:])
+            key = listing.resolve()
+            if key in lists:
+                raise TextonError(f"{listing}: the mesh list includes itself (through @{listing})")
             try:
-                lines = listing.read_text().splitlines()
+                lines = listing.read_bytes().decode("utf-8").splitlines()
             except OSError as exc:
                 raise TextonError(f"{listing}: cannot read the mesh list ({exc.strerror})") from None
+            except UnicodeDecodeError:
+                raise TextonError(f"{listing}: not a text list of mesh paths (one path or pattern per line, "
+                                  "UTF-8)") from None
             entries = [ln.strip() for ln in lines if ln.strip() and not ln.strip().startswith("#")]
-            out.extend(expand_meshes(entries))
+            out.extend(_expand(entries, (*lists, key)))
         elif glob.has_magic(arg):
             out.extend(sorted(glob.glob(arg, recursive=True)) or [arg])
         else:

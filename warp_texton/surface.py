@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from ._checks import check_positive, check_seed, check_shape
+from ._checks import as_real_array, check_int, check_positive, check_seed, check_shape
 from ._runtime import map_points, resolve_device, split_launch
 from .errors import TextonError
 from .limits import check_memory
@@ -108,10 +108,22 @@ def _unit_rows(v: np.ndarray, name: str) -> np.ndarray:
     return v / length[:, None]
 
 
+def _point(v, name: str) -> np.ndarray:
+    """A finite 3-vector of numbers."""
+    p = as_real_array(v, name, "a point (x, y, z) of numbers").reshape(-1)
+    if p.shape != (3,) or not np.isfinite(p).all():
+        raise TextonError(f"{name} must be a point (x, y, z) of finite numbers, got {v!r:.60}")
+    return p
+
+
 def _direction(v, name: str) -> np.ndarray:
-    d = np.asarray(v, dtype=np.float64).reshape(-1)
+    """A unit 3-vector from a non-zero triple of finite numbers (strings are not numbers)."""
+    try:
+        d = as_real_array(v, name, "a non-zero 3-vector").reshape(-1)
+    except TextonError:
+        raise TextonError(f"{name} must be a non-zero 3-vector of numbers, got {v!r:.60}") from None
     if d.shape != (3,) or not np.isfinite(d).all() or np.linalg.norm(d) < 1e-12:
-        raise TextonError(f"{name} must be a non-zero 3-vector, got {v!r}")
+        raise TextonError(f"{name} must be a non-zero 3-vector, got {v!r:.60}")
     return d / np.linalg.norm(d)
 
 
@@ -651,6 +663,7 @@ def texture_mesh(
 
     mesh = check_mesh(mesh)
     texel = check_positive(texel_size, "texel_size")
+    max_faces = check_int(max_faces, "max_faces", minimum=1)
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
     faces = np.asarray(mesh.faces, dtype=np.int64)
     if not isinstance(texton, Texton):
@@ -662,9 +675,11 @@ def texture_mesh(
         # trimesh halves edges: a face whose longest edge is L splits 4^k ways, 2^k ≥ L / edge
         halvings = np.ceil(np.log2(np.maximum(lengths.max(axis=1) / edge, 1.0)))
         factor = 4.0 ** halvings  # an upper bound on the faces each face becomes
-        if factor.sum() > max_faces:
+        total = float(factor.sum())
+        if not total <= max_faces:  # inf for an edge far below the mesh's
+            count = f"about {total:.0f}" if math.isfinite(total) else "more than can be counted:"
             raise TextonError(
-                f"max_edge {max_edge:g} texels would make about {int(factor.sum())} faces (at most {max_faces}); "
+                f"max_edge {max_edge:g} texels would make {count} faces (at most {max_faces}); "
                 "use a larger max_edge or texel_size"
             )
         vertices, faces = trimesh.remesh.subdivide_to_size(vertices, faces, max_edge=edge, max_iter=64)
@@ -689,12 +704,31 @@ def texture_mesh(
 
 @dataclass(frozen=True)
 class Camera:
-    """A pinhole camera: ``position`` looks at ``target``; ``fov`` is vertical, degrees."""
+    """A pinhole camera: ``position`` looks at ``target``; ``fov`` is vertical, degrees.
+
+    Checked when made: finite positions apart from each other, a non-zero ``up``
+    not along the view, and a ``fov`` in (0, 180).
+    """
 
     position: tuple[float, float, float]
     target: tuple[float, float, float]
     up: tuple[float, float, float] = UP
     fov: float = 35.0
+
+    def __post_init__(self):
+        fov = check_positive(self.fov, "camera.fov")
+        if fov >= 180.0:
+            raise TextonError(f"camera.fov must be below 180 degrees, got {fov}")
+        eye, target = (_point(v, name) for v, name in ((self.position, "camera.position"),
+                                                         (self.target, "camera.target")))
+        forward = _direction(target - eye, "camera.target - camera.position")
+        up = _direction(self.up, "camera.up")
+        if np.linalg.norm(np.cross(forward, up)) < 1e-9:
+            raise TextonError("camera.up is parallel to the view direction")
+        object.__setattr__(self, "position", tuple(float(v) for v in eye))
+        object.__setattr__(self, "target", tuple(float(v) for v in target))
+        object.__setattr__(self, "up", tuple(float(v) for v in np.asarray(self.up, np.float64).reshape(3)))
+        object.__setattr__(self, "fov", fov)
 
     @classmethod
     def framing(cls, mesh, direction=None, fov: float = 35.0, up=UP, zoom: float = 1.0, *,
