@@ -409,6 +409,43 @@ def camera_args(draw):
                 up=(0.0, 0.0, 1.0), fov=draw(floats(1.0, 170.0)))
 
 
+
+@st.composite
+def batch_args(draw):
+    c = draw(st.sampled_from([1, 3]))
+    ts = [draw(textons(channels=c)) for _ in range(draw(st.integers(1, 3)))]
+    count = draw(st.integers(1, 4))
+    lo = draw(floats(0.2, 4.0))
+    return dict(textons=ts, count=count, shape=draw(shapes(1, 16)), seed=draw(SEEDS), mni=draw(floats(0.5, 40.0)),
+                scale=draw(st.one_of(floats(0.2, 4.0), st.just((lo, lo * draw(floats(1.0, 2.0)))))),
+                rotation=draw(st.one_of(floats(-360.0, 360.0), st.just((-30.0, 30.0)))),
+                offset=draw(pairs(floats(-1e5, 1e5))), filter=draw(filters()), device="cpu")
+
+
+def refused_ranges():
+    """Values a number-or-(lo, hi) parameter must refuse."""
+    return st.one_of(not_numbers().filter(lambda v: not isinstance(v, tuple)), NON_FINITE,
+                     st.sampled_from([(2.0, 1.0), (NAN, 1.0), (1.0, INF), ("1", "2"), (1.0, 2.0, 3.0)]))
+
+
+@st.composite
+def bake_args(draw):
+    v, f = draw(mesh_arrays())
+    return dict(vertices=v, faces=f, texton=draw(textons()), texel_size=draw(floats(0.05, 5.0)),
+                resolution=draw(st.integers(8, 48)), mni=draw(floats(1.0, 60.0)), seed=draw(SEEDS),
+                supersample=draw(st.one_of(st.none(), st.integers(1, 3))), gutter=draw(st.one_of(st.none(), st.integers(0, 4))),
+                device="cpu")
+
+
+@st.composite
+def dask_args(draw):
+    h, w = draw(shapes(1, 24))
+    chunks = draw(st.one_of(st.integers(1, min(h, w)), st.tuples(st.integers(1, h), st.integers(1, w))))
+    return dict(texton=draw(textons()), shape=(h, w), chunks=chunks,
+                mni=draw(floats(0.5, 40.0)), seed=draw(SEEDS), scale=draw(floats(0.1, 4.0)),
+                rotation=draw(floats(-360.0, 360.0)), offset=draw(pairs(floats(-1e5, 1e5))), device="cpu")
+
+
 # ------------------------------------------------------------------ checks (run in the worker)
 def _array(result, shape, channels=None) -> str | None:
     if not isinstance(result, np.ndarray):
@@ -612,6 +649,70 @@ def camera_framing(position, target, up, fov):
     Camera(position, target, up, fov)
     return Camera.framing(trimesh.creation.box(), direction=position, fov=fov, up=up)
 
+def synthesize_batch_of(**kw):
+    from warp_texton import synthesize_batch
+
+    batch = synthesize_batch(**kw)
+    images, c = batch.images, kw["textons"][0].channels
+    if images.shape != (kw["count"], *kw["shape"], c) or images.dtype != np.float32 or not np.isfinite(images).all():
+        raise AssertionError(f"synthesize_batch: images {images.shape} {images.dtype}, expected "
+                             f"({kw['count']}, {kw['shape']}, {c}) finite float32")
+    return None
+
+
+def _mesh(vertices, faces):
+    import trimesh
+
+    return trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
+
+
+def bake_mesh_of(vertices, faces, **kw):
+    from warp_texton import bake_mesh
+
+    baked = bake_mesh(_mesh(vertices, faces), **kw)
+    t = baked.texture
+    if t.shape[:2] != (kw["resolution"], kw["resolution"]) or not np.isfinite(t).all():
+        raise AssertionError(f"bake_mesh: texture {t.shape}, expected {kw['resolution']}² finite values")
+    return None
+
+
+def _small_bake():
+    import trimesh
+
+    from warp_texton import Texton, bake_mesh
+
+    t = Texton(np.full((2, 2, 1), 0.1, np.float32), [0.5])
+    return bake_mesh(trimesh.creation.box(), t, 0.2, resolution=16, device="cpu")
+
+
+def write_baked_to(folder, stem, **kw):
+    from warp_texton import write_baked
+
+    paths = write_baked(_small_bake(), Path(folder) / stem, **kw)
+    if not paths or not all(Path(p).is_file() for p in paths):
+        raise AssertionError(f"write_baked: missing outputs {paths}")
+    return None
+
+
+def render_baked_of(**kw):
+    from warp_texton import render_baked
+
+    img = render_baked(_small_bake(), **kw)
+    if img.shape != (*kw.get("shape", (512, 512)), 3) or not np.isfinite(img).all():
+        raise AssertionError(f"render_baked: image {img.shape}")
+    return None
+
+
+def synthesize_dask_of(**kw):
+    from warp_texton.dask import synthesize_dask
+
+    arr = synthesize_dask(**kw)
+    img = arr.compute(scheduler="synchronous")
+    if img.shape != (*kw["shape"], kw["texton"].channels) or not np.isfinite(img).all():
+        raise AssertionError(f"synthesize_dask: {img.shape}, expected {kw['shape']}")
+    return None
+
+
 
 def warm_up():
     """Compile every kernel module once (the first calls of a clean machine build them)."""
@@ -777,6 +878,42 @@ ENTRIES: list[Entry] = [
     Entry("expand_meshes", "warp_texton.batch:expand_meshes",
           st.lists(st.sampled_from(["a.ply", "b/*.obj", "c.glb"]), max_size=3).map(lambda a: dict(args=a)),
           {"args": st.sampled_from([[None], [5], None, [b"x"], 7])}),
+    Entry("synthesize_batch", "property_api:synthesize_batch_of", batch_args(),
+          {"textons": st.one_of(st.sampled_from([[], None, "t", [None], [1.0], 5])),
+           "count": refused_int(1), "shape": refused_shapes(), "seed": refused_int(0), "mni": refused_positive(),
+           "scale": refused_ranges(), "rotation": refused_ranges(), "offset": refused_pair(),
+           "filter": st.one_of(JUNK, st.just("bilinear")), "device": st.sampled_from(["gpu", "cuda:99", 5])},
+          edges={"count": st.sampled_from([10**6, 10**12, 2**40]), "shape": edge_shapes(), "mni": huge_and_tiny(),
+                 "scale": st.sampled_from([1e-30, 1e30, (1e-30, 1.0), (1.0, 1e30)])},
+          may_refuse=r"memory budget|work budget|cells|impacts|reach|too small|too large"),
+    Entry("bake_mesh", "property_api:bake_mesh_of", bake_args(),
+          {"texton": refused_textons(), "texel_size": refused_positive(), "resolution": refused_int(1),
+           "mni": refused_positive(), "seed": refused_int(0), "supersample": refused_int(1).filter(lambda v: v is not None),
+           "gutter": st.sampled_from([-1, 1.5, "2", NAN])},
+          edges={"resolution": st.sampled_from([1, 2, 100_000, 10**9]), "texel_size": huge_and_tiny(),
+                 "supersample": st.sampled_from([9, 64, 10**6]), "gutter": st.sampled_from([10**6])},
+          may_refuse=r"memory budget|work budget|too far|cells|xatlas|resolution|supersample|gutter"),
+    Entry("write_baked", "property_api:write_baked_to",
+          st.tuples(st.sampled_from(["a", "mesh.v2"]), st.sampled_from(["glb", "obj"]),
+                    st.sampled_from([None, "png", "exr"]), st.booleans()).map(
+              lambda a: dict(stem=a[0], fmt=a[1], texture=a[2], linear=a[3])),
+          {"fmt": st.one_of(JUNK, st.sampled_from(["ply", "GLB ", ""])),
+           "texture": st.one_of(JUNK.filter(lambda v: v is not None), st.just("tiff")),
+           "stem": st.sampled_from(["x" * 300, "missing/a"])},
+          names={"stem": "a"}, files=("folder",)),
+    Entry("render_baked", "property_api:render_baked_of",
+          st.tuples(shapes(1, 24), st.one_of(st.none(), st.tuples(floats(-180.0, 180.0), floats(-89.0, 89.0))),
+                    st.one_of(st.none(), floats(5.0, 120.0))).map(lambda a: dict(shape=a[0], view=a[1], fov=a[2], device="cpu")),
+          {"shape": refused_shapes(), "view": st.one_of(st.sampled_from(["x", (NAN, 0.0), (1.0,), ("1", "2")])),
+           "fov": st.one_of(refused_number(), st.sampled_from([0.0, 180.0, -5.0]))},
+          edges={"shape": edge_shapes()},
+          may_refuse=r"memory budget|work budget|too large"),
+    Entry("synthesize_dask", "property_api:synthesize_dask_of", dask_args(),
+          {"texton": refused_textons(), "shape": refused_shapes(), "chunks": st.one_of(
+              st.sampled_from([0, -4, "8", 1.5, (0, 4), (4,), None])), "mni": refused_positive(),
+           "seed": refused_int(0), "scale": refused_positive(), "offset": refused_pair()},
+          edges={"shape": st.sampled_from([(1, 1), (10**6, 10**6), (2**40, 2)]), "chunks": st.sampled_from([10**9, (1, 10**9)])},
+          may_refuse=r"memory budget|work budget|cells|impacts|reach|too small|too large|chunks"),
 ]
 
 #: Entries by name (the tests' ids).

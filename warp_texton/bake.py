@@ -137,6 +137,11 @@ def make_atlas(vertices: np.ndarray, faces: np.ndarray, resolution: int, padding
     return np.asarray(vmap, np.int64), np.asarray(new_faces, np.int64), np.asarray(uv, np.float64)
 
 
+#: Most texels of gutter: a renderer's mip chain needs a few; a gutter of a sizeable share
+#: of the texture only wastes it (and xatlas pads charts by twice the gutter).
+MAX_GUTTER = 64
+
+
 def default_gutter(resolution: int) -> int:
     """Texels of gutter around each chart: 2 up to 512², then 1/256 of the side (8 at 2048)."""
     return max(2, resolution // 256)
@@ -246,7 +251,8 @@ def bake_mesh(
         supersample = check_int(supersample, "supersample", minimum=1)
         if supersample > 64:
             raise TextonError(f"supersample must be at most 64 samples per side, got {supersample}")
-    gutter = default_gutter(res) if gutter is None else check_int(gutter, "gutter", minimum=0)
+    gutter = default_gutter(res) if gutter is None else check_int(gutter, "gutter", minimum=0,
+                                                                   maximum=min(MAX_GUTTER, max(2, res // 4)))
     seed = check_seed(seed)
     check_method(method)
     # the owners, the distance transform of the gutter and each texel's face, map, footprint
@@ -401,7 +407,8 @@ def write_baked(baked: BakedMesh, stem, fmt: str = "glb", texture: str | None = 
     from .io import atomic_path, write_image
 
     if fmt not in BAKE_FORMATS:
-        raise TextonError(f"a baked mesh is written as {' or '.join(BAKE_FORMATS)}, got {fmt!r}")
+        raise TextonError(f"fmt must be {' or '.join(repr(f) for f in BAKE_FORMATS)} (a baked mesh's file format), "
+                          f"got {fmt!r:.40}")
     if texture is not None and texture not in TEXTURE_FORMATS:
         raise TextonError(f"texture must be one of {', '.join(TEXTURE_FORMATS)}, got {texture!r}")
     paths = bake_outputs(stem, fmt, texture)

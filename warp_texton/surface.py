@@ -194,9 +194,9 @@ def view_direction(view, up=UP) -> np.ndarray:
     (azimuth, elevation) in degrees: azimuth about the up axis from the world's
     right (x), −90 looking at the front; elevation above the horizon."""
     try:
-        az, el = (float(v) for v in view)
+        az, el = as_real_array(view, "view", "a pair (azimuth, elevation) of numbers, in degrees").tolist()
     except (TypeError, ValueError):
-        raise TextonError(f"view must be a pair (azimuth, elevation) in degrees, got {view!r}") from None
+        raise TextonError(f"view must be a pair (azimuth, elevation) in degrees, got {view!r:.60}") from None
     if not (math.isfinite(az) and math.isfinite(el)) or abs(el) >= 90.0:
         raise TextonError(f"view elevation must be finite and strictly between -90 and 90 degrees, got {view!r}")
     a, e = math.radians(az), math.radians(el)
