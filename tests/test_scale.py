@@ -248,6 +248,12 @@ class TestBatch:
         finally:
             set_memory_budget(None)
 
+    def test_huge_count_of_tiny_rasters_is_refused_before_drawing_parameters(self):
+        """Each item's parameters and window cost memory too: 10**12 items of one pixel are
+        refused by the budget, not by a MemoryError from drawing 10**12 parameters."""
+        with pytest.raises(TextonError, match=r"a batch of 1000000000000 1x1 rasters .* over the memory budget"):
+            synthesize_batch(random_texton(), 10**12, (1, 1), device="cpu")
+
 
 # --------------------------------------------------------------------------- #
 # Output on the device                                                         #

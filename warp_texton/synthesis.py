@@ -37,6 +37,10 @@ from .texton import Texton
 MAX_PIXEL_INDEX = 1 << 30
 #: Bytes per impact in a raster's block: its offset (2 float32) and its cell (int32).
 IMPACT_BYTES = 12
+#: Host memory per batch item besides its pixels: its drawn parameters (NumPy) and its
+#: window (a small Python object with its geometry): 1.2 KiB measured (tracemalloc, 20 000 items
+#: of 1x1 pixels), rounded up.
+BATCH_ITEM_BYTES = 2048
 
 
 def check_pixel_offset(pixel_offset) -> tuple[int, int]:
@@ -498,14 +502,17 @@ def synthesize_batch(
     output = check_output(output)
     mni = check_positive(mni, "mni")
     options = FilterOptions.of(filter)
-    params = draw_batch_params(len(textons), count, seed, scale, rotation, offset, texton_index)
-    setups = [noise_setup(t, mni, period, cell_factor) for t in textons]
     channels = textons[0].channels
     device = resolve_device(device)
+    # before anything of size count is made: the output, a group's impacts, and each
+    # item's parameters and window
     check_memory(result_bytes(count, h, w, channels, device, output)
-                 + min(count, max(1, STRIP_WORK // (h * w))) * h * w * 4,  # a group's impacts, about
+                 + min(count, max(1, STRIP_WORK // (h * w))) * h * w * 4  # a group's impacts, about
+                 + count * BATCH_ITEM_BYTES,
                  f"a batch of {count} {h}x{w} rasters with {channels} channel(s)",
                  "use a smaller count or shape, or make the batch in parts")
+    params = draw_batch_params(len(textons), count, seed, scale, rotation, offset, texton_index)
+    setups = [noise_setup(t, mni, period, cell_factor) for t in textons]
     stack = TextonStack.of([s.coeffs for s in setups])
     windows, filtered = [], []
     for k in range(count):
