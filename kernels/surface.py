@@ -237,6 +237,48 @@ class CubeBlocks:
     impacts: wp.array(dtype=wp.vec3)
 
 
+@wp.func
+def clamp_to_block(o: wp.vec3i, dm: wp.vec3i, x0: int, x1: int, y0: int, y1: int, z0: int, z1: int):
+    # the cube range within the block's cubes o + [0, dm) (the host sizes each block to
+    # hold its points' cubes; the clamps only guard memory)
+    return (wp.max(x0, o[0]), wp.min(x1, o[0] + dm[0] - 1), wp.max(y0, o[1]), wp.min(y1, o[1] + dm[1] - 1),
+            wp.max(z0, o[2]), wp.min(z1, o[2] + dm[2] - 1))
+
+
+@wp.func
+def sum_block(p: SurfaceParams, coeffs: wp.array2d(dtype=wp.vec3), look: SlabLookup, y: wp.vec3d, n: wp.vec3,
+              u1: wp.vec3, u2: wp.vec3, x0: int, x1: int, y0: int, y1: int, z0: int, z1: int, b: int,
+              blocks: CubeBlocks):
+    # the walk's sum over the cubes [x0, x1] × [y0, y1] × [z0, z1], from block b's drawn
+    # impacts: the same cubes and impacts in the same order; cubes that cannot reach
+    # the point are skipped
+    o = blocks.origin[b]
+    dm = blocks.dims[b]
+    base = blocks.base[b]
+    x0, x1, y0, y1, z0, z1 = clamp_to_block(o, dm, x0, x1, y0, y1, z0, z1)
+    half = p.half
+    centre = p.centre
+    lo = p.lo
+    hi = p.hi
+    order = p.order
+    c = p.cells.size
+    acc = wp.vec3(0.0)
+    for cz in range(z0, z1 + 1):
+        for cy in range(y0, y1 + 1):
+            row = base + ((cz - o[2]) * dm[1] + (cy - o[1])) * dm[0] - o[0]
+            for cx in range(x0, x1 + 1):
+                rel = cube_offset(y, cx, cy, cz, c)
+                if cube_may_count(look, rel, c):
+                    g = row + cx
+                    for j in range(blocks.offsets[g], blocks.offsets[g + 1]):
+                        # add_slab, with its fields held in registers
+                        d = impact_offset3(rel, blocks.impacts[j], c)
+                        t = wp.dot(d, n)
+                        if wp.abs(t) < half:
+                            acc = slab_term(coeffs, u1, u2, t, half, centre, lo, hi, order, d, acc)
+    return acc
+
+
 @wp.kernel
 def gather_surface(
     p: SurfaceParams,
@@ -257,40 +299,10 @@ def gather_surface(
     n = normals[k]
     u1, u2 = point_frame(p, n, tangents, k, use_tangents)
     look = slab_lookup(p, coeffs, u1, u2, n)
-    half = p.half
-    centre = p.centre
-    lo = p.lo
-    hi = p.hi
-    order = p.order
     y = points[k]
-    c = p.cells.size
-    x0, x1, y0, y1, z0, z1 = cube_span(y, frame_extent(p.half, u1, u2, n), c)
-    b = block_of[k]
-    o = blocks.origin[b]
-    dm = blocks.dims[b]
-    base = blocks.base[b]
-    # the host sizes each block to hold its points' cubes; the clamps only guard memory
-    x0 = wp.max(x0, o[0])
-    y0 = wp.max(y0, o[1])
-    z0 = wp.max(z0, o[2])
-    x1 = wp.min(x1, o[0] + dm[0] - 1)
-    y1 = wp.min(y1, o[1] + dm[1] - 1)
-    z1 = wp.min(z1, o[2] + dm[2] - 1)
-    acc = wp.vec3(0.0)
-    for cz in range(z0, z1 + 1):
-        for cy in range(y0, y1 + 1):
-            row = base + ((cz - o[2]) * dm[1] + (cy - o[1])) * dm[0] - o[0]
-            for cx in range(x0, x1 + 1):
-                rel = cube_offset(y, cx, cy, cz, c)
-                if cube_may_count(look, rel, c):
-                    g = row + cx
-                    for j in range(blocks.offsets[g], blocks.offsets[g + 1]):
-                        # add_slab, with its fields held in registers
-                        d = impact_offset3(rel, blocks.impacts[j], c)
-                        t = wp.dot(d, n)
-                        if wp.abs(t) < half:
-                            acc = slab_term(coeffs, u1, u2, t, half, centre, lo, hi, order, d, acc)
-    out[k] = normalize_surface(p, acc)
+    x0, x1, y0, y1, z0, z1 = cube_span(y, frame_extent(p.half, u1, u2, n), p.cells.size)
+    out[k] = normalize_surface(p, sum_block(p, coeffs, look, y, n, u1, u2, x0, x1, y0, y1, z0, z1, block_of[k],
+                                            blocks))
 
 
 # ------------------------------------------------ clusters of nearby points
@@ -404,12 +416,7 @@ def list_cluster_impacts(
     o = blocks.origin[b]
     dm = blocks.dims[b]
     base = blocks.base[b]
-    x0 = wp.max(x0, o[0])
-    yy0 = wp.max(yy0, o[1])
-    z0 = wp.max(z0, o[2])
-    x1 = wp.min(x1, o[0] + dm[0] - 1)
-    yy1 = wp.min(yy1, o[1] + dm[1] - 1)
-    z1 = wp.min(z1, o[2] + dm[2] - 1)
+    x0, x1, yy0, yy1, z0, z1 = clamp_to_block(o, dm, x0, x1, yy0, yy1, z0, z1)
     count = int(0)
     runs = int(0)
     ok = bool(True)
@@ -482,30 +489,9 @@ def gather_clustered(
     y = points[k]
     c = p.cells.size
     x0, x1, y0, y1, z0, z1 = cube_span(y, frame_extent(p.half, u1, u2, n), c)
-    b = block_of[k]
-    o = blocks.origin[b]
-    dm = blocks.dims[b]
-    base = blocks.base[b]
     acc = wp.vec3(0.0)
     if runs < 0:  # no list: walk the block's cubes
-        x0 = wp.max(x0, o[0])
-        y0 = wp.max(y0, o[1])
-        z0 = wp.max(z0, o[2])
-        x1 = wp.min(x1, o[0] + dm[0] - 1)
-        y1 = wp.min(y1, o[1] + dm[1] - 1)
-        z1 = wp.min(z1, o[2] + dm[2] - 1)
-        for cz in range(z0, z1 + 1):
-            for cy in range(y0, y1 + 1):
-                row = base + ((cz - o[2]) * dm[1] + (cy - o[1])) * dm[0] - o[0]
-                for cx in range(x0, x1 + 1):
-                    rel = cube_offset(y, cx, cy, cz, c)
-                    if cube_may_count(look, rel, c):
-                        g = row + cx
-                        for j in range(blocks.offsets[g], blocks.offsets[g + 1]):
-                            d = impact_offset3(rel, blocks.impacts[j], c)
-                            t = wp.dot(d, n)
-                            if wp.abs(t) < half:
-                                acc = slab_term(coeffs, u1, u2, t, half, centre, lo, hi, order, d, acc)
+        acc = sum_block(p, coeffs, look, y, n, u1, u2, x0, x1, y0, y1, z0, z1, block_of[k], blocks)
     else:
         u0 = m * clusters.cap
         r0 = m * clusters.cap_runs
