@@ -809,17 +809,13 @@ def cast_rays(mesh, shape, camera: Camera | None = None, *, up=UP, view=None, fo
         cam = camera
     if not isinstance(cam, Camera):
         raise TextonError(f"camera must be a warp_texton.Camera, got {type(cam).__name__}")
-    cam_fov = check_positive(cam.fov, "camera.fov")
-    if cam_fov >= 180.0:
-        raise TextonError(f"camera.fov must be below 180 degrees, got {cam_fov}")
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
     lo, hi = vertices.min(axis=0), vertices.max(axis=0)
     origin = (lo + hi) / 2.0  # the ray cast runs in float32 around this point
     eye = np.asarray(cam.position, dtype=np.float64)
-    forward = _direction(np.asarray(cam.target, dtype=np.float64) - eye, "camera target - position")
+    # a Camera is checked when made: the view and up directions are non-zero and apart
+    forward = _direction(np.asarray(cam.target, dtype=np.float64) - eye, "camera.target - camera.position")
     right = np.cross(forward, _direction(cam.up, "camera.up"))
-    if np.linalg.norm(right) < 1e-9:
-        raise TextonError("camera.up is parallel to the view direction")
     right /= np.linalg.norm(right)
     cam_up = np.cross(right, forward)
     light_dir = rot @ _direction(LIGHT, "light") if light is None else _direction(light, "light")
@@ -830,7 +826,7 @@ def cast_rays(mesh, shape, camera: Camera | None = None, *, up=UP, view=None, fo
     c.right = wp.vec3(*right)
     c.up = wp.vec3(*cam_up)
     c.forward = wp.vec3(*forward)
-    c.tan_half_fov = math.tan(math.radians(cam_fov) / 2.0)
+    c.tan_half_fov = math.tan(math.radians(cam.fov) / 2.0)
     c.aspect = w / h
     c.light = wp.vec3(*light_dir)
     faces_np = np.asarray(mesh.faces, dtype=np.int64)
