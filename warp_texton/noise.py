@@ -54,10 +54,10 @@ MAX_IMPACTS = 1 << 30
 #: relative to the block of cells, whose ~2**-24 relative precision reaches a
 #: pixel step at about 1e5 pixels per texel.
 MAX_SCALE = 1.0e4
-#: Host bytes per impact of a raster's block: its position (vec2), and for mixed
-#: noise its label and sign.
-IMPACT_BYTES = 8
-MARKED_IMPACT_BYTES = 16
+#: Bytes per impact of a raster's block: its offset in its cell (vec2) and its cell
+#: (int32); mixed noise adds its label (int32) and sign (float32).
+IMPACT_BYTES = 12
+MARKED_IMPACT_BYTES = 20
 
 
 def support_reach(order: int) -> float:

@@ -27,7 +27,7 @@ from .errors import TextonError
 from .filtering import (COST_SAMPLES, FilterOptions, RasterPixels, check_filter_cost, check_jacobian,
                         filter_pixels, needs_filtering, pixel_cost)
 from .limits import check_memory, check_work
-from .noise import (CELL_FACTOR, METHODS, STRIP_WORK, Canvas, RasterWindow, TextonStack, check_cell_range,
+from .noise import (CELL_FACTOR, IMPACT_BYTES, METHODS, STRIP_WORK, Canvas, RasterWindow, TextonStack, check_cell_range,
                     check_output, check_points_cost, noise_params, noise_setup, params_record, point_values,
                     raster_cost, raster_geometry, raster_impacts, raster_reach, rasters, result_bytes, strips,
                     window_block)
@@ -35,8 +35,6 @@ from .texton import Texton
 
 #: Pixel windows are placed with int32 indices in the kernels.
 MAX_PIXEL_INDEX = 1 << 30
-#: Bytes per impact in a raster's block: its offset (2 float32) and its cell (int32).
-IMPACT_BYTES = 12
 #: Host memory per batch item besides its pixels: its drawn parameters (NumPy) and its
 #: window (a small Python object with its geometry): 1.2 KiB measured (tracemalloc, 20 000 items
 #: of 1x1 pixels), rounded up.
