@@ -15,6 +15,7 @@ import warp as wp
 
 from .impacts import Cells3, cell_state3, cell_walk3, cube_offset, cube_span, draw_count, impact_offset3, next_impact3
 from .noise2d import PAD, texton_value
+from .surface_native import cluster_sums, scan_cube
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
 
@@ -168,7 +169,7 @@ def evaluate_surface(
 ):
     """Surface noise at points (texel units, float64) with unit normals, each point
     walking its own cubes; frames from the rule, or from given tangents (already
-    orthogonal to the normals, unit). The reference for ``gather_surface``."""
+    orthogonal to the normals, unit). The reference for the block path."""
     k = wp.tid()
     n = normals[k]
     u1, u2 = point_frame(p, n, tangents, k, use_tangents)
@@ -187,16 +188,18 @@ def count_cubes(p: SurfaceParams, cubes: wp.array(dtype=wp.vec3i), counts: wp.ar
 
 @wp.kernel
 def emit_cubes(p: SurfaceParams, cubes: wp.array(dtype=wp.vec3i), offsets: wp.array(dtype=wp.int32),
-               impacts: wp.array(dtype=wp.vec3)):
+               ux: wp.array(dtype=float), uy: wp.array(dtype=float), uz: wp.array(dtype=float)):
     """Each listed cube's impacts, in the order drawn, as positions in cell units
-    (what ``next_impact3`` gives), so that a gather computes the offsets exactly
-    as the per-point walk does."""
+    (what ``next_impact3`` gives, one array per axis), so that a gather computes
+    the offsets exactly as the per-point walk does."""
     g = wp.tid()
     c = cubes[g]
     n, s = draw_count(cell_state3(p.cells, c[0], c[1], c[2]), p.cells.mean_count, p.cells.exact_poisson)
     for k in range(offsets[g], wp.min(offsets[g] + n, offsets[g + 1])):
         u, s = next_impact3(s)
-        impacts[k] = u
+        ux[k] = u[0]
+        uy[k] = u[1]
+        uz[k] = u[2]
 
 
 @wp.func
@@ -228,13 +231,39 @@ def cube_may_count(c: SlabLookup, rel: wp.vec3, size: float):
 @wp.struct
 class CubeBlocks:
     # block b owns the cubes origin[b] + [0, dims[b]) (x fastest), numbered from base[b];
-    # cube g is cubes[g] and its impacts are impacts[offsets[g]:offsets[g + 1]]
+    # cube g is cubes[g] and its impacts are (ux, uy, uz)[offsets[g]:offsets[g + 1]]
     cubes: wp.array(dtype=wp.vec3i)
     origin: wp.array(dtype=wp.vec3i)
     dims: wp.array(dtype=wp.vec3i)
     base: wp.array(dtype=wp.int32)
     offsets: wp.array(dtype=wp.int32)
-    impacts: wp.array(dtype=wp.vec3)
+    ux: wp.array(dtype=float)
+    uy: wp.array(dtype=float)
+    uz: wp.array(dtype=float)
+
+
+@wp.struct
+class PointFrames:
+    # each point's frame (u1, u2) and the cubes [lo, hi] its walk visits
+    u1: wp.array(dtype=wp.vec3)
+    u2: wp.array(dtype=wp.vec3)
+    lo: wp.array(dtype=wp.vec3i)
+    hi: wp.array(dtype=wp.vec3i)
+
+
+@wp.kernel
+def frame_points(p: SurfaceParams, points: wp.array(dtype=wp.vec3d), normals: wp.array(dtype=wp.vec3),
+                 tangents: wp.array(dtype=wp.vec3), use_tangents: int, frames: PointFrames):
+    """Each point's frame (the rule, or its tangent) and the span of cubes of its
+    walk (``cube_span`` of ``frame_extent``), computed once for listing and gathering."""
+    k = wp.tid()
+    n = normals[k]
+    u1, u2 = point_frame(p, n, tangents, k, use_tangents)
+    frames.u1[k] = u1
+    frames.u2[k] = u2
+    x0, x1, y0, y1, z0, z1 = cube_span(points[k], frame_extent(p.half, u1, u2, n), p.cells.size)
+    frames.lo[k] = wp.vec3i(x0, y0, z0)
+    frames.hi[k] = wp.vec3i(x1, y1, z1)
 
 
 @wp.func
@@ -272,37 +301,11 @@ def sum_block(p: SurfaceParams, coeffs: wp.array2d(dtype=wp.vec3), look: SlabLoo
                     g = row + cx
                     for j in range(blocks.offsets[g], blocks.offsets[g + 1]):
                         # add_slab, with its fields held in registers
-                        d = impact_offset3(rel, blocks.impacts[j], c)
+                        d = impact_offset3(rel, wp.vec3(blocks.ux[j], blocks.uy[j], blocks.uz[j]), c)
                         t = wp.dot(d, n)
                         if wp.abs(t) < half:
                             acc = slab_term(coeffs, u1, u2, t, half, centre, lo, hi, order, d, acc)
     return acc
-
-
-@wp.kernel
-def gather_surface(
-    p: SurfaceParams,
-    coeffs: wp.array2d(dtype=wp.vec3),
-    points: wp.array(dtype=wp.vec3d),
-    normals: wp.array(dtype=wp.vec3),
-    tangents: wp.array(dtype=wp.vec3),
-    use_tangents: int,
-    block_of: wp.array(dtype=wp.int32),
-    blocks: CubeBlocks,
-    first: int,
-    out: wp.array(dtype=wp.vec3),
-):
-    """``evaluate_surface`` for points grouped in blocks whose cubes' impacts were
-    drawn once: the same cubes in the same order and the same impacts in the same
-    order, so the same sum; cubes that cannot reach the point are skipped."""
-    k = wp.tid() + first
-    n = normals[k]
-    u1, u2 = point_frame(p, n, tangents, k, use_tangents)
-    look = slab_lookup(p, coeffs, u1, u2, n)
-    y = points[k]
-    x0, x1, y0, y1, z0, z1 = cube_span(y, frame_extent(p.half, u1, u2, n), p.cells.size)
-    out[k] = normalize_surface(p, sum_block(p, coeffs, look, y, n, u1, u2, x0, x1, y0, y1, z0, z1, block_of[k],
-                                            blocks))
 
 
 # ------------------------------------------------ clusters of nearby points
@@ -320,15 +323,18 @@ class Clusters:
     # cluster m holds the points first[m] .. first[m + 1] − 1 (all of one block); the
     # impacts that may reach them are listed in the walk's order as runs of one cube
     # each: run k < runs[m] is cube run_cube[cap_runs·m + k], its impacts (positions in
-    # cell units, as drawn) are u[cap·m + run_end[cap_runs·m + k − 1] .. cap·m +
-    # run_end[cap_runs·m + k] − 1]; runs −1: no list (too few points, or it overflowed)
+    # cell units, as drawn) are (ux, uy, uz)[cap·m + run_end[cap_runs·m + k − 1] ..
+    # cap·m + run_end[cap_runs·m + k] − 1]; runs −1: no list (too few points, or it
+    # overflowed)
     first: wp.array(dtype=wp.int32)
     cap: int
     cap_runs: int
     runs: wp.array(dtype=wp.int32)
     run_cube: wp.array(dtype=wp.int32)
     run_end: wp.array(dtype=wp.int32)
-    u: wp.array(dtype=wp.vec3)
+    ux: wp.array(dtype=float)
+    uy: wp.array(dtype=float)
+    uz: wp.array(dtype=float)
 
 
 @wp.kernel
@@ -336,12 +342,13 @@ def list_cluster_impacts(
     p: SurfaceParams,
     points: wp.array(dtype=wp.vec3d),
     normals: wp.array(dtype=wp.vec3),
-    tangents: wp.array(dtype=wp.vec3),
-    use_tangents: int,
+    frames: PointFrames,
     block_of: wp.array(dtype=wp.int32),
     blocks: CubeBlocks,
     clusters: Clusters,
+    first_cluster: int,
     min_points: int,
+    simd: int,
 ):
     """The impacts that may reach some point of a cluster, in the walk's order
     (clusters of fewer than ``min_points`` points get none: length −1).
@@ -352,8 +359,9 @@ def list_cluster_impacts(
     radius and ν, μ1, μ2 the largest distances of n_i, u1_i, u2_i from their
     means, ⟨y_c − q, n̄⟩ lies within r/2 + ρ + Rν of 0, and ⟨y_c − q, ū1⟩,
     ⟨y_c − q, ū2⟩ within ρ + Rμ of the support's range. Impacts outside those
-    ranges are left off the list: none of them can reach a point."""
-    m = wp.tid()
+    ranges are left off the list: none of them can reach a point. Each cube's
+    impacts are tested by ``scan_cube`` (16 at a time with AVX-512)."""
+    m = wp.tid() + first_cluster
     k0 = clusters.first[m]
     k1 = clusters.first[m + 1]
     if k1 - k0 < min_points:
@@ -373,20 +381,19 @@ def list_cluster_impacts(
     z0 = int(2147483647)
     z1 = int(-2147483647)
     for k in range(k0, k1):
-        n = normals[k]
-        u1, u2 = point_frame(p, n, tangents, k, use_tangents)
         y = points[k]
         mean_off = mean_off + wp.vec3(float(y[0] - y0[0]), float(y[1] - y0[1]), float(y[2] - y0[2]))
-        nbar = nbar + n
-        ubar = ubar + u1
-        vbar = vbar + u2
-        a0, a1, b0, b1, e0, e1 = cube_span(y, frame_extent(p.half, u1, u2, n), c)
-        x0 = wp.min(x0, a0)
-        x1 = wp.max(x1, a1)
-        yy0 = wp.min(yy0, b0)
-        yy1 = wp.max(yy1, b1)
-        z0 = wp.min(z0, e0)
-        z1 = wp.max(z1, e1)
+        nbar = nbar + normals[k]
+        ubar = ubar + frames.u1[k]
+        vbar = vbar + frames.u2[k]
+        lo = frames.lo[k]
+        hi = frames.hi[k]
+        x0 = wp.min(x0, lo[0])
+        x1 = wp.max(x1, hi[0])
+        yy0 = wp.min(yy0, lo[1])
+        yy1 = wp.max(yy1, hi[1])
+        z0 = wp.min(z0, lo[2])
+        z1 = wp.max(z1, hi[2])
     inv = 1.0 / float(k1 - k0)
     mean_off = mean_off * inv
     nbar = nbar * inv
@@ -398,13 +405,11 @@ def list_cluster_impacts(
     mu1 = float(0.0)
     mu2 = float(0.0)
     for k in range(k0, k1):
-        n = normals[k]
-        u1, u2 = point_frame(p, n, tangents, k, use_tangents)
         y = points[k]
         rho = wp.max(rho, wp.length(wp.vec3(float(y[0] - yc[0]), float(y[1] - yc[1]), float(y[2] - yc[2]))))
-        nu = wp.max(nu, wp.length(n - nbar))
-        mu1 = wp.max(mu1, wp.length(u1 - ubar))
-        mu2 = wp.max(mu2, wp.length(u2 - vbar))
+        nu = wp.max(nu, wp.length(normals[k] - nbar))
+        mu1 = wp.max(mu1, wp.length(frames.u1[k] - ubar))
+        mu2 = wp.max(mu2, wp.length(frames.u2[k] - vbar))
     big_r = p.half * 1.7320508 * 1.001
     margin = 1.0e-3 * (p.half + c) + 1.0e-5 * (rho + big_r)
     t_lim = p.half + rho + big_r * nu + margin
@@ -419,7 +424,6 @@ def list_cluster_impacts(
     x0, x1, yy0, yy1, z0, z1 = clamp_to_block(o, dm, x0, x1, yy0, yy1, z0, z1)
     count = int(0)
     runs = int(0)
-    ok = bool(True)
     out0 = m * clusters.cap
     run0 = m * clusters.cap_runs
     for cz in range(z0, z1 + 1):
@@ -427,33 +431,58 @@ def list_cluster_impacts(
             row = base + ((cz - o[2]) * dm[1] + (cy - o[1])) * dm[0] - o[0]
             for cx in range(x0, x1 + 1):
                 rel = cube_offset(yc, cx, cy, cz, c)
-                if ok and range_meets(rel, nbar, c, -t_lim, t_lim) and range_meets(rel, ubar, c, a_lo, a_hi) and \
-                        range_meets(rel, vbar, c, b_lo, b_hi):
+                if runs >= 0 and range_meets(rel, nbar, c, -t_lim, t_lim) and range_meets(rel, ubar, c, a_lo, a_hi) \
+                        and range_meets(rel, vbar, c, b_lo, b_hi):
                     g = row + cx
-                    opened = bool(False)
-                    for j in range(blocks.offsets[g], blocks.offsets[g + 1]):
-                        u = blocks.impacts[j]
-                        d = impact_offset3(rel, u, c)
-                        t = wp.dot(d, nbar)
-                        if wp.abs(t) < t_lim:
-                            a = wp.dot(d, ubar)
-                            bb = wp.dot(d, vbar)
-                            if a >= a_lo and a <= a_hi and bb >= b_lo and bb <= b_hi:
-                                if not opened:
-                                    opened = True
-                                    if runs < clusters.cap_runs:
-                                        clusters.run_cube[run0 + runs] = g
-                                    runs += 1
-                                if count < clusters.cap:
-                                    clusters.u[out0 + count] = u
-                                count += 1
-                    if opened and runs <= clusters.cap_runs:
-                        clusters.run_end[run0 + runs - 1] = count
-                    if count > clusters.cap or runs > clusters.cap_runs:
-                        ok = False
-    if not ok:
-        runs = -1
+                    found = scan_cube(blocks.ux, blocks.uy, blocks.uz, blocks.offsets[g], blocks.offsets[g + 1], rel,
+                                      nbar, ubar, vbar, c, t_lim, a_lo, a_hi, b_lo, b_hi, clusters.ux, clusters.uy,
+                                      clusters.uz, out0 + count, clusters.cap - count, simd)
+                    if found > 0:
+                        count += found
+                        if count > clusters.cap or runs >= clusters.cap_runs:
+                            runs = -1  # the list does not fit: the cluster walks its block
+                        else:
+                            clusters.run_cube[run0 + runs] = g
+                            clusters.run_end[run0 + runs] = count
+                            runs += 1
     clusters.runs[m] = runs
+
+
+@wp.func
+def cluster_point(p: SurfaceParams, coeffs: wp.array2d(dtype=wp.vec3), points: wp.array(dtype=wp.vec3d),
+                  normals: wp.array(dtype=wp.vec3), frames: PointFrames, block_of: wp.array(dtype=wp.int32),
+                  blocks: CubeBlocks, clusters: Clusters, m: int, k: int):
+    # point k of cluster m: the raw sum over the cluster's list, or over the block's
+    # cubes if the cluster has none
+    n = normals[k]
+    u1 = frames.u1[k]
+    u2 = frames.u2[k]
+    lo3 = frames.lo[k]
+    hi3 = frames.hi[k]
+    y = points[k]
+    runs = clusters.runs[m]
+    if runs < 0:
+        return sum_block(p, coeffs, slab_lookup(p, coeffs, u1, u2, n), y, n, u1, u2, lo3[0], hi3[0], lo3[1], hi3[1],
+                         lo3[2], hi3[2], block_of[k], blocks)
+    half = p.half
+    c = p.cells.size
+    u0 = m * clusters.cap
+    r0 = m * clusters.cap_runs
+    acc = wp.vec3(0.0)
+    start = int(0)
+    for r in range(runs):
+        end = clusters.run_end[r0 + r]
+        cc = blocks.cubes[clusters.run_cube[r0 + r]]
+        if cc[0] >= lo3[0] and cc[0] <= hi3[0] and cc[1] >= lo3[1] and cc[1] <= hi3[1] and cc[2] >= lo3[2] and \
+                cc[2] <= hi3[2]:
+            rel = cube_offset(y, cc[0], cc[1], cc[2], c)
+            for e in range(u0 + start, u0 + end):
+                d = impact_offset3(rel, wp.vec3(clusters.ux[e], clusters.uy[e], clusters.uz[e]), c)
+                t = wp.dot(d, n)
+                if wp.abs(t) < half:
+                    acc = slab_term(coeffs, u1, u2, t, half, p.centre, p.lo, p.hi, p.order, d, acc)
+        start = end
+    return acc
 
 
 @wp.kernel
@@ -462,8 +491,7 @@ def gather_clustered(
     coeffs: wp.array2d(dtype=wp.vec3),
     points: wp.array(dtype=wp.vec3d),
     normals: wp.array(dtype=wp.vec3),
-    tangents: wp.array(dtype=wp.vec3),
-    use_tangents: int,
+    frames: PointFrames,
     block_of: wp.array(dtype=wp.int32),
     blocks: CubeBlocks,
     cluster_of: wp.array(dtype=wp.int32),
@@ -472,42 +500,48 @@ def gather_clustered(
     first: int,
     out: wp.array(dtype=wp.vec3),
 ):
-    """``gather_surface`` through the cluster's list: the list keeps the walk's order
-    and holds every impact that can reach the point, and impacts of cubes outside
-    the point's own walk are skipped, so the terms and their order are the walk's."""
+    """The walk's sum at each point (one thread per point: the GPU's gather, and any
+    texton order) through its cluster's list: the list keeps the walk's order and
+    holds every impact that can reach the point, and impacts of cubes outside the
+    point's own walk are skipped, so the terms and their order are the walk's."""
     k = wp.tid() + first
-    m = cluster_of[k] - first_cluster
-    runs = clusters.runs[m]
-    n = normals[k]
-    u1, u2 = point_frame(p, n, tangents, k, use_tangents)
-    look = slab_lookup(p, coeffs, u1, u2, n)
-    half = p.half
-    centre = p.centre
-    lo = p.lo
-    hi = p.hi
-    order = p.order
-    y = points[k]
-    c = p.cells.size
-    x0, x1, y0, y1, z0, z1 = cube_span(y, frame_extent(p.half, u1, u2, n), c)
-    acc = wp.vec3(0.0)
-    if runs < 0:  # no list: walk the block's cubes
-        acc = sum_block(p, coeffs, look, y, n, u1, u2, x0, x1, y0, y1, z0, z1, block_of[k], blocks)
-    else:
-        u0 = m * clusters.cap
-        r0 = m * clusters.cap_runs
-        start = int(0)
-        for r in range(runs):
-            end = clusters.run_end[r0 + r]
-            cc = blocks.cubes[clusters.run_cube[r0 + r]]
-            if cc[0] >= x0 and cc[0] <= x1 and cc[1] >= y0 and cc[1] <= y1 and cc[2] >= z0 and cc[2] <= z1:
-                rel = cube_offset(y, cc[0], cc[1], cc[2], c)
-                for e in range(u0 + start, u0 + end):
-                    d = impact_offset3(rel, clusters.u[e], c)
-                    t = wp.dot(d, n)
-                    if wp.abs(t) < half:
-                        acc = slab_term(coeffs, u1, u2, t, half, centre, lo, hi, order, d, acc)
-            start = end
+    acc = cluster_point(p, coeffs, points, normals, frames, block_of, blocks, clusters, cluster_of[k] - first_cluster,
+                        k)
     out[k] = normalize_surface(p, acc)
+
+
+@wp.kernel
+def gather_cluster_lists(
+    p: SurfaceParams,
+    coeffs: wp.array2d(dtype=wp.vec3),
+    points: wp.array(dtype=wp.vec3d),
+    normals: wp.array(dtype=wp.vec3),
+    frames: PointFrames,
+    block_of: wp.array(dtype=wp.int32),
+    blocks: CubeBlocks,
+    clusters: Clusters,
+    first_cluster: int,
+    simd: int,
+    out: wp.array(dtype=wp.vec3),
+):
+    """``gather_clustered`` one cluster per thread (the CPU's gather, order-1
+    textons): ``cluster_sums`` evaluates the cluster's points together, its 16
+    points being the lanes of AVX-512 tests; the same terms in the same order."""
+    m = wp.tid() + first_cluster
+    k0 = clusters.first[m]
+    k1 = clusters.first[m + 1]
+    runs = clusters.runs[m]
+    if runs < 0 or k1 - k0 > 16:
+        for k in range(k0, k1):
+            out[k] = normalize_surface(p, cluster_point(p, coeffs, points, normals, frames, block_of, blocks,
+                                                        clusters, m, k))
+        return
+    cluster_sums(coeffs, points, normals, frames.u1, frames.u2, frames.lo, frames.hi, k0, k1, blocks.cubes,
+                 clusters.run_cube, clusters.run_end, m * clusters.cap_runs, runs, clusters.ux, clusters.uy,
+                 clusters.uz, m * clusters.cap, p.cells.size, p.half, p.centre[0], p.centre[1], p.lo[0], p.lo[1],
+                 p.hi[0], p.hi[1], out, simd)
+    for k in range(k0, k1):
+        out[k] = normalize_surface(p, out[k])
 
 
 @wp.struct
@@ -564,5 +598,6 @@ def cast_rays(
     shade[i, j] = 0.3 + 0.7 * wp.abs(wp.dot(n, cam.light))
 
 
-__all__ = ["PAD", "SurfaceParams", "Camera", "CubeBlocks", "evaluate_surface", "count_cubes", "emit_cubes",
-           "gather_surface", "Clusters", "list_cluster_impacts", "gather_clustered", "cast_rays", "tangent_frame"]
+__all__ = ["PAD", "SurfaceParams", "Camera", "CubeBlocks", "PointFrames", "evaluate_surface", "count_cubes",
+           "emit_cubes", "frame_points", "Clusters", "list_cluster_impacts", "gather_clustered",
+           "gather_cluster_lists", "cast_rays", "tangent_frame"]

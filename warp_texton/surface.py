@@ -72,6 +72,9 @@ CLUSTER_RUNS = 128
 CLUSTER_LEVEL = 2
 CLUSTER_CAP = 1024
 CLUSTERS_PER_ROUND = 1 << 12
+#: Use the AVX-512 loops of kernels/surface_native.py where the CPU has them (the
+#: same values as their scalar form; tests switch it off to check that form).
+SIMD = True
 #: Names ``up`` takes besides a 3-vector: the world axis that points up.
 UP_NAMES = ("x", "y", "z")
 #: Default view of renders: azimuth and elevation (degrees) of the camera seen from
@@ -459,31 +462,49 @@ def gather_blocks(p, setup: SurfaceSetup, coeffs, pos, nrm, tan, device) -> np.n
     dims = hi - lo + 1
     cubes = np.prod(dims, axis=1)
     mean_count = setup.lam * setup.cell ** 3
-    # the peak: the sorted copies of the points, one round's cubes and impacts (at most
-    # CUBES_PER_ROUND cubes, or one block), and one round's cluster lists
+    # the peak: the sorted copies of the points and their frames, one round's cubes and
+    # impacts (at most CUBES_PER_ROUND cubes, or one block), and the cluster lists
     round_cubes = min(float(cubes.sum()), max(float(CUBES_PER_ROUND), float(cubes.max())))
-    lists = min(len(clusters), CLUSTERS_PER_ROUND) * (12.0 * CLUSTER_CAP + 8.0 * CLUSTER_RUNS + 12.0)
-    check_memory(round_cubes * (24 + 12 * (mean_count + 10 * math.sqrt(mean_count) + 1)) + lists + n * 120.0,
+    list_bytes = min(len(clusters), CLUSTERS_PER_ROUND) * (12.0 * CLUSTER_CAP + 8.0 * CLUSTER_RUNS + 12.0)
+    check_memory(round_cubes * (24 + 12 * (mean_count + 10 * math.sqrt(mean_count) + 1)) + list_bytes + n * 160.0,
                  f"surface noise at {n} points", "evaluate fewer points at once")
     ends = np.r_[starts[1:], n]
     sorted_nrm = np.ascontiguousarray(nrm[order])
     sorted_tan = np.ascontiguousarray(tan[order]) if tan is not None else None
-    out = np.zeros((n, 3), np.float32)
+    out = np.empty((n, 3), np.float32)
+    lists = _ClusterLists(min(len(clusters), CLUSTERS_PER_ROUND))
     b0 = 0
     nb = len(starts)
     cum = np.cumsum(cubes)
     while b0 < nb:
         before = cum[b0 - 1] if b0 else 0
         b1 = max(b0 + 1, int(np.searchsorted(cum, before + CUBES_PER_ROUND, side="right")))
-        _gather_round(p, setup, coeffs, sorted_pos, sorted_nrm, sorted_tan, device, starts[b0:b1], ends[b0:b1], clusters,
-                      lo[b0:b1], dims[b0:b1], cubes[b0:b1], out)
+        _gather_round(p, coeffs, sorted_pos, sorted_nrm, sorted_tan, device, starts[b0:b1], ends[b0:b1], clusters,
+                      lo[b0:b1], dims[b0:b1], cubes[b0:b1], lists, out)
         b0 = b1
     res = np.empty_like(out)
     res[order] = out
     return res
 
 
-def _gather_round(p, setup, coeffs, pos, nrm, tan, device, starts, ends, clusters, lo, dims, cubes, out) -> None:
+class _ClusterLists:
+    """Room for the impact lists of ``size`` clusters (``K.Clusters`` without ``first``),
+    allocated once per call and reused by every round."""
+
+    def __init__(self, size: int):
+        cl = K.Clusters()
+        cl.cap = CLUSTER_CAP
+        cl.cap_runs = CLUSTER_RUNS
+        cl.runs = wp.empty(size, dtype=wp.int32)
+        cl.run_cube = wp.empty(size * CLUSTER_RUNS, dtype=wp.int32)
+        cl.run_end = wp.empty(size * CLUSTER_RUNS, dtype=wp.int32)
+        cl.ux = wp.empty(size * CLUSTER_CAP, dtype=wp.float32)
+        cl.uy = wp.empty(size * CLUSTER_CAP, dtype=wp.float32)
+        cl.uz = wp.empty(size * CLUSTER_CAP, dtype=wp.float32)
+        self.clusters = cl
+
+
+def _gather_round(p, coeffs, pos, nrm, tan, device, starts, ends, clusters, lo, dims, cubes, lists, out) -> None:
     nb = len(starts)
     base = np.zeros(nb, np.int64)
     base[1:] = np.cumsum(cubes)[:-1]
@@ -496,61 +517,64 @@ def _gather_round(p, setup, coeffs, pos, nrm, tan, device, starts, ends, cluster
     p0, p1 = int(starts[0]), int(ends[-1])
     block_of = np.repeat(np.arange(nb, dtype=np.int32), ends - starts)
     cube_arr = wp.array(coords.astype(np.int32), dtype=wp.vec3i)
-    counts = wp.zeros(total + 1, dtype=wp.int32)
+    counts = wp.empty(total + 1, dtype=wp.int32)
     split_launch(device, K, total, lambda a, b: wp.launch(K.count_cubes, dim=b - a,
                                                           inputs=[p, cube_arr[a:b], counts[a:b]]))
-    offsets = wp.zeros(total + 1, dtype=wp.int32)
+    offsets = wp.empty(total + 1, dtype=wp.int32)
     wp.utils.array_scan(counts, offsets, inclusive=False)
     n_impacts = int(offsets[total:total + 1].numpy()[0])
-    impacts = wp.zeros(max(n_impacts, 1), dtype=wp.vec3)
-    if n_impacts:
-        split_launch(device, K, total, lambda a, b: wp.launch(K.emit_cubes, dim=b - a,
-                                                              inputs=[p, cube_arr[a:b], offsets[a:], impacts]))
     blocks = K.CubeBlocks()
     blocks.cubes = cube_arr
     blocks.origin = wp.array(lo.astype(np.int32), dtype=wp.vec3i)
     blocks.dims = wp.array(dims.astype(np.int32), dtype=wp.vec3i)
     blocks.base = wp.array(base.astype(np.int32), dtype=wp.int32)
     blocks.offsets = offsets
-    blocks.impacts = impacts
+    blocks.ux, blocks.uy, blocks.uz = (wp.empty(max(n_impacts, 1), dtype=wp.float32) for _ in range(3))
+    if n_impacts:
+        split_launch(device, K, total, lambda a, b: wp.launch(
+            K.emit_cubes, dim=b - a, inputs=[p, cube_arr[a:b], offsets[a:], blocks.ux, blocks.uy, blocks.uz]))
+    m = p1 - p0
     pts = wp.array(pos[p0:p1], dtype=wp.vec3d)
     nrms = wp.array(nrm[p0:p1], dtype=wp.vec3)
     tans = wp.array(tan[p0:p1], dtype=wp.vec3) if tan is not None else wp.zeros(1, dtype=wp.vec3)
     owners = wp.array(block_of, dtype=wp.int32)
+    frames = K.PointFrames()
+    frames.u1, frames.u2 = wp.empty(m, dtype=wp.vec3), wp.empty(m, dtype=wp.vec3)
+    frames.lo, frames.hi = wp.empty(m, dtype=wp.vec3i), wp.empty(m, dtype=wp.vec3i)
+
+    def frame(a, b):
+        sub = K.PointFrames()
+        sub.u1, sub.u2, sub.lo, sub.hi = frames.u1[a:b], frames.u2[a:b], frames.lo[a:b], frames.hi[a:b]
+        wp.launch(K.frame_points, dim=b - a, inputs=[p, pts[a:b], nrms[a:b], tans[a:b] if tan is not None else tans,
+                                                     int(tan is not None), sub])
+
+    split_launch(device, K, m, frame)
     on_cpu = wp.get_device(device).is_cpu
-    res = wp.array(out[p0:p1], dtype=wp.vec3, copy=False) if on_cpu else wp.zeros(p1 - p0, dtype=wp.vec3)
+    res = wp.array(out[p0:p1], dtype=wp.vec3, copy=False) if on_cpu else wp.empty(m, dtype=wp.vec3)
+    # one thread per cluster on the CPU (cluster_sums: SIMD over its points) for
+    # order-1 textons; one per point elsewhere (the GPU, and other orders)
+    by_cluster = on_cpu and p.order == 1
+    simd = int(bool(SIMD))
     # the round's clusters (a cluster never straddles blocks: block starts are cluster starts)
     mine = clusters[(clusters >= p0) & (clusters < p1)]
-    cfirst = np.r_[mine - p0, p1 - p0].astype(np.int32)
-    cluster_of = wp.array(np.repeat(np.arange(len(mine), dtype=np.int32), np.diff(cfirst)), dtype=wp.int32)
-    cap = CLUSTER_CAP
+    cfirst = np.r_[mine - p0, m].astype(np.int32)
+    cluster_of = None if by_cluster else wp.array(np.repeat(np.arange(len(mine), dtype=np.int32), np.diff(cfirst)),
+                                                  dtype=wp.int32)
+    cl = lists.clusters
     for m0 in range(0, len(mine), CLUSTERS_PER_ROUND):
         m1 = min(m0 + CLUSTERS_PER_ROUND, len(mine))
-        cl = K.Clusters()
         cl.first = wp.array(cfirst[m0:m1 + 1], dtype=wp.int32)
-        cl.cap = cap
-        cl.cap_runs = CLUSTER_RUNS
-        cl.runs = wp.zeros(m1 - m0, dtype=wp.int32)
-        cl.run_cube = wp.zeros((m1 - m0) * CLUSTER_RUNS, dtype=wp.int32)
-        cl.run_end = wp.zeros((m1 - m0) * CLUSTER_RUNS, dtype=wp.int32)
-        cl.u = wp.zeros((m1 - m0) * cap, dtype=wp.vec3)
-
-        def listing(a, b, cl=cl):
-            sub = K.Clusters()
-            sub.first, sub.cap, sub.cap_runs, sub.runs = cl.first[a:], cap, CLUSTER_RUNS, cl.runs[a:]
-            sub.run_cube, sub.run_end, sub.u = cl.run_cube[a * CLUSTER_RUNS:], cl.run_end[a * CLUSTER_RUNS:], \
-                cl.u[a * cap:]
-            wp.launch(K.list_cluster_impacts, dim=b - a, inputs=[p, pts, nrms, tans, int(tan is not None), owners,
-                                                                 blocks, sub, CLUSTER_MIN])
-
-        split_launch(device, K, m1 - m0, listing)
-
-        def launch(a, b, cl=cl, m0=m0):
-            wp.launch(K.gather_clustered, dim=b - a, inputs=[p, coeffs, pts, nrms, tans, int(tan is not None),
-                                                             owners, blocks, cluster_of, cl, m0, a, res])
-
-        k0, k1 = int(cfirst[m0]), int(cfirst[m1])
-        split_launch(device, K, k1 - k0, lambda a, b: launch(a + k0, b + k0))
+        split_launch(device, K, m1 - m0, lambda a, b: wp.launch(
+            K.list_cluster_impacts, dim=b - a, inputs=[p, pts, nrms, frames, owners, blocks, cl, a, CLUSTER_MIN, simd]))
+        if by_cluster:
+            split_launch(device, K, m1 - m0, lambda a, b: wp.launch(
+                K.gather_cluster_lists, dim=b - a, inputs=[p, coeffs, pts, nrms, frames, owners, blocks, cl, a, simd,
+                                                           res]))
+        else:
+            k0, k1 = int(cfirst[m0]), int(cfirst[m1])
+            split_launch(device, K, k1 - k0, lambda a, b, m0=m0, k0=k0: wp.launch(
+                K.gather_clustered, dim=b - a, inputs=[p, coeffs, pts, nrms, frames, owners, blocks, cluster_of, cl,
+                                                       m0, a + k0, res]))
     if not on_cpu:
         out[p0:p1] = res.numpy()
 
