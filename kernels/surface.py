@@ -337,21 +337,13 @@ class Clusters:
     uz: wp.array(dtype=float)
 
 
-@wp.kernel
-def list_cluster_impacts(
-    p: SurfaceParams,
-    points: wp.array(dtype=wp.vec3d),
-    normals: wp.array(dtype=wp.vec3),
-    frames: PointFrames,
-    block_of: wp.array(dtype=wp.int32),
-    blocks: CubeBlocks,
-    clusters: Clusters,
-    first_cluster: int,
-    min_points: int,
-    simd: int,
-):
-    """The impacts that may reach some point of a cluster, in the walk's order
-    (clusters of fewer than ``min_points`` points get none: length −1).
+@wp.func
+def list_cluster(p: SurfaceParams, points: wp.array(dtype=wp.vec3d), normals: wp.array(dtype=wp.vec3),
+                 frames: PointFrames, block_of: wp.array(dtype=wp.int32), blocks: CubeBlocks, k0: int, k1: int,
+                 lists: Clusters, slot: int, min_points: int, simd: int):
+    """List, in slot ``slot`` of ``lists``, the impacts that may reach some point
+    k0 .. k1 − 1 of a cluster, in the walk's order; returns the number of runs, or
+    −1 for no list (fewer than ``min_points`` points, or it does not fit).
 
     For a point y_i with frame (u1_i, u2_i, n_i) an impact q counts only if
     |⟨y_i − q, n_i⟩| < r/2 and its frame coordinates lie in the support, so
@@ -361,12 +353,8 @@ def list_cluster_impacts(
     ⟨y_c − q, ū2⟩ within ρ + Rμ of the support's range. Impacts outside those
     ranges are left off the list: none of them can reach a point. Each cube's
     impacts are tested by ``scan_cube`` (16 at a time with AVX-512)."""
-    m = wp.tid() + first_cluster
-    k0 = clusters.first[m]
-    k1 = clusters.first[m + 1]
     if k1 - k0 < min_points:
-        clusters.runs[m] = -1
-        return
+        return -1
     c = p.cells.size
     # means of the positions (relative to the first point) and of the frames
     y0 = points[k0]
@@ -424,8 +412,8 @@ def list_cluster_impacts(
     x0, x1, yy0, yy1, z0, z1 = clamp_to_block(o, dm, x0, x1, yy0, yy1, z0, z1)
     count = int(0)
     runs = int(0)
-    out0 = m * clusters.cap
-    run0 = m * clusters.cap_runs
+    out0 = slot * lists.cap
+    run0 = slot * lists.cap_runs
     for cz in range(z0, z1 + 1):
         for cy in range(yy0, yy1 + 1):
             row = base + ((cz - o[2]) * dm[1] + (cy - o[1])) * dm[0] - o[0]
@@ -435,49 +423,67 @@ def list_cluster_impacts(
                         and range_meets(rel, vbar, c, b_lo, b_hi):
                     g = row + cx
                     found = scan_cube(blocks.ux, blocks.uy, blocks.uz, blocks.offsets[g], blocks.offsets[g + 1], rel,
-                                      nbar, ubar, vbar, c, t_lim, a_lo, a_hi, b_lo, b_hi, clusters.ux, clusters.uy,
-                                      clusters.uz, out0 + count, clusters.cap - count, simd)
+                                      nbar, ubar, vbar, c, t_lim, a_lo, a_hi, b_lo, b_hi, lists.ux, lists.uy, lists.uz,
+                                      out0 + count, lists.cap - count, simd)
                     if found > 0:
                         count += found
-                        if count > clusters.cap or runs >= clusters.cap_runs:
+                        if count > lists.cap or runs >= lists.cap_runs:
                             runs = -1  # the list does not fit: the cluster walks its block
                         else:
-                            clusters.run_cube[run0 + runs] = g
-                            clusters.run_end[run0 + runs] = count
+                            lists.run_cube[run0 + runs] = g
+                            lists.run_end[run0 + runs] = count
                             runs += 1
-    clusters.runs[m] = runs
+    return runs
+
+
+@wp.kernel
+def list_cluster_impacts(
+    p: SurfaceParams,
+    points: wp.array(dtype=wp.vec3d),
+    normals: wp.array(dtype=wp.vec3),
+    frames: PointFrames,
+    block_of: wp.array(dtype=wp.int32),
+    blocks: CubeBlocks,
+    clusters: Clusters,
+    first_cluster: int,
+    min_points: int,
+    simd: int,
+):
+    """Each cluster's list (``list_cluster``) in its own slot, for ``gather_clustered``."""
+    m = wp.tid() + first_cluster
+    clusters.runs[m] = list_cluster(p, points, normals, frames, block_of, blocks, clusters.first[m],
+                                    clusters.first[m + 1], clusters, m, min_points, simd)
 
 
 @wp.func
 def cluster_point(p: SurfaceParams, coeffs: wp.array2d(dtype=wp.vec3), points: wp.array(dtype=wp.vec3d),
                   normals: wp.array(dtype=wp.vec3), frames: PointFrames, block_of: wp.array(dtype=wp.int32),
-                  blocks: CubeBlocks, clusters: Clusters, m: int, k: int):
-    # point k of cluster m: the raw sum over the cluster's list, or over the block's
-    # cubes if the cluster has none
+                  blocks: CubeBlocks, lists: Clusters, slot: int, runs: int, k: int):
+    # point k of a cluster: the raw sum over its list of ``runs`` runs in slot ``slot``
+    # of ``lists``, or over its block's cubes if it has none (runs < 0)
     n = normals[k]
     u1 = frames.u1[k]
     u2 = frames.u2[k]
     lo3 = frames.lo[k]
     hi3 = frames.hi[k]
     y = points[k]
-    runs = clusters.runs[m]
     if runs < 0:
         return sum_block(p, coeffs, slab_lookup(p, coeffs, u1, u2, n), y, n, u1, u2, lo3[0], hi3[0], lo3[1], hi3[1],
                          lo3[2], hi3[2], block_of[k], blocks)
     half = p.half
     c = p.cells.size
-    u0 = m * clusters.cap
-    r0 = m * clusters.cap_runs
+    u0 = slot * lists.cap
+    r0 = slot * lists.cap_runs
     acc = wp.vec3(0.0)
     start = int(0)
     for r in range(runs):
-        end = clusters.run_end[r0 + r]
-        cc = blocks.cubes[clusters.run_cube[r0 + r]]
+        end = lists.run_end[r0 + r]
+        cc = blocks.cubes[lists.run_cube[r0 + r]]
         if cc[0] >= lo3[0] and cc[0] <= hi3[0] and cc[1] >= lo3[1] and cc[1] <= hi3[1] and cc[2] >= lo3[2] and \
                 cc[2] <= hi3[2]:
             rel = cube_offset(y, cc[0], cc[1], cc[2], c)
             for e in range(u0 + start, u0 + end):
-                d = impact_offset3(rel, wp.vec3(clusters.ux[e], clusters.uy[e], clusters.uz[e]), c)
+                d = impact_offset3(rel, wp.vec3(lists.ux[e], lists.uy[e], lists.uz[e]), c)
                 t = wp.dot(d, n)
                 if wp.abs(t) < half:
                     acc = slab_term(coeffs, u1, u2, t, half, p.centre, p.lo, p.hi, p.order, d, acc)
@@ -505,8 +511,8 @@ def gather_clustered(
     holds every impact that can reach the point, and impacts of cubes outside the
     point's own walk are skipped, so the terms and their order are the walk's."""
     k = wp.tid() + first
-    acc = cluster_point(p, coeffs, points, normals, frames, block_of, blocks, clusters, cluster_of[k] - first_cluster,
-                        k)
+    m = cluster_of[k] - first_cluster
+    acc = cluster_point(p, coeffs, points, normals, frames, block_of, blocks, clusters, m, clusters.runs[m], k)
     out[k] = normalize_surface(p, acc)
 
 
@@ -519,27 +525,30 @@ def gather_cluster_lists(
     frames: PointFrames,
     block_of: wp.array(dtype=wp.int32),
     blocks: CubeBlocks,
-    clusters: Clusters,
+    first: wp.array(dtype=wp.int32),
+    scratch: Clusters,
     first_cluster: int,
+    min_points: int,
     simd: int,
     out: wp.array(dtype=wp.vec3),
 ):
-    """``gather_clustered`` one cluster per thread (the CPU's gather, order-1
-    textons): ``cluster_sums`` evaluates the cluster's points together, its 16
-    points being the lanes of AVX-512 tests; the same terms in the same order."""
+    """List and gather one cluster per thread (the CPU's path, order-1 textons):
+    the list goes to slot 0 of ``scratch`` (one per launch: a CPU launch runs its
+    threads one after another) and is summed while it is in cache, by
+    ``cluster_sums``, whose 16 lanes are the cluster's points; the same terms in the
+    same order as ``gather_clustered``."""
     m = wp.tid() + first_cluster
-    k0 = clusters.first[m]
-    k1 = clusters.first[m + 1]
-    runs = clusters.runs[m]
+    k0 = first[m]
+    k1 = first[m + 1]
+    runs = list_cluster(p, points, normals, frames, block_of, blocks, k0, k1, scratch, 0, min_points, simd)
     if runs < 0 or k1 - k0 > 16:
         for k in range(k0, k1):
-            out[k] = normalize_surface(p, cluster_point(p, coeffs, points, normals, frames, block_of, blocks,
-                                                        clusters, m, k))
+            out[k] = normalize_surface(p, cluster_point(p, coeffs, points, normals, frames, block_of, blocks, scratch,
+                                                        0, runs, k))
         return
     cluster_sums(coeffs, points, normals, frames.u1, frames.u2, frames.lo, frames.hi, k0, k1, blocks.cubes,
-                 clusters.run_cube, clusters.run_end, m * clusters.cap_runs, runs, clusters.ux, clusters.uy,
-                 clusters.uz, m * clusters.cap, p.cells.size, p.half, p.centre[0], p.centre[1], p.lo[0], p.lo[1],
-                 p.hi[0], p.hi[1], out, simd)
+                 scratch.run_cube, scratch.run_end, 0, runs, scratch.ux, scratch.uy, scratch.uz, 0, p.cells.size,
+                 p.half, p.centre[0], p.centre[1], p.lo[0], p.lo[1], p.hi[0], p.hi[1], out, simd)
     for k in range(k0, k1):
         out[k] = normalize_surface(p, out[k])
 
@@ -561,26 +570,30 @@ def cast_rays(
     vertex_normals: wp.array(dtype=wp.vec3),
     indices: wp.array(dtype=wp.int32),
     cam: Camera,
+    height: int,
+    width: int,
     row0: int,
+    col0: int,
     faces: wp.array2d(dtype=wp.int32),
     bary: wp.array2d(dtype=wp.vec2),
     normals: wp.array2d(dtype=wp.vec3),
     shade: wp.array2d(dtype=float),
 ):
-    """Ray-cast one pixel: the face hit (−1 for none), the barycentric weights of
-    its first two vertices, the shading normal and the diffuse shade. The mesh
-    and the camera are in world units relative to a local origin (the host adds
-    it back in float64)."""
+    """Ray-cast one pixel (row0 + i, col0 + j) of a height × width image into
+    element (i, j) of the outputs: the face hit (−1 for none), the barycentric
+    weights of its first two vertices, the shading normal and the diffuse shade
+    (zeros where nothing is hit). The mesh and the camera are in world units
+    relative to a local origin (the host adds it back in float64)."""
     i, j = wp.tid()
-    i = i + row0
-    h = faces.shape[0]
-    w = faces.shape[1]
-    sx = (2.0 * (float(j) + 0.5) / float(w) - 1.0) * cam.tan_half_fov * cam.aspect
-    sy = (1.0 - 2.0 * (float(i) + 0.5) / float(h)) * cam.tan_half_fov
+    sx = (2.0 * (float(j + col0) + 0.5) / float(width) - 1.0) * cam.tan_half_fov * cam.aspect
+    sy = (1.0 - 2.0 * (float(i + row0) + 0.5) / float(height)) * cam.tan_half_fov
     d = wp.normalize(cam.forward + cam.right * sx + cam.up * sy)
     q = wp.mesh_query_ray(mesh, cam.origin, d, 1.0e30)
     if not q.result:
         faces[i, j] = -1
+        bary[i, j] = wp.vec2(0.0)
+        normals[i, j] = wp.vec3(0.0)
+        shade[i, j] = 0.0
         return
     f = q.face
     n = (vertex_normals[indices[3 * f]] * q.u + vertex_normals[indices[3 * f + 1]] * q.v

@@ -7,8 +7,8 @@ kernel language has no SIMD types, and its CPU code for these loops is
 scalar, so they are written here as ``wp.func_native`` snippets:
 
 * with AVX-512 (F and DQ; Warp compiles CPU modules for the host CPU), 16
-  impacts are tested at once and the passing ones are kept in order with
-  compress-stores; a cluster's 16 points are the 16 lanes of the gather's
+  impacts are tested at once and the passing ones are kept in order
+  (compressed in registers, then stored); a cluster's 16 points are the 16 lanes of the gather's
   tests, and each passing (impact, point) pair reads its two texton rows with
   two 8-float loads;
 * elsewhere (other CPUs, CUDA through NVRTC, or ``simd`` = 0) the same loops
@@ -67,9 +67,15 @@ SCAN_CUBE = _AVX512 + _VECTOR_TYPES + r"""
             const unsigned short pass = (unsigned short)(__builtin_ia32_cvtd2mask512(keep) & valid);
             const int n = __builtin_popcount((unsigned int)pass);
             if (n != 0 && count + n <= room) {
-                __builtin_ia32_compressstoresf512_mask((v16f*)(out_x.data + at + count), ux_, pass);
-                __builtin_ia32_compressstoresf512_mask((v16f*)(out_y.data + at + count), uy_, pass);
-                __builtin_ia32_compressstoresf512_mask((v16f*)(out_z.data + at + count), uz_, pass);
+                // compress in registers, then one masked store each (a compressing store
+                // to memory is microcoded and slow on some CPUs)
+                const unsigned short head = (unsigned short)((1u << n) - 1u);
+                __builtin_ia32_storeups512_mask(out_x.data + at + count,
+                                                __builtin_ia32_compresssf512_mask(ux_, zero, pass), head);
+                __builtin_ia32_storeups512_mask(out_y.data + at + count,
+                                                __builtin_ia32_compresssf512_mask(uy_, zero, pass), head);
+                __builtin_ia32_storeups512_mask(out_z.data + at + count,
+                                                __builtin_ia32_compresssf512_mask(uz_, zero, pass), head);
             }
             count += n;
         }
@@ -148,6 +154,9 @@ CLUSTER_SUMS = (_AVX512 + _VECTOR_TYPES + r"""
         const float* cf = (const float*)coeffs.data;
         const int row = 3 * coeffs.shape[1];
         const double cd = (double)size;
+        const v16f zero16 = {};
+        alignas(64) float l_mtx[16], l_tx[16], l_mty[16], l_ty[16], l_w[16];
+        alignas(64) int l_i00[16];
         int start = 0;
         for (int r = 0; r < runs; ++r) {
             const int end = run_end.data[r0 + r];
@@ -198,33 +207,44 @@ CLUSTER_SUMS = (_AVX512 + _VECTOR_TYPES + r"""
                     const v16f fy = __builtin_elementwise_floor(zb);
                     const v16f tx = za - fx;
                     const v16f ty = zb - fy;
-                    const v16f mtx = 1.0f - tx;
-                    const v16f mty = 1.0f - ty;
-                    const v16i i00 = (__builtin_convertvector(fy, v16i) + PADV) * row
-                                     + (__builtin_convertvector(fx, v16i) + PADV) * 3;
+                    // lane values, stored once for the pairs below
+                    *(v16f*)l_mtx = 1.0f - tx;
+                    *(v16f*)l_tx = tx;
+                    *(v16f*)l_mty = 1.0f - ty;
+                    *(v16f*)l_ty = ty;
+                    *(v16f*)l_w = w;
+                    *(v16i*)l_i00 = (__builtin_convertvector(fy, v16i) + PADV) * row
+                                    + (__builtin_convertvector(fx, v16i) + PADV) * 3;
                     while (bits != 0) {
                         const int l = __builtin_ctz(bits);
                         bits &= bits - 1;
-                        // the two rows of the bilinear lookup: corners (i, j), (i, j + 1) and
-                        // (i + 1, j), (i + 1, j + 1), each 6 floats of one 8-float load (the
-                        // texton's zero margin holds the two extra floats)
-                        const float* p0 = cf + i00[l];
+                        // one register holds the lookup's two rows: corners (i, j), (i, j + 1)
+                        // in floats 0-5 and (i + 1, j), (i + 1, j + 1) in floats 8-13, each
+                        // row one 8-float load (the texton's zero margin holds the extra floats)
+                        const float* p0 = cf + l_i00[l];
                         v8f top_row, bottom_row;
                         __builtin_memcpy(&top_row, p0, sizeof(v8f));
                         __builtin_memcpy(&bottom_row, p0 + row, sizeof(v8f));
-                        const float m1 = mtx[l];
-                        const float t1 = tx[l];
-                        const v8f wx = {m1, m1, m1, t1, t1, t1, 0.0f, 0.0f};
-                        const v8f p = top_row * wx;
-                        const v8f q2 = bottom_row * wx;
-                        const v8f ps = __builtin_shufflevector(p, p, 3, 4, 5, 6, 7, 0, 1, 2);
-                        const v8f qs = __builtin_shufflevector(q2, q2, 3, 4, 5, 6, 7, 0, 1, 2);
-                        const v8f top = p + ps;
-                        const v8f bottom = q2 + qs;
-                        const v8f e1 = top * mty[l];
-                        const v8f e2 = bottom * ty[l];
-                        const v8f g = e1 + e2;
-                        const v8f h = g * w[l];
+                        const v16f rows = __builtin_shufflevector(top_row, bottom_row, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9,
+                                                                  10, 11, 12, 13, 14, 15);
+                        const v16f bm = l_mtx[l] - zero16;
+                        const v16f bt = l_tx[l] - zero16;
+                        const v16f wx = __builtin_shufflevector(bm, bt, 0, 1, 2, 19, 20, 21, 6, 7, 8, 9, 10, 27, 28,
+                                                                29, 14, 15);
+                        const v16f prod = rows * wx;
+                        const v16f moved = __builtin_shufflevector(prod, prod, 3, 4, 5, 6, 7, 0, 1, 2, 11, 12, 13,
+                                                                   14, 15, 8, 9, 10);
+                        // top = c(i, j)(1 − tx) + c(i, j + 1) tx in floats 0-2, bottom in 8-10
+                        const v16f tb = prod + moved;
+                        const v16f bmy = l_mty[l] - zero16;
+                        const v16f bty = l_ty[l] - zero16;
+                        const v16f wy = __builtin_shufflevector(bmy, bty, 0, 1, 2, 3, 4, 5, 6, 7, 24, 25, 26, 27, 28,
+                                                                29, 30, 31);
+                        const v16f e = tb * wy;
+                        const v8f e_top = __builtin_shufflevector(e, e, 0, 1, 2, 3, 4, 5, 6, 7);
+                        const v8f e_bottom = __builtin_shufflevector(e, e, 8, 9, 10, 11, 12, 13, 14, 15);
+                        const v8f g = e_top + e_bottom;
+                        const v8f h = g * l_w[l];
                         acc[l] = acc[l] + h;
                     }
                 }

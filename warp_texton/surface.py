@@ -28,7 +28,7 @@ import numpy as np
 import warp as wp
 
 from ._checks import as_real_array, check_int, check_positive, check_seed, check_shape
-from ._runtime import map_points, resolve_device, split_launch
+from ._runtime import CHUNKS_PER_THREAD, cpu_threads, map_points, resolve_device, split_launch
 from .errors import TextonError
 from .limits import check_memory
 from .kernels import surface as K
@@ -419,21 +419,33 @@ def _blocks(pos: np.ndarray, setup: SurfaceSetup):
     lo, hi, clusters), with lo/hi the first and last cube (per axis) that the points of
     each block can reach and clusters the first point of each cluster (sorted order)."""
     c = setup.cell
-    fine = np.floor(pos * (8.0 / c)).astype(np.int64)  # eighths of a cube (any rounding will do: a sort key)
-    own = fine >> (3 + BLOCK_SHIFT)  # BLOCK_CUBES = 2**BLOCK_SHIFT cubes of 8 eighths
-    # within a block, Morton order of the eighths: consecutive points are neighbours
-    sub = fine & (8 * BLOCK_CUBES - 1)
-    morton = _SPREAD[sub[:, 0]] | (_SPREAD[sub[:, 1]] << 1) | (_SPREAD[sub[:, 2]] << 2)
-    own -= own.min(axis=0)
-    span = own.max(axis=0) + 1
+    # per axis (contiguous columns are several times faster than (N, 3) arithmetic):
+    # eighths of a cube (any rounding will do: a sort key), the block of BLOCK_CUBES =
+    # 2**BLOCK_SHIFT cubes of 8 eighths, and within a block the Morton order of the
+    # eighths, so that consecutive points are neighbours
+    own = []
+    morton = None
+    for k in range(3):
+        fine = np.floor(pos[:, k] * (8.0 / c)).astype(np.int64)
+        o = fine >> (3 + BLOCK_SHIFT)
+        o -= o.min()
+        own.append(o)
+        spread = _SPREAD[fine & (8 * BLOCK_CUBES - 1)]
+        morton = spread if morton is None else morton | (spread << k)
+    span = [int(o.max()) + 1 for o in own]
     if float(span[0]) * float(span[1]) * float(span[2]) < 2.0**46:
-        key = ((((own[:, 2] * span[1] + own[:, 1]) * span[0] + own[:, 0]) << 15) | morton)
+        key = own[2] * span[1]
+        key += own[1]
+        key *= span[0]
+        key += own[0]
+        key <<= 15
+        key |= morton
         order = np.argsort(key, kind="stable")
         key = key[order]
         block = key >> 15
     else:  # blocks spread over more than int64 keys hold
-        order = np.lexsort((morton, own[:, 0], own[:, 1], own[:, 2]))
-        o = own[order]
+        order = np.lexsort((morton, own[0], own[1], own[2]))
+        o = np.stack(own, axis=1)[order]
         block = np.cumsum(np.r_[0, np.any(o[1:] != o[:-1], axis=1)])
         key = (block << 15) | morton[order]
     new_block = np.r_[True, block[1:] != block[:-1]]
@@ -442,7 +454,7 @@ def _blocks(pos: np.ndarray, setup: SurfaceSetup):
     # with room for float32 rounding: every cube a point's walk visits is in its block.
     # floor((min p − R)/c) = min floor((p − R)/c): floor and rounding are monotone.
     reach = setup.r / 2.0 * math.sqrt(3.0) * (1.0 + 1e-5)
-    ps = pos[order]
+    ps = np.take(pos, order, axis=0)
     lo = np.floor((np.minimum.reduceat(ps, starts, axis=0) - reach) / c).astype(np.int64)
     hi = np.floor((np.maximum.reduceat(ps, starts, axis=0) + reach) / c).astype(np.int64)
     # clusters: runs of points in the same cluster cell, cut every CLUSTER_POINTS
@@ -465,14 +477,18 @@ def gather_blocks(p, setup: SurfaceSetup, coeffs, pos, nrm, tan, device) -> np.n
     # the peak: the sorted copies of the points and their frames, one round's cubes and
     # impacts (at most CUBES_PER_ROUND cubes, or one block), and the cluster lists
     round_cubes = min(float(cubes.sum()), max(float(CUBES_PER_ROUND), float(cubes.max())))
-    list_bytes = min(len(clusters), CLUSTERS_PER_ROUND) * (12.0 * CLUSTER_CAP + 8.0 * CLUSTER_RUNS + 12.0)
+    # the CPU lists and gathers each cluster in turn (order-1 textons), in a one-slot
+    # scratch per launch; otherwise the clusters of a round are listed at once
+    by_cluster = wp.get_device(device).is_cpu and p.order == 1
+    slots = CHUNKS_PER_THREAD * cpu_threads() if by_cluster else min(len(clusters), CLUSTERS_PER_ROUND)
+    list_bytes = slots * (12.0 * CLUSTER_CAP + 8.0 * CLUSTER_RUNS + 12.0)
     check_memory(round_cubes * (24 + 12 * (mean_count + 10 * math.sqrt(mean_count) + 1)) + list_bytes + n * 160.0,
                  f"surface noise at {n} points", "evaluate fewer points at once")
     ends = np.r_[starts[1:], n]
-    sorted_nrm = np.ascontiguousarray(nrm[order])
-    sorted_tan = np.ascontiguousarray(tan[order]) if tan is not None else None
+    sorted_nrm = np.take(nrm, order, axis=0).astype(np.float32)
+    sorted_tan = np.take(tan, order, axis=0).astype(np.float32) if tan is not None else None
     out = np.empty((n, 3), np.float32)
-    lists = _ClusterLists(min(len(clusters), CLUSTERS_PER_ROUND))
+    lists = None if by_cluster else _ClusterLists(min(len(clusters), CLUSTERS_PER_ROUND))
     b0 = 0
     nb = len(starts)
     cum = np.cumsum(cubes)
@@ -480,7 +496,7 @@ def gather_blocks(p, setup: SurfaceSetup, coeffs, pos, nrm, tan, device) -> np.n
         before = cum[b0 - 1] if b0 else 0
         b1 = max(b0 + 1, int(np.searchsorted(cum, before + CUBES_PER_ROUND, side="right")))
         _gather_round(p, coeffs, sorted_pos, sorted_nrm, sorted_tan, device, starts[b0:b1], ends[b0:b1], clusters,
-                      lo[b0:b1], dims[b0:b1], cubes[b0:b1], lists, out)
+                      lo[b0:b1], dims[b0:b1], cubes[b0:b1], lists, out, by_cluster)
         b0 = b1
     res = np.empty_like(out)
     res[order] = out
@@ -495,6 +511,7 @@ class _ClusterLists:
         cl = K.Clusters()
         cl.cap = CLUSTER_CAP
         cl.cap_runs = CLUSTER_RUNS
+        cl.first = wp.empty(1, dtype=wp.int32)  # set per round
         cl.runs = wp.empty(size, dtype=wp.int32)
         cl.run_cube = wp.empty(size * CLUSTER_RUNS, dtype=wp.int32)
         cl.run_end = wp.empty(size * CLUSTER_RUNS, dtype=wp.int32)
@@ -504,7 +521,8 @@ class _ClusterLists:
         self.clusters = cl
 
 
-def _gather_round(p, coeffs, pos, nrm, tan, device, starts, ends, clusters, lo, dims, cubes, lists, out) -> None:
+def _gather_round(p, coeffs, pos, nrm, tan, device, starts, ends, clusters, lo, dims, cubes, lists, out,
+                  by_cluster: bool) -> None:
     nb = len(starts)
     base = np.zeros(nb, np.int64)
     base[1:] = np.cumsum(cubes)[:-1]
@@ -534,9 +552,11 @@ def _gather_round(p, coeffs, pos, nrm, tan, device, starts, ends, clusters, lo, 
         split_launch(device, K, total, lambda a, b: wp.launch(
             K.emit_cubes, dim=b - a, inputs=[p, cube_arr[a:b], offsets[a:], blocks.ux, blocks.uy, blocks.uz]))
     m = p1 - p0
-    pts = wp.array(pos[p0:p1], dtype=wp.vec3d)
-    nrms = wp.array(nrm[p0:p1], dtype=wp.vec3)
-    tans = wp.array(tan[p0:p1], dtype=wp.vec3) if tan is not None else wp.zeros(1, dtype=wp.vec3)
+    on_cpu = wp.get_device(device).is_cpu
+    # the CPU reads the sorted copies in place (contiguous rows of float64 / float32)
+    pts = wp.array(pos[p0:p1], dtype=wp.vec3d, copy=not on_cpu)
+    nrms = wp.array(nrm[p0:p1], dtype=wp.vec3, copy=not on_cpu)
+    tans = wp.array(tan[p0:p1], dtype=wp.vec3, copy=not on_cpu) if tan is not None else wp.zeros(1, dtype=wp.vec3)
     owners = wp.array(block_of, dtype=wp.int32)
     frames = K.PointFrames()
     frames.u1, frames.u2 = wp.empty(m, dtype=wp.vec3), wp.empty(m, dtype=wp.vec3)
@@ -549,28 +569,31 @@ def _gather_round(p, coeffs, pos, nrm, tan, device, starts, ends, clusters, lo, 
                                                      int(tan is not None), sub])
 
     split_launch(device, K, m, frame)
-    on_cpu = wp.get_device(device).is_cpu
     res = wp.array(out[p0:p1], dtype=wp.vec3, copy=False) if on_cpu else wp.empty(m, dtype=wp.vec3)
     # one thread per cluster on the CPU (cluster_sums: SIMD over its points) for
     # order-1 textons; one per point elsewhere (the GPU, and other orders)
-    by_cluster = on_cpu and p.order == 1
     simd = int(bool(SIMD))
     # the round's clusters (a cluster never straddles blocks: block starts are cluster starts)
     mine = clusters[(clusters >= p0) & (clusters < p1)]
     cfirst = np.r_[mine - p0, m].astype(np.int32)
     cluster_of = None if by_cluster else wp.array(np.repeat(np.arange(len(mine), dtype=np.int32), np.diff(cfirst)),
                                                   dtype=wp.int32)
-    cl = lists.clusters
-    for m0 in range(0, len(mine), CLUSTERS_PER_ROUND):
-        m1 = min(m0 + CLUSTERS_PER_ROUND, len(mine))
-        cl.first = wp.array(cfirst[m0:m1 + 1], dtype=wp.int32)
-        split_launch(device, K, m1 - m0, lambda a, b: wp.launch(
-            K.list_cluster_impacts, dim=b - a, inputs=[p, pts, nrms, frames, owners, blocks, cl, a, CLUSTER_MIN, simd]))
-        if by_cluster:
+    if by_cluster:
+        first = wp.array(cfirst, dtype=wp.int32)
+
+        def gather(a, b):
+            wp.launch(K.gather_cluster_lists, dim=b - a, inputs=[p, coeffs, pts, nrms, frames, owners, blocks, first,
+                                                                 _ClusterLists(1).clusters, a, CLUSTER_MIN, simd, res])
+
+        split_launch(device, K, len(mine), gather)
+    else:
+        cl = lists.clusters
+        for m0 in range(0, len(mine), CLUSTERS_PER_ROUND):
+            m1 = min(m0 + CLUSTERS_PER_ROUND, len(mine))
+            cl.first = wp.array(cfirst[m0:m1 + 1], dtype=wp.int32)
             split_launch(device, K, m1 - m0, lambda a, b: wp.launch(
-                K.gather_cluster_lists, dim=b - a, inputs=[p, coeffs, pts, nrms, frames, owners, blocks, cl, a, simd,
-                                                           res]))
-        else:
+                K.list_cluster_impacts, dim=b - a, inputs=[p, pts, nrms, frames, owners, blocks, cl, a, CLUSTER_MIN,
+                                                           simd]))
             k0, k1 = int(cfirst[m0]), int(cfirst[m1])
             split_launch(device, K, k1 - k0, lambda a, b, m0=m0, k0=k0: wp.launch(
                 K.gather_clustered, dim=b - a, inputs=[p, coeffs, pts, nrms, frames, owners, blocks, cluster_of, cl,
@@ -807,7 +830,28 @@ class RayHits:
         from the face's vertices and the weights: as exact far from the origin as near it."""
         tri = self.faces[self.face[self.hit]]
         b = self.bary[self.hit]
-        return np.einsum("nk,nkd->nd", b, self.vertices[tri])
+        v = self.vertices
+        return b[:, 0:1] * v[tri[:, 0]] + b[:, 1:2] * v[tri[:, 1]] + b[:, 2:3] * v[tri[:, 2]]
+
+
+def _screen_box(rel: np.ndarray, forward, right, cam_up, tan_half_fov: float, aspect: float, h: int, w: int):
+    """(r0, r1, c0, c1): the pixels whose rays may hit a mesh with vertices at ``rel``
+    from the eye, from the vertices' projections (a triangle in front of the eye
+    projects inside the triangle of its projected corners), with a margin of two
+    pixels; the whole image when a vertex lies at or behind the eye's plane."""
+    z = rel @ forward
+    if rel.shape[0] == 0 or not z.min() > 1e-9 * (float(np.abs(z).max()) + 1e-300):
+        return 0, h, 0, w
+    sx = (rel @ right) / z / (tan_half_fov * aspect)
+    sy = (rel @ cam_up) / z / tan_half_fov
+    # pixel centre j sits at sx = 2 (j + 0.5) / w − 1; row i at sy = 1 − 2 (i + 0.5) / h
+    cols = (sx + 1.0) * (w / 2.0) - 0.5
+    rows = (1.0 - sy) * (h / 2.0) - 0.5
+    c0 = int(np.clip(np.floor(cols.min()) - 2, 0, w))
+    c1 = int(np.clip(np.ceil(cols.max()) + 3, 0, w))
+    r0 = int(np.clip(np.floor(rows.min()) - 2, 0, h))
+    r1 = int(np.clip(np.ceil(rows.max()) + 3, 0, h))
+    return r0, r1, c0, c1
 
 
 def cast_rays(mesh, shape, camera: Camera | None = None, *, up=UP, view=None, fov=None, light=None,
@@ -854,23 +898,33 @@ def cast_rays(mesh, shape, camera: Camera | None = None, *, up=UP, view=None, fo
     c.aspect = w / h
     c.light = wp.vec3(*light_dir)
     faces_np = np.asarray(mesh.faces, dtype=np.int64)
-    with wp.ScopedDevice(device):
-        points = wp.array(vertices - origin, dtype=wp.vec3)
-        indices = wp.array(faces_np.astype(np.int32).reshape(-1), dtype=wp.int32)
-        wmesh = wp.Mesh(points=points, indices=indices)
-        normals = wp.array(vertex_normals(mesh, up), dtype=wp.vec3)
-        face = wp.zeros((h, w), dtype=wp.int32)
-        bary = wp.zeros((h, w), dtype=wp.vec2)
-        nrm = wp.zeros((h, w), dtype=wp.vec3)
-        shade = wp.zeros((h, w), dtype=float)
+    r0, r1, c0, c1 = _screen_box(vertices - eye, forward, right, cam_up, c.tan_half_fov, c.aspect, h, w)
+    face = np.full((h, w), -1, np.int32)
+    bary = np.zeros((h, w, 2), np.float32)
+    nrm = np.zeros((h, w, 3), np.float32)
+    shade = np.zeros((h, w), np.float32)
+    if r1 > r0 and c1 > c0:
+        with wp.ScopedDevice(device):
+            points = wp.array(vertices - origin, dtype=wp.vec3)
+            indices = wp.array(faces_np.astype(np.int32).reshape(-1), dtype=wp.int32)
+            wmesh = wp.Mesh(points=points, indices=indices)
+            normals = wp.array(vertex_normals(mesh, up), dtype=wp.vec3)
+            rh, rw = r1 - r0, c1 - c0
+            outs = [wp.empty((rh, rw), dtype=t) for t in (wp.int32, wp.vec2, wp.vec3, wp.float32)]
 
-        def band(r0, r1):
-            wp.launch(K.cast_rays, dim=(r1 - r0, w), inputs=[wmesh.id, normals, indices, c, r0, face, bary, nrm, shade])
+            def band(a, b):
+                wp.launch(K.cast_rays, dim=(b - a, rw), inputs=[wmesh.id, normals, indices, c, h, w, r0 + a, c0,
+                                                                *(o[a:b] for o in outs)])
 
-        split_launch(device, K, h, band)
-        face, bary, nrm, shade = face.numpy(), bary.numpy(), nrm.numpy(), shade.numpy()
-    b = bary.astype(np.float64)
-    weights = np.concatenate([b, 1.0 - b[..., :1] - b[..., 1:]], axis=-1)
+            split_launch(device, K, rh, band)
+            for full, o in zip((face, bary, nrm, shade), outs):
+                full[r0:r1, c0:c1] = o.numpy()
+    # the third weight 1 − u − v (misses keep (0, 0, 1)), computed inside the box only
+    weights = np.zeros((h, w, 3))
+    weights[..., 2] = 1.0
+    b = bary[r0:r1, c0:c1].astype(np.float64)
+    weights[r0:r1, c0:c1, :2] = b
+    weights[r0:r1, c0:c1, 2] = 1.0 - b[..., 0] - b[..., 1]
     return RayHits(face, weights, nrm, shade, vertices, faces_np)
 
 
