@@ -256,45 +256,64 @@ CLUSTER_SUMS = (_AVX512 + _VECTOR_TYPES + r"""
         return;
     }
 #endif
-    const float* cf = (const float*)coeffs.data;
-    const int row = 3 * coeffs.shape[1];
-    const double cd = (double)size;
-    for (int k = k0; k < k1; ++k) {
+    // the same loop over lanes in plain C++ (up to 16 points, impact by impact)
+    const int np = k1 - k0;
+    float nx[16], ny[16], nz[16], ax[16], ay[16], az[16], bx[16], by[16], bz[16];
+    float rx[16], ry[16], rz[16], s0[16], s1[16], s2[16];
+    int xl[16], xh[16], yl[16], yh[16], zl[16], zh[16];
+    bool inside[16];
+    for (int l = 0; l < np; ++l) {
+        const int k = k0 + l;
         const wp::vec3 n = normals.data[k];
         const wp::vec3 a = u1s.data[k];
         const wp::vec3 b = u2s.data[k];
+        nx[l] = n[0]; ny[l] = n[1]; nz[l] = n[2];
+        ax[l] = a[0]; ay[l] = a[1]; az[l] = a[2];
+        bx[l] = b[0]; by[l] = b[1]; bz[l] = b[2];
         const wp::vec3i lo3 = span_lo.data[k];
         const wp::vec3i hi3 = span_hi.data[k];
-        const wp::vec3d y = points.data[k];
-        float s0 = 0.0f, s1 = 0.0f, s2 = 0.0f;
-        int start = 0;
-        for (int r = 0; r < runs; ++r) {
-            const int end = run_end.data[r0 + r];
-            const wp::vec3i cc = cubes.data[run_cube.data[r0 + r]];
-            if (cc[0] >= lo3[0] && cc[0] <= hi3[0] && cc[1] >= lo3[1] && cc[1] <= hi3[1] && cc[2] >= lo3[2]
-                && cc[2] <= hi3[2]) {
-                const double mx = (double)cc[0] * cd;
-                const double my = (double)cc[1] * cd;
-                const double mz = (double)cc[2] * cd;
-                const double ex = y[0] - mx;
-                const double ey = y[1] - my;
-                const double ez = y[2] - mz;
-                const float rx = (float)ex;
-                const float ry = (float)ey;
-                const float rz = (float)ez;
-                for (int e = u0 + start; e < u0 + end; ++e) {
-                    const float qx = ux.data[e] * size;
-                    const float qy = uy.data[e] * size;
-                    const float qz = uz.data[e] * size;
-                    const float dx = rx - qx;
-                    const float dy = ry - qy;
-                    const float dz = rz - qz;
-                    const float t = dx * n[0] + dy * n[1] + dz * n[2];
+        xl[l] = lo3[0]; yl[l] = lo3[1]; zl[l] = lo3[2];
+        xh[l] = hi3[0]; yh[l] = hi3[1]; zh[l] = hi3[2];
+        s0[l] = 0.0f; s1[l] = 0.0f; s2[l] = 0.0f;
+    }
+    const float* cf = (const float*)coeffs.data;
+    const int row = 3 * coeffs.shape[1];
+    const double cd = (double)size;
+    int start = 0;
+    for (int r = 0; r < runs; ++r) {
+        const int end = run_end.data[r0 + r];
+        const wp::vec3i cc = cubes.data[run_cube.data[r0 + r]];
+        const double mx = (double)cc[0] * cd;
+        const double my = (double)cc[1] * cd;
+        const double mz = (double)cc[2] * cd;
+        bool any = false;
+        for (int l = 0; l < np; ++l) {
+            inside[l] = cc[0] >= xl[l] && cc[0] <= xh[l] && cc[1] >= yl[l] && cc[1] <= yh[l] && cc[2] >= zl[l]
+                        && cc[2] <= zh[l];
+            any = any || inside[l];
+            const wp::vec3d y = points.data[k0 + l];
+            const double ex = y[0] - mx;
+            const double ey = y[1] - my;
+            const double ez = y[2] - mz;
+            rx[l] = (float)ex;
+            ry[l] = (float)ey;
+            rz[l] = (float)ez;
+        }
+        if (any) {
+            for (int e = u0 + start; e < u0 + end; ++e) {
+                const float qx = ux.data[e] * size;
+                const float qy = uy.data[e] * size;
+                const float qz = uz.data[e] * size;
+                for (int l = 0; l < np; ++l) {
+                    const float dx = rx[l] - qx;
+                    const float dy = ry[l] - qy;
+                    const float dz = rz[l] - qz;
+                    const float t = dx * nx[l] + dy * ny[l] + dz * nz[l];
                     const float at = fabsf(t);
-                    if (!(at < half))
+                    if (!inside[l] || !(at < half))
                         continue;
-                    const float da = dx * a[0] + dy * a[1] + dz * a[2];
-                    const float db = dx * b[0] + dy * b[1] + dz * b[2];
+                    const float da = dx * ax[l] + dy * ay[l] + dz * az[l];
+                    const float db = dx * bx[l] + dy * by[l] + dz * bz[l];
                     const float za = da + cen0;
                     const float zb = db + cen1;
                     if (!(za >= lo0 && za <= hi0 && zb >= lo1 && zb <= hi1))
@@ -313,17 +332,18 @@ CLUSTER_SUMS = (_AVX512 + _VECTOR_TYPES + r"""
                     const float a_ = p00[ch] * mtx; const float b_ = p00[3 + ch] * tx; const float top_ = a_ + b_; \
                     const float c_ = p10[ch] * mtx; const float d_ = p10[3 + ch] * tx; const float bot_ = c_ + d_; \
                     const float e_ = top_ * mty; const float f_ = bot_ * ty; const float g_ = e_ + f_; \
-                    const float h_ = g_ * w; s = s + h_; }
+                    const float h_ = g_ * w; s[l] = s[l] + h_; }
                     WT_CHANNEL(0, s0)
                     WT_CHANNEL(1, s1)
                     WT_CHANNEL(2, s2)
 #undef WT_CHANNEL
                 }
             }
-            start = end;
         }
-        out.data[k] = wp::vec3(s0, s1, s2);
+        start = end;
     }
+    for (int l = 0; l < np; ++l)
+        out.data[k0 + l] = wp::vec3(s0[l], s1[l], s2[l]);
 """).replace("PADV", str(PAD))
 
 
