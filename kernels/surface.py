@@ -505,15 +505,16 @@ def gather_clustered(
     first_cluster: int,
     first: int,
     out: wp.array(dtype=wp.vec3),
+    dest: wp.array(dtype=wp.int32),
 ):
-    """The walk's sum at each point (one thread per point: the GPU's gather, and any
+    """The walk's sum at each point k (written to out[dest[k]]) (one thread per point: the GPU's gather, and any
     texton order) through its cluster's list: the list keeps the walk's order and
     holds every impact that can reach the point, and impacts of cubes outside the
     point's own walk are skipped, so the terms and their order are the walk's."""
     k = wp.tid() + first
     m = cluster_of[k] - first_cluster
     acc = cluster_point(p, coeffs, points, normals, frames, block_of, blocks, clusters, m, clusters.runs[m], k)
-    out[k] = normalize_surface(p, acc)
+    out[dest[k]] = normalize_surface(p, acc)
 
 
 @wp.kernel
@@ -531,26 +532,28 @@ def gather_cluster_lists(
     min_points: int,
     simd: int,
     out: wp.array(dtype=wp.vec3),
+    dest: wp.array(dtype=wp.int32),
 ):
     """List and gather one cluster per thread (the CPU's path, order-1 textons):
     the list goes to slot 0 of ``scratch`` (one per launch: a CPU launch runs its
     threads one after another) and is summed while it is in cache, by
     ``cluster_sums``, whose 16 lanes are the cluster's points; the same terms in the
-    same order as ``gather_clustered``."""
+    same order as ``gather_clustered``. Point k's value goes to out[dest[k]]."""
     m = wp.tid() + first_cluster
     k0 = first[m]
     k1 = first[m + 1]
     runs = list_cluster(p, points, normals, frames, block_of, blocks, k0, k1, scratch, 0, min_points, simd)
     if runs < 0 or k1 - k0 > 16:
         for k in range(k0, k1):
-            out[k] = normalize_surface(p, cluster_point(p, coeffs, points, normals, frames, block_of, blocks, scratch,
-                                                        0, runs, k))
+            out[dest[k]] = normalize_surface(p, cluster_point(p, coeffs, points, normals, frames, block_of, blocks,
+                                                              scratch, 0, runs, k))
         return
     cluster_sums(coeffs, points, normals, frames.u1, frames.u2, frames.lo, frames.hi, k0, k1, blocks.cubes,
                  scratch.run_cube, scratch.run_end, 0, runs, scratch.ux, scratch.uy, scratch.uz, 0, p.cells.size,
-                 p.half, p.centre[0], p.centre[1], p.lo[0], p.lo[1], p.hi[0], p.hi[1], out, simd)
+                 p.half, p.centre[0], p.centre[1], p.lo[0], p.lo[1], p.hi[0], p.hi[1], out, dest, simd)
     for k in range(k0, k1):
-        out[k] = normalize_surface(p, out[k])
+        d = dest[k]
+        out[d] = normalize_surface(p, out[d])
 
 
 @wp.struct

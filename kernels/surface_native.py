@@ -123,7 +123,7 @@ def scan_cube(ux: wp.array(dtype=float), uy: wp.array(dtype=float), uz: wp.array
 #: One cluster's gather. Points k0 .. k1 − 1 (at most 16) with frames u1s, u2s,
 #: normals and cube spans [span_lo, span_hi]; the list: runs r0 .. r0 + runs − 1,
 #: run r being cube cubes[run_cube[r]] with impacts u[u0 + run_end[r − 1] .. u0 +
-#: run_end[r] − 1]. Writes the raw sums (before normalisation) to out[k0:k1].
+#: run_end[r] − 1]. Writes the raw sums (before normalisation) to out[dest[k]].
 CLUSTER_SUMS = (_AVX512 + _VECTOR_TYPES + r"""
     if (simd != 0) {
         const int np = k1 - k0;
@@ -252,7 +252,7 @@ CLUSTER_SUMS = (_AVX512 + _VECTOR_TYPES + r"""
             start = end;
         }
         for (int l = 0; l < np; ++l)
-            out.data[k0 + l] = wp::vec3(acc[l][0], acc[l][1], acc[l][2]);
+            out.data[dest.data[k0 + l]] = wp::vec3(acc[l][0], acc[l][1], acc[l][2]);
         return;
     }
 #endif
@@ -343,7 +343,7 @@ CLUSTER_SUMS = (_AVX512 + _VECTOR_TYPES + r"""
         start = end;
     }
     for (int l = 0; l < np; ++l)
-        out.data[k0 + l] = wp::vec3(s0[l], s1[l], s2[l]);
+        out.data[dest.data[k0 + l]] = wp::vec3(s0[l], s1[l], s2[l]);
 """).replace("PADV", str(PAD))
 
 
@@ -355,6 +355,7 @@ def cluster_sums(coeffs: wp.array2d(dtype=wp.vec3), points: wp.array(dtype=wp.ve
                  run_end: wp.array(dtype=wp.int32), r0: int, runs: int, ux: wp.array(dtype=float),
                  uy: wp.array(dtype=float), uz: wp.array(dtype=float), u0: int, size: float, half: float,
                  cen0: float, cen1: float, lo0: float, lo1: float, hi0: float, hi1: float,
-                 out: wp.array(dtype=wp.vec3), simd: int):
-    """The raw slab sums (order-1 texton) of a cluster's points over its list."""
+                 out: wp.array(dtype=wp.vec3), dest: wp.array(dtype=wp.int32), simd: int):
+    """The raw slab sums (order-1 texton) of a cluster's points over its list,
+    written to out[dest[k]] for point k."""
     ...
