@@ -15,7 +15,7 @@ import warp as wp
 
 from .impacts import Cells3, cell_state3, cell_walk3, cube_offset, cube_span, draw_count, impact_offset3, next_impact3
 from .noise2d import PAD, texton_value
-from .surface_native import cluster_sums, scan_cube
+from .surface_native import avx512_loops, cluster_sums, scan_cube
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
 
@@ -556,6 +556,12 @@ def gather_cluster_lists(
         out[d] = normalize_surface(p, out[d])
 
 
+@wp.kernel
+def simd_probe(out: wp.array(dtype=wp.int32)):
+    """Whether the loops of kernels/surface_native.py use AVX-512 in this build."""
+    out[0] = avx512_loops()
+
+
 @wp.struct
 class Camera:
     origin: wp.vec3  # world units, relative to the mesh's local origin
@@ -616,4 +622,4 @@ def cast_rays(
 
 __all__ = ["PAD", "SurfaceParams", "Camera", "CubeBlocks", "PointFrames", "evaluate_surface", "count_cubes",
            "emit_cubes", "frame_points", "Clusters", "list_cluster_impacts", "gather_clustered",
-           "gather_cluster_lists", "cast_rays", "tangent_frame"]
+           "gather_cluster_lists", "simd_probe", "cast_rays", "tangent_frame"]

@@ -359,3 +359,14 @@ def cluster_sums(coeffs: wp.array2d(dtype=wp.vec3), points: wp.array(dtype=wp.ve
     """The raw slab sums (order-1 texton) of a cluster's points over its list,
     written to out[dest[k]] for point k."""
     ...
+
+
+@wp.func_native(_AVX512 + """
+    return 1;
+#else
+    return 0;
+#endif
+""")
+def avx512_loops() -> int:
+    """1 where this module's CPU code holds the AVX-512 loops, else 0."""
+    ...

@@ -953,6 +953,40 @@ class TestBlocks:
         b = surface_noise(t, mesh.vertices, n, 0.01, seed=3, device=device, method="points")
         _same_values(a, b, t, device)
 
+    @pytest.mark.parametrize("simd", [True, False])
+    def test_simd_and_scalar_loops_equal_the_walk(self, simd, device, monkeypatch):
+        # the CPU lists and gathers clusters with kernels/surface_native.py: AVX-512 where
+        # the CPU has it, plain C++ otherwise; both must sum the walk's terms in its order
+        import warp_texton.surface as S
+
+        monkeypatch.setattr(S, "SIMD", simd)
+        rng = np.random.default_rng(31)
+        t = random_texton((16, 12), channels=3, order=1, seed=rng)
+        # dense points (about a texel apart, dozens per cluster cell), so that the clusters
+        # list their impacts; far from the origin; mesh normals and random ones
+        mesh = trimesh.creation.torus(2.0, 0.7, major_sections=200, minor_sections=80)
+        offset = np.array([5e3, -2e3, 1e3])
+        p = np.concatenate([mesh.vertices, rng.uniform(-0.5, 0.5, (3000, 3))]) + offset
+        n = np.concatenate([vertex_normals(mesh), rng.normal(size=(3000, 3))])
+        for tangents in (None, np.cross(n, rng.normal(size=3))):
+            kw = dict(seed=11, mni=float(rng.uniform(20, 90)), tangents=tangents, device=device)
+            a = surface_noise(t, p, n, 0.05, method="blocks", **kw)
+            b = surface_noise(t, p, n, 0.05, method="points", **kw)
+            _same_values(a, b, t, device)
+            assert a.std(axis=0).min() > 0.3 * noise_sd(t)
+
+    def test_avx512_loops_are_built_where_the_cpu_has_them(self):
+        # a build that silently lost the AVX-512 loops would give the same values, only
+        # about 2x slower: check that Warp's CPU code has them on CPUs that do
+        import warp_texton.surface as S
+
+        try:
+            flags = Path("/proc/cpuinfo").read_text().split("\nflags", 1)[1].split("\n", 1)[0].split()
+        except (OSError, IndexError):
+            pytest.skip("no /proc/cpuinfo flags on this system")
+        has = "avx512f" in flags and "avx512dq" in flags
+        assert S.simd_loops("cpu") == ("avx512" if has else "scalar")
+
     def test_overflowing_cluster_lists_fall_back_to_the_block(self, device, monkeypatch):
         import warp_texton.surface as S
 

@@ -603,6 +603,19 @@ def _gather_round(p, coeffs, pos, nrm, tan, device, starts, ends, clusters, lo, 
                                                        m0, a + k0, res, dest]))
 
 
+def simd_loops(device="cpu") -> str:
+    """"avx512" where the block path's CPU loops (kernels/surface_native.py) were
+    compiled for AVX-512 on this machine, "scalar" otherwise (other CPUs, CUDA, or
+    ``SIMD`` off): the two give the same values; benchmarks report which ran."""
+    device = resolve_device(device)
+    if not wp.get_device(device).is_cpu or not SIMD:
+        return "scalar"
+    with wp.ScopedDevice(device):
+        flag = wp.zeros(1, dtype=wp.int32)
+        wp.launch(K.simd_probe, dim=1, inputs=[flag])
+        return "avx512" if int(flag.numpy()[0]) else "scalar"
+
+
 def check_mesh(mesh):
     import trimesh
 
@@ -835,7 +848,7 @@ class RayHits:
         return b[:, 0:1] * v[tri[:, 0]] + b[:, 1:2] * v[tri[:, 1]] + b[:, 2:3] * v[tri[:, 2]]
 
 
-def _screen_box(rel: np.ndarray, forward, right, cam_up, tan_half_fov: float, aspect: float, h: int, w: int):
+def screen_box(rel: np.ndarray, forward, right, cam_up, tan_half_fov: float, aspect: float, h: int, w: int):
     """(r0, r1, c0, c1): the pixels whose rays may hit a mesh with vertices at ``rel``
     from the eye, from the vertices' projections (a triangle in front of the eye
     projects inside the triangle of its projected corners), with a margin of two
@@ -899,7 +912,7 @@ def cast_rays(mesh, shape, camera: Camera | None = None, *, up=UP, view=None, fo
     c.aspect = w / h
     c.light = wp.vec3(*light_dir)
     faces_np = np.asarray(mesh.faces, dtype=np.int64)
-    r0, r1, c0, c1 = _screen_box(vertices - eye, forward, right, cam_up, c.tan_half_fov, c.aspect, h, w)
+    r0, r1, c0, c1 = screen_box(vertices - eye, forward, right, cam_up, c.tan_half_fov, c.aspect, h, w)
     face = np.full((h, w), -1, np.int32)
     bary = np.zeros((h, w, 2), np.float32)
     nrm = np.zeros((h, w, 3), np.float32)
