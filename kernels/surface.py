@@ -347,10 +347,12 @@ def list_cluster(p: SurfaceParams, points: wp.array(dtype=wp.vec3d), normals: wp
 
     For a point y_i with frame (u1_i, u2_i, n_i) an impact q counts only if
     |⟨y_i − q, n_i⟩| < r/2 and its frame coordinates lie in the support, so
-    |y_i − q| ≤ R = (r/2)√3. With y_c, n̄, ū1, ū2 the cluster's means, ρ its
-    radius and ν, μ1, μ2 the largest distances of n_i, u1_i, u2_i from their
-    means, ⟨y_c − q, n̄⟩ lies within r/2 + ρ + Rν of 0, and ⟨y_c − q, ū1⟩,
-    ⟨y_c − q, ū2⟩ within ρ + Rμ of the support's range. Impacts outside those
+    |y_i − q| ≤ R = (r/2)√3. With y_c, n̄, ū1, ū2 the cluster's means, ν, μ1, μ2
+    the largest distances of n_i, u1_i, u2_i from their means and ρ_n, ρ1, ρ2 the
+    largest |⟨y_i − y_c, ·⟩| along n̄, ū1, ū2, ⟨y_c − q, n̄⟩ = ⟨y_i − q, n_i⟩ +
+    ⟨y_i − q, n̄ − n_i⟩ − ⟨y_i − y_c, n̄⟩ lies within r/2 + Rν + ρ_n of 0, and
+    ⟨y_c − q, ū1⟩, ⟨y_c − q, ū2⟩ within Rμ + ρ of the support's range (a cluster
+    on a surface is thin along n̄: ρ_n is far below its radius). Impacts outside those
     ranges are left off the list: none of them can reach a point. Each cube's
     impacts are tested by ``scan_cube`` (16 at a time with AVX-512)."""
     if k1 - k0 < min_points:
@@ -388,23 +390,30 @@ def list_cluster(p: SurfaceParams, points: wp.array(dtype=wp.vec3d), normals: wp
     ubar = ubar * inv
     vbar = vbar * inv
     yc = wp.vec3d(y0[0] + wp.float64(mean_off[0]), y0[1] + wp.float64(mean_off[1]), y0[2] + wp.float64(mean_off[2]))
-    rho = float(0.0)
+    rho = float(0.0)  # the cluster's radius, and its extents along n̄, ū1, ū2
+    rho_n = float(0.0)
+    rho_u = float(0.0)
+    rho_v = float(0.0)
     nu = float(0.0)
     mu1 = float(0.0)
     mu2 = float(0.0)
     for k in range(k0, k1):
         y = points[k]
-        rho = wp.max(rho, wp.length(wp.vec3(float(y[0] - yc[0]), float(y[1] - yc[1]), float(y[2] - yc[2]))))
+        off = wp.vec3(float(y[0] - yc[0]), float(y[1] - yc[1]), float(y[2] - yc[2]))
+        rho = wp.max(rho, wp.length(off))
+        rho_n = wp.max(rho_n, wp.abs(wp.dot(off, nbar)))
+        rho_u = wp.max(rho_u, wp.abs(wp.dot(off, ubar)))
+        rho_v = wp.max(rho_v, wp.abs(wp.dot(off, vbar)))
         nu = wp.max(nu, wp.length(normals[k] - nbar))
         mu1 = wp.max(mu1, wp.length(frames.u1[k] - ubar))
         mu2 = wp.max(mu2, wp.length(frames.u2[k] - vbar))
     big_r = p.half * 1.7320508 * 1.001
     margin = 1.0e-3 * (p.half + c) + 1.0e-5 * (rho + big_r)
-    t_lim = p.half + rho + big_r * nu + margin
-    a_lo = p.lo[0] - p.centre[0] - rho - big_r * mu1 - margin
-    a_hi = p.hi[0] - p.centre[0] + rho + big_r * mu1 + margin
-    b_lo = p.lo[1] - p.centre[1] - rho - big_r * mu2 - margin
-    b_hi = p.hi[1] - p.centre[1] + rho + big_r * mu2 + margin
+    t_lim = p.half + rho_n + big_r * nu + margin
+    a_lo = p.lo[0] - p.centre[0] - rho_u - big_r * mu1 - margin
+    a_hi = p.hi[0] - p.centre[0] + rho_u + big_r * mu1 + margin
+    b_lo = p.lo[1] - p.centre[1] - rho_v - big_r * mu2 - margin
+    b_hi = p.hi[1] - p.centre[1] + rho_v + big_r * mu2 + margin
     b = block_of[k0]
     o = blocks.origin[b]
     dm = blocks.dims[b]

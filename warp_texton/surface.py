@@ -875,13 +875,36 @@ def cast_rays(mesh, shape, camera: Camera | None = None, *, up=UP, view=None, fo
     (interpolated vertex normals, the face normal across creases over 30°) and the
     diffuse shade. The BVH holds the vertices in float32 around the centre of their
     bounding box, so meshes far from the origin are hit as precisely as near ones.
+    Only the pixels of the mesh's screen box (:func:`screen_box`) cast rays.
 
     Returns
     -------
     RayHits
     """
-    mesh = check_mesh(mesh)
     h, w = check_shape(shape, max_pixels=MAX_RENDER_PIXELS)
+    box, (face_b, bary_b, nrm_b, shade_b), vertices, faces = _cast_box(mesh, (h, w), camera, up, view, fov, light,
+                                                                       device)
+    r0, r1, c0, c1 = box
+    face = np.full((h, w), -1, np.int32)
+    nrm = np.zeros((h, w, 3), np.float32)
+    shade = np.zeros((h, w), np.float32)
+    face[r0:r1, c0:c1] = face_b
+    nrm[r0:r1, c0:c1] = nrm_b
+    shade[r0:r1, c0:c1] = shade_b
+    # the third weight 1 − u − v (misses keep (0, 0, 1))
+    weights = np.zeros((h, w, 3))
+    weights[..., 2] = 1.0
+    b = bary_b.astype(np.float64)
+    weights[r0:r1, c0:c1, :2] = b
+    weights[r0:r1, c0:c1, 2] = 1.0 - b[..., 0] - b[..., 1]
+    return RayHits(face, weights, nrm, shade, vertices, faces)
+
+
+def _cast_box(mesh, shape, camera, up, view, fov, light, device):
+    """The ray cast of :func:`cast_rays` over the mesh's screen box only: (box, (face,
+    bary (u, v), normal, shade) of the box's pixels, float64 vertices, int64 faces)."""
+    mesh = check_mesh(mesh)
+    h, w = shape
     rot = up_rotation(up)
     if camera is None:
         cam = Camera.framing(mesh, fov=35.0 if fov is None else fov, up=up, view=VIEW if view is None else view)
@@ -913,33 +936,23 @@ def cast_rays(mesh, shape, camera: Camera | None = None, *, up=UP, view=None, fo
     c.light = wp.vec3(*light_dir)
     faces_np = np.asarray(mesh.faces, dtype=np.int64)
     r0, r1, c0, c1 = screen_box(vertices - eye, forward, right, cam_up, c.tan_half_fov, c.aspect, h, w)
-    face = np.full((h, w), -1, np.int32)
-    bary = np.zeros((h, w, 2), np.float32)
-    nrm = np.zeros((h, w, 3), np.float32)
-    shade = np.zeros((h, w), np.float32)
-    if r1 > r0 and c1 > c0:
-        with wp.ScopedDevice(device):
-            points = wp.array(vertices - origin, dtype=wp.vec3)
-            indices = wp.array(faces_np.astype(np.int32).reshape(-1), dtype=wp.int32)
-            wmesh = wp.Mesh(points=points, indices=indices)
-            normals = wp.array(vertex_normals(mesh, up), dtype=wp.vec3)
-            rh, rw = r1 - r0, c1 - c0
-            outs = [wp.empty((rh, rw), dtype=t) for t in (wp.int32, wp.vec2, wp.vec3, wp.float32)]
+    rh, rw = max(r1 - r0, 0), max(c1 - c0, 0)
+    if rh == 0 or rw == 0:
+        return (r0, r0, c0, c0), (np.full((0, 0), -1, np.int32), np.zeros((0, 0, 2), np.float32),
+                                  np.zeros((0, 0, 3), np.float32), np.zeros((0, 0), np.float32)), vertices, faces_np
+    with wp.ScopedDevice(device):
+        points = wp.array(vertices - origin, dtype=wp.vec3)
+        indices = wp.array(faces_np.astype(np.int32).reshape(-1), dtype=wp.int32)
+        wmesh = wp.Mesh(points=points, indices=indices)
+        normals = wp.array(vertex_normals(mesh, up), dtype=wp.vec3)
+        outs = [wp.empty((rh, rw), dtype=t) for t in (wp.int32, wp.vec2, wp.vec3, wp.float32)]
 
-            def band(a, b):
-                wp.launch(K.cast_rays, dim=(b - a, rw), inputs=[wmesh.id, normals, indices, c, h, w, r0 + a, c0,
-                                                                *(o[a:b] for o in outs)])
+        def band(a, b):
+            wp.launch(K.cast_rays, dim=(b - a, rw), inputs=[wmesh.id, normals, indices, c, h, w, r0 + a, c0,
+                                                            *(o[a:b] for o in outs)])
 
-            split_launch(device, K, rh, band)
-            for full, o in zip((face, bary, nrm, shade), outs):
-                full[r0:r1, c0:c1] = o.numpy()
-    # the third weight 1 − u − v (misses keep (0, 0, 1)), computed inside the box only
-    weights = np.zeros((h, w, 3))
-    weights[..., 2] = 1.0
-    b = bary[r0:r1, c0:c1].astype(np.float64)
-    weights[r0:r1, c0:c1, :2] = b
-    weights[r0:r1, c0:c1, 2] = 1.0 - b[..., 0] - b[..., 1]
-    return RayHits(face, weights, nrm, shade, vertices, faces_np)
+        split_launch(device, K, rh, band)
+        return (r0, r1, c0, c1), tuple(o.numpy() for o in outs), vertices, faces_np
 
 
 def render_mesh(
@@ -1016,15 +1029,21 @@ def render_mesh(
     bg = check_background(background)
     device = resolve_device(device)
     p = surface_params(texton, setup, seed, "exact", up, side)
-    hits = cast_rays(mesh, (h, w), camera, up=up, view=view, fov=fov, light=light, device=device)
-    face, nrm, shade = hits.face, hits.normal, hits.shade
+    (r0, r1, c0, c1), (face, bary, nrm, shade), vertices, faces = _cast_box(mesh, (h, w), camera, up, view, fov,
+                                                                            light, device)
     img = np.empty((h, w, 3), np.float32)
     img[:] = bg.astype(np.float32)
     hit = face >= 0
     if hit.any():
-        g = evaluate_points(p, setup, hits.points() / texel, nrm[hit].astype(np.float64), None, device, method)
+        # the hits in float64 from their faces' vertices and weights (RayHits.points, in the box)
+        tri = faces[face[hit]]
+        b = bary[hit].astype(np.float64)
+        b2 = 1.0 - b[:, 0] - b[:, 1]
+        pts = b[:, 0:1] * vertices[tri[:, 0]] + b[:, 1:2] * vertices[tri[:, 1]] + b2[:, None] * vertices[tri[:, 2]]
+        g = evaluate_points(p, setup, pts / texel, nrm[hit].astype(np.float64), None, device, method)
         if texton.channels == 1:
             g[:, 1] = g[:, 0]  # grey noise lives in channel 0: spread it to RGB
             g[:, 2] = g[:, 0]
-        img[hit] = np.clip(g, 0.0, 1.0) * shade[hit][:, None]
+        view_box = img[r0:r1, c0:c1]
+        view_box[hit] = np.clip(g, 0.0, 1.0) * shade[hit][:, None]
     return img
