@@ -251,12 +251,10 @@ class PointFrames:
     hi: wp.array(dtype=wp.vec3i)
 
 
-@wp.kernel
-def frame_points(p: SurfaceParams, points: wp.array(dtype=wp.vec3d), normals: wp.array(dtype=wp.vec3),
-                 tangents: wp.array(dtype=wp.vec3), use_tangents: int, frames: PointFrames):
-    """Each point's frame (the rule, or its tangent) and the span of cubes of its
-    walk (``cube_span`` of ``frame_extent``), computed once for listing and gathering."""
-    k = wp.tid()
+@wp.func
+def frame_point(p: SurfaceParams, points: wp.array(dtype=wp.vec3d), normals: wp.array(dtype=wp.vec3),
+                tangents: wp.array(dtype=wp.vec3), use_tangents: int, frames: PointFrames, k: int):
+    # point k's frame (the rule, or its tangent) and the span of cubes of its walk
     n = normals[k]
     u1, u2 = point_frame(p, n, tangents, k, use_tangents)
     frames.u1[k] = u1
@@ -264,6 +262,14 @@ def frame_points(p: SurfaceParams, points: wp.array(dtype=wp.vec3d), normals: wp
     x0, x1, y0, y1, z0, z1 = cube_span(points[k], frame_extent(p.half, u1, u2, n), p.cells.size)
     frames.lo[k] = wp.vec3i(x0, y0, z0)
     frames.hi[k] = wp.vec3i(x1, y1, z1)
+
+
+@wp.kernel
+def frame_points(p: SurfaceParams, points: wp.array(dtype=wp.vec3d), normals: wp.array(dtype=wp.vec3),
+                 tangents: wp.array(dtype=wp.vec3), use_tangents: int, frames: PointFrames):
+    """Each point's frame (the rule, or its tangent) and the span of cubes of its
+    walk (``cube_span`` of ``frame_extent``), computed once for listing and gathering."""
+    frame_point(p, points, normals, tangents, use_tangents, frames, wp.tid())
 
 
 @wp.func
@@ -532,6 +538,8 @@ def gather_cluster_lists(
     coeffs: wp.array2d(dtype=wp.vec3),
     points: wp.array(dtype=wp.vec3d),
     normals: wp.array(dtype=wp.vec3),
+    tangents: wp.array(dtype=wp.vec3),
+    use_tangents: int,
     frames: PointFrames,
     block_of: wp.array(dtype=wp.int32),
     blocks: CubeBlocks,
@@ -543,14 +551,16 @@ def gather_cluster_lists(
     out: wp.array(dtype=wp.vec3),
     dest: wp.array(dtype=wp.int32),
 ):
-    """List and gather one cluster per thread (the CPU's path, order-1 textons):
-    the list goes to slot 0 of ``scratch`` (one per launch: a CPU launch runs its
+    """Frame, list and gather one cluster per thread (the CPU's path, order-1
+    textons): the frames of its points (``frame_point``), then the list, in slot 0 of ``scratch`` (one per launch: a CPU launch runs its
     threads one after another) and is summed while it is in cache, by
     ``cluster_sums``, whose 16 lanes are the cluster's points; the same terms in the
     same order as ``gather_clustered``. Point k's value goes to out[dest[k]]."""
     m = wp.tid() + first_cluster
     k0 = first[m]
     k1 = first[m + 1]
+    for k in range(k0, k1):
+        frame_point(p, points, normals, tangents, use_tangents, frames, k)
     runs = list_cluster(p, points, normals, frames, block_of, blocks, k0, k1, scratch, 0, min_points, simd)
     if runs < 0 or k1 - k0 > 16:
         for k in range(k0, k1):

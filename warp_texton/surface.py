@@ -570,7 +570,8 @@ def _gather_round(p, coeffs, pos, nrm, tan, device, starts, ends, clusters, lo, 
         wp.launch(K.frame_points, dim=b - a, inputs=[p, pts[a:b], nrms[a:b], tans[a:b] if tan is not None else tans,
                                                      int(tan is not None), sub])
 
-    split_launch(device, K, m, frame)
+    if not by_cluster:  # gather_cluster_lists frames its own points
+        split_launch(device, K, m, frame)
     dest = wp.array(order[p0:p1].astype(np.int32), dtype=wp.int32)
     # one thread per cluster on the CPU (cluster_sums: SIMD over its points) for
     # order-1 textons; one per point elsewhere (the GPU, and other orders)
@@ -584,7 +585,8 @@ def _gather_round(p, coeffs, pos, nrm, tan, device, starts, ends, clusters, lo, 
         first = wp.array(cfirst, dtype=wp.int32)
 
         def gather(a, b):
-            wp.launch(K.gather_cluster_lists, dim=b - a, inputs=[p, coeffs, pts, nrms, frames, owners, blocks, first,
+            wp.launch(K.gather_cluster_lists, dim=b - a, inputs=[p, coeffs, pts, nrms, tans, int(tan is not None),
+                                                                 frames, owners, blocks, first,
                                                                  _ClusterLists(1).clusters, a, CLUSTER_MIN, simd, res,
                                                                  dest])
 
