@@ -672,6 +672,38 @@ LIGHT = np.array([0.4, -0.5, 1.0]) / np.linalg.norm([0.4, -0.5, 1.0])
 
 
 class TestRender:
+    @pytest.mark.parametrize("where", ["framed", "off to the side", "around the eye", "behind"])
+    def test_rays_outside_the_screen_box_would_miss(self, where, device, monkeypatch):
+        # only the pixels of the mesh's screen box cast rays: casting every pixel must give
+        # the same hits, bit for bit, whether the mesh fills the view, leaves it partly,
+        # surrounds the eye (the whole image is cast) or lies behind it (none is)
+        import warp_texton.surface as S
+        from warp_texton.surface import cast_rays
+
+        mesh = trimesh.creation.torus(1.0, 0.4, major_sections=40, minor_sections=20)
+        cam = {"framed": Camera((3.0, -4.0, 2.0), (0, 0, 0), (0, 0, 1), 40.0),
+               "off to the side": Camera((3.0, -4.0, 2.0), (2.5, 0.5, 0), (0, 0, 1), 40.0),
+               "around the eye": Camera((0.0, 1.0, 0.0), (1.0, 1.0, 0.3), (0, 0, 1), 80.0),
+               "behind": Camera((0.0, -5.0, 0.0), (0.0, -9.0, 0.0), (0, 0, 1), 40.0)}[where]
+        boxes = []
+        real_box = S.screen_box
+        monkeypatch.setattr(S, "screen_box", lambda *a: boxes.append(real_box(*a)) or boxes[-1])
+        got = cast_rays(mesh, (60, 80), cam, device=device)
+        monkeypatch.setattr(S, "screen_box", lambda rel, f, r, u, t, a, h, w: (0, h, 0, w))
+        want = cast_rays(mesh, (60, 80), cam, device=device)
+        for a, b in ((got.face, want.face), (got.bary, want.bary), (got.normal, want.normal),
+                     (got.shade, want.shade)):
+            np.testing.assert_array_equal(a, b)
+        r0, r1, c0, c1 = boxes[0]
+        if where == "framed":
+            assert 0 < (r1 - r0) * (c1 - c0) < 0.8 * 60 * 80 and want.hit.mean() > 0.1
+        elif where == "off to the side":
+            assert 0 < (r1 - r0) * (c1 - c0) < 60 * 80 and want.hit.any() and not want.hit.all()
+        elif where == "around the eye":
+            assert (r0, r1, c0, c1) == (0, 60, 0, 80) and want.hit.any()
+        else:
+            assert (r1 - r0) * (c1 - c0) == 0 and not want.hit.any()
+
     def test_sphere_render_is_shaded_noise_with_the_texton_mean(self, device):
         """Pixel = clip(g) (0.3 + 0.7 |⟨n, light⟩|) on hits, background elsewhere.
 

@@ -854,9 +854,12 @@ def screen_box(rel: np.ndarray, forward, right, cam_up, tan_half_fov: float, asp
     """(r0, r1, c0, c1): the pixels whose rays may hit a mesh with vertices at ``rel``
     from the eye, from the vertices' projections (a triangle in front of the eye
     projects inside the triangle of its projected corners), with a margin of two
-    pixels; the whole image when a vertex lies at or behind the eye's plane."""
+    pixels; none when every vertex lies behind the eye's plane (a ray goes forward),
+    the whole image when some do."""
     z = rel @ forward
-    if rel.shape[0] == 0 or not z.min() > 1e-9 * (float(np.abs(z).max()) + 1e-300):
+    if rel.shape[0] == 0 or z.max() < 0.0:
+        return 0, 0, 0, 0
+    if not z.min() > 1e-9 * (float(np.abs(z).max()) + 1e-300):
         return 0, h, 0, w
     sx = (rel @ right) / z / (tan_half_fov * aspect)
     sy = (rel @ cam_up) / z / tan_half_fov
