@@ -576,6 +576,47 @@ def gather_cluster_lists(
 
 
 @wp.kernel
+def hit_points(pixels: wp.array(dtype=wp.int32), face: wp.array(dtype=wp.int32), bary: wp.array(dtype=wp.vec2),
+               normal: wp.array(dtype=wp.vec3), vertices: wp.array(dtype=wp.vec3d), faces: wp.array(dtype=wp.int32),
+               texel: wp.float64, points: wp.array(dtype=wp.vec3d), normals: wp.array(dtype=wp.vec3)):
+    """The hit of pixel pixels[k] (flat index into the ray cast's arrays) in float64
+    texel units, from its face's vertices and weights (u, v, 1 − u − v), and its
+    shading normal."""
+    k = wp.tid()
+    q = pixels[k]
+    f = face[q]
+    uv = bary[q]
+    u = wp.float64(uv[0])
+    v = wp.float64(uv[1])
+    w = wp.float64(1.0) - u - v
+    y = vertices[faces[3 * f]] * u + vertices[faces[3 * f + 1]] * v + vertices[faces[3 * f + 2]] * w
+    points[k] = y / texel
+    normals[k] = normal[q]
+
+
+@wp.kernel
+def fill_image(img: wp.array2d(dtype=wp.vec3), background: wp.vec3):
+    i, j = wp.tid()
+    img[i, j] = background
+
+
+@wp.kernel
+def shade_hits(pixels: wp.array(dtype=wp.int32), values: wp.array(dtype=wp.vec3), shade: wp.array(dtype=float),
+               box_width: int, row0: int, col0: int, grey: int, img: wp.array2d(dtype=wp.vec3)):
+    """Pixel pixels[k] (flat index into the ray cast's box) of the render: its noise
+    value clipped to [0, 1] times its shade (grey noise, in channel 0, spread to RGB)."""
+    k = wp.tid()
+    q = pixels[k]
+    g = values[k]
+    if grey != 0:
+        g = wp.vec3(g[0], g[0], g[0])
+    s = shade[q]
+    img[row0 + q / box_width, col0 + q % box_width] = wp.vec3(wp.clamp(g[0], 0.0, 1.0) * s,
+                                                              wp.clamp(g[1], 0.0, 1.0) * s,
+                                                              wp.clamp(g[2], 0.0, 1.0) * s)
+
+
+@wp.kernel
 def simd_probe(out: wp.array(dtype=wp.int32)):
     """Whether the loops of kernels/surface_native.py use AVX-512 in this build."""
     out[0] = avx512_loops()
@@ -641,4 +682,5 @@ def cast_rays(
 
 __all__ = ["PAD", "SurfaceParams", "Camera", "CubeBlocks", "PointFrames", "evaluate_surface", "count_cubes",
            "emit_cubes", "frame_points", "Clusters", "list_cluster_impacts", "gather_clustered",
-           "gather_cluster_lists", "simd_probe", "cast_rays", "tangent_frame"]
+           "gather_cluster_lists", "hit_points", "fill_image", "shade_hits",
+           "simd_probe", "cast_rays", "tangent_frame"]

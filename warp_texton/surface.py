@@ -1036,19 +1036,33 @@ def render_mesh(
     p = surface_params(texton, setup, seed, "exact", up, side)
     (r0, r1, c0, c1), (face, bary, nrm, shade), vertices, faces = _cast_box(mesh, (h, w), camera, up, view, fov,
                                                                             light, device)
-    img = np.empty((h, w, 3), np.float32)
-    img[:] = bg.astype(np.float32)
     hit = face >= 0
-    if hit.any():
-        # the hits in float64 from their faces' vertices and weights (RayHits.points, in the box)
-        tri = faces[face[hit]]
-        b = bary[hit].astype(np.float64)
-        b2 = 1.0 - b[:, 0] - b[:, 1]
-        pts = b[:, 0:1] * vertices[tri[:, 0]] + b[:, 1:2] * vertices[tri[:, 1]] + b2[:, None] * vertices[tri[:, 2]]
-        g = evaluate_points(p, setup, pts / texel, nrm[hit].astype(np.float64), None, device, method)
-        if texton.channels == 1:
-            g[:, 1] = g[:, 0]  # grey noise lives in channel 0: spread it to RGB
-            g[:, 2] = g[:, 0]
-        view_box = img[r0:r1, c0:c1]
-        view_box[hit] = np.clip(g, 0.0, 1.0) * shade[hit][:, None]
+    pixels = np.flatnonzero(hit.reshape(-1)).astype(np.int32)
+    with wp.ScopedDevice(device):
+        on_cpu = wp.get_device(device).is_cpu
+        img = np.empty((h, w, 3), np.float32)
+        img_w = wp.array(img, dtype=wp.vec3, copy=False) if on_cpu else wp.empty((h, w), dtype=wp.vec3)
+        bg32 = bg.astype(np.float32)
+        split_launch(device, K, h, lambda a, b: wp.launch(K.fill_image, dim=(b - a, w),
+                                                          inputs=[img_w[a:b], wp.vec3(*bg32)]))
+        if pixels.size:
+            # the hits in float64 texel units from their faces' vertices and weights (as
+            # RayHits.points), and their normals, in one pass
+            pos_w, nrm_w = wp.empty(pixels.size, dtype=wp.vec3d), wp.empty(pixels.size, dtype=wp.vec3)
+            pix = wp.array(pixels, dtype=wp.int32)
+            inputs = [wp.array(face.reshape(-1), dtype=wp.int32, copy=not on_cpu),
+                      wp.array(bary.reshape(-1, 2), dtype=wp.vec2, copy=not on_cpu),
+                      wp.array(nrm.reshape(-1, 3), dtype=wp.vec3, copy=not on_cpu),
+                      wp.array(vertices, dtype=wp.vec3d), wp.array(faces.astype(np.int32).reshape(-1), dtype=wp.int32),
+                      wp.float64(texel)]
+            split_launch(device, K, pixels.size, lambda a, b: wp.launch(
+                K.hit_points, dim=b - a, inputs=[pix[a:b], *inputs, pos_w[a:b], nrm_w[a:b]]))
+            g = evaluate_points(p, setup, pos_w.numpy(), nrm_w.numpy(), None, device, method)
+            g_w = wp.array(g, dtype=wp.vec3)
+            shade_w = wp.array(shade.reshape(-1), dtype=wp.float32, copy=not on_cpu)
+            split_launch(device, K, pixels.size, lambda a, b: wp.launch(
+                K.shade_hits, dim=b - a, inputs=[pix[a:b], g_w[a:b], shade_w, c1 - c0, r0, c0,
+                                                 int(texton.channels == 1), img_w]))
+        if not on_cpu:
+            img = img_w.numpy()
     return img
