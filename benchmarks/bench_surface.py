@@ -8,7 +8,8 @@ Measures, interleaved in one run so that all see the same machine load:
   2-D default): the issue's goal is surface noise at 1M points within 20× the
   time of that raster;
 * ``render_mesh`` at 1024 × 1024 of an icosphere, blocks against the walk
-  (the goal: at least 5× faster than the walk);
+  (the goal: at least 5× faster than before the issue, when the walk was the
+  only path; ``compare_commits.py --base 3c913e1`` measures that directly);
 * ``bake_mesh`` of the torus (1024², xatlas atlas) and, on a plane, the error
   of the default supersampling against a densely supersampled reference.
 
@@ -35,6 +36,7 @@ import trimesh  # noqa: E402
 
 from warp_texton import analyze, bake_mesh, render_mesh, surface_noise, synthesize  # noqa: E402
 from warp_texton._runtime import resolve_device  # noqa: E402
+from warp_texton.surface import simd_loops  # noqa: E402
 
 
 def interleaved(methods: dict, repeat: int) -> dict:
@@ -113,7 +115,8 @@ def run(args) -> dict:
         "parameters": {"texton": list(texton.size), "channels": texton.channels, "mni": args.mni,
                        "vertices": n, "texel_size": texel, "raster": list(raster), "raster_mni": 30.0,
                        "render_shape": list(shape), "render_vertices": len(sphere.vertices), "bake": bake_res,
-                       "repeat": args.repeat, "quick": args.quick},
+                       "repeat": args.repeat, "quick": args.quick,
+                       "cpu_loops": simd_loops(device) if device == "cpu" else "none (GPU)"},
         "surface_noise": noise,
         "surface_vs_raster": ratio,
         "render_mesh": render,
@@ -139,7 +142,7 @@ def markdown(report: dict) -> str:
         "",
         machine_line(report),
         f"RGB texton {p['texton'][0]}x{p['texton'][1]}, MNI {p['mni']:g}; torus of {p['vertices']} vertices; "
-        f"best of {p['repeat']} interleaved runs (median in brackets).",
+        f"best of {p['repeat']} interleaved runs (median in brackets); CPU cluster loops: {p.get('cpu_loops', '?')}.",
         "",
         "| operation | time (s) | rate |",
         "|---|---:|---:|",
