@@ -178,6 +178,32 @@ def evaluate_surface(
 
 # ------------------------------------------------------- blocks of points
 @wp.kernel
+def block_keys(points: wp.array(dtype=wp.vec3d), scale: wp.float64, shift: wp.int64, o0: wp.int64, o1: wp.int64,
+               o2: wp.int64, s0: wp.int64, s1: wp.int64, spread: wp.array(dtype=wp.int64),
+               keys: wp.array(dtype=wp.int64)):
+    """Each point's sort key: its block (of 2**shift eighths of a cube per side, the
+    fine cell floor(y · scale) shifted right; numbered x fastest from (o0, o1, o2) in
+    rows of s0 and planes of s1 blocks) above 15 bits of the Morton code of its eighth
+    within the block (``spread`` spaces the bits of one axis)."""
+    k = wp.tid()
+    y = points[k]
+    fx = wp.int64(wp.floor(y[0] * scale))
+    fy = wp.int64(wp.floor(y[1] * scale))
+    fz = wp.int64(wp.floor(y[2] * scale))
+    mask = (wp.int64(1) << shift) - wp.int64(1)
+    m = spread[int(fx & mask)] | (spread[int(fy & mask)] << wp.int64(1)) | (spread[int(fz & mask)] << wp.int64(2))
+    block = (((fz >> shift) - o2) * s1 + ((fy >> shift) - o1)) * s0 + ((fx >> shift) - o0)
+    keys[k] = (block << wp.int64(15)) | m
+
+
+@wp.kernel
+def take_points(order: wp.array(dtype=wp.int64), points: wp.array(dtype=wp.vec3d),
+                out: wp.array(dtype=wp.vec3d)):
+    k = wp.tid()
+    out[k] = points[order[k]]
+
+
+@wp.kernel
 def count_cubes(p: SurfaceParams, cubes: wp.array(dtype=wp.vec3i), counts: wp.array(dtype=wp.int32)):
     """Impact count of each listed cube."""
     g = wp.tid()
@@ -680,7 +706,8 @@ def cast_rays(
     shade[i, j] = 0.3 + 0.7 * wp.abs(wp.dot(n, cam.light))
 
 
-__all__ = ["PAD", "SurfaceParams", "Camera", "CubeBlocks", "PointFrames", "evaluate_surface", "count_cubes",
+__all__ = ["PAD", "SurfaceParams", "Camera", "CubeBlocks", "PointFrames", "evaluate_surface", "block_keys",
+           "take_points", "count_cubes",
            "emit_cubes", "frame_points", "Clusters", "list_cluster_impacts", "gather_clustered",
            "gather_cluster_lists", "hit_points", "fill_image", "shade_hits",
            "simd_probe", "cast_rays", "tangent_frame"]

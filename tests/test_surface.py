@@ -1019,6 +1019,18 @@ class TestBlocks:
         has = "avx512f" in flags and "avx512dq" in flags
         assert S.simd_loops("cpu") == ("avx512" if has else "scalar")
 
+    def test_blocks_spread_beyond_int64_keys(self, device):
+        # two dense groups 10^7 texels apart on every axis: (10^7 / block side)^3 blocks
+        # do not fit one int64 sort key, and the blocks are sorted by their coordinates
+        rng = np.random.default_rng(12)
+        t = random_texton((8, 8), channels=3, order=1, seed=rng)
+        p = np.concatenate([rng.uniform(-4, 4, (3000, 3)) - 5e6, rng.uniform(-4, 4, (3000, 3)) + 5e6])
+        n = rng.normal(size=p.shape)
+        a = surface_noise(t, p, n, 1.0, seed=5, device=device, method="blocks")
+        b = surface_noise(t, p, n, 1.0, seed=5, device=device, method="points")
+        _same_values(a, b, t, device)
+        assert a[:3000].std() > 0.3 * noise_sd(t) and a[3000:].std() > 0.3 * noise_sd(t)
+
     def test_overflowing_cluster_lists_fall_back_to_the_block(self, device, monkeypatch):
         import warp_texton.surface as S
 

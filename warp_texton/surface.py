@@ -420,31 +420,36 @@ def _blocks(pos: np.ndarray, setup: SurfaceSetup):
     lo, hi, clusters), with lo/hi the first and last cube (per axis) that the points of
     each block can reach and clusters the first point of each cluster (sorted order)."""
     c = setup.cell
-    # per axis (contiguous columns are several times faster than (N, 3) arithmetic):
-    # eighths of a cube (any rounding will do: a sort key), the block of BLOCK_CUBES =
-    # 2**BLOCK_SHIFT cubes of 8 eighths, and within a block the Morton order of the
-    # eighths, so that consecutive points are neighbours
-    own = []
-    morton = None
-    for k in range(3):
-        fine = np.floor(pos[:, k] * (8.0 / c)).astype(np.int64)
-        o = fine >> (3 + BLOCK_SHIFT)
-        o -= o.min()
-        own.append(o)
-        spread = _SPREAD[fine & (8 * BLOCK_CUBES - 1)]
-        morton = spread if morton is None else morton | (spread << k)
-    span = [int(o.max()) + 1 for o in own]
+    scale = 8.0 / c
+    shift = 3 + BLOCK_SHIFT
+    pos = np.ascontiguousarray(pos, dtype=np.float64)
+    points = wp.array(pos, dtype=wp.vec3d, device="cpu", copy=False)
+    # the eighth of a cube each point lies in, floor(y · 8 / c) (any rounding will do:
+    # a sort key); its block of BLOCK_CUBES = 2**BLOCK_SHIFT cubes of 8 eighths per side,
+    # numbered from the blocks of the smallest coordinates (floor and the product are
+    # monotone: the smallest eighth is that of the smallest coordinate); within a block
+    # the Morton order of the eighths, so that consecutive points are neighbours
+    lo_fine = [int(math.floor(float(pos[:, k].min()) * scale)) for k in range(3)]
+    hi_fine = [int(math.floor(float(pos[:, k].max()) * scale)) for k in range(3)]
+    own_min = [f >> shift for f in lo_fine]
+    span = [(hi >> shift) - o + 1 for hi, o in zip(hi_fine, own_min)]
     if float(span[0]) * float(span[1]) * float(span[2]) < 2.0**46:
-        key = own[2] * span[1]
-        key += own[1]
-        key *= span[0]
-        key += own[0]
-        key <<= 15
-        key |= morton
+        # the keys in a CPU kernel (several times faster than NumPy on (N, 3) arrays)
+        keys = wp.empty(len(pos), dtype=wp.int64, device="cpu")
+        spread = wp.array(_SPREAD, dtype=wp.int64, device="cpu")
+        split_launch("cpu", K, len(pos), lambda a, b: wp.launch(
+            K.block_keys, dim=b - a, device="cpu",
+            inputs=[points[a:b], wp.float64(scale), wp.int64(shift), *(wp.int64(o) for o in own_min),
+                    wp.int64(span[0]), wp.int64(span[1]), spread, keys[a:b]]))
+        key = keys.numpy()
         order = np.argsort(key, kind="stable")
         key = key[order]
         block = key >> 15
     else:  # blocks spread over more than int64 keys hold
+        fine = [np.floor(pos[:, k] * scale).astype(np.int64) for k in range(3)]
+        own = [(f >> shift) - o for f, o in zip(fine, own_min)]
+        morton = _SPREAD[fine[0] & (8 * BLOCK_CUBES - 1)] | (_SPREAD[fine[1] & (8 * BLOCK_CUBES - 1)] << 1) | \
+            (_SPREAD[fine[2] & (8 * BLOCK_CUBES - 1)] << 2)
         order = np.lexsort((morton, own[0], own[1], own[2]))
         o = np.stack(own, axis=1)[order]
         block = np.cumsum(np.r_[0, np.any(o[1:] != o[:-1], axis=1)])
@@ -455,7 +460,11 @@ def _blocks(pos: np.ndarray, setup: SurfaceSetup):
     # with room for float32 rounding: every cube a point's walk visits is in its block.
     # floor((min p − R)/c) = min floor((p − R)/c): floor and rounding are monotone.
     reach = setup.r / 2.0 * math.sqrt(3.0) * (1.0 + 1e-5)
-    ps = np.take(pos, order, axis=0)
+    ps = np.empty_like(pos)
+    wp_order = wp.array(order, dtype=wp.int64, device="cpu", copy=False)
+    wp_ps = wp.array(ps, dtype=wp.vec3d, device="cpu", copy=False)
+    split_launch("cpu", K, len(pos), lambda a, b: wp.launch(K.take_points, dim=b - a, device="cpu",
+                                                            inputs=[wp_order[a:b], points, wp_ps[a:b]]))
     lo = np.floor((np.minimum.reduceat(ps, starts, axis=0) - reach) / c).astype(np.int64)
     hi = np.floor((np.maximum.reduceat(ps, starts, axis=0) + reach) / c).astype(np.int64)
     # clusters: runs of points in the same cluster cell, cut every CLUSTER_POINTS
