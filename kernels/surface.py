@@ -197,10 +197,32 @@ def block_keys(points: wp.array(dtype=wp.vec3d), scale: wp.float64, shift: wp.in
 
 
 @wp.kernel
-def take_points(order: wp.array(dtype=wp.int64), points: wp.array(dtype=wp.vec3d),
-                out: wp.array(dtype=wp.vec3d)):
+def take_points(order: wp.array(dtype=wp.int64), points: wp.array(dtype=wp.vec3d), normals: wp.array(dtype=wp.vec3),
+                out_points: wp.array(dtype=wp.vec3d), out_normals: wp.array(dtype=wp.vec3)):
+    """The points and normals in sorted order."""
     k = wp.tid()
-    out[k] = points[order[k]]
+    q = order[k]
+    out_points[k] = points[q]
+    out_normals[k] = normals[q]
+
+
+@wp.kernel
+def prepare_points(points: wp.array(dtype=wp.vec3d), normals: wp.array(dtype=wp.vec3d), texel: wp.float64,
+                   pos: wp.array(dtype=wp.vec3d), unit: wp.array(dtype=wp.vec3), length: wp.array(dtype=wp.float64)):
+    """Positions in texel units (y / texel) and unit normals n / |n| rounded to
+    float32, in float64 with the operations (and so the values) of NumPy's
+    ``points / texel`` and ``n / sqrt(x·x + y·y + z·z)``; |n| for the host's check."""
+    k = wp.tid()
+    pos[k] = points[k] / texel
+    n = normals[k]
+    xx = n[0] * n[0]
+    yy = n[1] * n[1]
+    zz = n[2] * n[2]
+    s = xx + yy
+    s = s + zz
+    r = wp.sqrt(s)
+    length[k] = r
+    unit[k] = wp.vec3(wp.float32(n[0] / r), wp.float32(n[1] / r), wp.float32(n[2] / r))
 
 
 @wp.kernel
@@ -546,7 +568,7 @@ def gather_clustered(
     first_cluster: int,
     first: int,
     out: wp.array(dtype=wp.vec3),
-    dest: wp.array(dtype=wp.int32),
+    dest: wp.array(dtype=wp.int64),
 ):
     """The walk's sum at each point k (written to out[dest[k]]) (one thread per point: the GPU's gather, and any
     texton order) through its cluster's list: the list keeps the walk's order and
@@ -575,7 +597,7 @@ def gather_cluster_lists(
     min_points: int,
     simd: int,
     out: wp.array(dtype=wp.vec3),
-    dest: wp.array(dtype=wp.int32),
+    dest: wp.array(dtype=wp.int64),
 ):
     """Frame, list and gather one cluster per thread (the CPU's path, order-1
     textons): the frames of its points (``frame_point``), then the list, in slot 0 of ``scratch`` (one per launch: a CPU launch runs its
@@ -707,7 +729,7 @@ def cast_rays(
 
 
 __all__ = ["PAD", "SurfaceParams", "Camera", "CubeBlocks", "PointFrames", "evaluate_surface", "block_keys",
-           "take_points", "count_cubes",
+           "take_points", "prepare_points", "count_cubes",
            "emit_cubes", "frame_points", "Clusters", "list_cluster_impacts", "gather_clustered",
            "gather_cluster_lists", "hit_points", "fill_image", "shade_hits",
            "simd_probe", "cast_rays", "tangent_frame"]

@@ -355,7 +355,7 @@ def cluster_sums(coeffs: wp.array2d(dtype=wp.vec3), points: wp.array(dtype=wp.ve
                  run_end: wp.array(dtype=wp.int32), r0: int, runs: int, ux: wp.array(dtype=float),
                  uy: wp.array(dtype=float), uz: wp.array(dtype=float), u0: int, size: float, half: float,
                  cen0: float, cen1: float, lo0: float, lo1: float, hi0: float, hi1: float,
-                 out: wp.array(dtype=wp.vec3), dest: wp.array(dtype=wp.int32), simd: int):
+                 out: wp.array(dtype=wp.vec3), dest: wp.array(dtype=wp.int64), simd: int):
     """The raw slab sums (order-1 texton) of a cluster's points over its list,
     written to out[dest[k]] for point k."""
     ...

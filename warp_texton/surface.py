@@ -103,6 +103,27 @@ def _points(a, name: str) -> np.ndarray:
     return arr
 
 
+def _prepare_points(pts: np.ndarray, normals: np.ndarray, texel: float) -> tuple[np.ndarray, np.ndarray]:
+    """(pts / texel, float32 unit normals) from finite (N, 3) float64 arrays, in a CPU
+    kernel: the values of ``pts / texel`` and ``_unit_rows(normals)`` in one pass."""
+    n = len(pts)
+    pos = np.empty((n, 3))
+    unit = np.empty((n, 3), np.float32)
+    length = np.empty(n)
+    inputs = [wp.array(np.ascontiguousarray(pts), dtype=wp.vec3d, device="cpu", copy=False),
+              wp.array(np.ascontiguousarray(normals), dtype=wp.vec3d, device="cpu", copy=False)]
+    outputs = [wp.array(a, dtype=t, device="cpu", copy=False)
+               for a, t in ((pos, wp.vec3d), (unit, wp.vec3), (length, wp.float64))]
+    with np.errstate(over="ignore", invalid="ignore"):
+        split_launch("cpu", K, n, lambda a, b: wp.launch(
+            K.prepare_points, dim=b - a, device="cpu",
+            inputs=[*(x[a:b] for x in inputs), wp.float64(texel), *(y[a:b] for y in outputs)]))
+    bad = np.flatnonzero(length < 1e-12)
+    if bad.size:
+        raise TextonError(f"normals[{bad[0]}] has zero length ({bad.size} such rows); every normal must be non-zero")
+    return pos, unit
+
+
 def _unit_rows(v: np.ndarray, name: str) -> np.ndarray:
     # np.linalg.norm(v, axis=1), bit for bit (the same sums in the same order), faster
     length = np.sqrt(v[:, 0] * v[:, 0] + v[:, 1] * v[:, 1] + v[:, 2] * v[:, 2])
@@ -358,27 +379,33 @@ def surface_noise(
     if not isinstance(texton, Texton):
         raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
     pts = _points(points, "points")
-    nrm = _unit_rows(_points(normals, "normals"), "normals")
-    if nrm.shape != pts.shape:
-        raise TextonError(f"normals has shape {nrm.shape}; it must match points {pts.shape}")
+    raw = _points(normals, "normals")
+    if raw.shape != pts.shape:
+        raise TextonError(f"normals has shape {raw.shape}; it must match points {pts.shape}")
     texel = check_positive(texel_size, "texel_size")
     seed = check_seed(seed)
     check_method(method)
     setup = surface_setup(texton, mni, cell_factor)
-    tan = None
-    if tangents is not None:
+    if tangents is None:
+        # positions in texels and float32 unit normals in one CPU pass (the values of
+        # texel_positions and _unit_rows), then their checks
+        pos, nrm = _prepare_points(pts, raw, texel)
+        check_reach(pos, setup, "points")
+        tan = None
+    else:
+        nrm = _unit_rows(raw, "normals")
         tan = _points(tangents, "tangents")
         if tan.shape != pts.shape:
             raise TextonError(f"tangents has shape {tan.shape}; it must match points {pts.shape}")
-        raw = np.linalg.norm(tan, axis=1)
+        raw_t = np.linalg.norm(tan, axis=1)
         tan = tan - nrm * np.sum(tan * nrm, axis=1)[:, None]
-        flat = np.flatnonzero(np.linalg.norm(tan, axis=1) <= 1e-9 * np.maximum(raw, 1e-300))
+        flat = np.flatnonzero(np.linalg.norm(tan, axis=1) <= 1e-9 * np.maximum(raw_t, 1e-300))
         if flat.size:
-            what = "has zero length" if raw[flat[0]] == 0 else "is parallel to its normal"
+            what = "has zero length" if raw_t[flat[0]] == 0 else "is parallel to its normal"
             raise TextonError(f"tangents[{flat[0]}] {what} ({flat.size} such rows); a tangent must have a "
                               "component in the tangent plane")
         tan = tan / np.linalg.norm(tan, axis=1)[:, None]
-    pos = texel_positions(pts, texel, setup, "points")
+        pos = texel_positions(pts, texel, setup, "points")
     device = resolve_device(device)
     p = surface_params(texton, setup, seed, poisson, up, side)
     out = evaluate_points(p, setup, pos, nrm, tan, device, method)
@@ -415,10 +442,11 @@ def evaluate_points(p: K.SurfaceParams, setup: SurfaceSetup, pos: np.ndarray, nr
 _SPREAD = np.array([sum(((x >> b) & 1) << (3 * b) for b in range(5)) for x in range(8 * BLOCK_CUBES)], np.int64)
 
 
-def _blocks(pos: np.ndarray, setup: SurfaceSetup):
-    """Points sorted into blocks of BLOCK_CUBES³ cubes: (order, sorted positions, starts,
-    lo, hi, clusters), with lo/hi the first and last cube (per axis) that the points of
-    each block can reach and clusters the first point of each cluster (sorted order)."""
+def _blocks(pos: np.ndarray, nrm: np.ndarray, setup: SurfaceSetup):
+    """Points sorted into blocks of BLOCK_CUBES³ cubes: (order, sorted positions, sorted
+    float32 normals, starts, lo, hi, clusters), with lo/hi the first and last cube (per
+    axis) that the points of each block can reach and clusters the first point of each
+    cluster (sorted order)."""
     c = setup.cell
     scale = 8.0 / c
     shift = 3 + BLOCK_SHIFT
@@ -461,10 +489,13 @@ def _blocks(pos: np.ndarray, setup: SurfaceSetup):
     # floor((min p − R)/c) = min floor((p − R)/c): floor and rounding are monotone.
     reach = setup.r / 2.0 * math.sqrt(3.0) * (1.0 + 1e-5)
     ps = np.empty_like(pos)
+    ns = np.empty((len(pos), 3), np.float32)
     wp_order = wp.array(order, dtype=wp.int64, device="cpu", copy=False)
+    normals = wp.array(np.ascontiguousarray(nrm, dtype=np.float32), dtype=wp.vec3, device="cpu", copy=False)
     wp_ps = wp.array(ps, dtype=wp.vec3d, device="cpu", copy=False)
-    split_launch("cpu", K, len(pos), lambda a, b: wp.launch(K.take_points, dim=b - a, device="cpu",
-                                                            inputs=[wp_order[a:b], points, wp_ps[a:b]]))
+    wp_ns = wp.array(ns, dtype=wp.vec3, device="cpu", copy=False)
+    split_launch("cpu", K, len(pos), lambda a, b: wp.launch(
+        K.take_points, dim=b - a, device="cpu", inputs=[wp_order[a:b], points, normals, wp_ps[a:b], wp_ns[a:b]]))
     lo = np.floor((np.minimum.reduceat(ps, starts, axis=0) - reach) / c).astype(np.int64)
     hi = np.floor((np.maximum.reduceat(ps, starts, axis=0) + reach) / c).astype(np.int64)
     # clusters: runs of points in the same cluster cell, cut every CLUSTER_POINTS
@@ -473,14 +504,14 @@ def _blocks(pos: np.ndarray, setup: SurfaceSetup):
     run = np.cumsum(first) - 1
     rank = np.arange(len(order)) - np.flatnonzero(first)[run]
     clusters = np.flatnonzero(first | (rank % CLUSTER_POINTS == 0))
-    return order, ps, starts, lo, hi, clusters
+    return order, ps, ns, starts, lo, hi, clusters
 
 
 def gather_blocks(p, setup: SurfaceSetup, coeffs, pos, nrm, tan, device) -> np.ndarray:
     """The block path of :func:`evaluate_points`: sort, draw each block's cubes once, list
     each cluster's impacts, gather (docs/model.md, "Blocks of points")."""
     n = pos.shape[0]
-    order, sorted_pos, starts, lo, hi, clusters = _blocks(pos, setup)
+    order, sorted_pos, sorted_nrm, starts, lo, hi, clusters = _blocks(pos, nrm, setup)
     dims = hi - lo + 1
     cubes = np.prod(dims, axis=1)
     mean_count = setup.lam * setup.cell ** 3
@@ -495,7 +526,6 @@ def gather_blocks(p, setup: SurfaceSetup, coeffs, pos, nrm, tan, device) -> np.n
     check_memory(round_cubes * (24 + 12 * (mean_count + 10 * math.sqrt(mean_count) + 1)) + list_bytes + n * 160.0,
                  f"surface noise at {n} points", "evaluate fewer points at once")
     ends = np.r_[starts[1:], n]
-    sorted_nrm = np.take(nrm, order, axis=0).astype(np.float32)
     sorted_tan = np.take(tan, order, axis=0).astype(np.float32) if tan is not None else None
     on_cpu = wp.get_device(device).is_cpu
     # values go straight to the points' own rows (dest = order), in place on the CPU
@@ -581,7 +611,7 @@ def _gather_round(p, coeffs, pos, nrm, tan, device, starts, ends, clusters, lo, 
 
     if not by_cluster:  # gather_cluster_lists frames its own points
         split_launch(device, K, m, frame)
-    dest = wp.array(order[p0:p1].astype(np.int32), dtype=wp.int32)
+    dest = wp.array(order[p0:p1], dtype=wp.int64, copy=not on_cpu)
     # one thread per cluster on the CPU (cluster_sums: SIMD over its points) for
     # order-1 textons; one per point elsewhere (the GPU, and other orders)
     simd = int(bool(SIMD))
