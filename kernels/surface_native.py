@@ -122,6 +122,19 @@ def scan_cube(ux: wp.array(dtype=float), uy: wp.array(dtype=float), uz: wp.array
     ...
 
 
+#: Lane l takes point k's frame (n, u1, u2) and the span of its walk (both forms).
+_LOAD_LANE = r"""
+        const wp::vec3 n = normals.data[k];
+        const wp::vec3 a = u1s.data[k];
+        const wp::vec3 b = u2s.data[k];
+        nx[l] = n[0]; ny[l] = n[1]; nz[l] = n[2];
+        ax[l] = a[0]; ay[l] = a[1]; az[l] = a[2];
+        bx[l] = b[0]; by[l] = b[1]; bz[l] = b[2];
+        const wp::vec3i lo3 = span_lo.data[k];
+        const wp::vec3i hi3 = span_hi.data[k];
+        xl[l] = lo3[0]; yl[l] = lo3[1]; zl[l] = lo3[2];
+        xh[l] = hi3[0]; yh[l] = hi3[1]; zh[l] = hi3[2];"""
+
 #: One cluster's gather. Points k0 .. k1 − 1 (at most 16) with frames u1s, u2s,
 #: normals and cube spans [span_lo, span_hi]; the list: runs r0 .. r0 + runs − 1,
 #: run r being cube cubes[run_cube[r]] with impacts u[u0 + run_end[r − 1] .. u0 +
@@ -136,16 +149,7 @@ CLUSTER_SUMS = (_AVX512 + _VECTOR_TYPES + r"""
         for (int l = 0; l < 16; ++l) {
             const int k = k0 + (l < np ? l : 0);
             live[l] = l < np ? -1 : 0;
-            const wp::vec3 n = normals.data[k];
-            const wp::vec3 a = u1s.data[k];
-            const wp::vec3 b = u2s.data[k];
-            nx[l] = n[0]; ny[l] = n[1]; nz[l] = n[2];
-            ax[l] = a[0]; ay[l] = a[1]; az[l] = a[2];
-            bx[l] = b[0]; by[l] = b[1]; bz[l] = b[2];
-            const wp::vec3i lo3 = span_lo.data[k];
-            const wp::vec3i hi3 = span_hi.data[k];
-            xl[l] = lo3[0]; yl[l] = lo3[1]; zl[l] = lo3[2];
-            xh[l] = hi3[0]; yh[l] = hi3[1]; zh[l] = hi3[2];
+LOAD_LANE
             const wp::vec3d y = points.data[k];
             if (l < 8) {
                 pxa[l] = y[0]; pya[l] = y[1]; pza[l] = y[2];
@@ -261,16 +265,7 @@ CLUSTER_SUMS = (_AVX512 + _VECTOR_TYPES + r"""
     bool inside[16];
     for (int l = 0; l < np; ++l) {
         const int k = k0 + l;
-        const wp::vec3 n = normals.data[k];
-        const wp::vec3 a = u1s.data[k];
-        const wp::vec3 b = u2s.data[k];
-        nx[l] = n[0]; ny[l] = n[1]; nz[l] = n[2];
-        ax[l] = a[0]; ay[l] = a[1]; az[l] = a[2];
-        bx[l] = b[0]; by[l] = b[1]; bz[l] = b[2];
-        const wp::vec3i lo3 = span_lo.data[k];
-        const wp::vec3i hi3 = span_hi.data[k];
-        xl[l] = lo3[0]; yl[l] = lo3[1]; zl[l] = lo3[2];
-        xh[l] = hi3[0]; yh[l] = hi3[1]; zh[l] = hi3[2];
+LOAD_LANE
         s0[l] = 0.0f; s1[l] = 0.0f; s2[l] = 0.0f;
     }
     const float* cf = (const float*)coeffs.data;
@@ -341,7 +336,7 @@ CLUSTER_SUMS = (_AVX512 + _VECTOR_TYPES + r"""
     }
     for (int l = 0; l < np; ++l)
         out.data[dest.data[k0 + l]] = wp::vec3(s0[l], s1[l], s2[l]);
-""").replace("PADV", str(PAD))
+""").replace("PADV", str(PAD)).replace("LOAD_LANE", _LOAD_LANE)
 
 
 @wp.func_native(CLUSTER_SUMS)
