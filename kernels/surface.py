@@ -379,7 +379,8 @@ class Clusters:
     # each: run k < runs[m] is cube run_cube[cap_runs·m + k], its impacts (positions in
     # cell units, as drawn) are (ux, uy, uz)[cap·m + run_end[cap_runs·m + k − 1] ..
     # cap·m + run_end[cap_runs·m + k] − 1]; runs −1: no list (too few points, or it
-    # overflowed)
+    # overflowed). The CPU's one-cluster scratch uses slot 0 only (m = 0; first and
+    # runs unused).
     first: wp.array(dtype=wp.int32)
     cap: int
     cap_runs: int
