@@ -151,6 +151,8 @@ def test_kernels_compile_for_cuda(arch):
             continue
         with tempfile.TemporaryDirectory() as d:
             files = wp.compile_aot_module(module, arch=arch, module_dir=d)
+            if files is None:  # Warp before 1.19 returns nothing: look for what it wrote
+                files = [str(f) for f in Path(d).glob(f"*.sm{arch}.cubin")]
             assert files and all(Path(f).is_file() and Path(f).stat().st_size > 0 for f in files), module.__name__
             compiled.append(module.__name__.rsplit(".", 1)[-1])
     assert {"noise2d", "filter2d", "surface"} <= set(compiled)
