@@ -251,6 +251,15 @@ def emit_cubes(p: SurfaceParams, cubes: wp.array(dtype=wp.vec3i), offsets: wp.ar
 
 
 @wp.func
+def range_meets(rel: wp.vec3, a: wp.vec3, size: float, lo: float, hi: float):
+    # does ⟨rel − u size, a⟩ over u ∈ [0, 1]³ meet [lo, hi]?
+    x = wp.dot(rel, a)
+    x_lo = x - size * (wp.max(a[0], 0.0) + wp.max(a[1], 0.0) + wp.max(a[2], 0.0))
+    x_hi = x - size * (wp.min(a[0], 0.0) + wp.min(a[1], 0.0) + wp.min(a[2], 0.0))
+    return x_lo <= hi and x_hi >= lo
+
+
+@wp.func
 def cube_may_count(c: SlabLookup, rel: wp.vec3, size: float):
     """Whether an impact of the cube whose corner is at y − rel can pass add_slab's
     tests: the ranges of ⟨d, n⟩, ⟨d, u1⟩, ⟨d, u2⟩ over d = rel − [0, size]³ against
@@ -258,22 +267,9 @@ def cube_may_count(c: SlabLookup, rel: wp.vec3, size: float):
     refused here holds no impact that adds anything, so skipping it leaves the
     sum unchanged, bit for bit."""
     margin = 1.0e-4 * (c.half + size)
-    t = wp.dot(rel, c.n)
-    t_lo = t - size * (wp.max(c.n[0], 0.0) + wp.max(c.n[1], 0.0) + wp.max(c.n[2], 0.0))
-    t_hi = t - size * (wp.min(c.n[0], 0.0) + wp.min(c.n[1], 0.0) + wp.min(c.n[2], 0.0))
-    if t_lo >= c.half + margin or t_hi <= -c.half - margin:
-        return False
-    a = wp.dot(rel, c.u1) + c.centre[0]
-    a_lo = a - size * (wp.max(c.u1[0], 0.0) + wp.max(c.u1[1], 0.0) + wp.max(c.u1[2], 0.0))
-    a_hi = a - size * (wp.min(c.u1[0], 0.0) + wp.min(c.u1[1], 0.0) + wp.min(c.u1[2], 0.0))
-    if a_lo > c.hi[0] + margin or a_hi < c.lo[0] - margin:
-        return False
-    b = wp.dot(rel, c.u2) + c.centre[1]
-    b_lo = b - size * (wp.max(c.u2[0], 0.0) + wp.max(c.u2[1], 0.0) + wp.max(c.u2[2], 0.0))
-    b_hi = b - size * (wp.min(c.u2[0], 0.0) + wp.min(c.u2[1], 0.0) + wp.min(c.u2[2], 0.0))
-    if b_lo > c.hi[1] + margin or b_hi < c.lo[1] - margin:
-        return False
-    return True
+    return (range_meets(rel, c.n, size, -c.half - margin, c.half + margin)
+            and range_meets(rel, c.u1, size, c.lo[0] - c.centre[0] - margin, c.hi[0] - c.centre[0] + margin)
+            and range_meets(rel, c.u2, size, c.lo[1] - c.centre[1] - margin, c.hi[1] - c.centre[1] + margin))
 
 
 @wp.struct
@@ -363,15 +359,6 @@ def sum_block(p: SurfaceParams, coeffs: wp.array2d(dtype=wp.vec3), look: SlabLoo
 
 
 # ------------------------------------------------ clusters of nearby points
-@wp.func
-def range_meets(rel: wp.vec3, a: wp.vec3, size: float, lo: float, hi: float):
-    # does ⟨rel − u size, a⟩ over u ∈ [0, 1]³ meet [lo, hi]?
-    x = wp.dot(rel, a)
-    x_lo = x - size * (wp.max(a[0], 0.0) + wp.max(a[1], 0.0) + wp.max(a[2], 0.0))
-    x_hi = x - size * (wp.min(a[0], 0.0) + wp.min(a[1], 0.0) + wp.min(a[2], 0.0))
-    return x_lo <= hi and x_hi >= lo
-
-
 @wp.struct
 class Clusters:
     # cluster m holds the points first[m] .. first[m + 1] − 1 (all of one block); the

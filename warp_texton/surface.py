@@ -114,22 +114,24 @@ def _prepare_points(pts: np.ndarray, normals: np.ndarray, texel: float) -> tuple
               wp.array(np.ascontiguousarray(normals), dtype=wp.vec3d, device="cpu", copy=False)]
     outputs = [wp.array(a, dtype=t, device="cpu", copy=False)
                for a, t in ((pos, wp.vec3d), (unit, wp.vec3), (length, wp.float64))]
-    with np.errstate(over="ignore", invalid="ignore"):
-        split_launch("cpu", K, n, lambda a, b: wp.launch(
-            K.prepare_points, dim=b - a, device="cpu",
-            inputs=[*(x[a:b] for x in inputs), wp.float64(texel), *(y[a:b] for y in outputs)]))
+    split_launch("cpu", K, n, lambda a, b: wp.launch(
+        K.prepare_points, dim=b - a, device="cpu",
+        inputs=[*(x[a:b] for x in inputs), wp.float64(texel), *(y[a:b] for y in outputs)]))
+    _check_lengths(length, "normals")
+    return pos, unit
+
+
+def _check_lengths(length: np.ndarray, name: str) -> None:
+    """Refuse rows of zero length (``name`` is a plural: "normals")."""
     bad = np.flatnonzero(length < 1e-12)
     if bad.size:
-        raise TextonError(f"normals[{bad[0]}] has zero length ({bad.size} such rows); every normal must be non-zero")
-    return pos, unit
+        raise TextonError(f"{name}[{bad[0]}] has zero length ({bad.size} such rows); every {name[:-1]} must be non-zero")
 
 
 def _unit_rows(v: np.ndarray, name: str) -> np.ndarray:
     # np.linalg.norm(v, axis=1), bit for bit (the same sums in the same order), faster
     length = np.sqrt(v[:, 0] * v[:, 0] + v[:, 1] * v[:, 1] + v[:, 2] * v[:, 2])
-    bad = np.flatnonzero(length < 1e-12)
-    if bad.size:
-        raise TextonError(f"{name}[{bad[0]}] has zero length ({bad.size} such rows); every {name[:-1]} must be non-zero")
+    _check_lengths(length, name)
     return v / length[:, None]
 
 
@@ -520,14 +522,14 @@ def gather_blocks(p, setup: SurfaceSetup, coeffs, pos, nrm, tan, device) -> np.n
     round_cubes = min(float(cubes.sum()), max(float(CUBES_PER_ROUND), float(cubes.max())))
     # the CPU lists and gathers each cluster in turn (order-1 textons), in a one-slot
     # scratch per launch; otherwise the clusters of a round are listed at once
-    by_cluster = wp.get_device(device).is_cpu and p.order == 1
+    on_cpu = wp.get_device(device).is_cpu
+    by_cluster = on_cpu and p.order == 1
     slots = CHUNKS_PER_THREAD * cpu_threads() if by_cluster else min(len(clusters), CLUSTERS_PER_ROUND)
     list_bytes = slots * (12.0 * CLUSTER_CAP + 8.0 * CLUSTER_RUNS + 12.0)
     check_memory(round_cubes * (24 + 12 * (mean_count + 10 * math.sqrt(mean_count) + 1)) + list_bytes + n * 160.0,
                  f"surface noise at {n} points", "evaluate fewer points at once")
     ends = np.r_[starts[1:], n]
     sorted_tan = np.take(tan, order, axis=0).astype(np.float32) if tan is not None else None
-    on_cpu = wp.get_device(device).is_cpu
     # values go straight to the points' own rows (dest = order), in place on the CPU
     out = np.empty((n, 3), np.float32)
     res = wp.array(out, dtype=wp.vec3, copy=False) if on_cpu else wp.empty(n, dtype=wp.vec3)
