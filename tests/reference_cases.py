@@ -145,4 +145,51 @@ def case_mixed_map():
     return wt.synthesize_mixed(ts, rho, (30, 36), 30.0, 5, scale=0.8, device=DEVICE)
 
 
+def _torus_vertices():
+    import trimesh
+
+    mesh = trimesh.creation.torus(major_radius=1.0, minor_radius=0.35, major_sections=96, minor_sections=48)
+    return np.asarray(mesh.vertices), np.asarray(mesh.vertex_normals)
+
+
+def _block_path(points, normals, simd, texel_size=0.05, **kw):
+    """surface_noise through the block path (gather_blocks) with the SIMD loops on or off.
+
+    At texel_size 0.05 the torus puts about ten points in each cluster cell (the
+    cluster loops); the sparse cases, at 0.01, leave single points (the walk fallback)."""
+    from warp_texton import surface as S
+
+    before = S.SIMD
+    S.SIMD = simd
+    try:
+        return wt.surface_noise(_texton(), points, normals, texel_size, 60.0, 7, device=DEVICE, method="blocks", **kw)
+    finally:
+        S.SIMD = before
+
+
+def case_blocks_dense_simd():
+    p, n = _torus_vertices()
+    return _block_path(p, n, True)
+
+
+def case_blocks_dense_scalar():
+    p, n = _torus_vertices()
+    return _block_path(p, n, False)
+
+
+def case_blocks_sparse_simd():
+    p, n = _surface_points(n=6000, seed=8)
+    return _block_path(p * 40.0 + [2.5e4, -1.5e4, 300.0], n, True, texel_size=0.01)
+
+
+def case_blocks_sparse_scalar():
+    p, n = _surface_points(n=6000, seed=8)
+    return _block_path(p * 40.0 + [2.5e4, -1.5e4, 300.0], n, False, texel_size=0.01)
+
+
+def case_blocks_dense_tangents():
+    p, n = _torus_vertices()
+    return _block_path(p, n, True, tangents=np.cross(n, [0.3, 0.4, 0.5]))
+
+
 CASES = {name[len("case_"):]: fn for name, fn in sorted(globals().items()) if name.startswith("case_")}
