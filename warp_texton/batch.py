@@ -198,7 +198,8 @@ def run_surface_job(job: SurfaceJob, token: str | None = None) -> JobResult:
 def _run(job: SurfaceJob, outputs: list[Path], notes: list[str]) -> None:
     from .bake import bake_mesh, write_baked
     from .io import atomic_path, write_image
-    from .surface import default_texel_size, render_mesh, texture_mesh, vertex_spacing
+    from .mesh import default_texel_size, texture_mesh, vertex_spacing
+    from .render import render_mesh
     from .texton import load_texton
 
     Path(job.out_dir).mkdir(parents=True, exist_ok=True)  # on a cluster worker too
