@@ -264,7 +264,6 @@ def surface_noise(
     return np.ascontiguousarray(out[:, : texton.channels])
 
 
-
 def evaluate_points(p: K.SurfaceParams, setup: SurfaceSetup, pos: np.ndarray, nrm: np.ndarray, tan, device,
                     method: str = "auto") -> np.ndarray:
     """(N, 3) float32 surface noise at checked float64 texel positions with unit
