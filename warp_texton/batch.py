@@ -53,7 +53,7 @@ class SurfaceJob:
     mesh: str
     texton: str | Texton
     out_dir: str
-    texel_size: float | None = None  # world units per texel; None: surface.default_texel_size
+    texel_size: float | None = None  # world units per texel; None: mesh.default_texel_size
     mni: float = 60.0
     seed: int = 0
     max_edge: float | None = None
