@@ -1,6 +1,6 @@
 """Surface texton noise (CGF §6): a 3-D hashed-cell Poisson process projected on
 tangent planes, evaluated at points (each point walking its cubes, or blocks of
-points sharing the cubes' impacts) and ray-cast for renders.
+points sharing the cubes' impacts drawn by kernels/blocks.py).
 
 Units are texels: the host divides world positions by the texel size. The
 impacts are those of the cubic cells of kernels/impacts.py (the plane's hash
@@ -13,11 +13,19 @@ support's larger side).
 
 import warp as wp
 
-from .impacts import Cells3, cell_state3, cell_walk3, cube_offset, cube_span, draw_count, impact_offset3, next_impact3
+from .blocks import CubeBlocks, clamp_to_block
+from .impacts import Cells3, cell_walk3, cube_offset, cube_span, impact_offset3
 from .noise2d import PAD, texton_value
 from .surface_native import avx512_loops, cluster_sums, scan_cube
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
+
+#: √3: an impact that reaches a point lies within R = (r/2)√3 of it (the half-diagonal
+#: of the cube of side r around the point, in its frame).
+SQRT3 = wp.constant(1.7320508)
+#: R is taken 0.1 % larger, far above float32 rounding (a few 1e-7), so that no impact
+#: within R of a point is left off its cluster's list.
+REACH_ROUNDING = wp.constant(1.001)
 
 
 @wp.struct
@@ -176,36 +184,6 @@ def evaluate_surface(
     out[k] = surface_value(p, coeffs, points[k], u1, u2, n)
 
 
-# ------------------------------------------------------- blocks of points
-@wp.kernel
-def block_keys(points: wp.array(dtype=wp.vec3d), scale: wp.float64, shift: wp.int64, o0: wp.int64, o1: wp.int64,
-               o2: wp.int64, s0: wp.int64, s1: wp.int64, spread: wp.array(dtype=wp.int64),
-               keys: wp.array(dtype=wp.int64)):
-    """Each point's sort key: its block (of 2**shift eighths of a cube per side, the
-    fine cell floor(y · scale) shifted right; numbered x fastest from (o0, o1, o2) in
-    rows of s0 and planes of s1 blocks) above 15 bits of the Morton code of its eighth
-    within the block (``spread`` spaces the bits of one axis)."""
-    k = wp.tid()
-    y = points[k]
-    fx = wp.int64(wp.floor(y[0] * scale))
-    fy = wp.int64(wp.floor(y[1] * scale))
-    fz = wp.int64(wp.floor(y[2] * scale))
-    mask = (wp.int64(1) << shift) - wp.int64(1)
-    m = spread[int(fx & mask)] | (spread[int(fy & mask)] << wp.int64(1)) | (spread[int(fz & mask)] << wp.int64(2))
-    block = (((fz >> shift) - o2) * s1 + ((fy >> shift) - o1)) * s0 + ((fx >> shift) - o0)
-    keys[k] = (block << wp.int64(15)) | m
-
-
-@wp.kernel
-def take_points(order: wp.array(dtype=wp.int64), points: wp.array(dtype=wp.vec3d), normals: wp.array(dtype=wp.vec3),
-                out_points: wp.array(dtype=wp.vec3d), out_normals: wp.array(dtype=wp.vec3)):
-    """The points and normals in sorted order."""
-    k = wp.tid()
-    q = order[k]
-    out_points[k] = points[q]
-    out_normals[k] = normals[q]
-
-
 @wp.kernel
 def prepare_points(points: wp.array(dtype=wp.vec3d), normals: wp.array(dtype=wp.vec3d), texel: wp.float64,
                    pos: wp.array(dtype=wp.vec3d), unit: wp.array(dtype=wp.vec3), length: wp.array(dtype=wp.float64)):
@@ -225,31 +203,7 @@ def prepare_points(points: wp.array(dtype=wp.vec3d), normals: wp.array(dtype=wp.
     unit[k] = wp.vec3(wp.float32(n[0] / r), wp.float32(n[1] / r), wp.float32(n[2] / r))
 
 
-@wp.kernel
-def count_cubes(p: SurfaceParams, cubes: wp.array(dtype=wp.vec3i), counts: wp.array(dtype=wp.int32)):
-    """Impact count of each listed cube."""
-    g = wp.tid()
-    c = cubes[g]
-    n, s = draw_count(cell_state3(p.cells, c[0], c[1], c[2]), p.cells.mean_count, p.cells.exact_poisson)
-    counts[g] = n
-
-
-@wp.kernel
-def emit_cubes(p: SurfaceParams, cubes: wp.array(dtype=wp.vec3i), offsets: wp.array(dtype=wp.int32),
-               ux: wp.array(dtype=float), uy: wp.array(dtype=float), uz: wp.array(dtype=float)):
-    """Each listed cube's impacts, in the order drawn, as positions in cell units
-    (what ``next_impact3`` gives, one array per axis), so that a gather computes
-    the offsets exactly as the per-point walk does."""
-    g = wp.tid()
-    c = cubes[g]
-    n, s = draw_count(cell_state3(p.cells, c[0], c[1], c[2]), p.cells.mean_count, p.cells.exact_poisson)
-    for k in range(offsets[g], wp.min(offsets[g] + n, offsets[g + 1])):
-        u, s = next_impact3(s)
-        ux[k] = u[0]
-        uy[k] = u[1]
-        uz[k] = u[2]
-
-
+# ------------------------------------------------------- blocks of points
 @wp.func
 def range_meets(rel: wp.vec3, a: wp.vec3, size: float, lo: float, hi: float):
     # does ⟨rel − u size, a⟩ over u ∈ [0, 1]³ meet [lo, hi]?
@@ -270,20 +224,6 @@ def cube_may_count(c: SlabLookup, rel: wp.vec3, size: float):
     return (range_meets(rel, c.n, size, -c.half - margin, c.half + margin)
             and range_meets(rel, c.u1, size, c.lo[0] - c.centre[0] - margin, c.hi[0] - c.centre[0] + margin)
             and range_meets(rel, c.u2, size, c.lo[1] - c.centre[1] - margin, c.hi[1] - c.centre[1] + margin))
-
-
-@wp.struct
-class CubeBlocks:
-    # block b owns the cubes origin[b] + [0, dims[b]) (x fastest), numbered from base[b];
-    # cube g is cubes[g] and its impacts are (ux, uy, uz)[offsets[g]:offsets[g + 1]]
-    cubes: wp.array(dtype=wp.vec3i)
-    origin: wp.array(dtype=wp.vec3i)
-    dims: wp.array(dtype=wp.vec3i)
-    base: wp.array(dtype=wp.int32)
-    offsets: wp.array(dtype=wp.int32)
-    ux: wp.array(dtype=float)
-    uy: wp.array(dtype=float)
-    uz: wp.array(dtype=float)
 
 
 @wp.struct
@@ -314,14 +254,6 @@ def frame_points(p: SurfaceParams, points: wp.array(dtype=wp.vec3d), normals: wp
     """Each point's frame (the rule, or its tangent) and the span of cubes of its
     walk (``cube_span`` of ``frame_extent``), computed once for listing and gathering."""
     frame_point(p, points, normals, tangents, use_tangents, frames, wp.tid())
-
-
-@wp.func
-def clamp_to_block(o: wp.vec3i, dm: wp.vec3i, x0: int, x1: int, y0: int, y1: int, z0: int, z1: int):
-    # the cube range within the block's cubes o + [0, dm) (the host sizes each block to
-    # hold its points' cubes; the clamps only guard memory)
-    return (wp.max(x0, o[0]), wp.min(x1, o[0] + dm[0] - 1), wp.max(y0, o[1]), wp.min(y1, o[1] + dm[1] - 1),
-            wp.max(z0, o[2]), wp.min(z1, o[2] + dm[2] - 1))
 
 
 @wp.func
@@ -449,7 +381,7 @@ def list_cluster(p: SurfaceParams, points: wp.array(dtype=wp.vec3d), normals: wp
         nu = wp.max(nu, wp.length(normals[k] - nbar))
         mu1 = wp.max(mu1, wp.length(frames.u1[k] - ubar))
         mu2 = wp.max(mu2, wp.length(frames.u2[k] - vbar))
-    big_r = p.half * 1.7320508 * 1.001
+    big_r = p.half * SQRT3 * REACH_ROUNDING
     margin = 1.0e-3 * (p.half + c) + 1.0e-5 * (rho + big_r)
     t_lim = p.half + rho_n + big_r * nu + margin
     a_lo = p.lo[0] - p.centre[0] - rho_u - big_r * mu1 - margin
@@ -612,112 +544,10 @@ def gather_cluster_lists(
 
 
 @wp.kernel
-def hit_points(pixels: wp.array(dtype=wp.int32), face: wp.array(dtype=wp.int32), bary: wp.array(dtype=wp.vec2),
-               normal: wp.array(dtype=wp.vec3), vertices: wp.array(dtype=wp.vec3d), faces: wp.array(dtype=wp.int32),
-               texel: wp.float64, points: wp.array(dtype=wp.vec3d), normals: wp.array(dtype=wp.vec3)):
-    """The hit of pixel pixels[k] (flat index into the ray cast's arrays) in float64
-    texel units, from its face's vertices and weights (u, v, 1 − u − v), and its
-    shading normal."""
-    k = wp.tid()
-    q = pixels[k]
-    f = face[q]
-    uv = bary[q]
-    u = wp.float64(uv[0])
-    v = wp.float64(uv[1])
-    w = wp.float64(1.0) - u - v
-    y = vertices[faces[3 * f]] * u + vertices[faces[3 * f + 1]] * v + vertices[faces[3 * f + 2]] * w
-    points[k] = y / texel
-    normals[k] = normal[q]
-
-
-@wp.kernel
-def fill_image(img: wp.array2d(dtype=wp.vec3), background: wp.vec3):
-    i, j = wp.tid()
-    img[i, j] = background
-
-
-@wp.kernel
-def shade_hits(pixels: wp.array(dtype=wp.int32), values: wp.array(dtype=wp.vec3), shade: wp.array(dtype=float),
-               box_width: int, row0: int, col0: int, grey: int, img: wp.array2d(dtype=wp.vec3)):
-    """Pixel pixels[k] (flat index into the ray cast's box) of the render: its noise
-    value clipped to [0, 1] times its shade (grey noise, in channel 0, spread to RGB)."""
-    k = wp.tid()
-    q = pixels[k]
-    g = values[k]
-    if grey != 0:
-        g = wp.vec3(g[0], g[0], g[0])
-    s = shade[q]
-    img[row0 + q / box_width, col0 + q % box_width] = wp.vec3(wp.clamp(g[0], 0.0, 1.0) * s,
-                                                              wp.clamp(g[1], 0.0, 1.0) * s,
-                                                              wp.clamp(g[2], 0.0, 1.0) * s)
-
-
-@wp.kernel
 def simd_probe(out: wp.array(dtype=wp.int32)):
     """Whether the loops of kernels/surface_native.py use AVX-512 in this build."""
     out[0] = avx512_loops()
 
 
-@wp.struct
-class Camera:
-    origin: wp.vec3  # world units, relative to the mesh's local origin
-    right: wp.vec3
-    up: wp.vec3
-    forward: wp.vec3
-    tan_half_fov: float  # vertical
-    aspect: float  # width / height
-    light: wp.vec3  # unit direction towards the light
-
-
-@wp.kernel
-def cast_rays(
-    mesh: wp.uint64,
-    vertex_normals: wp.array(dtype=wp.vec3),
-    indices: wp.array(dtype=wp.int32),
-    cam: Camera,
-    height: int,
-    width: int,
-    row0: int,
-    col0: int,
-    faces: wp.array2d(dtype=wp.int32),
-    bary: wp.array2d(dtype=wp.vec2),
-    normals: wp.array2d(dtype=wp.vec3),
-    shade: wp.array2d(dtype=float),
-):
-    """Ray-cast one pixel (row0 + i, col0 + j) of a height × width image into
-    element (i, j) of the outputs: the face hit (−1 for none), the barycentric
-    weights of its first two vertices, the shading normal and the diffuse shade
-    (zeros where nothing is hit). The mesh and the camera are in world units
-    relative to a local origin (the host adds it back in float64)."""
-    i, j = wp.tid()
-    sx = (2.0 * (float(j + col0) + 0.5) / float(width) - 1.0) * cam.tan_half_fov * cam.aspect
-    sy = (1.0 - 2.0 * (float(i + row0) + 0.5) / float(height)) * cam.tan_half_fov
-    d = wp.normalize(cam.forward + cam.right * sx + cam.up * sy)
-    q = wp.mesh_query_ray(mesh, cam.origin, d, 1.0e30)
-    if not q.result:
-        faces[i, j] = -1
-        bary[i, j] = wp.vec2(0.0)
-        normals[i, j] = wp.vec3(0.0)
-        shade[i, j] = 0.0
-        return
-    f = q.face
-    n = (vertex_normals[indices[3 * f]] * q.u + vertex_normals[indices[3 * f + 1]] * q.v
-         + vertex_normals[indices[3 * f + 2]] * (1.0 - q.u - q.v))
-    # smooth normals, except across creases: where the interpolated normal leaves
-    # the face's by more than 30°, the face normal keeps flat faces flat
-    if wp.length(n) < 1.0e-6:
-        n = q.normal
-    n = wp.normalize(n)
-    if wp.dot(n, q.normal) < 0.866:
-        n = q.normal
-    faces[i, j] = f
-    bary[i, j] = wp.vec2(q.u, q.v)
-    normals[i, j] = n
-    shade[i, j] = 0.3 + 0.7 * wp.abs(wp.dot(n, cam.light))
-
-
-__all__ = ["PAD", "SurfaceParams", "Camera", "CubeBlocks", "PointFrames", "evaluate_surface", "block_keys",
-           "take_points", "prepare_points", "count_cubes",
-           "emit_cubes", "frame_points", "Clusters", "list_cluster_impacts", "gather_clustered",
-           "gather_cluster_lists", "hit_points", "fill_image", "shade_hits",
-           "simd_probe", "cast_rays", "tangent_frame"]
+__all__ = ["PAD", "SurfaceParams", "PointFrames", "Clusters", "evaluate_surface", "prepare_points", "frame_points",
+           "list_cluster_impacts", "gather_clustered", "gather_cluster_lists", "simd_probe", "tangent_frame"]

@@ -157,14 +157,14 @@ def _block_path(points, normals, simd, texel_size=0.05, **kw):
 
     At texel_size 0.05 the torus puts about ten points in each cluster cell (the
     cluster loops); the sparse cases, at 0.01, leave single points (the walk fallback)."""
-    from warp_texton import surface as S
+    from warp_texton import blocks as B
 
-    before = S.SIMD
-    S.SIMD = simd
+    before = B.SIMD
+    B.SIMD = simd
     try:
         return wt.surface_noise(_texton(), points, normals, texel_size, 60.0, 7, device=DEVICE, method="blocks", **kw)
     finally:
-        S.SIMD = before
+        B.SIMD = before
 
 
 def case_blocks_dense_simd():

@@ -34,14 +34,16 @@ LAYERS = {
     "gaussian": 5, "dsn": 5,
     "analysis": 6,
     "_runtime": 7,
-    "noise": 8,
+    "noise": 8, "frames": 8, "blocks": 8,
     "filtering": 9,
     "synthesis": 10, "plane": 10,
     "mixing": 11, "surface": 11, "dask": 11,
-    "bake": 12, "demo": 12, "view_core": 12,
-    "batch": 13, "view": 13,
-    "cli": 14,
-    "__init__": 15,
+    "mesh": 12,
+    "render": 13,
+    "bake": 14, "demo": 14, "view_core": 14,
+    "batch": 15, "view": 15,
+    "cli": 16,
+    "__init__": 17,
 }
 
 
@@ -155,4 +157,4 @@ def test_kernels_compile_for_cuda(arch):
                 files = [str(f) for f in Path(d).glob(f"*.sm{arch}.cubin")]
             assert files and all(Path(f).is_file() and Path(f).stat().st_size > 0 for f in files), module.__name__
             compiled.append(module.__name__.rsplit(".", 1)[-1])
-    assert {"noise2d", "filter2d", "surface"} <= set(compiled)
+    assert {"noise2d", "filter2d", "surface", "blocks", "render"} <= set(compiled)

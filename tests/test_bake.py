@@ -31,7 +31,8 @@ from helpers import parts, random_texton
 from warp_texton import BakedMesh, Texton, TextonError, bake_mesh, surface_noise, texture_mesh, write_baked
 from warp_texton.bake import check_uvs, to_8bit
 from warp_texton.limits import set_memory_budget
-from warp_texton.surface import srgb_to_linear, tangent_frames, vertex_normals
+from warp_texton.frames import tangent_frames
+from warp_texton.mesh import srgb_to_linear, vertex_normals
 
 pytestmark = pytest.mark.filterwarnings("ignore:.*texels apart:UserWarning")
 
@@ -282,7 +283,7 @@ class TestAtlas:
         render_mesh's per-pixel noise, same camera: on the pixels both hit, within ω of 2.5 texels
         of the noise at the hit (the lookup's texels) plus half an 8-bit step, times the shade."""
         from warp_texton import Camera, render_baked, render_mesh
-        from warp_texton.surface import cast_rays
+        from warp_texton.render import cast_rays
 
         mesh, baked = torus
         (glb,) = write_baked(baked, tmp_path / "torus", "glb")

@@ -21,13 +21,18 @@ import trimesh
 from PIL import Image
 
 from warp_texton import Texton, TextonError, texture_mesh
-from warp_texton.surface import linear_to_srgb
 from warp_texton.batch import JobResult, SurfaceJob, expand_meshes, run_batch, run_surface_job
 from helpers import parts, run_cli
 
 MEAN = (0.3, 0.5, 0.7)
 SUMMARY = re.compile(r"^(\d+) done, (\d+) skipped, (\d+) failed$")
 OLD = 1_000_000_000  # an mtime (2001) that no run of the tests can produce
+
+
+def linear_to_srgb(v) -> np.ndarray:
+    """The sRGB encoding (IEC 61966-2-1), inverse of warp_texton.mesh.srgb_to_linear."""
+    v = np.clip(np.asarray(v, dtype=np.float64), 0.0, None)
+    return np.where(v <= 0.0031308, v * 12.92, 1.055 * v ** (1 / 2.4) - 0.055)
 
 
 @pytest.fixture

@@ -23,6 +23,8 @@ from __future__ import annotations
 
 import importlib.util
 import math
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -35,7 +37,8 @@ from helpers import anisotropic_texton, noise_sd, random_texton
 from texton_models import isolated_bumps, block_zscores, expected_periodogram, model_covariance, texton_on_nodes
 from warp_texton import Camera, Texton, TextonError, render_mesh, surface_noise, tangent_frames, texture_mesh
 from warp_texton.bspline import bspline
-from warp_texton.surface import UP, vertex_normals
+from warp_texton.frames import UP
+from warp_texton.mesh import vertex_normals
 
 # the vertex-colour spacing warning is tested in TestVertexSpacing; elsewhere it is expected
 pytestmark = pytest.mark.filterwarnings("ignore:.*texels apart:UserWarning")
@@ -677,8 +680,8 @@ class TestRender:
         # only the pixels of the mesh's screen box cast rays: casting every pixel must give
         # the same hits, bit for bit, whether the mesh fills the view, leaves it partly,
         # surrounds the eye (the whole image is cast) or lies behind it (none is)
-        import warp_texton.surface as S
-        from warp_texton.surface import cast_rays
+        import warp_texton.render as R
+        from warp_texton.render import cast_rays
 
         mesh = trimesh.creation.torus(1.0, 0.4, major_sections=40, minor_sections=20)
         cam = {"framed": Camera((3.0, -4.0, 2.0), (0, 0, 0), (0, 0, 1), 40.0),
@@ -686,10 +689,10 @@ class TestRender:
                "around the eye": Camera((0.0, 1.0, 0.0), (1.0, 1.0, 0.3), (0, 0, 1), 80.0),
                "behind": Camera((0.0, -5.0, 0.0), (0.0, -9.0, 0.0), (0, 0, 1), 40.0)}[where]
         boxes = []
-        real_box = S.screen_box
-        monkeypatch.setattr(S, "screen_box", lambda *a: boxes.append(real_box(*a)) or boxes[-1])
+        real_box = R.screen_box
+        monkeypatch.setattr(R, "screen_box", lambda *a: boxes.append(real_box(*a)) or boxes[-1])
         got = cast_rays(mesh, (60, 80), cam, device=device)
-        monkeypatch.setattr(S, "screen_box", lambda rel, f, r, u, t, a, h, w: (0, h, 0, w))
+        monkeypatch.setattr(R, "screen_box", lambda rel, f, r, u, t, a, h, w: (0, h, 0, w))
         want = cast_rays(mesh, (60, 80), cam, device=device)
         for a, b in ((got.face, want.face), (got.bary, want.bary), (got.normal, want.normal),
                      (got.shade, want.shade)):
@@ -989,9 +992,9 @@ class TestBlocks:
     def test_simd_and_scalar_loops_equal_the_walk(self, simd, device, monkeypatch):
         # the CPU lists and gathers clusters with kernels/surface_native.py: AVX-512 where
         # the CPU has it, plain C++ otherwise; both must sum the walk's terms in its order
-        import warp_texton.surface as S
+        import warp_texton.blocks as blk
 
-        monkeypatch.setattr(S, "SIMD", simd)
+        monkeypatch.setattr(blk, "SIMD", simd)
         rng = np.random.default_rng(31)
         t = random_texton((16, 12), channels=3, order=1, seed=rng)
         # dense points (about a texel apart, dozens per cluster cell), so that the clusters
@@ -1010,14 +1013,14 @@ class TestBlocks:
     def test_avx512_loops_are_built_where_the_cpu_has_them(self):
         # a build that silently lost the AVX-512 loops would give the same values, only
         # about 2x slower: check that Warp's CPU code has them on CPUs that do
-        import warp_texton.surface as S
+        import warp_texton.blocks as blk
 
         try:
             flags = Path("/proc/cpuinfo").read_text().split("\nflags", 1)[1].split("\n", 1)[0].split()
         except (OSError, IndexError):
             pytest.skip("no /proc/cpuinfo flags on this system")
         has = "avx512f" in flags and "avx512dq" in flags
-        assert S.simd_loops("cpu") == ("avx512" if has else "scalar")
+        assert blk.simd_loops("cpu") == ("avx512" if has else "scalar")
 
     def test_blocks_spread_beyond_int64_keys(self, device):
         # two dense groups 10^7 texels apart on every axis: (10^7 / block side)^3 blocks
@@ -1032,17 +1035,34 @@ class TestBlocks:
         assert a[:3000].std() > 0.3 * noise_sd(t) and a[3000:].std() > 0.3 * noise_sd(t)
 
     def test_overflowing_cluster_lists_fall_back_to_the_block(self, device, monkeypatch):
-        import warp_texton.surface as S
+        import warp_texton.blocks as blk
 
         t = random_texton(channels=3, seed=9)
         mesh = trimesh.creation.icosphere(subdivisions=4)
         n = vertex_normals(mesh)
         want = surface_noise(t, mesh.vertices, n, 0.02, device=device, method="points")
         for cap, per_round, cubes in ((8, 1 << 13, 1 << 20), (1024, 3, 50)):  # every list overflows; tiny rounds
-            monkeypatch.setattr(S, "CLUSTER_CAP", cap)
-            monkeypatch.setattr(S, "CLUSTERS_PER_ROUND", per_round)
-            monkeypatch.setattr(S, "CUBES_PER_ROUND", cubes)
+            monkeypatch.setattr(blk, "CLUSTER_CAP", cap)
+            monkeypatch.setattr(blk, "CLUSTERS_PER_ROUND", per_round)
+            monkeypatch.setattr(blk, "CUBES_PER_ROUND", cubes)
             _same_values(surface_noise(t, mesh.vertices, n, 0.02, device=device, method="blocks"), want, t, device)
+
+    def test_blocks_without_normals_sort_alike(self):
+        # points without normals (a volume's) sort into the same blocks, cubes and
+        # clusters, with the same sorted positions
+        from warp_texton.blocks import sort_into_blocks
+
+        rng = np.random.default_rng(8)
+        p = rng.uniform(-20, 20, (5000, 3)) + 1e4
+        n = rng.normal(size=p.shape)
+        a = sort_into_blocks(p, n, 1.5, 2.6)
+        b = sort_into_blocks(p, None, 1.5, 2.6)
+        assert b.nrm is None and a.nrm.shape == (5000, 3)
+        for name in ("order", "pos", "starts", "lo", "hi", "clusters"):
+            np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+        np.testing.assert_array_equal(a.pos, p[a.order])
+        np.testing.assert_array_equal(a.nrm, n[a.order].astype(np.float32))
+        assert 1 < len(a.starts) < len(a.clusters) < len(p)
 
     def test_auto_walks_few_points_and_blocks_many(self, device, monkeypatch):
         import warp_texton.surface as S
@@ -1050,8 +1070,8 @@ class TestBlocks:
         t = random_texton(channels=1, seed=3)
         p = np.random.default_rng(4).normal(size=(300, 3))
         used = []
-        monkeypatch.setattr(S, "gather_blocks", lambda *a: used.append("blocks") or np.zeros((len(a[3]), 3),
-                                                                                           np.float32))
+        monkeypatch.setattr(S, "gather_blocks", lambda p, coeffs, pos, *a, **kw: used.append("blocks") or
+                            np.zeros((len(pos), 3), np.float32))
         surface_noise(t, p, p, 0.05, device=device)
         assert used == []
         monkeypatch.setattr(S, "AUTO_MIN_POINTS", 100)
@@ -1149,7 +1169,7 @@ class TestFarFromOrigin:
 class TestUpAxis:
     @pytest.mark.parametrize("up", ["x", "y", "z", (1.0, 2.0, -0.5)])
     def test_up_rotation_is_a_rotation_taking_z_to_up(self, up):
-        from warp_texton.surface import up_rotation, up_vector
+        from warp_texton.frames import up_rotation, up_vector
 
         r = up_rotation(up)
         np.testing.assert_allclose(r.T @ r, np.eye(3), atol=1e-12)
@@ -1157,7 +1177,7 @@ class TestUpAxis:
         np.testing.assert_allclose(r[:, 2], up_vector(up), atol=1e-12)
 
     def test_y_up_is_gltf(self):
-        from warp_texton.surface import frame_rule, up_rotation
+        from warp_texton.frames import frame_rule, up_rotation
 
         # glTF: +Y up, +Z towards the front viewer, +X right; the Z-up frame's front is −Y
         r = up_rotation("y")
@@ -1170,7 +1190,7 @@ class TestUpAxis:
         np.testing.assert_array_equal(frame_rule("x")[1], [0, 1.0, 0])
 
     def test_view_direction(self):
-        from warp_texton.surface import view_direction
+        from warp_texton.render import view_direction
 
         np.testing.assert_allclose(view_direction((-90, 0)), [0, -1, 0], atol=1e-12)  # the front
         np.testing.assert_allclose(view_direction((0, 90 - 1e-9)), [0, 0, 1], atol=1e-9)
@@ -1222,7 +1242,7 @@ class TestUpAxis:
 
 class TestVertexSpacing:
     def test_spacing_and_the_warning(self, device):
-        from warp_texton.surface import vertex_spacing
+        from warp_texton.mesh import vertex_spacing
 
         mesh = plane_mesh(n=11, size=1.0)  # edges 0.1 and diagonals 0.141: median 0.1
         assert vertex_spacing(mesh, 0.01) == pytest.approx(10.0)
@@ -1235,3 +1255,26 @@ class TestVertexSpacing:
             warnings.simplefilter("error")
             texture_mesh(mesh, T1, 0.01, max_edge=1.0, device=device)  # subdivided: no warning
             texture_mesh(mesh, T1, 0.2, device=device)  # edges of half a texel
+
+
+# the first call of a fresh process: Warp starts quietly before any launch
+FIRST_CALLS = {
+    "surface_noise": "wt.surface_noise(t, p, p, 0.01, device='cpu')",
+    "render_mesh": "wt.render_mesh(trimesh.creation.icosphere(subdivisions=1), t, (8, 8), device='cpu')",
+    "texture_mesh": "wt.texture_mesh(trimesh.creation.icosphere(subdivisions=1), t, 0.01, device='cpu', warn=False)",
+}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("call", sorted(FIRST_CALLS))
+def test_first_call_prints_nothing(call):
+    """Warp's greeting ("Warp 1.x initialized") and its module-load lines reach neither
+    stdout nor stderr when a surface entry point is a process's first Warp call."""
+    code = ("import numpy as np, trimesh, warp_texton as wt\n"
+            "t = wt.Texton(np.random.default_rng(0).standard_normal((8, 8, 1)) / 8, [0.5])\n"
+            "p = np.random.default_rng(1).normal(size=(5, 3))\n"
+            f"{FIRST_CALLS[call]}\nprint('done')")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout == "done\n"
+    assert done.stderr == ""

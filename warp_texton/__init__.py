@@ -23,7 +23,10 @@ from .filtering import FilterOptions
 from .synthesis import Batch, BatchParams, synthesize, synthesize_batch, evaluate
 from .plane import render_plane
 from .mixing import mix_textons, synthesize_mixed
-from .surface import Camera, render_mesh, surface_noise, tangent_frames, texture_mesh
+from .frames import tangent_frames
+from .surface import surface_noise
+from .mesh import texture_mesh
+from .render import Camera, render_mesh
 from .bake import BakedMesh, bake_mesh, render_baked, write_baked
 
 __all__ = [

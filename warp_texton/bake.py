@@ -34,8 +34,10 @@ from ._runtime import resolve_device, split_launch
 from .errors import TextonError
 from .kernels import bake as KB
 from .limits import check_memory
-from .surface import (UP, cast_rays, check_background, check_mesh, check_method, evaluate_points, srgb_to_linear,
-                      surface_params, surface_setup, texel_positions, vertex_normals)
+from .frames import UP
+from .mesh import check_mesh, srgb_to_linear, vertex_normals
+from .render import cast_rays, check_background
+from .surface import check_method, evaluate_points, surface_params, surface_setup, texel_positions
 from .texton import Texton
 
 #: UV sources: the mesh's own UVs when it has them ("auto"), always them ("mesh"), or a new atlas ("atlas").

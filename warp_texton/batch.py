@@ -53,7 +53,7 @@ class SurfaceJob:
     mesh: str
     texton: str | Texton
     out_dir: str
-    texel_size: float | None = None  # world units per texel; None: surface.default_texel_size
+    texel_size: float | None = None  # world units per texel; None: mesh.default_texel_size
     mni: float = 60.0
     seed: int = 0
     max_edge: float | None = None
@@ -198,7 +198,8 @@ def run_surface_job(job: SurfaceJob, token: str | None = None) -> JobResult:
 def _run(job: SurfaceJob, outputs: list[Path], notes: list[str]) -> None:
     from .bake import bake_mesh, write_baked
     from .io import atomic_path, write_image
-    from .surface import default_texel_size, render_mesh, texture_mesh, vertex_spacing
+    from .mesh import default_texel_size, texture_mesh, vertex_spacing
+    from .render import render_mesh
     from .texton import load_texton
 
     Path(job.out_dir).mkdir(parents=True, exist_ok=True)  # on a cluster worker too

@@ -509,7 +509,7 @@ def _run_surface(args) -> int:
     from .batch import BatchInterrupted, SurfaceJob, check_unique_outputs, expand_meshes, run_batch
     from ._runtime import resolve_device
     from .bake import MAX_RESOLUTION
-    from .surface import view_direction
+    from .render import view_direction
 
     render = None
     if args.render is not None:

@@ -1,0 +1,350 @@
+"""Ray-cast renders of meshes with surface texton noise (CGF §6, Fig. 8): the
+camera, the ray cast, and :func:`render_mesh`.
+
+The defaults live in a Z-up frame (view, light) and turn with the world's up
+axis (:func:`warp_texton.frames.up_rotation`), so a Y-up glTF scene is seen as a
+Z-up one is.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import warp as wp
+
+from ._checks import as_real_array, check_positive, check_seed, check_shape
+from ._runtime import resolve_device, split_launch
+from .errors import TextonError
+from .frames import UP, as_direction, as_point, up_rotation, up_vector
+from .kernels import render as KR
+from .limits import check_memory
+from .mesh import check_mesh, default_texel_size, vertex_normals
+from .surface import check_method, evaluate_points, surface_params, surface_setup, texel_positions
+from .texton import Texton
+
+#: Largest render, in pixels (64 Mpx: about 4 GB at the peak of a render).
+MAX_RENDER_PIXELS = 1 << 26
+#: Default view of renders: azimuth and elevation (degrees) of the camera seen from
+#: the mesh's centre, in the Z-up frame (azimuth 0 along +X, −90 along −Y: the front).
+VIEW = (-55.0, 25.0)
+#: Default light direction in the Z-up frame (towards the light).
+LIGHT = (0.4, -0.5, 1.0)
+
+
+def view_direction(view, up=UP) -> np.ndarray:
+    """Unit vector from a mesh's centre towards the camera for ``view`` =
+    (azimuth, elevation) in degrees: azimuth about the up axis from the world's
+    right (x), −90 looking at the front; elevation above the horizon."""
+    try:
+        az, el = as_real_array(view, "view", "a pair (azimuth, elevation) of numbers, in degrees").tolist()
+    except (TypeError, ValueError):
+        raise TextonError(f"view must be a pair (azimuth, elevation) in degrees, got {view!r:.60}") from None
+    if not (math.isfinite(az) and math.isfinite(el)) or abs(el) >= 90.0:
+        raise TextonError(f"view elevation must be finite and strictly between -90 and 90 degrees, got {view!r}")
+    a, e = math.radians(az), math.radians(el)
+    return up_rotation(up) @ np.array([math.cos(e) * math.cos(a), math.cos(e) * math.sin(a), math.sin(e)])
+
+
+@dataclass(frozen=True)
+class Camera:
+    """A pinhole camera: ``position`` looks at ``target``; ``fov`` is vertical, degrees.
+
+    Checked when made: finite positions apart from each other, a non-zero ``up``
+    not along the view, and a ``fov`` in (0, 180).
+    """
+
+    position: tuple[float, float, float]
+    target: tuple[float, float, float]
+    up: tuple[float, float, float] = UP
+    fov: float = 35.0
+
+    def __post_init__(self):
+        fov = check_positive(self.fov, "camera.fov")
+        if fov >= 180.0:
+            raise TextonError(f"camera.fov must be below 180 degrees, got {fov}")
+        eye, target = (as_point(v, name) for v, name in ((self.position, "camera.position"),
+                                                         (self.target, "camera.target")))
+        forward = as_direction(target - eye, "camera.target - camera.position")
+        up = as_direction(self.up, "camera.up")
+        if np.linalg.norm(np.cross(forward, up)) < 1e-9:
+            raise TextonError("camera.up is parallel to the view direction")
+        object.__setattr__(self, "position", tuple(float(v) for v in eye))
+        object.__setattr__(self, "target", tuple(float(v) for v in target))
+        object.__setattr__(self, "up", tuple(float(v) for v in np.asarray(self.up, np.float64).reshape(3)))
+        object.__setattr__(self, "fov", fov)
+
+    @classmethod
+    def framing(cls, mesh, direction=None, fov: float = 35.0, up=UP, zoom: float = 1.0, *,
+                view=VIEW) -> "Camera":
+        """A camera looking at the mesh's bounding-box centre, far enough for its
+        bounding sphere to fit the view (``zoom`` > 1 moves closer). It sits along
+        ``direction`` from the centre, or at ``view`` = (azimuth, elevation) in
+        degrees for this ``up`` axis (see :func:`view_direction`)."""
+        lo, hi = np.asarray(mesh.bounds, dtype=np.float64)
+        centre = (lo + hi) / 2.0
+        radius = max(np.linalg.norm(hi - lo) / 2.0, 1e-9)
+        d = view_direction(view, up) if direction is None else as_direction(direction, "direction")
+        fov = check_positive(fov, "fov")
+        if fov >= 180.0:
+            raise TextonError(f"fov must be below 180 degrees, got {fov}")
+        dist = radius / math.sin(math.radians(fov) / 2.0) * 1.05 / check_positive(zoom, "zoom")
+        return cls(tuple(centre + d * dist), tuple(centre), tuple(up_vector(up)), fov)
+
+
+def check_background(background) -> np.ndarray:
+    try:
+        bg = np.asarray(background, dtype=np.float64).reshape(3)
+    except (TypeError, ValueError):
+        raise TextonError(f"background must be an RGB triple, got {background!r}") from None
+    if not np.isfinite(bg).all():
+        raise TextonError(f"background must be finite, got {background!r}")
+    return bg
+
+
+@dataclass(frozen=True)
+class RayHits:
+    """What each pixel's ray hits (see :func:`cast_rays`).
+
+    face : int32 (H, W), −1 where the ray misses; bary : float64 (H, W, 3), the
+    hit's barycentric weights of the face's three corners; normal : float32
+    (H, W, 3), the shading normal; shade : float32 (H, W), 0.3 + 0.7 |⟨n, light⟩|.
+    """
+
+    face: np.ndarray
+    bary: np.ndarray
+    normal: np.ndarray
+    shade: np.ndarray
+    vertices: np.ndarray
+    faces: np.ndarray
+
+    @property
+    def hit(self) -> np.ndarray:
+        return self.face >= 0
+
+    def points(self) -> np.ndarray:
+        """(N, 3) float64 world positions of the hits (row-major order of the hit pixels),
+        from the face's vertices and the weights: as exact far from the origin as near it."""
+        tri = self.faces[self.face[self.hit]]
+        b = self.bary[self.hit]
+        v = self.vertices
+        return b[:, 0:1] * v[tri[:, 0]] + b[:, 1:2] * v[tri[:, 1]] + b[:, 2:3] * v[tri[:, 2]]
+
+
+def screen_box(rel: np.ndarray, forward, right, cam_up, tan_half_fov: float, aspect: float, h: int, w: int):
+    """(r0, r1, c0, c1): the pixels whose rays may hit a mesh with vertices at ``rel``
+    from the eye, from the vertices' projections (a triangle in front of the eye
+    projects inside the triangle of its projected corners), with a margin of two
+    pixels; none when every vertex lies behind the eye's plane (a ray goes forward),
+    the whole image when some do."""
+    z = rel @ forward
+    if rel.shape[0] == 0 or z.max() < 0.0:
+        return 0, 0, 0, 0
+    if not z.min() > 1e-9 * (float(np.abs(z).max()) + 1e-300):
+        return 0, h, 0, w
+    sx = (rel @ right) / z / (tan_half_fov * aspect)
+    sy = (rel @ cam_up) / z / tan_half_fov
+    # pixel centre j sits at sx = 2 (j + 0.5) / w − 1; row i at sy = 1 − 2 (i + 0.5) / h
+    cols = (sx + 1.0) * (w / 2.0) - 0.5
+    rows = (1.0 - sy) * (h / 2.0) - 0.5
+    c0 = int(np.clip(np.floor(cols.min()) - 2, 0, w))
+    c1 = int(np.clip(np.ceil(cols.max()) + 3, 0, w))
+    r0 = int(np.clip(np.floor(rows.min()) - 2, 0, h))
+    r1 = int(np.clip(np.ceil(rows.max()) + 3, 0, h))
+    return r0, r1, c0, c1
+
+
+def cast_rays(mesh, shape, camera: Camera | None = None, *, up=UP, view=None, fov=None, light=None,
+              device=None) -> RayHits:
+    """Cast one ray per pixel at ``mesh`` (the camera, view, fov, up and light of
+    :func:`render_mesh`): the face hit, its barycentric weights, the shading normal
+    (interpolated vertex normals, the face normal across creases over 30°) and the
+    diffuse shade. The BVH holds the vertices in float32 around the centre of their
+    bounding box, so meshes far from the origin are hit as precisely as near ones.
+    Only the pixels of the mesh's screen box (:func:`screen_box`) cast rays.
+
+    Returns
+    -------
+    RayHits
+    """
+    h, w = check_shape(shape, max_pixels=MAX_RENDER_PIXELS)
+    box, (face_b, bary_b, nrm_b, shade_b), vertices, faces = _cast_box(mesh, (h, w), camera, up, view, fov, light,
+                                                                       device)
+    r0, r1, c0, c1 = box
+    face = np.full((h, w), -1, np.int32)
+    nrm = np.zeros((h, w, 3), np.float32)
+    shade = np.zeros((h, w), np.float32)
+    face[r0:r1, c0:c1] = face_b
+    nrm[r0:r1, c0:c1] = nrm_b
+    shade[r0:r1, c0:c1] = shade_b
+    # the third weight 1 − u − v (misses keep (0, 0, 1))
+    weights = np.zeros((h, w, 3))
+    weights[..., 2] = 1.0
+    b = bary_b.astype(np.float64)
+    weights[r0:r1, c0:c1, :2] = b
+    weights[r0:r1, c0:c1, 2] = 1.0 - b[..., 0] - b[..., 1]
+    return RayHits(face, weights, nrm, shade, vertices, faces)
+
+
+def _cast_box(mesh, shape, camera, up, view, fov, light, device):
+    """The ray cast of :func:`cast_rays` over the mesh's screen box only: (box, (face,
+    bary (u, v), normal, shade) of the box's pixels, float64 vertices, int64 faces)."""
+    mesh = check_mesh(mesh)
+    h, w = shape
+    rot = up_rotation(up)
+    if camera is None:
+        cam = Camera.framing(mesh, fov=35.0 if fov is None else fov, up=up, view=VIEW if view is None else view)
+    elif view is not None or fov is not None:
+        raise TextonError("give either camera or view/fov, not both")
+    else:
+        cam = camera
+    if not isinstance(cam, Camera):
+        raise TextonError(f"camera must be a warp_texton.Camera, got {type(cam).__name__}")
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    origin = (lo + hi) / 2.0  # the ray cast runs in float32 around this point
+    eye = np.asarray(cam.position, dtype=np.float64)
+    # a Camera is checked when made: the view and up directions are non-zero and apart
+    forward = as_direction(np.asarray(cam.target, dtype=np.float64) - eye, "camera.target - camera.position")
+    right = np.cross(forward, as_direction(cam.up, "camera.up"))
+    right /= np.linalg.norm(right)
+    cam_up = np.cross(right, forward)
+    light_dir = rot @ as_direction(LIGHT, "light") if light is None else as_direction(light, "light")
+    check_memory(h * w * 60.0, f"a {w}x{h} render", "render fewer pixels")
+    device = resolve_device(device)
+    c = KR.Camera()
+    c.origin = wp.vec3(*(eye - origin))
+    c.right = wp.vec3(*right)
+    c.up = wp.vec3(*cam_up)
+    c.forward = wp.vec3(*forward)
+    c.tan_half_fov = math.tan(math.radians(cam.fov) / 2.0)
+    c.aspect = w / h
+    c.light = wp.vec3(*light_dir)
+    faces_np = np.asarray(mesh.faces, dtype=np.int64)
+    r0, r1, c0, c1 = screen_box(vertices - eye, forward, right, cam_up, c.tan_half_fov, c.aspect, h, w)
+    rh, rw = max(r1 - r0, 0), max(c1 - c0, 0)
+    if rh == 0 or rw == 0:
+        return (r0, r0, c0, c0), (np.full((0, 0), -1, np.int32), np.zeros((0, 0, 2), np.float32),
+                                  np.zeros((0, 0, 3), np.float32), np.zeros((0, 0), np.float32)), vertices, faces_np
+    with wp.ScopedDevice(device):
+        points = wp.array(vertices - origin, dtype=wp.vec3)
+        indices = wp.array(faces_np.astype(np.int32).reshape(-1), dtype=wp.int32)
+        wmesh = wp.Mesh(points=points, indices=indices)
+        normals = wp.array(vertex_normals(mesh, up), dtype=wp.vec3)
+        outs = [wp.empty((rh, rw), dtype=t) for t in (wp.int32, wp.vec2, wp.vec3, wp.float32)]
+
+        def band(a, b):
+            wp.launch(KR.cast_rays, dim=(b - a, rw), inputs=[wmesh.id, normals, indices, c, h, w, r0 + a, c0,
+                                                            *(o[a:b] for o in outs)])
+
+        split_launch(device, KR, rh, band)
+        return (r0, r1, c0, c1), tuple(o.numpy() for o in outs), vertices, faces_np
+
+
+def render_mesh(
+    mesh,
+    texton: Texton,
+    shape=(512, 512),
+    texel_size: float | None = None,
+    camera: Camera | None = None,
+    mni: float = 60.0,
+    seed: int = 0,
+    device=None,
+    *,
+    background=(0.92, 0.92, 0.92),
+    light=None,
+    up=UP,
+    side=None,
+    view=None,
+    fov=None,
+    method: str = "auto",
+) -> np.ndarray:
+    """Ray-cast ``mesh`` with surface texton noise and simple diffuse shading.
+
+    Each pixel's ray hits the mesh (``wp.Mesh`` BVH, ``wp.mesh_query_ray``, in
+    world units around the mesh's centre); the hit is placed in float64 from
+    the face's vertices and its barycentric weights, and the noise is evaluated
+    there with the interpolated vertex normal (the face normal across creases
+    sharper than 30°) and the frame rule, for all hits at once (in blocks, as
+    :func:`surface_noise`), then shaded by 0.3 + 0.7 |⟨n, light⟩|. Missed
+    pixels get ``background``.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+    texton : Texton
+    shape : (height, width)
+    texel_size : float, optional
+        World units per texel; default: the bounding-box diagonal / 256.
+    camera : Camera, optional
+        Default: :meth:`Camera.framing` of the mesh at ``view`` and ``fov``.
+    mni, seed, device
+        As in :func:`surface_noise`.
+    up : "x", "y", "z" or 3-vector
+        The world's up axis: the frame rule's ``up``, the default camera's up,
+        and the frame of ``view`` and of the default light.
+    side : 3-vector, optional
+        The frame rule's ``side`` (default: the world's right for ``up``).
+    view : (azimuth, elevation), optional
+        Degrees; default (−55, 25): from the front left, above (:func:`view_direction`).
+    fov : float, optional
+        Vertical field of view of the default camera, degrees (default 35).
+    light : 3-vector, optional
+        Towards the light; default (0.4, −0.5, 1) in the Z-up frame, turned with ``up``.
+    method : "blocks" or "points"
+        As in :func:`surface_noise` (the same image).
+
+    Returns
+    -------
+    float32 array (height, width, 3) in [0, 1]
+
+    References
+    ----------
+    CGF §6 (surface noise), Fig. 8 (textured meshes without UVs).
+    """
+    mesh = check_mesh(mesh)
+    if not isinstance(texton, Texton):
+        raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
+    h, w = check_shape(shape, max_pixels=MAX_RENDER_PIXELS)
+    texel = default_texel_size(mesh) if texel_size is None else check_positive(texel_size, "texel_size")
+    seed = check_seed(seed)
+    check_method(method)
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    setup = surface_setup(texton, mni)
+    texel_positions(vertices, texel, setup, "the mesh's vertices")  # refuses far meshes and tiny texels
+    bg = check_background(background)
+    device = resolve_device(device)
+    p = surface_params(texton, setup, seed, "exact", up, side)
+    (r0, r1, c0, c1), (face, bary, nrm, shade), vertices, faces = _cast_box(mesh, (h, w), camera, up, view, fov,
+                                                                            light, device)
+    hit = face >= 0
+    pixels = np.flatnonzero(hit.reshape(-1)).astype(np.int32)
+    with wp.ScopedDevice(device):
+        on_cpu = wp.get_device(device).is_cpu
+        img = np.empty((h, w, 3), np.float32)
+        img_w = wp.array(img, dtype=wp.vec3, copy=False) if on_cpu else wp.empty((h, w), dtype=wp.vec3)
+        bg32 = bg.astype(np.float32)
+        split_launch(device, KR, h, lambda a, b: wp.launch(KR.fill_image, dim=(b - a, w),
+                                                          inputs=[img_w[a:b], wp.vec3(*bg32)]))
+        if pixels.size:
+            # the hits in float64 texel units from their faces' vertices and weights (as
+            # RayHits.points), and their normals, in one pass
+            pos_w, nrm_w = wp.empty(pixels.size, dtype=wp.vec3d), wp.empty(pixels.size, dtype=wp.vec3)
+            pix = wp.array(pixels, dtype=wp.int32)
+            inputs = [wp.array(face.reshape(-1), dtype=wp.int32, copy=not on_cpu),
+                      wp.array(bary.reshape(-1, 2), dtype=wp.vec2, copy=not on_cpu),
+                      wp.array(nrm.reshape(-1, 3), dtype=wp.vec3, copy=not on_cpu),
+                      wp.array(vertices, dtype=wp.vec3d), wp.array(faces.astype(np.int32).reshape(-1), dtype=wp.int32),
+                      wp.float64(texel)]
+            split_launch(device, KR, pixels.size, lambda a, b: wp.launch(
+                KR.hit_points, dim=b - a, inputs=[pix[a:b], *inputs, pos_w[a:b], nrm_w[a:b]]))
+            g = evaluate_points(p, setup, pos_w.numpy(), nrm_w.numpy(), None, device, method)
+            g_w = wp.array(g, dtype=wp.vec3)
+            shade_w = wp.array(shade.reshape(-1), dtype=wp.float32, copy=not on_cpu)
+            split_launch(device, KR, pixels.size, lambda a, b: wp.launch(
+                KR.shade_hits, dim=b - a, inputs=[pix[a:b], g_w[a:b], shade_w, c1 - c0, r0, c0,
+                                                 int(texton.channels == 1), img_w]))
+        if not on_cpu:
+            img = img_w.numpy()
+    return img
