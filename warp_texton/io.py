@@ -543,23 +543,21 @@ def write_image(path, img, *, dtype=None, compression=None) -> int:
 
     Examples
     --------
-    >>> import os, tempfile
     >>> from warp_texton import read_image, write_image
     >>> from warp_texton.demo import demo_texture_path
     >>> u = read_image(demo_texture_path())      # (256, 256, 1) float32 in [0, 1]
-    >>> folder = tempfile.mkdtemp()
-    >>> write_image(os.path.join(folder, "grass.exr"), u)             # lossless float32
+    >>> write_image("grass.exr", u)              # lossless float32
     0
-    >>> write_image(os.path.join(folder, "grass.png"), u)             # 8-bit
+    >>> write_image("grass.png", u)              # 8-bit
     0
-    >>> write_image(os.path.join(folder, "grass_16.png"), u, dtype="uint16")
+    >>> write_image("grass_16.png", u, dtype="uint16")
     0
-    >>> write_image(os.path.join(folder, "grass_half.exr"), u, dtype="float16", compression="piz")
+    >>> write_image("grass_half.exr", u, dtype="float16", compression="piz")
     0
     >>> import warnings
     >>> with warnings.catch_warnings(record=True) as caught:
     ...     warnings.simplefilter("always")
-    ...     write_image(os.path.join(folder, "too_bright.png"), u * 3)   # clipped to [0, 1], with a warning
+    ...     write_image("too_bright.png", u * 3)   # clipped to [0, 1], with a warning
     51752
     >>> len(caught)
     1
