@@ -279,13 +279,13 @@ def bake_mesh(
     >>> from warp_texton.demo import demo_texture_path
     >>> texton = analyze(read_image(demo_texture_path()), size=32, iterations=30)
     >>> torus = trimesh.creation.torus(major_radius=1.0, minor_radius=0.35)
-    >>> baked = bake_mesh(torus, texton, texel_size=0.02, resolution=64, device="cpu")
+    >>> baked = bake_mesh(torus, texton, texel_size=0.05, resolution=64, device="cpu")
     >>> baked.uv_source, baked.texture.shape
     ('atlas', (64, 64, 1))
     >>> write_baked(baked, "torus_baked", "glb", texture="png")
     [PosixPath('torus_baked.glb'), PosixPath('torus_baked_texture.png')]
     >>> (glb,) = trimesh.load("torus_baked.glb").geometry.values()
-    >>> bake_mesh(glb, texton, texel_size=0.02, resolution=64, device="cpu").uv_source
+    >>> bake_mesh(glb, texton, texel_size=0.05, resolution=64, device="cpu").uv_source
     'mesh'
     """
     import trimesh
