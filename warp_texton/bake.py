@@ -61,8 +61,10 @@ CREASE_COS = 0.866
 
 @dataclass(frozen=True)
 class BakedMesh:
-    """What :func:`bake_mesh` makes.
+    """What :func:`bake_mesh` makes (a frozen dataclass).
 
+    Attributes
+    ----------
     mesh : trimesh.Trimesh
         The mesh with UVs (vertices split along the atlas's seams), the vertex
         normals the noise was evaluated with (the input's, so smooth across
@@ -81,6 +83,12 @@ class BakedMesh:
         Mean number of noise samples per covered texel.
     uv_source : str
         "mesh" or "atlas".
+
+    Notes
+    -----
+    Below one texel per texton texel (``texels_per_texton_texel`` < 1) the
+    texture averages several texton texels: raise the resolution for more
+    detail.
     """
 
     mesh: object
@@ -92,6 +100,7 @@ class BakedMesh:
 
     @property
     def resolution(self) -> int:
+        """The texture's side in texels."""
         return int(self.texture.shape[0])
 
 
@@ -197,6 +206,14 @@ def bake_mesh(
 ) -> BakedMesh:
     """Bake surface texton noise into a ``resolution``² texture on the mesh's UVs.
 
+    The noise (the same noise as :func:`warp_texton.surface_noise` and
+    :func:`warp_texton.render_mesh`) is evaluated at the surface point under
+    every texel of a texture laid on the mesh's UVs, or on a UV atlas made by
+    xatlas (``pip install "warp-texton[mesh]"``), so renderers, game engines,
+    Blender and MeshLab show it through ordinary UV coordinates;
+    :func:`write_baked` writes the result. Conventions and measurements:
+    docs/model.md, "baked textures".
+
     Parameters
     ----------
     mesh : trimesh.Trimesh
@@ -206,7 +223,9 @@ def bake_mesh(
     resolution : int
         Texture side in texels (1 to 16384).
     mni, seed, device, up, side, method
-        As in :func:`warp_texton.surface_noise`.
+        As in :func:`warp_texton.surface_noise`; the normals are the
+        renderer's (interpolated vertex normals, the face normal across
+        creases).
     uv : "auto", "mesh" or "atlas"
         "auto": the mesh's UVs when it has them, else an xatlas atlas; "mesh":
         its UVs or an error; "atlas": a new atlas, ignoring any UVs.
@@ -215,13 +234,29 @@ def bake_mesh(
         per texel, ``ceil(SAMPLE_DENSITY ×`` texton texels along each side of
         its footprint``)``, from 1 to ``MAX_SAMPLES_SIDE``.
     gutter : int, optional
-        Texels of dilation past chart edges (default :func:`default_gutter`).
+        Texels by which every chart is extended (default
+        :func:`default_gutter`: 2, or ``resolution / 256`` from 512 on).
     name : str
         How errors name the mesh.
 
     Returns
     -------
     BakedMesh
+
+    Raises
+    ------
+    TextonError
+        For the ``mesh`` and ``texton`` errors of
+        :func:`warp_texton.texture_mesh`; a ``resolution`` that is not an
+        integer in [1, 16384]; a bad ``uv``, ``supersample`` (≥ 1, ≤ 64) or
+        ``gutter`` (≥ 0); UVs that cannot hold a bake, naming the mesh and the
+        problem with the hint ``uv='atlas'``: not one (u, v) per vertex, NaN
+        or infinite, outside [0, 1] (a repeated texture), or overlapping (more
+        than 2 % of the covered texels on two triangles); no UVs with
+        ``uv="mesh"``; a missing xatlas when an atlas is needed ("making a UV
+        atlas needs the xatlas package: pip install 'warp-texton[mesh]'"); a
+        bake over the memory budget (about 360 bytes per texel at the peak:
+        1.5 GB at 2048², 6 GB at 4096²); vertices too far from the origin.
 
     References
     ----------
@@ -237,6 +272,23 @@ def bake_mesh(
     >>> baked = bake_mesh(plane, t, texel_size=1 / 64, resolution=64, device="cpu")
     >>> baked.texture.shape, baked.uv_source, round(baked.texels_per_texton_texel, 3)
     ((64, 64, 1), 'mesh', 1.0)
+
+    A mesh without UVs gets an xatlas atlas; the GLB that :func:`write_baked`
+    writes keeps its UVs, so a bake of it read back uses them:
+
+    >>> import trimesh
+    >>> from warp_texton import read_image, analyze, bake_mesh, write_baked
+    >>> from warp_texton.demo import demo_texture_path
+    >>> texton = analyze(read_image(demo_texture_path()), size=32, iterations=30)
+    >>> torus = trimesh.creation.torus(major_radius=1.0, minor_radius=0.35)
+    >>> baked = bake_mesh(torus, texton, texel_size=0.05, resolution=64, device="cpu")
+    >>> baked.uv_source, baked.texture.shape
+    ('atlas', (64, 64, 1))
+    >>> write_baked(baked, "torus_baked", "glb", texture="png")
+    [PosixPath('torus_baked.glb'), PosixPath('torus_baked_texture.png')]
+    >>> (glb,) = trimesh.load("torus_baked.glb").geometry.values()
+    >>> bake_mesh(glb, texton, texel_size=0.05, resolution=64, device="cpu").uv_source
+    'mesh'
     """
     import trimesh
 
@@ -401,10 +453,41 @@ def bake_outputs(stem: Path, fmt: str, texture: str | None = None) -> list[Path]
 
 
 def write_baked(baked: BakedMesh, stem, fmt: str = "glb", texture: str | None = None, linear: bool = False) -> list[Path]:
-    """Write a bake: ``STEM.glb`` (the texture embedded as the PBR base colour), or
-    ``STEM.obj`` + ``STEM.mtl`` + ``STEM.png``; and with ``texture`` the texture alone,
-    ``STEM_texture.png`` (8-bit sRGB) or ``STEM_texture.exr`` (float32: the noise's
-    values, or with ``linear`` their sRGB decoding). All files appear together or none.
+    """Write a bake as GLB or OBJ + MTL + PNG, and optionally the texture alone.
+
+    ``STEM.glb`` holds the texture embedded as the base colour of a PBR
+    material, with the mesh's UVs and normals; ``STEM.obj`` + ``STEM.mtl`` +
+    ``STEM.png``: the MTL's ``map_Kd`` names the PNG, with a diffuse factor of
+    1. Every file is written to a temporary name first and all are renamed
+    at the end: all files appear together, or none.
+
+    Parameters
+    ----------
+    baked : BakedMesh
+        From :func:`bake_mesh`.
+    stem : str or Path
+        The output path without its extension.
+    fmt : {"glb", "obj"}
+    texture : {"png", "exr"}, optional
+        Also write the texture alone: ``STEM_texture.png`` (8-bit sRGB) or
+        ``STEM_texture.exr`` (float32: the noise's values).
+    linear : bool
+        The EXR texture holds the sRGB decoding of the values instead.
+
+    Returns
+    -------
+    list of Path
+        The paths written.
+
+    Raises
+    ------
+    TextonError
+        For a bad ``fmt`` or ``texture``, and the errors of the file system.
+
+    Examples
+    --------
+    See :func:`bake_mesh`; ``write_baked(baked, "torus_baked", "obj")``
+    writes ``torus_baked.obj``, ``.mtl`` and ``.png``.
     """
     from .io import atomic_path, write_image
 
@@ -481,6 +564,31 @@ def render_baked(baked, shape=(512, 512), camera=None, *, up=UP, view=None, fov=
     Returns
     -------
     float32 array (height, width, 3) in [0, 1]
+
+    Raises
+    ------
+    TextonError
+        For a mesh without UVs or texture image, and the camera errors of
+        :func:`warp_texton.render_mesh`.
+
+    Notes
+    -----
+    Lookups are bilinear and clamped at the texture's border. With the same
+    camera the render differs from :func:`warp_texton.render_mesh`'s by the
+    bake's resolution only (``tests/test_bake.py`` checks a written GLB this
+    way).
+
+    Examples
+    --------
+    >>> import numpy as np, trimesh
+    >>> from warp_texton import Texton, bake_mesh, render_baked, render_mesh
+    >>> t = Texton(np.random.default_rng(0).standard_normal((8, 8, 1)) / 8, [0.5])
+    >>> torus = trimesh.creation.torus(major_radius=1.0, minor_radius=0.35)
+    >>> baked = bake_mesh(torus, t, texel_size=0.02, resolution=128, device="cpu")
+    >>> preview = render_baked(baked, (48, 64), device="cpu")
+    >>> reference = render_mesh(torus, t, (48, 64), texel_size=0.02, device="cpu")
+    >>> preview.shape, reference.shape
+    ((48, 64, 3), (48, 64, 3))
     """
     if isinstance(baked, BakedMesh):
         mesh, texture = baked.mesh, np.clip(baked.texture, 0.0, 1.0)

@@ -43,11 +43,66 @@ def resolve_up(up: str, mesh_path: str) -> str:
 class SurfaceJob:
     """Texture one mesh file; outputs go to ``out_dir`` named after its stem.
 
-    ``texton`` is a texton file or a :class:`Texton` (a batch analyses an
-    example image once and hands the texton to every job). With ``bake`` (a
-    texture side), the noise goes into a texture on UVs (see
-    :func:`warp_texton.bake_mesh`) and ``fmt`` is "glb" (default) or "obj";
-    without it, into vertex colours, ``fmt`` "ply" (default), "obj" or "glb".
+    A frozen dataclass; every field is a plain value (or a :class:`Texton`),
+    so a job pickles to any worker. ``texton`` is a texton file or a
+    :class:`Texton` (a batch analyses an example image once and hands the
+    texton to every job). With ``bake`` (a texture side), the noise goes into
+    a texture on UVs (see :func:`warp_texton.bake_mesh`) and ``fmt`` is "glb"
+    (default) or "obj"; without it, into vertex colours, ``fmt`` "ply"
+    (default), "obj" or "glb".
+
+    Parameters
+    ----------
+    mesh : str
+        Path of a mesh file trimesh reads (PLY, OBJ, STL, GLB, OFF...).
+    texton : str or Texton
+        Path of a texton file (``.exr`` from :func:`analyze`, or ``.texton``),
+        or a :class:`Texton`.
+    out_dir : str
+        Folder for the outputs, created when missing (on the worker).
+    texel_size : float, optional
+        World units per texel; ``None``: the mesh's bounding-box diagonal / 256.
+    mni, seed, max_edge
+        As in :func:`warp_texton.texture_mesh`.
+    render : (height, width), optional
+        Size of a PNG render by :func:`warp_texton.render_mesh` (default
+        camera), or ``None``.
+    fmt : {"ply", "obj", "glb"}, optional
+        The format of the textured mesh: "ply" (default), "obj" or "glb" for
+        vertex colours (glTF's ``COLOR_0`` is written linear); "glb"
+        (default) or "obj" with ``bake``.
+    overwrite : bool
+        Redo the job even when its outputs exist.
+    device : str, optional
+        As in :func:`warp_texton.synthesize`; ``None``: CUDA when available,
+        else the CPU, on the machine that runs the job.
+    bake : int, optional
+        A texture side: bake the noise into a texture on UVs
+        (:func:`warp_texton.bake_mesh`, :func:`warp_texton.write_baked`)
+        instead of vertex colours.
+    uv, supersample
+        As in :func:`warp_texton.bake_mesh`.
+    texture : {"png", "exr"}, optional
+        With ``bake``: also write the texture alone.
+    exr_linear : bool
+        An EXR texture holds the sRGB-decoded (linear) values instead of the
+        values themselves.
+    up : {"auto", "x", "y", "z"}
+        The mesh's up axis ("auto": Y for ``.glb``/``.gltf``, Y-up by
+        definition; Z otherwise): the frame rule, the render's camera and
+        light.
+    view, fov
+        The render's camera, as in :func:`warp_texton.render_mesh`.
+
+    Notes
+    -----
+    ``job.outputs()`` lists the output paths: ``out_dir/<stem>.<fmt>`` (with
+    ``bake`` and ``fmt="obj"``: ``.obj``, ``.mtl``, ``.png``; with
+    ``texture``: ``<stem>_texture.png`` or ``.exr``) and, with ``render``,
+    ``out_dir/<stem>.png`` (``<stem>_render.png`` when the OBJ's texture
+    already takes ``<stem>.png``), where ``<stem>`` is the mesh file's name
+    without its extension. Two meshes with the same stem write to the same
+    outputs: give them different output folders.
     """
 
     mesh: str
@@ -72,9 +127,11 @@ class SurfaceJob:
 
     @property
     def format(self) -> str:
+        """The format written: ``fmt``, or its default ("glb" with ``bake``, else "ply")."""
         return self.fmt or ("glb" if self.bake is not None else "ply")
 
     def outputs(self) -> list[Path]:
+        """The paths the job writes (see the Notes above), textured mesh first."""
         stem = Path(self.out_dir) / Path(self.mesh).stem
         if self.bake is not None:
             out = bake_outputs(stem, self.format, self.texture)
@@ -88,6 +145,23 @@ class SurfaceJob:
 
 @dataclass(frozen=True)
 class JobResult:
+    """What a job did (a frozen dataclass).
+
+    Attributes
+    ----------
+    mesh : str
+        The job's mesh path.
+    status : {"done", "skipped", "failed", "cancelled"}
+    message : str
+        Why a job failed or was skipped: the one-line :class:`TextonError`
+        message for user errors, starting with the mesh's path.
+    outputs : list of str
+        The output paths of a done or skipped job.
+    warnings : list of str
+        Notes of a done job: vertices further apart than a texel, or the
+        bake's texels per texton texel.
+    """
+
     mesh: str
     status: str  # "done", "skipped", "failed" or "cancelled"
     message: str = ""
@@ -105,11 +179,34 @@ class BatchInterrupted(KeyboardInterrupt):
 
 
 def expand_meshes(args) -> list[str]:
-    """Mesh arguments to paths: plain paths, glob patterns, and ``@list.txt``
-    files holding one path or pattern per line (blank lines and # comments
-    skipped). Order is kept and duplicates dropped; a pattern that matches
-    nothing stays as is, so that its job reports the missing file. ``args`` is
-    a sequence of paths (one path alone is taken as a list of one)."""
+    """Mesh arguments to paths: plain paths, glob patterns, and ``@list.txt`` files.
+
+    A plain path is kept; a glob pattern (``*``, ``?``, ``[...]``, ``**``
+    recursive) is replaced by its sorted matches; ``@list.txt`` by the paths
+    and patterns listed in that file, one per line (blank lines and lines
+    starting with ``#`` skipped). Order is kept and duplicates dropped; a
+    pattern that matches nothing stays as is, so that its job fails with "no
+    such file" instead of vanishing.
+
+    Parameters
+    ----------
+    args : sequence of str or PathLike
+        One path alone is taken as a list of one.
+
+    Returns
+    -------
+    list of str
+
+    Raises
+    ------
+    TextonError
+        When a list file cannot be read, is not UTF-8 text or includes
+        itself, and for arguments that are not paths.
+
+    Examples
+    --------
+    See :func:`run_batch`.
+    """
     return _expand(args, ())
 
 
@@ -175,9 +272,35 @@ def _load_mesh(path: str):
 def run_surface_job(job: SurfaceJob, token: str | None = None) -> JobResult:
     """Run one job; never raises for a bad mesh (the result says why).
 
-    ``token`` is ignored: :func:`run_batch` passes a fresh one with every
-    submission so that executors that cache results of equal calls (Dask's
-    pure tasks) always run the job, whose inputs may have changed on disk.
+    Loads the texton and the mesh, textures it (:func:`warp_texton.texture_mesh`,
+    or :func:`warp_texton.bake_mesh` with ``bake``), then (with ``render``)
+    renders the original mesh (:func:`warp_texton.render_mesh`); the render
+    is computed before any file is written, and each file is written
+    atomically, so a failed or interrupted job leaves no partial file. If
+    every output exists and ``overwrite`` is false the job is "skipped"
+    without loading anything.
+
+    Parameters
+    ----------
+    job : SurfaceJob
+    token : str, optional
+        Ignored: :func:`run_batch` passes a fresh one with every submission
+        so that executors that cache results of equal calls (Dask's pure
+        tasks) always run the job, whose inputs may have changed on disk.
+
+    Returns
+    -------
+    JobResult
+        "done", "skipped", or "failed" with a message naming the mesh and the
+        problem: a missing or unreadable mesh or texton, a file without
+        triangles, vertices with NaN coordinates, faces that index missing
+        vertices, a mesh too far from the origin for its texel size, unusable
+        UVs, a missing xatlas, a bad option (``mni`` ≤ 0, a subdivision over
+        the face limit...) and any other error, including file-system errors.
+
+    Examples
+    --------
+    See :func:`run_batch`.
     """
     outputs = job.outputs()
     if not job.overwrite and all(p.exists() for p in outputs):
@@ -251,11 +374,78 @@ def check_unique_outputs(jobs) -> None:
 def run_batch(jobs, executor: Executor | None = None, jobs_in_parallel: int = 1, progress: bool = False):
     """Run jobs on ``executor`` (default: a pool of ``jobs_in_parallel`` threads).
 
-    Returns the results in the order of ``jobs``. Any ``concurrent.futures``
+    Submits :func:`run_surface_job` for every job. Any ``concurrent.futures``
     executor works, e.g. ``dask.distributed.Client(...).get_executor()``.
-    Ctrl-C cancels the jobs still queued, lets the running ones finish (their
-    files are written whole, or not at all) and raises :class:`BatchInterrupted`
-    with every job's result.
+    Without an executor, a pool of ``jobs_in_parallel`` threads runs the jobs
+    (Warp releases the GIL during its launches) and is shut down afterwards;
+    a given executor is left running.
+
+    Parameters
+    ----------
+    jobs : iterable of SurfaceJob
+    executor : concurrent.futures.Executor, optional
+    jobs_in_parallel : int
+        Threads of the default pool.
+    progress : bool
+        A progress bar, with a line for each failure.
+
+    Returns
+    -------
+    list of JobResult
+        In the order of ``jobs``. If the executor itself fails a job (a lost
+        worker...), that job's result is "failed" with the exception as
+        message.
+
+    Raises
+    ------
+    BatchInterrupted
+        On Ctrl-C: the jobs still queued are cancelled, the running ones
+        finish (their files are written whole, or not at all), and the
+        exception's ``results`` hold every job's result ("cancelled" for
+        those that did not run).
+
+    Notes
+    -----
+    With Dask (``pip install "warp-texton[dask]"``) the same jobs run on a
+    cluster: ``Client.get_executor()`` is a ``concurrent.futures`` executor.
+    The paths must be readable and writable by the workers (a shared file
+    system on a real cluster), and each worker process initialises Warp and
+    loads the kernels on its first job. A script that starts a
+    ``LocalCluster`` needs the ``if __name__ == "__main__":`` guard, since
+    the workers are new processes (docs/api.md, "batch surface texturing",
+    runs such a script).
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> import trimesh
+    >>> from warp_texton import read_image, analyze
+    >>> from warp_texton.batch import SurfaceJob, expand_meshes, run_batch, run_surface_job
+    >>> from warp_texton.demo import demo_texture_path
+    >>> analyze(read_image(demo_texture_path()), size=32, iterations=30).save("grass32.exr")
+    >>> Path("meshes").mkdir()
+    >>> _ = trimesh.creation.icosphere(subdivisions=2).export("meshes/sphere.ply")
+    >>> _ = trimesh.creation.box(extents=(2, 1, 1)).export("meshes/box.obj")
+    >>> _ = Path("meshes/broken.ply").write_text("not a mesh\\n")
+    >>> _ = Path("meshes.txt").write_text("# one path or pattern per line\\nmeshes/box.obj\\nmeshes/missing.ply\\n")
+    >>> paths = expand_meshes(["meshes/*.ply", "@meshes.txt"])
+    >>> paths
+    ['meshes/broken.ply', 'meshes/sphere.ply', 'meshes/box.obj', 'meshes/missing.ply']
+    >>> jobs = [SurfaceJob(p, "grass32.exr", "textured", render=(48, 64), overwrite=True, device="cpu")
+    ...         for p in paths]
+    >>> for r in run_batch(jobs, jobs_in_parallel=2):
+    ...     print(r.status, r.message or r.mesh)
+    failed meshes/broken.ply: not a mesh that trimesh can read (Not a ply file!)
+    done meshes/sphere.ply
+    done meshes/box.obj
+    failed meshes/missing.ply: no such file
+    >>> jobs[1].outputs()
+    [PosixPath('textured/sphere.ply'), PosixPath('textured/sphere.png')]
+
+    Its outputs exist and ``overwrite`` is False:
+
+    >>> run_surface_job(SurfaceJob("meshes/sphere.ply", "grass32.exr", "textured", render=(48, 64))).status
+    'skipped'
     """
     jobs = list(jobs)
     own = executor is None

@@ -169,16 +169,28 @@ def synthesize_dask(
     -------
     dask.array.Array of float32, shape (height, width, C), chunks (rows, columns, C)
 
+    Raises
+    ------
+    TextonError
+        Everything :func:`warp_texton.synthesize` would refuse, when the array
+        is made (not when a chunk runs); a side above 2**30; ``chunks`` that
+        are not positive or larger than the raster; a chunk over the memory
+        budget; and a missing ``dask`` extra.
+
     Examples
     --------
     >>> import numpy as np
     >>> from warp_texton import Texton, synthesize
     >>> from warp_texton.dask import synthesize_dask
-    >>> t = Texton(np.random.default_rng(0).standard_normal((8, 8, 1)) / 8, [0.5])
-    >>> lazy = synthesize_dask(t, (100, 120), chunks=32, rotation=30, device="cpu")
-    >>> lazy.chunks[0]
-    (32, 32, 32, 4)
-    >>> bool((lazy.compute(scheduler="threads") == synthesize(t, (100, 120), rotation=30, device="cpu")).all())
+    >>> t = Texton(0.015 * np.random.default_rng(1).standard_normal((16, 16, 3)), [0.5, 0.45, 0.4])
+    >>> lazy = synthesize_dask(t, (1000, 1500), chunks=256, rotation=20, device="cpu")
+    >>> lazy.shape, lazy.chunks[0][:2], lazy.dtype
+    ((1000, 1500, 3), (256, 256), dtype('float32'))
+
+    Only the chunks that meet a window are computed:
+
+    >>> window = lazy[300:420, 700:900].compute()
+    >>> bool(np.array_equal(window, synthesize(t, (120, 200), rotation=20, pixel_offset=(300, 700), device="cpu")))
     True
     """
     _need_dask()
@@ -300,8 +312,38 @@ def write_zarr(
 
     Returns
     -------
-    dict: ``path``, ``shape``, ``chunks``, ``dtype``, ``clipped`` (pixels),
-    ``seconds``.
+    dict
+        ``path``, ``shape``, ``chunks``, ``dtype``, ``clipped`` (pixels),
+        ``seconds``.
+
+    Raises
+    ------
+    TextonError
+        For an existing store without ``overwrite``, an unknown ``dtype``,
+        ``scheduler`` or option, a bad ``workers``, the errors of
+        :func:`synthesize_dask`, the chunks in flight over the memory budget,
+        and a missing ``dask`` extra.
+
+    Notes
+    -----
+    The store's attributes record the texton, the noise options and the
+    pixel convention (``attrs["warp_texton"]``). Figures for a 65536 × 65536
+    store: docs/scale.md.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import zarr
+    >>> from warp_texton import Texton
+    >>> from warp_texton.dask import write_zarr
+    >>> t = Texton(0.015 * np.random.default_rng(1).standard_normal((16, 16, 3)), [0.5, 0.45, 0.4])
+    >>> store = "noise.zarr"
+    >>> import warnings
+    >>> with warnings.catch_warnings():
+    ...     warnings.simplefilter("ignore")       # 1.5 % of the pixels clipped to [0, 1]
+    ...     report = write_zarr(store, t, (512, 768), 256, "uint8", rotation=20, device="cpu")
+    >>> zarr.open_array(store).shape, report["clipped"]
+    ((512, 768, 3), 6022)
     """
     _need_dask()
     import zarr

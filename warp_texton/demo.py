@@ -16,7 +16,18 @@ DEMO_TEXTURE = "grass_256.png"
 
 
 def demo_texture_path() -> Path:
-    """Path of the demo texture: a 256² crop of scikit-image's grass (CC0)."""
+    """Path of the demo texture: a 256² crop of scikit-image's grass (CC0).
+
+    The examples of the documentation use it (``warp_texton/data/grass_256.png``,
+    shipped with the package).
+
+    Examples
+    --------
+    >>> from warp_texton import read_image
+    >>> from warp_texton.demo import demo_texture_path
+    >>> demo_texture_path().name, read_image(demo_texture_path()).shape
+    ('grass_256.png', (256, 256, 1))
+    """
     return Path(str(resources.files("warp_texton.data") / DEMO_TEXTURE))
 
 
@@ -34,8 +45,25 @@ def texton_preview(texton: Texton):
 def run_demo(out_dir, size: int = 64, seed: int = 0, progress: bool = True) -> list[Path]:
     """Write input, Gaussian version, texton, noise and a plane view to ``out_dir``.
 
-    Returns the paths written, PNG and EXR for each picture plus the texton
-    itself as ``texton.exr`` and ``texton.texton``.
+    What ``warp-texton demo`` does (docs/cli.md): the demo texture
+    (:func:`demo_texture_path`) is analysed (:func:`warp_texton.analyze`), and
+    its Gaussian version, a preview of the texton, a 512 × 512 window of its
+    noise and a 512 × 512 view of the ground plane are written.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        Created when missing.
+    size, seed
+        As in :func:`warp_texton.analyze` (the seed also seeds the noise).
+    progress : bool
+        Show the analysis's progress bar.
+
+    Returns
+    -------
+    list of Path
+        The paths written, PNG and EXR for each picture plus the texton
+        itself as ``texton.exr`` and ``texton.texton``.
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -34,17 +34,29 @@ def dsn(texton: Texton, shape, mni: float = 30.0, seed: int = 0) -> np.ndarray:
     -------
     float32 array (height, width, C)
 
+    Raises
+    ------
+    TextonError
+        For a ``texton`` that is not a :class:`Texton`, a bad ``shape``,
+        ``mni`` or ``seed``, and a raster over the memory or work budget.
+
+    Notes
+    -----
+    It is the CPU reference for an order-0 texton (the discrete SOT of
+    ``analyze(u, order=0)``); it runs on NumPy, not on Warp.
+
     References
     ----------
     EUSIPCO §2.4, Algorithm 1.
 
     Examples
     --------
-    >>> import numpy as np
-    >>> from warp_texton import Texton, dsn
-    >>> t = Texton(np.ones((4, 4, 1)) / 16, [0.5])
-    >>> dsn(t, (32, 32), mni=8).shape
-    (32, 32, 1)
+    >>> from warp_texton import read_image, analyze, dsn
+    >>> from warp_texton.demo import demo_texture_path
+    >>> t0 = analyze(read_image(demo_texture_path()), size=32, order=0)   # the discrete SOT
+    >>> f = dsn(t0, (256, 384), mni=30, seed=2)
+    >>> f.shape, f.dtype
+    ((256, 384, 1), dtype('float32'))
     """
     if not isinstance(texton, Texton):
         raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")

@@ -42,6 +42,17 @@ def periodic_component(u) -> np.ndarray:
     Returns
     -------
     p : float32 array (H, W, C)
+        Same mean as u, no jump across the image border.
+
+    Raises
+    ------
+    TextonError
+        For an image that is not a finite numeric (H, W[, C]) array, and one
+        over the memory budget.
+
+    Notes
+    -----
+    Derivation and its discrete Poisson solve: docs/model.md §2.
 
     References
     ----------
@@ -51,9 +62,12 @@ def periodic_component(u) -> np.ndarray:
     Examples
     --------
     >>> import numpy as np
-    >>> p = periodic_component(np.random.default_rng(0).random((32, 48)))
-    >>> p.shape
-    (32, 48, 1)
+    >>> from warp_texton import read_image, periodic_component
+    >>> from warp_texton.demo import demo_texture_path
+    >>> u = read_image(demo_texture_path())
+    >>> p = periodic_component(u)
+    >>> p.shape, bool(np.allclose(p.mean(), u.mean(), atol=1e-5))
+    ((256, 256, 1), True)
     """
     u = as_image(u)
     check_memory(PERIODIC_BYTES_PER_VALUE * float(u.size), f"the periodic component of a {u.shape[1]}x{u.shape[0]} "
@@ -84,8 +98,30 @@ def periodic_component(u) -> np.ndarray:
 def normalized_kernel(u, periodic: bool = True, name: str = "u") -> tuple[np.ndarray, np.ndarray]:
     """Mean m and kernel t_u = (u − m)/√(MN) of the Gaussian model of u (EUSIPCO eq. (3)).
 
-    With ``periodic`` the periodic component of u is used (CGF §4.2). Raises
-    :class:`TextonError` for an image without variance.
+    Parameters
+    ----------
+    u : array (H, W) or (H, W, C)
+        The image, M × N = H × W pixels.
+    periodic : bool
+        Use the periodic component of u (CGF §4.2) instead of u.
+    name : str
+        How error messages name the image.
+
+    Returns
+    -------
+    mean : float64 array (C,)
+    t : float64 array (H, W, C)
+        The kernel t_u, whose DFT's squared modulus is the model's spectrum.
+
+    Raises
+    ------
+    TextonError
+        For an image without variance, and the errors of
+        :func:`periodic_component`.
+
+    Examples
+    --------
+    See :func:`warp_texton.mixing.barycentre_spectrum`.
     """
     u = as_image(u, name)
     periodic = check_bool(periodic, "periodic")
@@ -106,6 +142,30 @@ def ot_distance(t0_hat: np.ndarray, t1_hat: np.ndarray) -> float:
     Both arguments are full DFTs on the same grid Θ, shape (M, N, C); the
     zero frequency is excluded. Returns d² = 1/|Θ| Σ_{ξ≠0} |t̂0|² + |t̂1|² − 2|t̂0* t̂1|,
     where the product is the per-frequency Hermitian product over channels.
+
+    Parameters
+    ----------
+    t0_hat, t1_hat : complex array (M, N, C)
+        The DFTs (``np.fft.fft2(t, axes=(0, 1))``) of two kernels, as
+        :func:`normalized_kernel` returns them.
+
+    Returns
+    -------
+    float
+        d², the squared distance (take its square root for d).
+
+    References
+    ----------
+    EUSIPCO eq. (1); docs/model.md §3.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from warp_texton.gaussian import ot_distance
+    >>> t = np.random.default_rng(0).standard_normal((8, 8, 1))
+    >>> f = np.fft.fft2(t, axes=(0, 1))
+    >>> round(ot_distance(f, f), 9), round(ot_distance(f, 2 * f) / ot_distance(f, 0 * f), 6)
+    (0.0, 1.0)
     """
     a = np.sum(np.abs(t0_hat) ** 2 + np.abs(t1_hat) ** 2, axis=-1)
     cross = np.abs(np.sum(np.conj(t0_hat) * t1_hat, axis=-1))
@@ -178,16 +238,31 @@ def gaussian_texture(u, shape=None, seed: int = 0, periodic: bool = True) -> np.
     -------
     float32 array (height, width, C) with the same mean as u.
 
+    Raises
+    ------
+    TextonError
+        For an image that is not a finite numeric (H, W[, C]) array or is
+        constant, a bad ``shape`` or ``seed``, and a sample over the memory or
+        work budget.
+
+    Notes
+    -----
+    Use it to judge whether a texture is Gaussian enough for texton noise: if
+    the Gaussian version looks like the input, a texton will too.
+
     References
     ----------
     Galerne, Gousseau, Morel, "Random phase textures", IEEE TIP 2011; EUSIPCO §2.
 
     Examples
     --------
-    >>> import numpy as np
-    >>> u = np.random.default_rng(1).random((64, 64))
-    >>> gaussian_texture(u, shape=(100, 80)).shape
-    (100, 80, 1)
+    >>> from warp_texton import read_image, gaussian_texture
+    >>> from warp_texton.demo import demo_texture_path
+    >>> u = read_image(demo_texture_path())
+    >>> g = gaussian_texture(u, seed=1)                    # 256 x 256, tiles
+    >>> big = gaussian_texture(u, shape=(600, 800), seed=1)
+    >>> g.shape, big.shape
+    ((256, 256, 1), (600, 800, 1))
     """
     u = as_image(u)
     seed = check_seed(seed)

@@ -373,6 +373,16 @@ def read_image(path) -> np.ndarray:
     with :func:`load_texton`). The file's declared size is checked against the
     memory budget before its pixels are decoded.
 
+    Parameters
+    ----------
+    path : str or Path
+        An image file.
+
+    Returns
+    -------
+    float32 array (H, W, C)
+        In [0, 1] for integer formats; EXR and float TIFF values as stored.
+
     Raises
     ------
     TextonError
@@ -488,16 +498,27 @@ def report_clipped(name, clipped: int, total: int, dtype: str) -> None:
 def write_image(path, img, *, dtype=None, compression=None) -> int:
     """Write an image atomically; return the number of pixels clipped.
 
-    By extension: ``.exr`` float32 (or ``dtype="float16"``), ``.png`` 8 bits (or
-    ``dtype="uint16"``), ``.jpg``/``.jpeg`` 8 bits, ``.tif``/``.tiff`` float32,
-    float16, uint16 or uint8 (tiled when large, BigTIFF past 4 GiB).
-    Integer types hold [0, 1] scaled to their range: values outside are
-    clipped, and when more than CLIP_WARN of the pixels are, a warning says
-    how many. The file appears only once it is complete.
+    By extension, with the pixel type ``dtype`` (the first is the default):
+
+    | extension | ``dtype`` | ``compression`` |
+    | --- | --- | --- |
+    | ``.exr`` | ``"float32"``, ``"float16"`` (half; values beyond ±65504 clipped) | ``"zip"`` (default), ``"zips"``, ``"piz"``, ``"rle"``, ``"none"`` are lossless; ``"pxr24"`` (lossy for float32), ``"b44"``, ``"b44a"``, ``"dwaa"``, ``"dwab"`` are lossy |
+    | ``.png`` | ``"uint8"``, ``"uint16"`` (16-bit RGB through ``imagecodecs``: Pillow writes no 48-bit PNG) | deflate |
+    | ``.jpg``, ``.jpeg`` | ``"uint8"`` (quality 95) | — |
+    | ``.tif``, ``.tiff`` | ``"float32"``, ``"float16"``, ``"uint16"``, ``"uint8"``, through ``tifffile``; tiled 512 × 512 above 64 MiB, BigTIFF past 4 GiB | ``"zlib"`` (default), ``"zstd"``, ``"lzw"``, ``"none"`` |
+
+    Integer types hold [0, 1] scaled to their range, rounded; values outside
+    are clipped, and when more than 1 % of the pixels are (``CLIP_WARN``; the
+    tails of a faithful Gaussian texture clip a few tenths of a percent) a
+    warning says how many, once. 16-bit RGB PNG and TIFF need the
+    ``formats`` extra (``pip install "warp-texton[formats]"``: ``imagecodecs``,
+    ``tifffile``); :func:`read_image` reads them back at full depth. The file
+    appears only once it is complete.
 
     Parameters
     ----------
     path : str or Path
+        Its extension chooses the format.
     img : array (H, W) or (H, W, C)
     dtype : str, optional
         "uint8", "uint16", "float16" or "float32", as the format allows.
@@ -507,20 +528,39 @@ def write_image(path, img, *, dtype=None, compression=None) -> int:
 
     Returns
     -------
-    int: pixels with a value clipped to the stored range.
+    int
+        Pixels with a value clipped to the stored range.
 
     Raises
     ------
     TextonError
-        For an unsupported extension or type, a missing folder, or a bad image.
+        For an unsupported extension, type or compression, a missing folder, a
+        name longer than the file system allows (before writing), or a bad
+        image.
+    OSError
+        When the write fails (a full disk): it names ``path`` and leaves no
+        file.
 
     Examples
     --------
-    >>> import numpy as np, tempfile, os
-    >>> from warp_texton import write_image
-    >>> folder = tempfile.mkdtemp()
-    >>> write_image(os.path.join(folder, "a.png"), np.full((4, 4, 3), 0.5), dtype="uint16")
+    >>> from warp_texton import read_image, write_image
+    >>> from warp_texton.demo import demo_texture_path
+    >>> u = read_image(demo_texture_path())      # (256, 256, 1) float32 in [0, 1]
+    >>> write_image("grass.exr", u)              # lossless float32
     0
+    >>> write_image("grass.png", u)              # 8-bit
+    0
+    >>> write_image("grass_16.png", u, dtype="uint16")
+    0
+    >>> write_image("grass_half.exr", u, dtype="float16", compression="piz")
+    0
+    >>> import warnings
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     write_image("too_bright.png", u * 3)   # clipped to [0, 1], with a warning
+    51752
+    >>> len(caught)
+    1
     """
     path = check_image_path(path)
     ext = path.suffix.lower()

@@ -83,7 +83,21 @@ def memory_budget() -> int:
 
 def set_memory_budget(nbytes) -> None:
     """Set the budget for this process (bytes, or a size string such as ``"2G"``);
-    ``None`` goes back to the environment variable or the default."""
+    ``None`` goes back to the environment variable or the default.
+
+    Examples
+    --------
+    >>> from warp_texton import Texton, TextonError, synthesize
+    >>> from warp_texton.limits import set_memory_budget
+    >>> try:
+    ...     set_memory_budget("1M")
+    ...     synthesize(Texton([[0.1, 0.2], [0.3, 0.4]], [0.5]), (1024, 1024), device="cpu")
+    ... except TextonError as exc:
+    ...     print("over the memory budget of 1 MiB" in str(exc))
+    ... finally:
+    ...     set_memory_budget(None)
+    True
+    """
     global _override
     if nbytes is None:
         _override = None

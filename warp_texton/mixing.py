@@ -30,9 +30,48 @@ from .texton import MAX_TEXTON_SIDE, Texton
 def barycentre_spectrum(tu_hat: np.ndarray, tv_hat: np.ndarray, rho: float) -> np.ndarray:
     """τ̂_ρ = (1 − ρ) τ̂_0 + ρ t̂_v with τ̂_0 = t̂_u · (t̂_u* t̂_v)/|t̂_u* t̂_v| (CGF §7).
 
-    Arrays (…, C), spectra of real kernels on one grid. The model of τ_ρ lies
+    The spectrum of the barycentre kernel: ``e^{iφ}`` = (t̂_u* t̂_v)/|t̂_u* t̂_v|
+    is, at every frequency, the phase of the Hermitian product over the
+    channels (1 where that product is 0: t̂_u is kept). The model of τ_ρ lies
     on the OT geodesic: d(t_u, τ_ρ) = ρ d(t_u, t_v), d(τ_ρ, t_v) = (1 − ρ) d(t_u, t_v)
-    for the distance of EUSIPCO eq. (1).
+    for the distance of EUSIPCO eq. (1) (:func:`warp_texton.gaussian.ot_distance`,
+    which returns d²; proof in docs/model.md §11). This is the building block
+    of :func:`warp_texton.mix_textons`; use it to study the models themselves.
+
+    Parameters
+    ----------
+    tu_hat, tv_hat : complex array (..., C)
+        DFTs (full or rfft half-plane) of two real kernels on one grid,
+        channels last, of one shape.
+    rho : float
+        Not checked: values outside [0, 1] extrapolate along the line.
+
+    Returns
+    -------
+    complex array of the same shape
+
+    References
+    ----------
+    CGF §7; Xia et al. 2014 (see :func:`warp_texton.mix_textons`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from warp_texton import read_image
+    >>> from warp_texton.demo import demo_texture_path
+    >>> from warp_texton.gaussian import normalized_kernel, ot_distance
+    >>> from warp_texton.mixing import barycentre_spectrum
+    >>> u = read_image(demo_texture_path())
+    >>> _, tu = normalized_kernel(u)           # t_u = (p - m) / sqrt(MN), p the periodic component
+    >>> _, tv = normalized_kernel(0.6 * np.rot90(u) + 0.3)
+    >>> fu, fv = np.fft.fft2(tu, axes=(0, 1)), np.fft.fft2(tv, axes=(0, 1))
+    >>> d = np.sqrt(ot_distance(fu, fv))
+    >>> for rho in (0.25, 0.5, 0.75):
+    ...     tau = barycentre_spectrum(fu, fv, rho)
+    ...     print(rho, round(np.sqrt(ot_distance(fu, tau)) / d, 6), round(np.sqrt(ot_distance(tau, fv)) / d, 6))
+    0.25 0.25 0.75
+    0.5 0.5 0.5
+    0.75 0.75 0.25
     """
     cross = np.sum(np.conj(tu_hat) * tv_hat, axis=-1)
     # where the product vanishes any unit phase is a geodesic: keep t̂_u as it is
@@ -109,8 +148,31 @@ def mix_textons(
 
     Returns
     -------
-    list of Texton, one per ρ; ``metadata["rho"]`` holds ρ, means are
-    (1 − ρ) m_u + ρ m_v.
+    list of Texton
+        One per ρ, in the order of ``rhos``. Texton ρ models the barycentre
+        τ_ρ = (1 − ρ) τ_0 + ρ t_v of the two models, its mean is
+        (1 − ρ) m_u + ρ m_v, and ``metadata["rho"]`` holds ρ. With the same
+        options and seed, ρ = 0 gives the texton ``analyze(u)`` gives (to
+        float32 rounding, when u is at the common size) and ρ = 1 that of
+        ``analyze(v)``.
+
+    Raises
+    ------
+    TextonError
+        For ``rhos`` that are not numbers, empty, or outside [0, 1]; a
+        ``size``, ``order``, ``iterations``, ``seed`` or ``support`` that
+        :func:`analyze` would refuse; a common size smaller than ``size``; a
+        texton larger than the other image; an image that is not a numeric
+        (H, W[, C]) array with C in {1, 3, 4} (an alpha channel is dropped
+        with a warning), holds NaN or infinite values, or is constant. The
+        message names ``u`` or ``v``.
+
+    Notes
+    -----
+    One white-noise start for all ρ makes the textons comparable: a
+    continuous function of ρ, much closer to their neighbours than to another
+    seed's textons (docs/model.md §11, "one texton per ρ from the same white
+    noise").
 
     References
     ----------
@@ -120,11 +182,29 @@ def mix_textons(
     Examples
     --------
     >>> import numpy as np
-    >>> from warp_texton import mix_textons
-    >>> rng = np.random.default_rng(0)
-    >>> ts = mix_textons(rng.random((64, 64)), rng.random((64, 64)), [0, 0.5, 1], size=16, iterations=5)
-    >>> [t.metadata["rho"] for t in ts]
-    [0.0, 0.5, 1.0]
+    >>> from warp_texton import read_image, analyze, mix_textons
+    >>> from warp_texton.demo import demo_texture_path
+    >>> u = read_image(demo_texture_path())      # grass, 256 x 256, grey
+    >>> v = 0.6 * np.rot90(u) + 0.3              # turned by 90 degrees, brighter, less contrast
+    >>> textons = mix_textons(u, v, np.linspace(0, 1, 5), size=32, iterations=30)
+    >>> [t.metadata["rho"] for t in textons]
+    [0.0, 0.25, 0.5, 0.75, 1.0]
+    >>> [round(float(t.mean[0]), 3) for t in textons]
+    [0.466, 0.495, 0.523, 0.551, 0.58]
+
+    The ends are the single-texture textons (same options, same seed):
+
+    >>> bool(np.allclose(textons[0].coeffs, analyze(u, size=32, iterations=30).coeffs, atol=1e-6))
+    True
+    >>> bool(np.allclose(textons[-1].coeffs, analyze(v, size=32, iterations=30).coeffs, atol=1e-6))
+    True
+
+    A texton can stand for a texture; a grey texture mixes with an RGB one as RGB:
+
+    >>> rgb = np.stack([u[:, :, 0], 0.9 * u[:, :, 0], 0.5 * np.fliplr(u[:, :, 0])], axis=-1)
+    >>> half = mix_textons(textons[0], rgb, 0.5, size=32, iterations=30)[0]
+    >>> half.channels, half.metadata["rho"]
+    (3, 0.5)
     """
     rhos = _check_rhos(rhos)
     size = check_int(size, "size", minimum=2, maximum=MAX_TEXTON_SIDE)
@@ -248,15 +328,49 @@ def synthesize_mixed(
     Returns
     -------
     float32 array (H, W, C)
+        λ = mni / support_area of the texton with the largest support, and
+        the impacts are those :func:`synthesize` draws for that texton with
+        the same ``mni`` and ``seed``; the signs make the sum zero-mean
+        whatever the textons' integrals.
+
+    Raises
+    ------
+    TextonError
+        For ``textons`` that is empty, holds something other than
+        Textons, or mixes sizes, orders or channel counts (one
+        texton alone is accepted; one whose coefficients are all zero gives
+        its regions the mean alone); ``weights`` that is neither "strips" nor
+        a map of the raster's shape ((H, W) or (H, W, 1)) with finite values
+        in [0, 1]; and the ``shape``, ``mni``, ``seed``, ``scale``,
+        ``offset``, ``device`` and ``method`` errors of :func:`synthesize`.
+
+    References
+    ----------
+    CGF §7, Fig. 5; docs/model.md §11.
 
     Examples
     --------
     >>> import numpy as np
-    >>> from warp_texton import Texton, synthesize_mixed
-    >>> rng = np.random.default_rng(0)
-    >>> ts = [Texton(rng.standard_normal((8, 8, 1)) / 8, [m]) for m in (0.2, 0.8)]
-    >>> synthesize_mixed(ts, "strips", (32, 64), device="cpu").shape
-    (32, 64, 1)
+    >>> from warp_texton import read_image, mix_textons, synthesize_mixed
+    >>> from warp_texton.demo import demo_texture_path
+    >>> u = read_image(demo_texture_path())
+    >>> v = 0.6 * np.rot90(u) + 0.3
+    >>> textons = mix_textons(u, v, np.linspace(0, 1, 11), size=32, iterations=30)
+
+    From u on the left to v on the right, in 11 strips; the mean ramps from
+    u's to v's:
+
+    >>> strips = synthesize_mixed(textons, "strips", shape=(128, 512), seed=1, device="cpu")
+    >>> strips.shape, strips.dtype
+    ((128, 512, 1), dtype('float32'))
+    >>> round(float(strips[:, :40].mean()), 2), round(float(strips[:, -40:].mean()), 2)
+    (0.48, 0.6)
+
+    Any layout: v inside a disc, u outside, a soft edge in between:
+
+    >>> y, x = np.mgrid[:256, :256]
+    >>> rho = np.clip((80 - np.hypot(x - 128, y - 128)) / 20, 0, 1)
+    >>> disc = synthesize_mixed(textons, rho, shape=(256, 256), seed=1, device="cpu")
     """
     textons = _check_textons(textons)
     h, w = check_shape(shape)

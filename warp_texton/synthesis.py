@@ -80,63 +80,145 @@ def synthesize(
     """Texton noise on an H × W raster.
 
     Pixel (i, j) is the noise at x = offset + R(rotation) · ((j + ½)/scale, (i + ½)/scale)
-    in texel units, so ``scale`` is pixels per texel and ``rotation`` (degrees)
-    turns the noise. Any window of the infinite noise can be made, and windows
-    whose offsets differ by their width join without a seam.
+    in texel units, x to the right and y down, so ``scale`` is pixels per
+    texel and ``rotation`` (degrees) turns the noise; with the defaults, pixel
+    (i, j) is the noise at (j + ½, i + ½). Any window of the infinite noise
+    can be made, and windows whose offsets differ by their width join without
+    a seam.
+
+    The noise's value at a position depends only on the texton, ``mni``,
+    ``seed``, ``period``, ``poisson`` and ``cell_factor``; the raster's
+    ``shape``, ``scale``, ``rotation``, ``offset``, the ``device`` and the
+    ``method`` only choose where and how it is sampled. A ``filter`` other
+    than "none" averages the same noise over each pixel's footprint, so the
+    value of a pixel then also depends on its footprint.
 
     Parameters
     ----------
     texton : Texton
+        From :func:`analyze` or :func:`load_texton`.
     shape : (height, width)
+        Positive integers, at most 2²⁸ pixels.
     mni : float
-        Mean number of impacts per point; λ = mni / texton.support_area.
+        Mean number of impacts per point, at least 10⁻³; λ = mni /
+        texton.support_area. Higher is more Gaussian and slower; about 30 is
+        enough.
     seed : int
-        In [0, 2**32).
-    scale, rotation, offset
-        The raster's placement in the noise (see above).
+        In [0, 2**32); the same seed gives the same noise on every device.
+    scale : float
+        Pixels per texel, in (0, 10⁴]: 2 shows the texture twice as large,
+        0.25 a quarter as large (with the default ``filter="none"``, small
+        scales alias).
+    rotation : float
+        Degrees; a positive angle turns the texture counter-clockwise on
+        screen.
+    offset : (x, y)
+        The noise position of the raster's top-left corner, in texels.
+        Without rotation, rasters whose offsets differ by (W / scale, 0) are
+        neighbouring windows and join without a seam.
     period : (Px, Py), optional
-        Make the noise exactly periodic with these periods (texel units):
-        ``synthesize(t, (H, W), period=(W, H))`` is a seamless tile.
+        ``None``: the noise never repeats. A pair makes the noise exactly
+        periodic with these periods (texel units):
+        ``synthesize(t, (H, W), period=(W, H))`` is a seamless tile at scale
+        1; at another scale use (W / scale, H / scale). Note the order:
+        ``period`` is (x, y), ``shape`` is (height, width). A period spans at
+        most 2³⁰ noise cells (4.2 × 10¹⁰ texels for a 64 × 64 texton,
+        docs/limits.md); a longer one is refused.
     device : str, optional
         "cpu", "cuda", "cuda:N"; default CUDA when available, else CPU.
     poisson : {"exact", "gaussian"}
         Cell counts exactly Poisson, or the rounded Gaussian approximation of
         the authors' viewer.
     cell_factor : float
-        Cell side relative to the texton support side (CGF §8 uses ~0.6).
+        Side of the random cells relative to the side of the texton's support
+        (> 0; CGF §8 uses ~0.6). A different value gives a different, equally
+        valid, noise.
     method : {"auto", "splat", "gather"}
-        How the raster is computed; both give the same noise. "auto" splats
-        on the CPU (threads own row bands) and gathers on CUDA (a thread per
-        pixel).
+        How the raster is computed; both give the same noise. "splat": each
+        impact adds its texton to the pixels it covers (CPU only; threads own
+        row bands); "gather": each pixel sums the impacts of nearby cells (a
+        thread per pixel); "auto" splats on the CPU and gathers on CUDA. Not
+        used when a filter applies: filtered pixels are evaluated one by one,
+        like :func:`evaluate`'s points.
     jacobian : array (2, 2) or (height, width, 2, 2), optional
-        Each pixel's footprint in texel space: columns are the texel-space
-        steps of one pixel to the right and one pixel down. Default: the
-        raster's own steps, R(rotation) / scale. Only the filters read it.
+        Each pixel's footprint in texel space, for the whole raster or per
+        pixel: columns are the texel-space steps of one pixel to the right and
+        one pixel down, so the pixel covers x + J [−½, ½]². Default: the
+        raster's own steps, R(rotation) / scale. Only the filters read it;
+        entries must be finite and are clamped to ±10¹² texels; a zero
+        footprint means no filtering.
     filter : str or FilterOptions
-        Anti-aliasing for the footprint (CGF §5): "none", "mip",
-        "anisotropic" or "supersample" with default settings, or a
-        :class:`~warp_texton.FilterOptions` (``max_aniso``, ``supersample``,
-        ``fade_energy``). Where every footprint needs a single lookup of the
-        unfiltered texton, "mip" and "anisotropic" are exactly "none".
-        Footprints past the last kept MIP level fade to the texton mean;
+        Anti-aliasing for the footprint (CGF §5, docs/model.md §13): "none"
+        (one evaluation per pixel), "mip" (one lookup of a MIP pyramid of the
+        texton, at the footprint's major length), "anisotropic" (up to
+        ``max_aniso`` lookups along the footprint's major axis) or
+        "supersample" (the mean of ``supersample``² jittered evaluations: the
+        reference, slow), with default settings, or a
+        :class:`~warp_texton.FilterOptions` to change them. Where every
+        footprint needs a single lookup of the unfiltered texton (at
+        ``scale=1``, and down to scale ≈ 0.41 for "mip", 0.66 for
+        "anisotropic") both give exactly the output of "none". Footprints past
+        the last MIP level the filters keep
+        (:func:`warp_texton.filtering.kept_levels`) fade to the texton's mean;
         supersamples beyond the noise's cell range count as the mean.
     pixel_offset : (row, column) of integers
-        Make the result the window of pixels ``pixel_offset`` + (i, j) of the
-        raster that ``offset``, ``scale`` and ``rotation`` place: windows of
-        one raster are then bit for bit the same pixels as one call for the
-        whole (:mod:`warp_texton.dask` computes chunks this way).
+        Within ±2³⁰. Make the result the window of pixels ``pixel_offset`` +
+        (i, j) of the raster that ``offset``, ``scale`` and ``rotation``
+        place: windows of one raster are then bit for bit the same pixels as
+        one call for the whole (:mod:`warp_texton.dask` computes chunks this
+        way; docs/scale.md, "windows and chunks").
     output : {"numpy", "warp"}
         A NumPy array on the host, or a ``wp.array`` on ``device`` that is
-        never copied to the host (hand it to PyTorch or JAX through DLPack:
-        ``torch.from_dlpack(a)``). Supersampled values are averaged on the
-        host and uploaded.
+        never copied to the host; hand it over with DLPack
+        (``torch.from_dlpack(a)``, ``jax.dlpack.from_dlpack(a)``,
+        ``numpy.from_dlpack(a)`` on the CPU). Supersampled values are averaged
+        on the host and uploaded.
     progress : bool
-        Show a progress bar over the strips of a large raster (once it has run
-        for two seconds).
+        Show a progress bar over the strips of a large raster, once it has run
+        for two seconds (the CLI turns it on unless ``-q``).
 
     Returns
     -------
-    float32 array (height, width, C): NumPy, or a ``wp.array`` for ``output="warp"``
+    float32 array (height, width, C)
+        C the texton's channels: NumPy, or a ``wp.array`` for
+        ``output="warp"``. In expectation its mean is ``texton.mean`` and its
+        lag-0 colour covariance ``texton.covariance()``; with a filter the
+        mean is still ``texton.mean`` and the covariance (about) that of the
+        noise averaged over the footprints, lower.
+
+    Raises
+    ------
+    TextonError
+        For a ``texton`` that is not a :class:`Texton`; a ``shape`` that is
+        not a pair of positive integers or exceeds 2²⁸ pixels; ``mni``,
+        ``scale``, ``cell_factor`` or a period component that is not a finite
+        number > 0; a ``seed`` outside [0, 2³²); a non-finite ``rotation`` or
+        ``offset``, or an ``offset`` that is not a pair; an unknown
+        ``device``, ``poisson``, ``method`` or ``filter``; ``method="splat"``
+        on CUDA; a ``jacobian`` that is not numeric, not of shape (2, 2) or
+        (height, width, 2, 2), or holds NaN or infinite values; a
+        ``supersample`` or ``max_aniso`` that is not an integer in [1, 64]; a
+        ``fade_energy`` outside [0, 1]; a ``pixel_offset`` that is not a pair
+        of integers within ±2³⁰; an ``output`` other than "numpy" or "warp";
+        and parameters the kernels cannot run: positions beyond ±2³⁰ cells
+        from the origin, a ``cell_factor`` or period so small that a point
+        would visit more than 4096 cells, a ``cell_factor`` so large that a
+        cell would hold more than 10⁵ impacts on average, a ``scale`` so small
+        that the raster covers more than 2²⁶ cells or needs more than 2³⁰
+        impacts; a period longer than 2³⁰ cells; an ``mni`` below 10⁻³ or a
+        ``scale`` above 10⁴; and a request over the memory or work budget
+        (docs/limits.md).
+
+    Notes
+    -----
+    Rasters of more than ``noise.STRIP_WORK`` pixels (4 Mi, less with a
+    filter) are computed in strips of rows, each with its own block of
+    impacts: the same values, a moving progress bar, and Ctrl-C that stops
+    within a strip. The output (plus what handing it over copies) must fit
+    the memory budget of :mod:`warp_texton.limits`. The first call in a
+    process compiles the kernels for its device, or loads them from Warp's
+    kernel cache (``~/.cache/warp/<warp version>`` by default). The model, the
+    random cells and the kernels are described in docs/model.md §10.
 
     References
     ----------
@@ -145,15 +227,86 @@ def synthesize(
     Examples
     --------
     >>> import numpy as np
-    >>> from warp_texton import FilterOptions, Texton, synthesize
-    >>> t = Texton(np.random.default_rng(0).standard_normal((8, 8, 1)) / 8, [0.5])
-    >>> synthesize(t, (32, 48), device="cpu").shape
-    (32, 48, 1)
-    >>> far = synthesize(t, (16, 16), scale=0.1, filter=FilterOptions("anisotropic", max_aniso=4), device="cpu")
-    >>> whole = synthesize(t, (32, 48), scale=0.7, rotation=20, device="cpu")
-    >>> part = synthesize(t, (8, 8), scale=0.7, rotation=20, pixel_offset=(20, 30), device="cpu")
+    >>> from warp_texton import read_image, analyze, synthesize
+    >>> from warp_texton.demo import demo_texture_path
+    >>> u = read_image(demo_texture_path())
+    >>> texton = analyze(u, size=64, seed=0)
+    >>> noise = synthesize(texton, shape=(1080, 1920), mni=30, seed=1, device="cpu")
+    >>> noise.shape, noise.dtype
+    ((1080, 1920, 1), dtype('float32'))
+    >>> round(float(u.mean()), 3), round(float(noise.mean()), 3)
+    (0.466, 0.466)
+
+    A seamless 256 × 256 tile: the noise is periodic with period 256 texels,
+    so one period to the right is the same tile:
+
+    >>> tile = synthesize(texton, shape=(256, 256), period=(256, 256), seed=1, device="cpu")
+    >>> next_tile = synthesize(texton, (256, 256), period=(256, 256), seed=1, offset=(256, 0), device="cpu")
+    >>> bool(np.allclose(tile, next_tile, atol=1e-4))
+    True
+
+    Windows of the same noise join without a seam, and a window given by
+    ``pixel_offset`` is bit for bit a part of the whole:
+
+    >>> left = synthesize(texton, (128, 128), seed=1, device="cpu")
+    >>> right = synthesize(texton, (128, 128), seed=1, offset=(128, 0), device="cpu")
+    >>> both = synthesize(texton, (128, 256), seed=1, device="cpu")
+    >>> bool(np.allclose(np.concatenate([left, right], axis=1), both, atol=1e-4))
+    True
+    >>> whole = synthesize(texton, (64, 96), scale=0.7, rotation=20, device="cpu")
+    >>> part = synthesize(texton, (8, 8), scale=0.7, rotation=20, pixel_offset=(20, 30), device="cpu")
     >>> bool((part == whole[20:28, 30:38]).all())
     True
+
+    The two raster methods give the same noise; ``poisson`` and
+    ``cell_factor`` change the noise itself:
+
+    >>> a = synthesize(texton, (128, 128), seed=1, device="cpu", method="splat")
+    >>> b = synthesize(texton, (128, 128), seed=1, device="cpu", method="gather")
+    >>> bool(np.allclose(a, b, atol=1e-5))
+    True
+    >>> approx = synthesize(texton, (128, 128), seed=1, poisson="gaussian", device="cpu")
+    >>> coarse = synthesize(texton, (128, 128), seed=1, cell_factor=1.0, device="cpu")
+
+    Filtering: seen from ten times further, one pixel covers 10 × 10 texels.
+    Point-sampled, the noise keeps its full contrast as aliased grain;
+    filtered, each pixel is about the mean of its 10 × 10 texels, as in the
+    supersampled reference:
+
+    >>> from warp_texton import FilterOptions
+    >>> far = synthesize(texton, (64, 64), seed=1, scale=0.1, device="cpu")            # aliased
+    >>> far_aa = synthesize(texton, (64, 64), seed=1, scale=0.1, filter="anisotropic", device="cpu")
+    >>> ref = synthesize(texton, (64, 64), seed=1, scale=0.1, filter=FilterOptions("supersample", supersample=8),
+    ...                  device="cpu")
+    >>> [round(float(a.std()), 2) for a in (far, far_aa, ref)]
+    [0.16, 0.07, 0.08]
+
+    At scale 1 a pixel is one texel: nothing to filter, "mip" is exactly
+    "none". Footprints can also be given per pixel, here 1 × 1 texel at the
+    top to 1 × 20 texels at the bottom:
+
+    >>> bool(np.array_equal(synthesize(texton, (64, 64), seed=1, filter="mip", device="cpu"),
+    ...                     synthesize(texton, (64, 64), seed=1, device="cpu")))
+    True
+    >>> J = np.zeros((64, 64, 2, 2))
+    >>> J[..., 0, 0] = 1.0
+    >>> J[..., 1, 1] = np.linspace(1.0, 20.0, 64)[:, None]
+    >>> blurred = synthesize(texton, (64, 64), seed=1, jacobian=J, filter="anisotropic", device="cpu")
+
+    Errors name the argument:
+
+    >>> from warp_texton import Texton, TextonError
+    >>> t = Texton(np.full((8, 8, 1), 0.01), mean=[0.5])
+    >>> for kwargs in ({"mni": 0}, {"period": (512,)}, {"offset": (1e12, 0)}, {"method": "fast"}, {"filter": "box"}):
+    ...     try:
+    ...         synthesize(t, (64, 64), device="cpu", **kwargs)
+    ...     except TextonError as exc:
+    ...         print(exc)
+    mni must be a finite number > 0, got 0.0
+    period must be a pair (Px, Py) of positive numbers, got (512,)
+    the raster's positions reach 1e+12 texels from the origin; the noise is defined within ±5.8e+09 texels (2**30 cells)
+    method must be one of auto, splat, gather, got 'fast'
+    filter must be one of none, mip, anisotropic, supersample, got 'box'
     """
     h, w = check_shape(shape)
     seed = check_seed(seed)
@@ -220,28 +373,65 @@ def evaluate(
 ):
     """Texton noise at arbitrary points.
 
+    Each point draws its neighbouring cells' impacts itself, so for full
+    rasters :func:`synthesize` is much faster; use ``evaluate`` for scattered
+    positions (texture coordinates, a warped grid, a few probes).
+
     Parameters
     ----------
     texton : Texton
     points : array (N, 2)
-        Positions (x, y) in texel units, x to the right, y down.
+        Positions (x, y) in texel units, x to the right, y down; converted to
+        float64.
     mni, seed, device, period, poisson, cell_factor
         As in :func:`synthesize`; the same values give the same noise, so
-        ``synthesize(t, ...)[i, j]`` equals ``evaluate`` at that pixel's position.
+        ``synthesize(t, ...)[i, j]`` equals ``evaluate`` at that pixel's
+        position to float32 rounding.
     output : {"numpy", "warp"}
         A NumPy array, or a ``wp.array`` on ``device`` (see :func:`synthesize`).
 
     Returns
     -------
-    float32 array (N, C): NumPy, or a ``wp.array`` for ``output="warp"``
+    float32 array (N, C)
+        NumPy, or a ``wp.array`` for ``output="warp"``. An empty (0, 2) array
+        gives an empty (0, C) result.
+
+    Raises
+    ------
+    TextonError
+        When ``points`` is not numeric, not of shape (N, 2), holds NaN or
+        infinite values or reaches beyond ±2³⁰ cells from the origin, and for
+        the ``texton``, ``mni``, ``seed``, ``device``, ``period``,
+        ``poisson``, ``cell_factor`` and ``output`` errors of
+        :func:`synthesize`.
+
+    References
+    ----------
+    CGF eq. (1)-(2), §3.3.
 
     Examples
     --------
     >>> import numpy as np
-    >>> from warp_texton import Texton, evaluate
-    >>> t = Texton(np.ones((4, 4, 1)) / 4, [0.5])
-    >>> evaluate(t, [[0.5, 0.5], [1e6, -3.25]], device="cpu").shape
-    (2, 1)
+    >>> from warp_texton import read_image, analyze, synthesize, evaluate
+    >>> from warp_texton.demo import demo_texture_path
+    >>> texton = analyze(read_image(demo_texture_path()), size=64, seed=0)
+    >>> points = np.array([[0.5, 0.5], [100.25, 37.75], [1.0e6, -2.0e6]])
+    >>> evaluate(texton, points, mni=30, seed=1, device="cpu").shape
+    (3, 1)
+
+    The same noise as a raster: pixel (i, j) is at (j + 0.5, i + 0.5):
+
+    >>> raster = synthesize(texton, (64, 64), mni=30, seed=1, device="cpu")
+    >>> bool(np.allclose(evaluate(texton, [[10.5, 3.5]], seed=1, device="cpu"), raster[3, 10], atol=1e-4))
+    True
+
+    Any layout of positions, e.g. a polar grid (rows: angle, columns: radius):
+
+    >>> r, a = np.meshgrid(np.linspace(0, 200, 100), np.linspace(0, 2 * np.pi, 360))
+    >>> polar = evaluate(texton, np.stack([r * np.cos(a), r * np.sin(a)], axis=-1).reshape(-1, 2), seed=1,
+    ...                  device="cpu")
+    >>> polar.reshape(360, 100, 1).shape
+    (360, 100, 1)
     """
     pts = as_real_array(points, "points", "an array of shape (N, 2) of numbers")
     if pts.ndim != 2 or pts.shape[1] != 2:
@@ -272,6 +462,19 @@ class BatchParams:
     ``item(k)`` gives item k's keyword arguments for :func:`synthesize`;
     with ``textons[texton[k]]`` and the batch's other options, that call makes
     item k again, bit for bit.
+
+    Attributes
+    ----------
+    texton : int64 array (count,)
+        Index of each item's texton in the batch's textons.
+    seed : int64 array (count,)
+        Each item's noise seed, in [0, 2**32).
+    scale : float64 array (count,)
+        Pixels per texel.
+    rotation : float64 array (count,)
+        Degrees.
+    offset : float64 array (count, 2)
+        (x, y) of each raster's top-left corner, in texels.
     """
 
     texton: np.ndarray  # int64: index into the batch's textons
@@ -290,7 +493,15 @@ class BatchParams:
 
 
 class Batch(NamedTuple):
-    """What :func:`synthesize_batch` returns: ``images, params = synthesize_batch(...)``."""
+    """What :func:`synthesize_batch` returns: ``images, params = synthesize_batch(...)``.
+
+    Attributes
+    ----------
+    images : float32 array (count, height, width, C)
+        NumPy, or a ``wp.array`` for ``output="warp"``.
+    params : BatchParams
+        What each item was made with.
+    """
 
     images: object  # (count, H, W, C) float32: NumPy or wp.array
     params: BatchParams
@@ -477,22 +688,47 @@ def synthesize_batch(
     Returns
     -------
     Batch
-        ``(images, params)``: float32 (count, height, width, C) and the
-        :class:`BatchParams` of the items.
+        ``(images, params)``: float32 (count, height, width, C) (NumPy, or a
+        ``wp.array`` for ``output="warp"``) and the :class:`BatchParams` of
+        the items (arrays ``texton``, ``seed``, ``scale``, ``rotation``,
+        ``offset``).
+
+    Raises
+    ------
+    TextonError
+        For an empty or non-:class:`Texton` ``textons``, textons of different
+        channel counts, ``count`` < 1 or a batch over the memory budget
+        (checked before allocating), ranges with lo > hi or NaN/infinite
+        bounds, arrays of the wrong shape, and whatever :func:`synthesize`
+        refuses.
+
+    Notes
+    -----
+    Speed against single calls: docs/scale.md, "batches".
 
     Examples
     --------
     >>> import numpy as np
     >>> from warp_texton import Texton, synthesize, synthesize_batch
     >>> rng = np.random.default_rng(0)
-    >>> ts = [Texton(rng.standard_normal((8, 8, 3)) / 8, [0.5] * 3, order) for order in (1, 3)]
-    >>> images, params = synthesize_batch(ts, 16, (32, 32), seed=1, scale=(0.5, 2.0), rotation=(0, 360),
-    ...                                   device="cpu")
-    >>> images.shape
-    (16, 32, 32, 3)
-    >>> again = synthesize(ts[params.texton[5]], (32, 32), **params.item(5), device="cpu")
-    >>> bool((again == images[5]).all())
+    >>> textons = [Texton(0.05 * rng.standard_normal((s, s, 3)), [0.5, 0.4, 0.3], order)
+    ...            for s, order in ((16, 1), (24, 3))]
+    >>> images, params = synthesize_batch(textons, 32, (64, 64), seed=7, scale=(0.5, 2.0), rotation=(0, 360),
+    ...                                   offset=((-1e4, 1e4), (-1e4, 1e4)), device="cpu")
+    >>> images.shape, params.texton[:4], params.item(0)["seed"]
+    ((32, 64, 64, 3), array([0, 1, 0, 0]), 2926574226)
+    >>> k = 5
+    >>> again = synthesize(textons[params.texton[k]], (64, 64), **params.item(k), device="cpu")
+    >>> bool(np.array_equal(again, images[k]))
     True
+
+    Explicit per-item values, and the result left on the device (here the
+    CPU) as a ``wp.array``:
+
+    >>> w, _ = synthesize_batch(textons[0], 3, (32, 32), seed=np.array([1, 2, 3]),
+    ...                         rotation=np.array([0.0, 45.0, 90.0]), device="cpu", output="warp")
+    >>> type(w).__name__, w.shape, np.from_dlpack(w).shape
+    ('array', (3, 32, 32, 3), (3, 32, 32, 3))
     """
     textons = _check_textons(textons)
     count = check_int(count, "count", minimum=1)

@@ -50,7 +50,37 @@ class Texton:
         CGF default), 3 or 5 (B-splines, CGF §10).
     metadata : dict
         Provenance (source image, analysis parameters, model error...); any
-        JSON-serialisable values.
+        JSON-serialisable values, with string keys.
+
+    Raises
+    ------
+    TextonError
+        For coefficients or means that are not numbers, not finite or beyond
+        ±10¹⁰; coefficient shapes other than (r, s) or (r, s, 1|3); sides
+        above 4096; a mean of another channel count; an order other than 0,
+        1, 3, 5; and metadata that is not a dict with string keys.
+
+    See Also
+    --------
+    analyze : learns a texton from an example image.
+    load_texton : reads one written by :meth:`save`.
+
+    Notes
+    -----
+    The members the noise reads: ``support_area`` (λ = MNI / support_area),
+    ``integral`` (∫h), ``covariance()`` (the noise's lag-0 colour covariance)
+    and ``spectrum(shape)`` (the sampled power spectrum's square root). The
+    file layouts are in docs/model.md §8.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from warp_texton import Texton
+    >>> t = Texton(np.random.default_rng(0).normal(size=(8, 8, 3)) * 0.01, mean=[0.5, 0.4, 0.3])
+    >>> t.size, t.channels, t.support_area
+    ((8, 8), 3, 81.0)
+    >>> t.covariance().shape, t.spectrum((16, 16)).shape
+    ((3, 3), (16, 16, 3))
     """
 
     coeffs: np.ndarray
@@ -93,6 +123,7 @@ class Texton:
     # ------------------------------------------------------------------ model
     @property
     def channels(self) -> int:
+        """C, the number of channels: 1 (grey) or 3 (RGB)."""
         return self.coeffs.shape[2]
 
     @property
@@ -149,7 +180,19 @@ class Texton:
 
     # ------------------------------------------------------------------ files
     def save(self, path) -> None:
-        """Write the texton to ``.exr`` or ``.texton`` (by extension), atomically."""
+        """Write the texton to ``.exr`` or ``.texton`` (by extension), atomically.
+
+        The EXR holds the coefficients as float32 with the order, mean and
+        metadata in its header, exactly; ``.texton`` is the text format of the
+        authors' viewer (9 significant digits). NumPy values in ``metadata``
+        are stored as Python ones.
+
+        Raises
+        ------
+        TextonError
+            For another extension, a path that cannot be written, and metadata
+            values JSON cannot hold (naming their key).
+        """
         path = check_output_name(path, "path")
         ext = path.suffix.lower()
         if ext == EXR:
@@ -355,10 +398,35 @@ def load_texton(path) -> Texton:
     ``.texton`` files from the authors' reference viewer are accepted: their
     zero frame is removed and three equal channels become one grey channel.
 
+    Parameters
+    ----------
+    path : str or Path
+        A ``.exr`` or ``.texton`` file (layouts in docs/model.md §8).
+
+    Returns
+    -------
+    Texton
+
     Raises
     ------
     TextonError
-        Missing file, unknown extension, or a malformed file.
+        Missing file, unknown extension, or a malformed file (including sizes
+        and values the :class:`Texton` constructor refuses, and files over
+        the memory budget).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from warp_texton import Texton, load_texton
+    >>> t = Texton(np.random.default_rng(0).normal(size=(8, 8, 3)) * 0.01, mean=[0.5, 0.4, 0.3])
+    >>> t.save("small.exr")
+    >>> t.save("small.texton")
+    >>> back = load_texton("small.exr")
+    >>> bool(np.array_equal(back.coeffs, t.coeffs))
+    True
+    >>> again = load_texton("small.texton")      # 9 significant digits in text
+    >>> bool(np.allclose(again.coeffs, t.coeffs, rtol=1e-7, atol=1e-12))
+    True
     """
     path = check_path(path, "path")
     if not path.is_file():
