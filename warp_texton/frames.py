@@ -74,13 +74,69 @@ def as_direction(v, name: str) -> np.ndarray:
 def tangent_frames(normals, up=UP, side=None) -> tuple[np.ndarray, np.ndarray]:
     """The frame rule used when no tangents are given: returns (u1, u2).
 
+    The frames :func:`surface_noise`, :func:`texture_mesh`,
+    :func:`render_mesh` and :func:`bake_mesh` use when no tangents are given:
     u1 is the direction of v(n) = P_n(up) + ⟨up, n⟩⁴ P_n(side), with P_n the
-    projection on the plane orthogonal to n, and u2 = n × u1. v is continuous
-    in n and vanishes only at isolated normals (where it does, P_n(side) stands
-    in), so frames vary continuously wherever the normals do, except at those
-    isolated points — which any rule must have on a closed surface. On a plane
+    projection on the plane orthogonal to n, and u2 = n × u1. On a plane
     facing ``up`` the frame is (side, up × side); on walls u1 points ``up``.
     The kernels implement the same rule (kernels/surface.py:tangent_frame).
+
+    Parameters
+    ----------
+    normals : array (N, 3)
+        Normals; normalised here, so any non-zero length.
+    up : str or (x, y, z)
+        The world's up direction: a non-zero vector or an axis name, "x",
+        "y" or "z"; default z.
+    side : (x, y, z), optional
+        The direction u1 takes where the normal is ``up``; default the
+        world's right for that up axis (x, or y when up is x).
+
+    Returns
+    -------
+    u1, u2 : float64 arrays (N, 3)
+        Unit vectors: the directions of the texton's x and y axes on the
+        tangent plane.
+
+    Raises
+    ------
+    TextonError
+        For ``normals`` that are not a finite numeric (N, 3) array, a zero
+        normal, an ``up`` that is zero or an unknown name, and a zero
+        ``side``.
+
+    Notes
+    -----
+    v is continuous in n and vanishes only at isolated normals (where it
+    does, P_n(side) stands in), so frames vary continuously wherever the
+    normals do, except around two normals, ≈ ±(0.495, 0, 0.869) for the
+    default directions, where any rule on a closed surface must break (the
+    hairy-ball theorem). The rule's derivation is in docs/model.md §12, "The
+    tangent frame".
+
+    References
+    ----------
+    CGF §6 (a tangent frame at every surface point).
+
+    Examples
+    --------
+    A floor, a ceiling and two walls, Z up:
+
+    >>> import numpy as np
+    >>> from warp_texton import tangent_frames
+    >>> n = np.array([[0, 0, 1], [0, 0, -1], [1, 0, 0], [0, 1, 0]], dtype=float)
+    >>> u1, u2 = tangent_frames(n)
+    >>> u1.round(3).tolist()
+    [[1.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, 1.0]]
+    >>> u2.round(3).tolist()
+    [[0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [0.0, -1.0, 0.0], [1.0, 0.0, 0.0]]
+
+    Another convention, Y up: now the first normal faces a wall, and u1
+    points up there:
+
+    >>> u1, u2 = tangent_frames(n, up="y")
+    >>> u1.round(3).tolist()
+    [[0.0, 1.0, 0.0], [0.0, 1.0, 0.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]]
     """
     n = unit_rows(as_points(normals, "normals"), "normals")
     a, b = frame_rule(up, side)

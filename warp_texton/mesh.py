@@ -96,38 +96,99 @@ def texture_mesh(
 ):
     """A copy of ``mesh`` with per-vertex colours from surface texton noise.
 
-    Vertex colours hold one value per vertex, interpolated across faces: they
-    show the texture only where vertices are at most about a texel apart. When
-    the median edge is longer than a texel, a warning names the mesh and the
-    spacing and suggests a baked texture (:func:`warp_texton.bake_mesh`) or
-    ``max_edge``.
+    A new mesh with the noise of :func:`surface_noise` at every vertex as
+    8-bit RGBA vertex colours (``mesh.visual.vertex_colors``; grey textons
+    give three equal channels, alpha 255), ready to export as PLY, OBJ or
+    GLB. The input is not modified. Vertex colours hold one value per vertex,
+    interpolated across faces: they show the texture only where vertices are
+    about a texel apart (see Warns). For a texture that does not depend on
+    the tessellation, bake one on the mesh's UVs (:func:`bake_mesh`).
 
     Parameters
     ----------
     mesh : trimesh.Trimesh
+        At least one triangle.
     texton : Texton
     texel_size : float
-        World units per texel.
-    mni, seed
+        World units per texel, > 0.
+    mni : float
+        As in :func:`surface_noise`.
+    seed : int
         As in :func:`surface_noise`.
     max_edge : float, optional
-        First subdivide the mesh until no edge is longer than ``max_edge``
-        texels, so that vertex colours resolve the noise (≈ 1 texel).
+        In texels: first subdivide the mesh
+        (``trimesh.remesh.subdivide_to_size``) until no edge is longer, so
+        that vertex colours resolve the texture (about 1 to 4 texels).
+    device : str, optional
+        As in :func:`surface_noise`.
+    up : str or (x, y, z)
+        As in :func:`surface_noise`; the normals are the mesh's vertex
+        normals, and a vertex that touches only zero-area faces takes
+        ``up``.
+    side : (x, y, z), optional
+        As in :func:`surface_noise`.
     max_faces : int
-        Refuse a subdivision that would exceed this many faces.
-    up, side
-        The frame rule's directions (``up`` may name an axis: "x", "y", "z").
+        Refuse a subdivision whose estimated face count exceeds this.
     linear : bool
-        Store linear colours (glTF ``COLOR_0`` is linear by definition) instead
-        of the noise's own sRGB-coded values (PLY, OBJ).
+        Store the sRGB decoding of the values (glTF's ``COLOR_0`` is linear
+        by definition) instead of the values themselves (PLY, OBJ).
     name : str
-        How the warning names the mesh (a file name in a batch).
+        How the spacing warning names the mesh (a file name in a batch).
     warn : bool
-        Warn about vertices further apart than a texel (a batch reports it itself).
+        Whether to warn about vertices further apart than a texel (a batch
+        reports it itself).
 
     Returns
     -------
-    trimesh.Trimesh with ``visual.vertex_colors`` (RGBA, 8 bits).
+    trimesh.Trimesh
+        With ``visual.vertex_colors`` (N, 4) uint8 RGBA; the subdivided
+        vertices and faces when ``max_edge`` is given, else the input's.
+
+    Raises
+    ------
+    TextonError
+        For a ``mesh`` that is not a ``trimesh.Trimesh``, has no triangles,
+        has NaN or infinite vertices or faces that index missing vertices; a
+        ``texel_size`` or ``max_edge`` that is not a finite number > 0; a
+        ``max_faces`` that is not an integer ≥ 1; a subdivision estimated
+        above ``max_faces``; and the errors of :func:`surface_noise`
+        (vertices too far from the origin for ``texel_size`` among them).
+
+    Warns
+    -----
+    UserWarning
+        When ``warn`` is true and the median edge is longer than one texel:
+        names the mesh (``name``) and the spacing, and suggests a baked
+        texture or ``max_edge``.
+
+    References
+    ----------
+    CGF §6 (the noise on surfaces without UVs) and its Fig. 8.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> import trimesh
+    >>> from warp_texton import read_image, analyze, texture_mesh
+    >>> from warp_texton.demo import demo_texture_path
+    >>> texton = analyze(read_image(demo_texture_path()), size=32, iterations=30)
+    >>> sphere = trimesh.creation.icosphere(subdivisions=3)  # 1280 faces
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     coloured = texture_mesh(sphere, texton, texel_size=0.01, device="cpu")
+    >>> print(caught[0].message)  # doctest: +ELLIPSIS
+    mesh: vertices are 15.1 texels apart (median edge), so vertex colours blur the texture; ...
+    >>> len(coloured.vertices), coloured.visual.vertex_colors.shape
+    (642, (642, 4))
+
+    Edges of at most 4 texels (3.2 texels at the median: still above one,
+    so the warning is turned off here), exported as a PLY file with vertex
+    colours:
+
+    >>> fine = texture_mesh(sphere, texton, texel_size=0.01, max_edge=4, warn=False, device="cpu")
+    >>> len(fine.faces)
+    35840
+    >>> _ = fine.export("sphere_grass.ply")
     """
     import trimesh
 

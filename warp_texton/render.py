@@ -51,8 +51,33 @@ def view_direction(view, up=UP) -> np.ndarray:
 class Camera:
     """A pinhole camera: ``position`` looks at ``target``; ``fov`` is vertical, degrees.
 
-    Checked when made: finite positions apart from each other, a non-zero ``up``
-    not along the view, and a ``fov`` in (0, 180).
+    A frozen dataclass, checked when made; :meth:`Camera.framing` makes one that
+    frames a mesh. :func:`render_mesh` takes it as ``camera``.
+
+    Parameters
+    ----------
+    position : (x, y, z)
+        The eye, world units.
+    target : (x, y, z)
+        The point the camera looks at, world units; not ``position``.
+    up : (x, y, z)
+        The direction that appears upwards in the image (need not be
+        orthogonal to the view, nor unit); default z.
+    fov : float
+        Vertical field of view in degrees, 0 < fov < 180; default 35.
+
+    Raises
+    ------
+    TextonError
+        For a ``fov`` out of range or not a number, positions that are not
+        finite (x, y, z) numbers, a ``target`` equal to ``position``, or an
+        ``up`` that is zero or along the view.
+
+    Examples
+    --------
+    >>> from warp_texton import Camera
+    >>> Camera(position=(0.0, -6.0, 1.0), target=(0.0, 0.0, 0.0), fov=30.0)
+    Camera(position=(0.0, -6.0, 1.0), target=(0.0, 0.0, 0.0), up=(0.0, 0.0, 1.0), fov=30.0)
     """
 
     position: tuple[float, float, float]
@@ -78,10 +103,55 @@ class Camera:
     @classmethod
     def framing(cls, mesh, direction=None, fov: float = 35.0, up=UP, zoom: float = 1.0, *,
                 view=VIEW) -> "Camera":
-        """A camera looking at the mesh's bounding-box centre, far enough for its
-        bounding sphere to fit the view (``zoom`` > 1 moves closer). It sits along
-        ``direction`` from the centre, or at ``view`` = (azimuth, elevation) in
-        degrees for this ``up`` axis (see :func:`view_direction`)."""
+        """A camera that frames ``mesh``: the one :func:`render_mesh` uses by default.
+
+        It looks at the centre of the mesh's bounding box from ``direction``,
+        or by default from ``view``, far enough for the bounding sphere to
+        fit the view with 5 % to spare. Its ``up`` is the world's up.
+
+        Parameters
+        ----------
+        mesh : trimesh.Trimesh
+            Only its bounding box is read.
+        direction : (x, y, z), optional
+            From the centre towards the camera (any non-zero length); when
+            given, ``view`` is not used.
+        fov : float
+            Vertical field of view in degrees, in (0, 180); default 35.
+        up : str or (x, y, z)
+            The world's up axis, "x", "y", "z" or a vector: the camera's up
+            and the frame of ``view`` (see :func:`render_mesh`); default z.
+        zoom : float
+            > 0; above 1 moves closer (the distance is divided by it).
+        view : (azimuth, elevation)
+            Degrees, for the up axis ``up`` (:func:`view_direction`): azimuth
+            about the up axis from the world's right, −90 from the front;
+            elevation above the horizon, in (−90, 90). Default (−55, 25)
+            (``VIEW``).
+
+        Returns
+        -------
+        Camera
+
+        Raises
+        ------
+        TextonError
+            For a zero ``direction``, a bad ``view``, ``up`` or ``fov``, and
+            a ``zoom`` that is not a number > 0.
+
+        Examples
+        --------
+        >>> import trimesh
+        >>> from warp_texton import Camera
+        >>> torus = trimesh.creation.torus(major_radius=1.0, minor_radius=0.35)
+        >>> cam = Camera.framing(torus)  # the default view of render_mesh
+        >>> cam.fov, [round(float(c), 2) for c in cam.position]
+        (35.0, [3.52, -5.03, 2.86])
+        >>> top = Camera.framing(torus, direction=(0, -0.2, 1), zoom=1.5)
+        >>> front = Camera.framing(torus, view=(-90, 0))  # from the front (−y), level
+        >>> [round(float(c), 2) + 0.0 for c in front.position]
+        [0.0, -6.78, 0.0]
+        """
         lo, hi = np.asarray(mesh.bounds, dtype=np.float64)
         centre = (lo + hi) / 2.0
         radius = max(np.linalg.norm(hi - lo) / 2.0, 1e-9)
@@ -262,46 +332,116 @@ def render_mesh(
 ) -> np.ndarray:
     """Ray-cast ``mesh`` with surface texton noise and simple diffuse shading.
 
-    Each pixel's ray hits the mesh (``wp.Mesh`` BVH, ``wp.mesh_query_ray``, in
-    world units around the mesh's centre); the hit is placed in float64 from
-    the face's vertices and its barycentric weights, and the noise is evaluated
-    there with the interpolated vertex normal (the face normal across creases
-    sharper than 30°) and the frame rule, for all hits at once (in blocks, as
-    :func:`surface_noise`), then shaded by 0.3 + 0.7 |⟨n, light⟩|. Missed
-    pixels get ``background``.
+    The texture's detail does not depend on the tessellation (the noise is
+    evaluated at every pixel's hit, not at the vertices), and a mesh far from
+    the origin renders as well as one near it (see Notes). Missed pixels get
+    ``background``.
 
     Parameters
     ----------
     mesh : trimesh.Trimesh
+        As in :func:`texture_mesh`.
     texton : Texton
     shape : (height, width)
+        Image size in pixels, at most 2**26 pixels (``MAX_RENDER_PIXELS``).
     texel_size : float, optional
-        World units per texel; default: the bounding-box diagonal / 256.
+        World units per texel; default: the bounding-box diagonal / 256
+        (``mesh.default_texel_size``).
     camera : Camera, optional
-        Default: :meth:`Camera.framing` of the mesh at ``view`` and ``fov``.
-    mni, seed, device
+        Default: ``Camera.framing(mesh, up=up, view=view, fov=fov)``
+        (:meth:`Camera.framing`); not together with ``view`` or ``fov``.
+    mni : float
         As in :func:`surface_noise`.
-    up : "x", "y", "z" or 3-vector
-        The world's up axis: the frame rule's ``up``, the default camera's up,
-        and the frame of ``view`` and of the default light.
-    side : 3-vector, optional
+    seed : int
+        As in :func:`surface_noise`.
+    device : str, optional
+        As in :func:`surface_noise`.
+    background : (r, g, b)
+        The colour of the pixels whose ray misses the mesh.
+    light : (x, y, z), optional
+        Towards the light (normalised here); default (0.4, −0.5, 1) for Z
+        up (``LIGHT``), turned with ``up``.
+    up : str or (x, y, z)
+        The world's up axis, "x", "y", "z" or a vector (default z): the
+        frame rule's ``up``, the default camera's up, and the frame of
+        ``view`` and of the default light. glTF/GLB
+        files are Y-up by definition (``up="y"``); a mesh batch picks it by
+        file type.
+    side : (x, y, z), optional
         The frame rule's ``side`` (default: the world's right for ``up``).
     view : (azimuth, elevation), optional
-        Degrees; default (−55, 25): from the front left, above (:func:`view_direction`).
+        Of the default camera, degrees: azimuth about the up axis from the
+        world's right, −90 from the front (−y for Z up, +z for Y up);
+        elevation above the horizon, in (−90, 90). Default (−55, 25): from
+        the front left, above (:func:`view_direction`).
     fov : float, optional
         Vertical field of view of the default camera, degrees (default 35).
-    light : 3-vector, optional
-        Towards the light; default (0.4, −0.5, 1) in the Z-up frame, turned with ``up``.
-    method : "blocks" or "points"
+    method : {"auto", "blocks", "points"}
         As in :func:`surface_noise` (the same image).
 
     Returns
     -------
-    float32 array (height, width, 3) in [0, 1]
+    float32 array (height, width, 3)
+        In [0, 1]; grey textons are shown grey.
+
+    Raises
+    ------
+    TextonError
+        For the ``mesh`` and ``texton`` errors of :func:`texture_mesh`; a bad
+        ``shape``, ``texel_size``, ``seed``, ``device`` or ``method``; a
+        ``camera`` that is not a :class:`Camera` or given together with
+        ``view`` or ``fov``; a ``fov`` outside (0, 180); a bad ``view`` or
+        ``up``; a zero ``light``; a ``background`` that is not a finite RGB
+        triple; the ``mni`` errors of :func:`surface_noise`; a render over
+        the memory budget; and vertices too far from the origin for
+        ``texel_size`` (the error of :func:`surface_noise`, "the mesh's
+        vertices lie too far from the origin …", also for absurd texel
+        sizes such as 1e-300): never a silent background.
+
+    Notes
+    -----
+    The mesh is ray-cast with Warp (a ``wp.Mesh`` BVH and
+    ``wp.mesh_query_ray``), in float32 world units around the centre of its
+    bounding box, only over the pixels of its screen box. Each hit is placed
+    in float64 from the hit face's vertices and its barycentric weights, and
+    the noise is evaluated there for all hits at once (in blocks, as
+    :func:`surface_noise`), with the frame rule of :func:`tangent_frames`.
+    The normal is the interpolated vertex normal, or the face normal where
+    the two differ by more than 30° (creases); the shading is
+    0.3 + 0.7 |⟨n, light⟩|. Derivation and measurements: docs/model.md §12,
+    "The renderer".
 
     References
     ----------
     CGF §6 (surface noise), Fig. 8 (textured meshes without UVs).
+
+    Examples
+    --------
+    >>> import trimesh
+    >>> from warp_texton import read_image, analyze, render_mesh, Camera, write_image
+    >>> from warp_texton.demo import demo_texture_path
+    >>> texton = analyze(read_image(demo_texture_path()), size=32, iterations=30)
+    >>> torus = trimesh.creation.torus(major_radius=1.0, minor_radius=0.35)
+    >>> img = render_mesh(torus, texton, (96, 128), device="cpu")
+    >>> img.shape, img.dtype
+    ((96, 128, 3), dtype('float32'))
+    >>> write_image("torus_grass.png", img)  # the number of pixels clipped
+    0
+
+    Closer, from above, with smaller texels (a finer texture), a white
+    background and light from above:
+
+    >>> near = render_mesh(torus, texton, (96, 128), texel_size=0.004,
+    ...                    camera=Camera.framing(torus, direction=(0, -0.5, 1), zoom=1.6),
+    ...                    background=(1, 1, 1), light=(0, 0, 1), seed=3, device="cpu")
+    >>> near[0, 0].tolist()  # a corner that sees no torus
+    [1.0, 1.0, 1.0]
+
+    A Y-up mesh (the glTF convention) seen from the front right, with a wider
+    field of view:
+
+    >>> box = trimesh.creation.box(extents=(1, 3, 1))  # tall along y
+    >>> upright = render_mesh(box, texton, (96, 64), up="y", view=(-60, 15), fov=45, device="cpu")
     """
     mesh = check_mesh(mesh)
     if not isinstance(texton, Texton):

@@ -181,40 +181,95 @@ def surface_noise(
 ) -> np.ndarray:
     """Surface texton noise at points of a surface (CGF §6, Prop. 3).
 
+    Positions are in world units; ``texel_size`` (world units per texel) sets
+    the scale of the texture on the surface. A point's value depends only on
+    its position (in texels), its normal and frame, the texton and the
+    options, not on the other points.
+
     Parameters
     ----------
     texton : Texton
     points : array (N, 3)
-        Surface points in world units.
+        Surface points, world units.
     normals : array (N, 3)
-        Surface normals (need not be unit; zero rows are refused).
+        Normals at the points; normalised here, so any non-zero length.
     texel_size : float
-        World units per texel: the texture's scale on the surface.
+        World units per texel, > 0: the texture's scale on the surface
+        (smaller values give a finer texture).
     mni : float
-        Mean number of impacts per point, λ r · area(supp h); 60 by default
-        (the slab weighting needs more impacts than the plane, CGF §6).
+        Mean number of impacts per point, > 0; λ = ``mni / (r ·
+        texton.support_area)``, r the larger side of the texton's support.
+        Surfaces need more than the plane (the slab weighting): 60 by
+        default (CGF Fig. 4).
     seed : int
+        In [0, 2**32); the surface noise of a seed is independent of the
+        plane noise of the same seed.
     tangents : array (N, 3), optional
-        First tangent direction u1 per point (projected on the tangent plane
-        and normalised); by default the rule of :func:`tangent_frames`.
+        The direction of the texton's x axis at each point, projected onto
+        the tangent plane and normalised. By default the frame rule of
+        :func:`tangent_frames`.
     device : str, optional
-    up, side : 3-vectors
-        Directions of the frame rule.
-    poisson, cell_factor
         As in :func:`warp_texton.synthesize`.
-    method : str
+    up : str or (x, y, z)
+        The frame rule's up direction (:func:`tangent_frames`): a vector or
+        an axis name, "x", "y" or "z"; default z.
+    side : (x, y, z), optional
+        The frame rule's second direction; default the world's right for
+        the up axis (x, or y when up is x).
+    poisson : {"exact", "gaussian"}
+        As in :func:`warp_texton.synthesize`.
+    cell_factor : float
+        As in :func:`warp_texton.synthesize`, relative to r (the cube side is
+        ``cell_factor · r``).
+    method : {"auto", "blocks", "points"}
         ``"blocks"``: points sorted into blocks share the impacts of their
         cubes; ``"points"``: each point draws its cubes' impacts itself (the
-        reference: same values, slower on many points); ``"auto"`` (default):
-        the walk below 4096 points, blocks above.
+        reference: the same values, slower on many points); ``"auto"``
+        (default): the walk below 4096 points (``AUTO_MIN_POINTS``), where
+        sorting and the extra launches cost more than they save, blocks
+        above.
 
     Returns
     -------
     float32 array (N, C)
+        The noise at each point, with the texton's mean and lag-0 covariance
+        in expectation. An empty ``(0, 3)`` input gives an empty ``(0, C)``
+        result.
+
+    Raises
+    ------
+    TextonError
+        For a ``texton`` that is not a :class:`~warp_texton.Texton`;
+        ``points``, ``normals`` or ``tangents`` that are not numeric (N, 3)
+        arrays of the same shape or hold NaN or infinite values; a zero
+        normal, or a tangent that is zero or parallel to its normal; a
+        ``texel_size`` or ``mni`` that is not a finite number > 0; a bad
+        ``seed``, ``device``, ``poisson`` or ``method``; a zero ``up`` or
+        ``side``; points whose cubes lie more than 2**30 cubes from the
+        origin ("points lie too far from the origin for this texel_size: …
+        texels, where the surface noise is defined within ±… texels (2**30
+        cubes)", which a tiny ``texel_size`` also gives); a ``cell_factor``
+        that would visit more than 8192 cells per point
+        (``MAX_CUBES_PER_POINT``) or hold more than 10**5 impacts per cell;
+        a block whose impacts would pass the memory budget.
+
+    Notes
+    -----
+    A 3-D Poisson process whose impacts near the tangent plane are projected
+    onto it, with the normalisation of CGF Prop. 3, so the noise has the
+    texton's mean and covariance on any surface (the formulas are in the
+    module's docstring). Points are evaluated in blocks that share the
+    impacts of their cubes (the same values, bit for bit on the CPU, as each
+    point walking its own cubes: ``method="points"``), and cubes are found
+    from float64 positions, so meshes far from the origin get the same noise
+    quality as near it. The model, the frame rule and the renderer are
+    derived in docs/model.md §12; meshes are ``trimesh.Trimesh`` objects
+    (:func:`texture_mesh`, :func:`render_mesh`, :func:`bake_mesh`).
 
     References
     ----------
-    CGF §6, Proposition 3 (the slab weight and the normalisation).
+    CGF §6, Proposition 3 (the slab weight and the normalisation); CGF
+    Fig. 4 (the MNI surfaces need).
 
     Examples
     --------
@@ -227,6 +282,38 @@ def surface_noise(
     >>> bool(np.array_equal(surface_noise(t, p, p, 0.01, device="cpu"),
     ...                     surface_noise(t, p, p, 0.01, device="cpu", method="points")))
     True
+
+    The noise of a texton analysed from the demo texture at the vertices of a
+    sphere, 100 texels per world unit:
+
+    >>> import trimesh
+    >>> from warp_texton import read_image, analyze, tangent_frames
+    >>> from warp_texton.demo import demo_texture_path
+    >>> texton = analyze(read_image(demo_texture_path()), size=32, iterations=30)
+    >>> sphere = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
+    >>> values = surface_noise(texton, sphere.vertices, sphere.vertex_normals, 0.01, device="cpu")
+    >>> values.shape, values.dtype
+    ((642, 1), dtype('float32'))
+
+    Given tangents, here the rule's u2, turn the texture by 90 degrees on the
+    surface:
+
+    >>> u1, u2 = tangent_frames(sphere.vertex_normals)
+    >>> turned = surface_noise(texton, sphere.vertices, sphere.vertex_normals, 0.01,
+    ...                        tangents=u2, device="cpu")
+    >>> bool(np.array_equal(turned, values))
+    False
+
+    The mean and variance are the texton's: many independent points (far
+    apart, random normals):
+
+    >>> rng = np.random.default_rng(0)
+    >>> far = surface_noise(texton, rng.uniform(-1e4, 1e4, (5000, 3)), rng.normal(size=(5000, 3)),
+    ...                     1.0, device="cpu")
+    >>> round(float(far.mean()), 3), round(float(texton.mean[0]), 3)
+    (0.464, 0.466)
+    >>> round(float(far.var()), 4), round(float(texton.covariance()[0, 0]), 4)
+    (0.0244, 0.0243)
     """
     if not isinstance(texton, Texton):
         raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
