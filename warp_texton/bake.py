@@ -180,10 +180,10 @@ def bake_mesh(
     mesh,
     texton: Texton,
     texel_size: float,
+    *,
     resolution: int = 1024,
     mni: float = 60.0,
     seed: int = 0,
-    *,
     uv: str = "auto",
     supersample: int | None = None,
     gutter: int | None = None,
@@ -398,7 +398,8 @@ def bake_outputs(stem: Path, fmt: str, texture: str | None = None) -> list[Path]
     return out
 
 
-def write_baked(baked: BakedMesh, stem, fmt: str = "glb", texture: str | None = None, linear: bool = False) -> list[Path]:
+def write_baked(baked: BakedMesh, stem, *, fmt: str = "glb", texture: str | None = None,
+                linear: bool = False) -> list[Path]:
     """Write a bake: ``STEM.glb`` (the texture embedded as the PBR base colour), or
     ``STEM.obj`` + ``STEM.mtl`` + ``STEM.png``; and with ``texture`` the texture alone,
     ``STEM_texture.png`` (8-bit sRGB) or ``STEM_texture.exr`` (float32: the noise's
