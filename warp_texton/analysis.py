@@ -142,6 +142,7 @@ def correct_colors(alpha: np.ndarray, order: int, covariance: np.ndarray) -> np.
 
 def analyze(
     u,
+    *,
     size: int = 64,
     order: int = 1,
     iterations: int = 50,
@@ -332,7 +333,7 @@ def _rme(tu_half: np.ndarray, texton: Texton, n: int) -> float:
     return relative_model_error_half(tu_half, texton_half_spectrum(texton, shape), n)
 
 
-def model_error(u, texton: Texton, periodic: bool | None = None) -> float:
+def model_error(u, texton: Texton, *, periodic: bool | None = None) -> float:
     """Relative model error (RME) between the Gaussian model of u and a texton's.
 
     RME² = Σ_{ξ≠0} (|t̂_u|² + |t̂|² − 2|t̂_u* t̂|) / Σ_{ξ≠0} |t̂_u|² on u's grid,

@@ -191,10 +191,10 @@ def bake_mesh(
     mesh,
     texton: Texton,
     texel_size: float,
+    *,
     resolution: int = 1024,
     mni: float = 60.0,
     seed: int = 0,
-    *,
     uv: str = "auto",
     supersample: int | None = None,
     gutter: int | None = None,
@@ -452,7 +452,8 @@ def bake_outputs(stem: Path, fmt: str, texture: str | None = None) -> list[Path]
     return out
 
 
-def write_baked(baked: BakedMesh, stem, fmt: str = "glb", texture: str | None = None, linear: bool = False) -> list[Path]:
+def write_baked(baked: BakedMesh, stem, *, fmt: str = "glb", texture: str | None = None,
+                linear: bool = False) -> list[Path]:
     """Write a bake as GLB or OBJ + MTL + PNG, and optionally the texture alone.
 
     ``STEM.glb`` holds the texture embedded as the base colour of a PBR
@@ -486,7 +487,7 @@ def write_baked(baked: BakedMesh, stem, fmt: str = "glb", texture: str | None = 
 
     Examples
     --------
-    See :func:`bake_mesh`; ``write_baked(baked, "torus_baked", "obj")``
+    See :func:`bake_mesh`; ``write_baked(baked, "torus_baked", fmt="obj")``
     writes ``torus_baked.obj``, ``.mtl`` and ``.png``.
     """
     from .io import atomic_path, write_image

@@ -11,7 +11,7 @@ from .limits import check_memory, check_work
 from .texton import Texton
 
 
-def dsn(texton: Texton, shape, mni: float = 30.0, seed: int = 0) -> np.ndarray:
+def dsn(texton: Texton, shape, *, mni: float = 30.0, seed: int = 0) -> np.ndarray:
     """Discrete spot noise of the texton coefficients on an H × W raster.
 
     The coefficients α are used as a discrete spot h on Z². Following

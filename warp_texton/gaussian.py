@@ -212,7 +212,7 @@ def relative_model_error(tu_hat: np.ndarray, t_hat: np.ndarray) -> float:
     return float(np.sqrt(ot_distance(tu_hat, t_hat) * n / var.sum()))
 
 
-def gaussian_texture(u, shape=None, seed: int = 0, periodic: bool = True) -> np.ndarray:
+def gaussian_texture(u, shape=None, *, seed: int = 0, periodic: bool = True) -> np.ndarray:
     """Sample the Gaussian model of u (the ADSN, "Gaussian version" of CGF Fig. 7).
 
     At u's own shape the sample is circular: m + t_u ⊛ W with W a standard

@@ -8,6 +8,7 @@ towards the horizon.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -19,6 +20,9 @@ from .limits import check_memory
 from .noise import (Canvas, cell_limit, check_output, fill_pixels, noise_params, noise_setup, params_mean,
                     result_bytes, strips)
 from .texton import Texton
+
+if TYPE_CHECKING:
+    import warp as wp
 
 
 class PlaneView:
@@ -101,18 +105,18 @@ class PlanePixels(PixelSet):
 def render_plane(
     texton: Texton,
     shape=(512, 512),
+    *,
     height: float = 1.0,
     tilt: float = 70.0,
     fov: float = 40.0,
     texel_size: float = 0.002,
     mni: float = 30.0,
     seed: int = 0,
-    filter="anisotropic",
     device=None,
-    *,
-    progress: bool = False,
+    filter="anisotropic",
     output: str = "numpy",
-):
+    progress: bool = False,
+) -> np.ndarray | wp.array:
     """An infinite ground plane textured with texton noise, seen in perspective (CGF Fig. 3).
 
     Parameters
@@ -181,8 +185,8 @@ def render_plane(
     return canvas.result(texton.channels, output)
 
 
-def plane_pixels(texton: Texton, view: PlaneView, pixels, mni: float = 30.0, seed: int = 0,
-                 filter="anisotropic", device=None, *, progress: bool = False, out=None) -> np.ndarray | None:
+def plane_pixels(texton: Texton, view: PlaneView, pixels, *, mni: float = 30.0, seed: int = 0, device=None,
+                 filter="anisotropic", progress: bool = False, out=None) -> np.ndarray | None:
     """(N, C) values of the flat pixel indices ``pixels`` of :func:`render_plane`'s image
     (benchmarks compare filters on a subset of pixels this way); None: every pixel.
     With ``out`` (an (N,) vec3 array on the device) all three channels are written

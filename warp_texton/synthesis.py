@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 import numbers
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -32,6 +32,9 @@ from .noise import (CELL_FACTOR, IMPACT_BYTES, METHODS, STRIP_WORK, Canvas, Rast
                     raster_cost, raster_geometry, raster_impacts, raster_reach, rasters, result_bytes, strips,
                     window_block)
 from .texton import Texton
+
+if TYPE_CHECKING:
+    import warp as wp
 
 #: Pixel windows are placed with int32 indices in the kernels.
 MAX_PIXEL_INDEX = 1 << 30
@@ -60,6 +63,7 @@ def check_pixel_offset(pixel_offset) -> tuple[int, int]:
 def synthesize(
     texton: Texton,
     shape=(512, 512),
+    *,
     mni: float = 30.0,
     seed: int = 0,
     scale: float = 1.0,
@@ -67,7 +71,6 @@ def synthesize(
     offset=(0.0, 0.0),
     period=None,
     device=None,
-    *,
     poisson: str = "exact",
     cell_factor: float = CELL_FACTOR,
     method: str = "auto",
@@ -76,7 +79,7 @@ def synthesize(
     pixel_offset=(0, 0),
     output: str = "numpy",
     progress: bool = False,
-):
+) -> np.ndarray | wp.array:
     """Texton noise on an H × W raster.
 
     Pixel (i, j) is the noise at x = offset + R(rotation) · ((j + ½)/scale, (i + ½)/scale)
@@ -362,15 +365,15 @@ def synthesize(
 def evaluate(
     texton: Texton,
     points,
+    *,
     mni: float = 30.0,
     seed: int = 0,
-    device=None,
-    *,
     period=None,
+    device=None,
     poisson: str = "exact",
     cell_factor: float = CELL_FACTOR,
     output: str = "numpy",
-):
+) -> np.ndarray | wp.array:
     """Texton noise at arbitrary points.
 
     Each point draws its neighbouring cells' impacts itself, so for full
@@ -628,19 +631,19 @@ def synthesize_batch(
     textons,
     count: int,
     shape=(256, 256),
-    seed=0,
+    *,
     mni: float = 30.0,
+    seed=0,
     scale=1.0,
     rotation=0.0,
     offset=(0.0, 0.0),
     period=None,
-    filter="none",
     device=None,
-    *,
     texton_index=None,
     poisson: str = "exact",
     cell_factor: float = CELL_FACTOR,
     method: str = "auto",
+    filter="none",
     output: str = "numpy",
     progress: bool = False,
 ) -> Batch:
