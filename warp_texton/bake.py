@@ -548,7 +548,7 @@ def lookup(texture: np.ndarray, uv: np.ndarray) -> np.ndarray:
     return top * (1 - fy) + bottom * fy
 
 
-def render_baked(baked, shape=(512, 512), camera=None, *, up=UP, view=None, fov=None, light=None,
+def render_baked(baked, shape=(512, 512), *, camera=None, up=UP, view=None, fov=None, light=None,
                  background=(0.92, 0.92, 0.92), device=None) -> np.ndarray:
     """Render a textured mesh as a renderer shows it: each pixel's hit looks its UV up
     in the texture (bilinear), shaded as :func:`warp_texton.render_mesh` shades.

@@ -71,7 +71,7 @@ def as_direction(v, name: str) -> np.ndarray:
     return d / np.linalg.norm(d)
 
 
-def tangent_frames(normals, up=UP, side=None) -> tuple[np.ndarray, np.ndarray]:
+def tangent_frames(normals, *, up=UP, side=None) -> tuple[np.ndarray, np.ndarray]:
     """The frame rule used when no tangents are given: returns (u1, u2).
 
     The frames :func:`surface_noise`, :func:`texture_mesh`,

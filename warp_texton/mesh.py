@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -19,6 +20,9 @@ from .errors import TextonError
 from .frames import UP, up_vector
 from .surface import surface_noise, surface_setup, texel_positions
 from .texton import Texton
+
+if TYPE_CHECKING:
+    import trimesh
 
 #: Default texture scale on a mesh: this many texels along its bounding-box diagonal.
 TEXELS_PER_DIAGONAL = 256
@@ -82,10 +86,10 @@ def texture_mesh(
     mesh,
     texton: Texton,
     texel_size: float,
+    *,
     mni: float = 60.0,
     seed: int = 0,
     max_edge: float | None = None,
-    *,
     device=None,
     up=UP,
     side=None,
@@ -93,7 +97,7 @@ def texture_mesh(
     linear: bool = False,
     name: str = "mesh",
     warn: bool = True,
-):
+) -> trimesh.Trimesh:
     """A copy of ``mesh`` with per-vertex colours from surface texton noise.
 
     A new mesh with the noise of :func:`surface_noise` at every vertex as
