@@ -1,4 +1,4 @@
-"""Scale (issue 14): windows bit-identical to one large raster, batches, output on the
+"""Scale: windows bit-identical to one large raster, batches, output on the
 device, Dask arrays and Zarr stores, progress and Ctrl-C.
 
 The exactness tests compare with ``np.testing.assert_array_equal``: a window is
