@@ -524,13 +524,13 @@ def synthesize_batch(
         i = int(params.texton[k])
         kw = params.item(k)
         origin, step = raster_geometry((h, w), kw["scale"], kw["rotation"], kw["offset"])
-        raster_reach(origin, step, (h, w), setups[i])
         rec = params_record(textons[i], setups[i], kw["seed"], poisson)
         win = RasterWindow(rec, setups[i], i, textons[i].order, origin, step, (0, 0), kw["scale"])
         if needs_filtering(step, options):
+            raster_reach(origin, step, (h, w), setups[i])  # far positions are refused before any allocation
             filtered.append((k, win))
         else:
-            windows[k] = (win, window_block(win, (h, w)))
+            windows[k] = (win, window_block(win, (h, w)))  # refuses them too (raster_reach)
     # plain items in groups of consecutive items, so each group writes one block of rows
     per_group = group_size(h, w)
     groups = [(g0, min(k1, g0 + per_group)) for k0, k1 in _runs(list(windows)) for g0 in range(k0, k1, per_group)]
