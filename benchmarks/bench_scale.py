@@ -4,7 +4,7 @@
   against a Python loop of ``synthesize`` over the same items (same textons,
   seeds, scales, rotations), interleaved in one run; images per second and the
   ratio batch / loop (goal: at least 1.8 on the CPU). Two variants: every item
-  at scale 1 without rotation (the issue's case), and scales in [0.8, 1.25]
+  at scale 1 without rotation (the fast path), and scales in [0.8, 1.25]
   with any rotation.
 * **device output** (CUDA only): ``output="warp"`` against NumPy output.
 * **zarr** (``--zarr SIDE``): ``write_zarr`` of a SIDE × SIDE RGB raster into a

@@ -5,11 +5,11 @@ Measures, interleaved in one run so that all see the same machine load:
 * ``surface_noise`` at the vertices of a torus of about 1M vertices (MNI 60),
   in blocks (the default) and with the per-point walk (``method="points"``),
   against a 1024 × 1024 ``synthesize`` raster of the same texton (MNI 30, the
-  2-D default): the issue's goal is surface noise at 1M points within 20× the
+  2-D default): the goal is surface noise at 1M points within 20× the
   time of that raster;
 * ``render_mesh`` at 1024 × 1024 of an icosphere, blocks against the walk
-  (the goal: at least 5× faster than before the issue, when the walk was the
-  only path; ``compare_commits.py --base 3c913e1`` measures that directly);
+  (the goal: at least 5× faster than commit 3c913e1, whose only path was the
+  walk; ``compare_commits.py --base 3c913e1`` measures that directly);
 * ``bake_mesh`` of the torus (1024², xatlas atlas) and, on a plane, the error
   of the default supersampling against a densely supersampled reference.
 
@@ -161,7 +161,7 @@ def markdown(report: dict) -> str:
         f"Surface noise per point costs x{report['surface_vs_raster']:.1f} a raster pixel (goal: x20 or less); "
         f"blocks are x{report['walk_speedup']:.2f} faster than the walk for points and "
         f"x{report['render_speedup']:.2f} for the render (the walk also got faster: the goal, a render x5 faster "
-        "than before the issue, is measured by `compare_commits.py --base 3c913e1`).",
+        "than commit 3c913e1, is measured by `compare_commits.py --base 3c913e1`).",
         "",
         "Supersampling of a bake (plane; error of the texels against a 16 × 16-sample mean of each footprint, "
         "in noise standard deviations):",

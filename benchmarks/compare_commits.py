@@ -1,6 +1,6 @@
 """The hot paths of two commits, timed in one run, interleaved.
 
-A refactor must not make the engine slower, and this machine is shared and
+A change must not make the engine slower, and this machine is shared and
 noisy: timing the previous commit yesterday and this one today says little.
 This script installs the package of ``--base`` (default ``HEAD~1``) into a
 temporary virtual environment, then runs the same timing program alternately
@@ -66,7 +66,7 @@ cases = {
     "plane anisotropic": lambda: wt.render_plane(t, (side // 2, side // 2), filter="anisotropic", device="cpu"),
     "surface points": lambda: wt.surface_noise(t, mesh.vertices, normals, 0.01, device="cpu"),
     "render mesh": lambda: wt.render_mesh(mesh, t, (side // 2, side // 2), device="cpu"),
-    # the goals of issue 12: surface noise at 1M points, a 1024² render (full runs only)
+    # the surface targets: noise at 1M points, a 1024² render (full runs only)
     "surface 1M points": lambda: wt.surface_noise(t, big.vertices, big_normals, 0.004, device="cpu") if not quick
     else None,
     "render mesh 1024²": lambda: wt.render_mesh(sphere, t, (1024, 1024), 1 / 128, device="cpu") if not quick

@@ -4,7 +4,7 @@
     python tests/make_reference.py --only mixed_map,mixed_strips
 
 ``--only`` re-records the named cases and keeps every other recorded value as
-it is: an issue that changes some values on purpose re-records just those, and
+it is: a change that alters some values on purpose re-records just those, and
 says so in its commit. ``--check`` records nothing and lists the cases whose
 values differ from the recording.
 """

@@ -15,8 +15,8 @@ process of tests/property_worker.py) and gives, per parameter,
 
 ``check`` (a function here, run in the worker) says whether a returned value is
 valid output; ``may_refuse`` is a pattern of the refusals valid arguments may
-still meet (a constant image, a budget). A function added later (by another
-issue) is registered with one more entry in ``ENTRIES``.
+still meet (a constant image, a budget). A new public function is registered
+with one more entry in ``ENTRIES``.
 
 Wrappers at the end give the worker a picklable call for what takes a file or a
 mesh: the worker writes the drawn bytes or builds the mesh, then calls the API.
@@ -35,8 +35,6 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 NAN, INF = float("nan"), float("inf")
-#: Issues that own functions whose failures this suite reports but does not fix.
-MESH_ISSUE = "issue 12 (mesh assets: surface.py, batch.py)"
 
 
 @dataclass
@@ -52,7 +50,7 @@ class Entry:
     may_refuse: str = r"memory budget|work budget"  # refusals valid arguments may meet
     names: dict = field(default_factory=dict)  # parameter -> the name its messages use, if not its own
     files: tuple = ()  # parameters that name files: placed in a fresh folder per call
-    xfail: str | None = None  # known failures owned by another issue: reported, not fixed here
+    xfail: str | None = None  # a known failure, reported without failing the suite: where it is tracked
 
 
 # ------------------------------------------------------------------ values
@@ -347,7 +345,7 @@ def image_file_contents():
     )
 
 
-# ------------------------------------------------------------------ meshes (issue 12's functions)
+# ------------------------------------------------------------------ meshes
 @st.composite
 def mesh_arrays(draw):
     """(vertices, faces) of a small closed mesh, moved and scaled."""

@@ -2,7 +2,7 @@
 
 A call that crashes the interpreter (a kernel fault), allocates without bound
 (the worker's address space is limited) or hangs (the parent stops waiting)
-then fails one example instead of the test session. The worker runs with small
+then fails one example instead of the whole pytest run. The worker runs with small
 budgets (``WARP_TEXTON_MEMORY_BUDGET``, ``WARP_TEXTON_WORK_BUDGET``, set by the
 parent), so that the package refuses large requests quickly.
 

@@ -335,7 +335,8 @@ class TestColorCorrection:
 
     @pytest.mark.parametrize("size, order", [(2, 3), (4, 5), (2, 5)])
     def test_texton_smaller_than_spline(self, images, size, order):
-        # regression: lags of b wider than the texton used to wrap the slices and crash
+        # b (the sampled B-spline autocorrelation) has lags wider than the texton here: the
+        # analysis must take only the lags that overlap it, and still match the covariance
         u = images["color"]
         t = analyze(u, size=size, order=order, iterations=5)
         _, tu = normalized_kernel(u)

@@ -450,7 +450,7 @@ def test_dask_cluster_gives_the_same_files(tmp_path, mesh_dir, texton_path, dask
 def test_dask_reruns_a_job_whose_input_changed(tmp_path, mesh_dir, texton_path, dask_client):
     out = tmp_path / "out"
     job = SurfaceJob(str(mesh_dir / "ball.ply"), str(texton_path), str(out), overwrite=True, device="cpu")
-    # a result of this very job still alive on the cluster, e.g. from an earlier batch of the session
+    # a result of this very job still alive on the cluster, e.g. from an earlier batch in the same client
     held = dask_client.submit(run_surface_job, job)
     assert held.result().status == "done"
     os.utime(out / "ball.ply", (OLD, OLD))

@@ -376,7 +376,7 @@ class TestWriteErrors:
         assert_nothing_written(path)
 
 
-# ------------------------------------------------------------------ output formats (issue 14)
+# ------------------------------------------------------------------ output formats
 class TestOutputFormats:
     @pytest.mark.parametrize("channels", [1, 3])
     def test_half_exr(self, tmp_path, rng, channels):

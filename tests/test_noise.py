@@ -713,3 +713,59 @@ def test_all_zero_texton_is_refused_with_a_clear_error():
         synthesize(zero, (8, 8), device="cpu")
     with pytest.raises(TextonError, match="every coefficient is zero"):
         evaluate(zero, [[0.5, 0.5]], device="cpu")
+
+
+class TestParamsAndBudgets:
+    """Every path gets the kernels' NoiseParams from one record, and a public call
+    checks the work budget once, for all its strips or groups."""
+
+    @pytest.mark.parametrize("channels,poisson,period", [(1, "exact", None), (3, "gaussian", (40.0, 24.0))])
+    def test_struct_holds_the_record_byte_for_byte(self, channels, poisson, period):
+        # the filters and points take Warp's struct, rasters the record: both must give the
+        # kernels the same bytes, or the paths would see different noise
+        from warp_texton.noise import noise_params, noise_setup, params_record
+
+        t = random_texton(channels=channels, order=3, seed=11)
+        setup = noise_setup(t, 17.0, period)
+        rec = params_record(t, setup, 2**32 - 5, poisson)
+        p = noise_params(t, setup, 2**32 - 5, poisson)
+        assert bytes(p.__ctype__()) == rec.tobytes()
+        assert p.cells.seed == 2**32 - 5 and p.order == 3
+        assert list(p.mean)[channels:] == [0.0] * (3 - channels)  # unused channels hold zero
+
+    def test_one_work_check_per_call(self, monkeypatch):
+        from warp_texton import synthesize_batch, synthesize_mixed
+        from warp_texton.limits import work_log
+
+        monkeypatch.setattr(warp_texton.canvas, "STRIP_WORK", 16 * 8)  # strips of 8 rows, groups of one item
+        t = random_texton(seed=12)
+        calls = {
+            "raster in strips": lambda: synthesize(t, (40, 16), scale=0.7, rotation=10.0, device="cpu"),
+            "filtered raster in strips": lambda: synthesize(t, (40, 16), scale=0.1, filter="mip", device="cpu"),
+            "batch in groups": lambda: synthesize_batch(t, 5, (8, 16), seed=3, scale=(0.05, 2.0),
+                                                        filter="anisotropic", device="cpu"),
+            "mixed": lambda: synthesize_mixed([t, t], "strips", (40, 16), device="cpu"),
+            "points": lambda: evaluate(t, np.zeros((7, 2)), device="cpu"),
+        }
+        for name, call in calls.items():
+            with work_log() as log:
+                call()
+            assert len(log) == 1, (name, log)
+
+    def test_a_batch_is_priced_whole(self, monkeypatch):
+        # groups that each fit the work budget do not make a batch that does not
+        from warp_texton import synthesize_batch
+        from warp_texton.limits import set_work_budget, work_log
+
+        monkeypatch.setattr(warp_texton.canvas, "STRIP_WORK", 16 * 16)  # one item per group
+        t = random_texton(seed=13)
+        with work_log() as log:
+            synthesize(t, (16, 16), device="cpu")
+        one = log[0][1]
+        try:
+            set_work_budget(3.5 * one)
+            synthesize_batch(t, 3, (16, 16), device="cpu")
+            with pytest.raises(TextonError, match="a batch of 4 16x16 rasters .* work budget"):
+                synthesize_batch(t, 4, (16, 16), device="cpu")
+        finally:
+            set_work_budget(None)

@@ -8,7 +8,7 @@ arguments, then replaces up to two of them with values that must be refused
 accepted or refused, either is fine). Calls run in a worker process
 (tests/property_worker.py) with small memory and work budgets and a limited
 address space, so a crash, an unbounded allocation or a hang fails one example,
-not the session.
+not the whole pytest run.
 
 Profiles (registered in conftest.py): ``ci`` (default: derandomized, a bounded
 number of examples per function, a few minutes in all) and ``slow`` (random,
@@ -191,7 +191,7 @@ def test_valid_output_or_one_texton_error(name, worker):
 def test_command_line_gives_one_line_and_status(worker):
     """Any command line of analyze, gaussian, synthesize, render-plane and mix: status 0
     or 2, stderr only one-line errors and warnings, no temporary file, and no output
-    when it fails. (``surface`` belongs to issue 12.)"""
+    when it fails. (``surface`` takes meshes, which the API entries of property_api.py cover.)"""
 
     @given(api.cli_argv())
     def prop(argv):

@@ -1,4 +1,4 @@
-"""Every kernel path gives, bit for bit, the values recorded before the last refactor.
+"""Every kernel path gives, bit for bit, the values recorded in tests/data.
 
 The values in tests/data/reference_outputs.npz were made on the CPU by
 tests/make_reference.py from the cases in reference_cases.py. A move or merge

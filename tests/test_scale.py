@@ -1,4 +1,4 @@
-"""Scale (issue 14): windows bit-identical to one large raster, batches, output on the
+"""Scale: windows bit-identical to one large raster, batches, output on the
 device, Dask arrays and Zarr stores, progress and Ctrl-C.
 
 The exactness tests compare with ``np.testing.assert_array_equal``: a window is
@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 import warp_texton
-import warp_texton.noise
+import warp_texton.canvas
 import warp_texton.synthesis
 from warp_texton.dask import synthesize_dask, write_zarr
 from helpers import assert_nothing_written, assert_same_noise, noise_sd, parts, random_texton, run_cli
@@ -94,15 +94,15 @@ class TestWindows:
         t = random_texton(channels=3, order=3, seed=73)
         kw = dict(seed=5, scale=1.3, rotation=-20.0, device=device)
         whole = synthesize(t, (60, 50), **kw)
-        monkeypatch.setattr(warp_texton.noise, "STRIP_WORK", 7 * 50)  # strips of 7 rows
-        assert len(warp_texton.noise.strips(60, 50)) == 9
+        monkeypatch.setattr(warp_texton.canvas, "STRIP_WORK", 7 * 50)  # strips of 7 rows
+        assert len(warp_texton.canvas.strips(60, 50)) == 9
         np.testing.assert_array_equal(synthesize(t, (60, 50), **kw), whole)
 
     @pytest.mark.parametrize("filter", ("anisotropic", FilterOptions("supersample", supersample=2)))
     def test_plane_strips_equal_one_pass(self, monkeypatch, filter, device):
         t = random_texton(channels=3, seed=75)
         whole = render_plane(t, (40, 30), tilt=80.0, filter=filter, device=device)
-        monkeypatch.setattr(warp_texton.noise, "STRIP_WORK", 30 * 8 * 2)
+        monkeypatch.setattr(warp_texton.canvas, "STRIP_WORK", 30 * 8 * 2)
         np.testing.assert_array_equal(render_plane(t, (40, 30), tilt=80.0, filter=filter, device=device), whole)
 
     def test_windows_still_equal_evaluate(self, device):
@@ -144,7 +144,7 @@ class TestBatch:
 
     def test_options_are_shared_and_groups_split(self, monkeypatch, device):
         # period, Gaussian counts, order-0 textons; groups of 3 items (several passes)
-        monkeypatch.setattr(warp_texton.synthesis, "STRIP_WORK", 3 * 16 * 20)
+        monkeypatch.setattr(warp_texton.canvas, "STRIP_WORK", 3 * 16 * 20)
         ts = [random_texton((6, 6), channels=1, order=o, seed=90 + o) for o in (0, 1)]
         kw = dict(mni=12.0, period=(30.0, 40.0), poisson="gaussian")
         images, params = synthesize_batch(ts, 8, (16, 20), seed=1, scale=(0.5, 2.0), device=device, **kw)
@@ -536,7 +536,7 @@ class TestCli:
 
     def test_progress_bar_on_long_work(self, tmp_path, texton_path, capsys, monkeypatch):
         monkeypatch.setattr("warp_texton._runtime.PROGRESS_DELAY", 0.0)
-        monkeypatch.setattr(warp_texton.noise, "STRIP_WORK", 64 * 8)  # 8 strips
+        monkeypatch.setattr(warp_texton.canvas, "STRIP_WORK", 64 * 8)  # 8 strips
         out = tmp_path / "p.png"
         assert run_cli(["synthesize", texton_path, "-o", out, "--width", 64, "--height", 64, "--device", "cpu"]) == 0
         assert "synthesize" in capsys.readouterr().err  # the bar's label

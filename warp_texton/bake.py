@@ -49,10 +49,21 @@ MAX_RESOLUTION = 16384
 #: many samples per side.
 SAMPLE_DENSITY = 1.0
 MAX_SAMPLES_SIDE = 8
+#: Most samples per texel side that an explicit ``supersample`` may ask for: 64² =
+#: 4096 evaluations per texel, the bound the filters put on theirs (a texel's
+#: work grows with its square).
+MAX_SUPERSAMPLE = 64
 #: Samples evaluated at once (bounds the memory of a bake).
 SAMPLES_PER_ROUND = 1 << 21
 #: Host memory of a bake per texel of the texture, at the peak.
 BYTES_PER_TEXEL = 360.0
+#: Host memory per sample of a round: its offset (2 float64) and texel (int64),
+#: its barycentric weights, 3-D point and normal (3 float64 each) and its value
+#: (3 float32), 108 bytes, with the temporaries between them: about 120.
+BYTES_PER_SAMPLE = 120.0
+#: Host memory that each baked texel keeps while the rounds run: its sums
+#: (3 float64), sample counts per side, row, column and face (5 int64).
+BYTES_PER_BAKED_TEXEL = 64.0
 #: Refuse mesh UVs when more than this fraction of the covered texels is claimed twice.
 MAX_OVERLAP = 0.02
 #: The crease rule of the renderer: beyond 30° the face normal is used.
@@ -303,8 +314,8 @@ def bake_mesh(
         raise TextonError(f"uv must be one of {', '.join(UV_MODES)}, got {uv!r}")
     if supersample is not None:
         supersample = check_int(supersample, "supersample", minimum=1)
-        if supersample > 64:
-            raise TextonError(f"supersample must be at most 64 samples per side, got {supersample}")
+        if supersample > MAX_SUPERSAMPLE:
+            raise TextonError(f"supersample must be at most {MAX_SUPERSAMPLE} samples per side, got {supersample}")
     gutter = default_gutter(res) if gutter is None else check_int(gutter, "gutter", minimum=0,
                                                                    maximum=min(MAX_GUTTER, max(2, res // 4)))
     seed = check_seed(seed)
@@ -371,7 +382,8 @@ def bake_mesh(
     else:
         nx = ny = np.full(len(f), supersample, np.int64)
     total = int(np.sum(nx * ny))
-    check_memory(min(total, SAMPLES_PER_ROUND) * 120.0 + len(f) * 64.0, f"a {res}x{res} bake with {total} samples",
+    check_memory(min(total, SAMPLES_PER_ROUND) * BYTES_PER_SAMPLE + len(f) * BYTES_PER_BAKED_TEXEL,
+                 f"a {res}x{res} bake with {total} samples",
                  "use a smaller resolution or supersample")
     p = surface_params(texton, setup, seed, "exact", up, side)
     sums = np.zeros((len(f), 3), np.float64)

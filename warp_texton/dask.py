@@ -29,11 +29,13 @@ import numpy as np
 from ._checks import check_int
 from ._runtime import progress_bar, resolve_device
 from ._version import __version__
+from .canvas import result_bytes
 from .errors import TextonError
 from .filtering import FilterOptions, needs_filtering
 from .io import convert_pixels, report_clipped
 from .limits import check_memory
-from .noise import CELL_FACTOR, noise_setup, raster_geometry, raster_reach, result_bytes
+from .noise import CELL_FACTOR, noise_setup
+from .raster import raster_geometry, raster_reach
 from .synthesis import synthesize
 from .texton import Texton
 

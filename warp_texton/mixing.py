@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.fft as sfft
-import warp as wp
 
 from ._checks import as_image, as_real_array, check_bool, check_int, check_mni, check_seed, check_shape
 from ._runtime import resolve_device
@@ -24,7 +23,8 @@ from .analysis import (check_analysis_cost, check_size_fits, check_support, text
 from .bspline import ORDERS
 from .errors import TextonError
 from .gaussian import FFT_WORKERS, normalized_kernel
-from .noise import Regions, noise_params, noise_setup, padded_coeffs, raster, raster_geometry
+from .noise import noise_setup, padded_coeffs, params_record
+from .raster import Regions, raster, raster_geometry
 from .texton import MAX_TEXTON_SIDE, Texton
 
 def barycentre_spectrum(tu_hat: np.ndarray, tv_hat: np.ndarray, rho: float) -> np.ndarray:
@@ -383,9 +383,9 @@ def synthesize_mixed(
     setup = noise_setup(widest, mni)
     origin, step = raster_geometry((h, w), scale, 0.0, offset)
     device = resolve_device(device)
-    p = noise_params(widest, setup, seed)
-    p.mean = wp.vec3(0.0, 0.0, 0.0)
-    p.integral = wp.vec3(0.0, 0.0, 0.0)  # the random signs make the sum zero-mean
+    p = params_record(widest, setup, seed)
+    p["mean"] = 0.0
+    p["integral"] = 0.0  # the random signs make the sum zero-mean
     pad_rows, pad_cols = setup.coeffs.shape[:2]
     stack = np.zeros((len(textons), pad_rows, pad_cols, 3), np.float32)
     for k, t in enumerate(textons):

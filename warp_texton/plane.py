@@ -14,11 +14,11 @@ import numpy as np
 
 from ._checks import check_positive, check_real, check_seed, check_shape
 from ._runtime import progress_bar, resolve_device
+from .canvas import Canvas, check_output, fill_pixels, result_bytes, strips
 from .errors import TextonError
 from .filtering import COST_SAMPLES, FilterOptions, PixelSet, check_filter_cost, filter_pixels, pixel_cost
 from .limits import check_memory
-from .noise import (Canvas, cell_limit, check_output, fill_pixels, noise_params, noise_setup, params_mean,
-                    result_bytes, strips)
+from .noise import cell_limit, noise_params, noise_setup, params_mean
 from .texton import Texton
 
 if TYPE_CHECKING:

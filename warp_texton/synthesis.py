@@ -1,7 +1,8 @@
 """Texton noise on rasters, batches of rasters and points: the public front ends.
 
-Each function validates its arguments, then dispatches to the engine in
-:mod:`warp_texton.noise` (plain rasters and points) or to the filters in
+Each function validates its arguments, checks the budgets of the whole call
+once, then dispatches to the engine (:mod:`warp_texton.raster` for plain
+rasters, :mod:`warp_texton.noise` for points) or to the filters in
 :mod:`warp_texton.filtering`.
 
 Large rasters are computed in strips of rows of bounded work, each a window
@@ -24,13 +25,14 @@ import numpy as np
 from ._checks import as_real_array, check_int, check_positive, check_seed, check_shape
 from ._runtime import progress_bar, resolve_device
 from .errors import TextonError
-from .filtering import (COST_SAMPLES, FilterOptions, RasterPixels, check_filter_cost, check_jacobian,
-                        filter_pixels, needs_filtering, pixel_cost)
-from .limits import check_memory, check_work
-from .noise import (CELL_FACTOR, IMPACT_BYTES, METHODS, STRIP_WORK, Canvas, RasterWindow, TextonStack, check_cell_range,
-                    check_output, check_points_cost, noise_params, noise_setup, params_record, point_values,
-                    raster_cost, raster_geometry, raster_impacts, raster_reach, rasters, result_bytes, strips,
-                    window_block)
+from .canvas import Canvas, check_output, group_size, result_bytes, strips
+from .filtering import (COST_SAMPLES, FILTER_BYTES_PER_PIXEL, FilterOptions, RasterPixels, check_jacobian,
+                        filter_pixels, filter_work, needs_filtering, pixel_cost)
+from .limits import check_memory
+from .noise import (CELL_FACTOR, NoiseSetup, check_cell_range, check_points_cost, noise_params, noise_setup,
+                    params_record, params_struct, point_values)
+from .raster import (RasterWindow, TextonStack, check_method, check_raster_cost, raster_cost, raster_geometry,
+                     raster_reach, rasters, resolve_method, window_block)
 from .texton import Texton
 
 if TYPE_CHECKING:
@@ -38,6 +40,9 @@ if TYPE_CHECKING:
 
 #: Pixel windows are placed with int32 indices in the kernels.
 MAX_PIXEL_INDEX = 1 << 30
+#: What to make smaller when a filter's work is over the budget, besides the
+#: raster and the mni.
+FILTER_KNOBS = {"supersample": "supersample", "anisotropic": "max_aniso"}
 #: Host memory per batch item besides its pixels: its drawn parameters (NumPy) and its
 #: window (a small Python object with its geometry): 1.2 KiB measured (tracemalloc, 20 000 items
 #: of 1x1 pixels), rounded up.
@@ -214,7 +219,7 @@ def synthesize(
 
     Notes
     -----
-    Rasters of more than ``noise.STRIP_WORK`` pixels (4 Mi, less with a
+    Rasters of more than ``canvas.STRIP_WORK`` pixels (4 Mi, less with a
     filter) are computed in strips of rows, each with its own block of
     impacts: the same values, a moving progress bar, and Ctrl-C that stops
     within a strip. The output (plus what handing it over copies) must fit
@@ -313,8 +318,7 @@ def synthesize(
     """
     h, w = check_shape(shape)
     seed = check_seed(seed)
-    if not isinstance(method, str) or method not in METHODS:
-        raise TextonError(f"method must be one of {', '.join(METHODS)}, got {method!r:.60}")
+    check_method(method)
     first = check_pixel_offset(pixel_offset)
     output = check_output(output)
     setup = noise_setup(texton, mni, period, cell_factor)
@@ -324,26 +328,31 @@ def synthesize(
     device = resolve_device(device)
     raster_reach(origin, step, (h, w), setup, first)  # far positions are refused before any allocation
     filtered = needs_filtering(J, options)
-    # the filters take Warp's struct; plain rasters its record, quicker to make
-    p = (noise_params if filtered else params_record)(texton, setup, seed, poisson)
-    whole = RasterWindow(p, setup, 0, texton.order, origin, step, (first[0], first[1]), float(scale))
-    if filtered:  # the work of every pixel's lookups, judged from footprints spread over the raster
-        sample = J.reshape(-1, 2, 2)
-        sample = sample[np.linspace(0, len(sample) - 1, min(len(sample), COST_SAMPLES)).astype(np.int64)]
-        check_filter_cost(texton, setup, h * w, sample, options, f"a {w}x{h} raster")
-    else:  # the whole raster's work; its memory is that of one strip at a time (checked in rasters)
-        _, work, what = raster_cost([whole], [window_block(whole, (h, w))], (h, w), TextonStack.of([setup.coeffs]),
-                                    splat=method != "gather")
-        check_work(work, what, "use a smaller raster or a lower mni")
-    parts = strips(h, w, pixel_cost(options, filtered))
-    r0, r1 = parts[0]
-    work = (r1 - r0) * w * 40 if filtered else raster_impacts([whole], (r1 - r0, w)) * IMPACT_BYTES
-    check_memory(result_bytes(1, h, w, texton.channels, device, output) + work,
-                 f"a {h}x{w} raster with {texton.channels} channel(s)",
-                 "use a smaller shape, or warp_texton.dask.synthesize_dask (or the CLI's .zarr output) "
-                 "for rasters larger than memory")
-    canvas = Canvas((h, w), device)
+    rec = params_record(texton, setup, seed, poisson)
+    whole = RasterWindow(rec, setup, 0, texton.order, origin, step, (first[0], first[1]), float(scale))
     stack = TextonStack.of([setup.coeffs])
+    parts = strips(h, w, pixel_cost(options, filtered))
+    strip = (parts[0][1] - parts[0][0], w)
+    # one check for the call: the output and one strip at a time in memory, every strip's work
+    if filtered:
+        work = filtered_work(texton, setup, J, options, h * w)
+        strip_bytes = strip[0] * w * FILTER_BYTES_PER_PIXEL
+        what = f"a {w}x{h} raster with filter {options.kind!r} at MNI {setup.mni:.6g}"
+        hint = filter_hint(options)
+        blocks = None
+    else:
+        method = resolve_method(method, device)
+        blocks = [window_block(whole, (h, w))]
+        strip_bytes, work, what = raster_cost([whole], (h, w), stack, blocks=blocks, splat=method == "splat")
+        hint = "use a smaller raster or a lower mni"
+        if len(parts) > 1:  # one strip's blocks at a time, each strip placing its own
+            strip_bytes = raster_cost([whole], strip, stack, splat=method == "splat")[0]
+            blocks = None
+    check_raster_cost(result_bytes(1, h, w, texton.channels, device, output) + strip_bytes, work, what,
+                      "use a smaller shape, or warp_texton.dask.synthesize_dask (or the CLI's .zarr output) "
+                      "for rasters larger than memory", hint)
+    p = params_struct(rec) if filtered else rec
+    canvas = Canvas((h, w), device)
     rows = canvas.rows(w)
     bar = progress_bar(progress and len(parts) > 1, h, "synthesize", "row")
     try:
@@ -355,7 +364,7 @@ def synthesize(
                 filter_pixels(p, texton, setup, pixels, options, device, seed, out=canvas.pixels(r0 * w, r1 * w))
             else:
                 win = RasterWindow(p, setup, 0, texton.order, origin, step, at, float(scale))
-                rasters([win], stack, (r1 - r0, w), device, method, rows[r0:r1])
+                rasters([win], stack, (r1 - r0, w), device, method, rows[r0:r1], blocks=blocks)
             bar.update(r1 - r0)
     finally:
         bar.close()
@@ -739,53 +748,92 @@ def synthesize_batch(
     output = check_output(output)
     mni = check_positive(mni, "mni")
     options = FilterOptions.of(filter)
+    check_method(method)
     channels = textons[0].channels
     device = resolve_device(device)
-    # before anything of size count is made: the output, a group's impacts, and each
-    # item's parameters and window
-    check_memory(result_bytes(count, h, w, channels, device, output)
-                 + min(count, max(1, STRIP_WORK // (h * w))) * h * w * 4  # a group's impacts, about
-                 + count * BATCH_ITEM_BYTES,
-                 f"a batch of {count} {h}x{w} rasters with {channels} channel(s)",
+    items_bytes = result_bytes(count, h, w, channels, device, output) + count * BATCH_ITEM_BYTES
+    # before anything of size count is made (its parameters, its windows): what grows with count alone
+    check_memory(items_bytes, f"a batch of {count} {h}x{w} rasters with {channels} channel(s)",
                  "use a smaller count or shape, or make the batch in parts")
     params = draw_batch_params(len(textons), count, seed, scale, rotation, offset, texton_index)
     setups = [noise_setup(t, mni, period, cell_factor) for t in textons]
     stack = TextonStack.of([s.coeffs for s in setups])
-    windows, filtered = [], []
+    windows, filtered = {}, []
     for k in range(count):
         i = int(params.texton[k])
         kw = params.item(k)
         origin, step = raster_geometry((h, w), kw["scale"], kw["rotation"], kw["offset"])
-        raster_reach(origin, step, (h, w), setups[i])
+        rec = params_record(textons[i], setups[i], kw["seed"], poisson)
+        win = RasterWindow(rec, setups[i], i, textons[i].order, origin, step, (0, 0), kw["scale"])
         if needs_filtering(step, options):
-            p = noise_params(textons[i], setups[i], kw["seed"], poisson)
-            filtered.append((k, RasterWindow(p, setups[i], i, textons[i].order, origin, step, (0, 0), kw["scale"])))
+            raster_reach(origin, step, (h, w), setups[i])  # far positions are refused before any allocation
+            filtered.append((k, win))
         else:
-            p = params_record(textons[i], setups[i], kw["seed"], poisson)
-            windows.append((k, RasterWindow(p, setups[i], i, textons[i].order, origin, step, (0, 0), kw["scale"])))
+            windows[k] = (win, window_block(win, (h, w)))  # refuses them too (raster_reach)
+    # plain items in groups of consecutive items, so each group writes one block of rows
+    per_group = group_size(h, w)
+    groups = [(g0, min(k1, g0 + per_group)) for k0, k1 in _runs(list(windows)) for g0 in range(k0, k1, per_group)]
+    method = resolve_method(method, device) if windows else method
+    check_batch_cost(textons, setups, h, w, windows, groups, filtered, stack, options, method, items_bytes)
     canvas = Canvas((count, h, w), device)
     rows = canvas.rows(w)
-    per_group = max(1, STRIP_WORK // (h * w))
     bar = progress_bar(progress, count, "synthesize_batch", "image")
     try:
-        # plain items: consecutive runs of items, so each group writes one block of rows
-        runs = _runs([k for k, _ in windows])
-        by_item = dict(windows)
-        for k0, k1 in runs:
-            for g0 in range(k0, k1, per_group):
-                g1 = min(k1, g0 + per_group)
-                group = [by_item[k] for k in range(g0, g1)]
-                rasters(group, stack, (h, w), device, method, rows[g0 * h: g1 * h])
-                bar.update(g1 - g0)
+        for g0, g1 in groups:
+            group = [windows[k] for k in range(g0, g1)]
+            rasters([win for win, _ in group], stack, (h, w), device, method, rows[g0 * h: g1 * h],
+                    blocks=[block for _, block in group])
+            bar.update(g1 - g0)
         for k, win in filtered:
             t = textons[win.texton]
             pixels = RasterPixels((h, w), win.origin, win.step, win.step)
-            filter_pixels(win.p, t, win.setup, pixels, options, device, params.item(k)["seed"],
+            filter_pixels(params_struct(win.p), t, win.setup, pixels, options, device, params.item(k)["seed"],
                           out=canvas.pixels(k * h * w, (k + 1) * h * w))
             bar.update(1)
     finally:
         bar.close()
     return Batch(canvas.result(channels, output), params)
+
+
+def filtered_work(texton: Texton, setup: NoiseSetup, J: np.ndarray, options: FilterOptions, count: int) -> float:
+    """Operations of filtering ``count`` pixels whose footprints are ``J`` (any shape
+    ending in (2, 2)), judged from up to COST_SAMPLES of them spread evenly."""
+    J = J.reshape(-1, 2, 2)
+    sample = J[np.linspace(0, len(J) - 1, min(len(J), COST_SAMPLES)).astype(np.int64)]
+    return count * filter_work(texton, setup, sample, options)
+
+
+def filter_hint(options: FilterOptions) -> str:
+    """What to change when filtering with ``options`` is over the work budget."""
+    knob = FILTER_KNOBS.get(options.kind)
+    return f"use a smaller {knob}, a smaller raster or a lower mni" if knob else "use a smaller raster or a lower mni"
+
+
+def check_batch_cost(textons: list[Texton], setups: list[NoiseSetup], h: int, w: int, windows: dict, groups: list,
+                     filtered: list, stack: TextonStack, options: FilterOptions, method: str,
+                     items_bytes: float) -> None:
+    """The budget check of a batch: its output and items (``items_bytes``) with the
+    largest group's blocks or one filtered item's pixels in memory; the work of
+    every group and every filtered item."""
+    work, nbytes = 0.0, 0.0
+    for g0, g1 in groups:
+        group = [windows[k] for k in range(g0, g1)]
+        group_bytes, group_work, _ = raster_cost([win for win, _ in group], (h, w), stack,
+                                                 blocks=[block for _, block in group], splat=method == "splat")
+        work += group_work
+        nbytes = max(nbytes, group_bytes)
+    if filtered:
+        nbytes = max(nbytes, h * w * FILTER_BYTES_PER_PIXEL)
+        for i, (t, setup) in enumerate(zip(textons, setups)):
+            steps = np.array([win.step for _, win in filtered if win.texton == i]).reshape(-1, 2, 2)
+            if steps.shape[0]:
+                work += filtered_work(t, setup, steps, options, len(steps) * h * w)
+    mni = max(s.mni for s in setups)
+    what = f"a batch of {len(windows) + len(filtered)} {h}x{w} rasters at MNI {mni:.6g}"
+    if filtered:
+        what += f" ({len(filtered)} with filter {options.kind!r})"
+    check_raster_cost(items_bytes + nbytes, work, what, "use a smaller count or shape, or make the batch in parts",
+                      filter_hint(options) if filtered else "use a smaller count or shape, or a lower mni")
 
 
 def _runs(items: list[int]) -> list[tuple[int, int]]:

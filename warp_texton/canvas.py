@@ -1,0 +1,108 @@
+"""The output memory that noise kernels write into, cut into strips, and its hand-over.
+
+A :class:`Canvas` is float32 memory of some shape + (3,) that the kernels of
+every path (rasters, filtered pixels, plane views, points) fill through vec3
+views; the front ends cut large outputs into strips of bounded work
+(:func:`strips`) and hand the result over as NumPy or as a ``wp.array``
+(:func:`check_output`, :func:`result_bytes`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from ._runtime import is_cpu
+from .errors import TextonError
+from .kernels import noise2d as K
+
+#: Work of one strip of a large raster (or one group of a batch), in raster
+#: pixels: a few tenths of a second on two cores, so that a progress bar moves
+#: and Ctrl-C stops within one strip.
+STRIP_WORK = 1 << 22
+OUTPUTS = ("numpy", "warp")
+#: Bytes of one float32 vec3 value: the kernels' view of three channels.
+VEC3_BYTES = 12
+
+
+class Canvas:
+    """Float32 output memory ``shape`` + (3,) that the kernels write through vec3
+    views: NumPy on the CPU (zero pages, touched first by the threads that fill
+    them), a ``wp.array`` on a CUDA device.
+
+    ``result(channels, output)`` hands it over as NumPy (``output="numpy"``; a
+    copy from a GPU) or as a ``wp.array`` on the device (``output="warp"``).
+    """
+
+    def __init__(self, shape, device):
+        self.shape = tuple(int(s) for s in shape)
+        self.device = device
+        if is_cpu(device):
+            self.host = np.zeros(self.shape + (3,), np.float32)
+            self.data = wp.array(self.host, dtype=wp.float32, device=device, copy=False)
+        else:
+            self.host = None
+            self.data = wp.zeros(self.shape + (3,), dtype=wp.float32, device=device)
+        self.size = int(np.prod(self.shape))
+
+    def pixels(self, start: int, stop: int):
+        """Values start…stop (row-major order) as a 1-D vec3 view."""
+        return wp.array(ptr=self.data.ptr + start * VEC3_BYTES, dtype=wp.vec3, shape=(stop - start,),
+                        device=self.device)
+
+    def rows(self, width: int):
+        """All values as a (size / width, width) vec3 view."""
+        return wp.array(ptr=self.data.ptr, dtype=wp.vec3, shape=(self.size // width, width), device=self.device)
+
+    def result(self, channels: int, output: str):
+        if output == "warp":
+            return self.data if channels == 3 else \
+                self.data[(slice(None),) * len(self.shape) + (slice(0, channels),)].contiguous()
+        a = self.host if self.host is not None else self.data.numpy()
+        return a if channels == 3 else np.ascontiguousarray(a[..., :channels])
+
+
+def fill_pixels(out, index: np.ndarray, mean, device, compute) -> None:
+    """``out`` (an (N,) vec3 array) holds ``mean`` except at ``index``, where
+    ``compute(target)`` writes its values (into ``out`` itself when every pixel
+    is computed, else through a scatter on the device)."""
+    n = out.shape[0]
+    with wp.ScopedDevice(device):
+        if index.size == n:
+            compute(out)
+            return
+        out.fill_(wp.vec3(*(float(v) for v in mean)))
+        if index.size:
+            values = wp.empty(index.size, dtype=wp.vec3)
+            compute(values)
+            wp.launch(K.scatter_values, dim=index.size, inputs=[values, wp.array(index.astype(np.int64), dtype=wp.int64), out])
+
+
+def strips(h: int, w: int, cost: int = 1):
+    """Row ranges (r0, r1) cutting an H × W raster into strips of about STRIP_WORK,
+    for pixels that each cost ``cost`` raster pixels."""
+    rows = max(1, STRIP_WORK // max(1, w * cost))
+    return [(r0, min(h, r0 + rows)) for r0 in range(0, h, rows)]
+
+
+def group_size(h: int, w: int) -> int:
+    """How many H × W rasters of a batch one pass computes: about STRIP_WORK pixels."""
+    return max(1, STRIP_WORK // (h * w))
+
+
+def result_bytes(count: int, h: int, w: int, channels: int, device, output: str) -> int:
+    """Bytes of a float32 (count, H, W, 3) canvas plus what handing it over copies."""
+    n = count * h * w
+    extra = 0
+    if channels != 3:
+        extra = n * channels * 4  # the channels taken out of the canvas
+    elif output == "numpy" and not is_cpu(device):
+        extra = n * VEC3_BYTES  # the copy to the host
+    return n * VEC3_BYTES + extra
+
+
+def check_output(output) -> str:
+    """``"numpy"`` or ``"warp"``."""
+    if not isinstance(output, str) or output not in OUTPUTS:
+        raise TextonError(f"output must be one of {', '.join(OUTPUTS)}, got {output!r}")
+    return output
