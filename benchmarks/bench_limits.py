@@ -40,10 +40,10 @@ def workloads(texton, u, device, quick: bool, mni: float):
     pts = np.random.default_rng(0).uniform(-5000, 5000, (200_000 // k, 2))
     textons = mix_textons(u[:128, :128], u[:128, :128].transpose(1, 0, 2), [0.0, 0.5, 1.0], size=32, iterations=10)
     return [
-        ("synthesize, raster (splat on the grid)", lambda: synthesize(texton, (n, n), mni, device=device)),
-        ("synthesize, rotated raster", lambda: synthesize(texton, (n, n), mni, rotation=30, device=device)),
-        ("synthesize_mixed, strips", lambda: synthesize_mixed(textons, "strips", (n, n), mni, device=device)),
-        ("evaluate, points", lambda: evaluate(texton, pts, mni, device=device)),
+        ("synthesize, raster (splat on the grid)", lambda: synthesize(texton, (n, n), mni=mni, device=device)),
+        ("synthesize, rotated raster", lambda: synthesize(texton, (n, n), mni=mni, rotation=30, device=device)),
+        ("synthesize_mixed, strips", lambda: synthesize_mixed(textons, "strips", (n, n), mni=mni, device=device)),
+        ("evaluate, points", lambda: evaluate(texton, pts, mni=mni, device=device)),
         ("render_plane, filter none", lambda: render_plane(texton, (n // 2, n // 2), mni=mni, filter="none",
                                                            device=device)),
         ("render_plane, filter mip", lambda: render_plane(texton, (n // 2, n // 2), mni=mni, filter="mip",
@@ -51,13 +51,13 @@ def workloads(texton, u, device, quick: bool, mni: float):
         ("render_plane, filter anisotropic", lambda: render_plane(texton, (n // 2, n // 2), mni=mni,
                                                                   filter="anisotropic", device=device)),
         ("synthesize, filter supersample 4", lambda: synthesize(
-            texton, (n // 4, n // 4), mni, scale=0.25, filter=FilterOptions("supersample", supersample=4),
+            texton, (n // 4, n // 4), mni=mni, scale=0.25, filter=FilterOptions("supersample", supersample=4),
             device=device)),
         ("analyze, 50 iterations", lambda: analyze(u, size=64, iterations=50)),
         ("mix_textons, 3 textons", lambda: mix_textons(u[:256, :256], u[:256, :256].transpose(1, 0, 2),
                                                        [0.0, 0.5, 1.0], size=64)),
         ("gaussian_texture", lambda: gaussian_texture(u, shape=(2 * n, 2 * n))),
-        ("dsn", lambda: dsn(texton, (n, n), mni)),
+        ("dsn", lambda: dsn(texton, (n, n), mni=mni)),
     ]
 
 

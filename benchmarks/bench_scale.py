@@ -58,7 +58,7 @@ def bench_batch(args, device) -> list:
 
         def loop():
             for t, p in items:
-                synthesize(t, shape, args.mni, **p, device=device)
+                synthesize(t, shape, mni=args.mni, **p, device=device)
 
         def batch():
             synthesize_batch(ts, args.count, shape, seed=1, mni=args.mni, device=device, **kw)
@@ -92,11 +92,11 @@ def bench_device_output(args, device) -> list:
     for side in (512, 2048):
         times = {"numpy": [], "warp": []}
         for out in ("numpy", "warp"):
-            synthesize(t, (side, side), args.mni, device=device, output=out)
+            synthesize(t, (side, side), mni=args.mni, device=device, output=out)
         for _ in range(args.repeat):
             for out in ("numpy", "warp"):
                 t0 = time.perf_counter()
-                synthesize(t, (side, side), args.mni, device=device, output=out)
+                synthesize(t, (side, side), mni=args.mni, device=device, output=out)
                 wp.synchronize_device(device)
                 times[out].append(time.perf_counter() - t0)
         rows.append({"side": side, **{k: {"best_s": min(v), "median_s": statistics.median(v)} for k, v in times.items()}})

@@ -67,10 +67,10 @@ def supersampling_errors(texton, device, quick: bool) -> list[dict]:
     sd = float(np.sqrt(np.diag(texton.covariance()).mean()))
     for footprint in (4, 8):
         texel = 1.0 / (res * footprint)
-        ref = bake_mesh(plane_with_uvs(), texton, texel, res, supersample=16, device=device).texture
+        ref = bake_mesh(plane_with_uvs(), texton, texel, resolution=res, supersample=16, device=device).texture
         for n in sorted({1, footprint // 4, footprint // 2, footprint, 2 * footprint} - {0}):
             t0 = time.perf_counter()
-            got = bake_mesh(plane_with_uvs(), texton, texel, res, supersample=n, device=device).texture
+            got = bake_mesh(plane_with_uvs(), texton, texel, resolution=res, supersample=n, device=device).texture
             dt = time.perf_counter() - t0
             rows.append({"footprint": footprint, "samples_per_side": n, "density": n / footprint,
                          "rms_error_sd": float(np.sqrt(np.mean((got - ref) ** 2)) / sd), "time_s": dt})
@@ -101,7 +101,7 @@ def run(args) -> dict:
     }, max(1, args.repeat // 2))
     bake_res = 256 if args.quick else 1024
     t0 = time.perf_counter()
-    baked = bake_mesh(trimesh.creation.torus(1.0, 0.35), texton, texel, bake_res, mni=args.mni, device=device)
+    baked = bake_mesh(trimesh.creation.torus(1.0, 0.35), texton, texel, resolution=bake_res, mni=args.mni, device=device)
     bake_s = time.perf_counter() - t0
     errors = supersampling_errors(texton, device, args.quick)
     n = len(pts)

@@ -118,12 +118,12 @@ def fill_view(handle, seed: int, filter: str) -> tuple[float, int]:
 
 
 def encoding(texton, repeat: int, device: str) -> list[dict]:
-    img = synthesize(texton, (TILE, TILE), 30.0, 1, device=device)
+    img = synthesize(texton, (TILE, TILE), mni=30.0, seed=1, device=device)
     rows = []
     t = []
     for _ in range(repeat * 3):
         t0 = time.perf_counter()
-        synthesize(texton, (TILE, TILE), 30.0, 1, offset=(1000.0 * len(t), 0.0), device=device)
+        synthesize(texton, (TILE, TILE), mni=30.0, seed=1, offset=(1000.0 * len(t), 0.0), device=device)
         t.append(time.perf_counter() - t0)
     rows.append({"step": "synthesize 256² RGB", "ms": 1000 * min(t), "bytes": None})
     from PIL import Image

@@ -307,9 +307,9 @@ def surface_case(suite: Suite, textons: dict, device: str, report: Report) -> No
         "surface_noise (walk)": lambda: surface_noise(texton, vertices, normals, texel, mni=SURFACE_MNI, seed=1,
                                                       device=device, method="points"),
         "synthesize": lambda: synthesize(texton, suite.ref_shape, mni=suite.ref_mni, seed=1, device=device),
-        "render_mesh": lambda: render_mesh(mesh, texton, suite.surface_render, texel, mni=SURFACE_MNI, seed=1,
+        "render_mesh": lambda: render_mesh(mesh, texton, suite.surface_render, texel_size=texel, mni=SURFACE_MNI, seed=1,
                                            device=device),
-        "render_mesh (walk)": lambda: render_mesh(mesh, texton, suite.surface_render, texel, mni=SURFACE_MNI,
+        "render_mesh (walk)": lambda: render_mesh(mesh, texton, suite.surface_render, texel_size=texel, mni=SURFACE_MNI,
                                                   seed=1, device=device, method="points"),
     }
     results = interleaved(methods, suite.repeat)

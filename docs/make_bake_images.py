@@ -51,12 +51,12 @@ def colour_texture(side: int = 512) -> np.ndarray:
 def panel(name: str, mesh, texton, resolution: int, texel: float, view, zoom: float) -> Image.Image:
     from warp_texton import Camera
 
-    baked = bake_mesh(mesh, texton, texel, resolution, seed=1)
+    baked = bake_mesh(mesh, texton, texel, resolution=resolution, seed=1)
     with tempfile.TemporaryDirectory() as tmp:
-        (glb,) = write_baked(baked, Path(tmp) / name, "glb")
+        (glb,) = write_baked(baked, Path(tmp) / name, fmt="glb")
         (loaded,) = trimesh.load(glb, process=False).geometry.values()
         cam = Camera.framing(mesh, view=view, zoom=zoom)
-        img = render_baked(loaded, (SIDE, SIDE), cam)
+        img = render_baked(loaded, (SIDE, SIDE), camera=cam)
         size_mb = glb.stat().st_size / 2**20
     atlas = Image.fromarray((np.clip(baked.texture, 0, 1) * 255).round().astype(np.uint8)).resize((SIDE, SIDE),
                                                                                               Image.LANCZOS)

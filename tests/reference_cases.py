@@ -45,84 +45,84 @@ def _surface_points(n=48, seed=2):
 
 
 def case_grid_splat():
-    return wt.synthesize(_texton(), (40, 56), 30.0, 7, offset=(3.25, -9.5), device=DEVICE)
+    return wt.synthesize(_texton(), (40, 56), mni=30.0, seed=7, offset=(3.25, -9.5), device=DEVICE)
 
 
 def case_general_splat_order3():
-    return wt.synthesize(_texton(order=3), (36, 44), 20.0, 3, scale=0.7, rotation=30.0, offset=(-11.0, 4.5),
+    return wt.synthesize(_texton(order=3), (36, 44), mni=20.0, seed=3, scale=0.7, rotation=30.0, offset=(-11.0, 4.5),
                          device=DEVICE)
 
 
 def case_order0_grey():
-    return wt.synthesize(_texton(channels=1, order=0), (32, 32), 10.0, 5, device=DEVICE)
+    return wt.synthesize(_texton(channels=1, order=0), (32, 32), mni=10.0, seed=5, device=DEVICE)
 
 
 def case_order5_scaled():
-    return wt.synthesize(_texton(order=5, shape=(8, 8)), (30, 34), 30.0, 9, scale=1.7, device=DEVICE)
+    return wt.synthesize(_texton(order=5, shape=(8, 8)), (30, 34), mni=30.0, seed=9, scale=1.7, device=DEVICE)
 
 
 def case_gather_cpu():
-    return wt.synthesize(_texton(), (30, 38), 30.0, 11, rotation=10.0, offset=(5.0, 6.0), device=DEVICE,
+    return wt.synthesize(_texton(), (30, 38), mni=30.0, seed=11, rotation=10.0, offset=(5.0, 6.0), device=DEVICE,
                          method="gather")
 
 
 def case_period_gaussian_counts():
-    return wt.synthesize(_texton(), (48, 40), 30.0, 1, period=(40.0, 24.0), poisson="gaussian", device=DEVICE)
+    return wt.synthesize(_texton(), (48, 40), mni=30.0, seed=1, period=(40.0, 24.0), poisson="gaussian", device=DEVICE)
 
 
 def case_far_offset():
-    return wt.synthesize(_texton(channels=1), (24, 24), 30.0, 2, offset=(1.0e6, -3.0e6), device=DEVICE)
+    return wt.synthesize(_texton(channels=1), (24, 24), mni=30.0, seed=2, offset=(1.0e6, -3.0e6), device=DEVICE)
 
 
 def case_evaluate_points():
-    return wt.evaluate(_texton(), _points(), 30.0, 4, DEVICE)
+    return wt.evaluate(_texton(), _points(), mni=30.0, seed=4, device=DEVICE)
 
 
 def case_evaluate_period_order3():
-    return wt.evaluate(_texton(order=3, channels=1), _points(seed=5), 15.0, 6, DEVICE, period=(50.0, 70.0))
+    return wt.evaluate(_texton(order=3, channels=1), _points(seed=5), mni=15.0, seed=6, device=DEVICE, period=(50.0, 70.0))
 
 
 def case_filter_mip():
-    return wt.synthesize(_texton(), (24, 28), 30.0, 8, scale=0.15, rotation=20.0, device=DEVICE, filter="mip")
+    return wt.synthesize(_texton(), (24, 28), mni=30.0, seed=8, scale=0.15, rotation=20.0, device=DEVICE, filter="mip")
 
 
 def case_filter_anisotropic_jacobian():
     J = np.array([[6.0, 1.0], [-0.5, 0.8]])
-    return wt.synthesize(_texton(order=3), (20, 26), 30.0, 8, device=DEVICE, filter="anisotropic", jacobian=J)
+    return wt.synthesize(_texton(order=3), (20, 26), mni=30.0, seed=8, device=DEVICE, filter="anisotropic", jacobian=J)
 
 
 def case_filter_supersample():
-    return wt.synthesize(_texton(channels=1), (12, 14), 30.0, 8, scale=0.4, device=DEVICE,
+    return wt.synthesize(_texton(channels=1), (12, 14), mni=30.0, seed=8, scale=0.4, device=DEVICE,
                          filter=wt.FilterOptions("supersample", supersample=3))
 
 
 def case_plane_anisotropic():
-    return wt.render_plane(_texton(), (40, 48), 1.0, 75.0, 40.0, 0.004, 30.0, 3, "anisotropic", device=DEVICE)
+    return wt.render_plane(_texton(), (40, 48), height=1.0, tilt=75.0, fov=40.0, texel_size=0.004, mni=30.0, seed=3, filter="anisotropic", device=DEVICE)
 
 
 def case_plane_mip_fade0():
-    return wt.render_plane(_texton(channels=1), (32, 32), 1.0, 70.0, 45.0, 0.01, 30.0, 3,
-                           wt.FilterOptions("mip", fade_energy=0.0), device=DEVICE)
+    return wt.render_plane(_texton(channels=1), (32, 32), height=1.0, tilt=70.0, fov=45.0, texel_size=0.01, mni=30.0, seed=3,
+                           filter=wt.FilterOptions("mip", fade_energy=0.0), device=DEVICE)
 
 
 def case_plane_none():
-    return wt.render_plane(_texton(), (24, 24), 1.0, 60.0, 40.0, 0.01, 30.0, 3, "none", device=DEVICE)
+    return wt.render_plane(_texton(), (24, 24), height=1.0, tilt=60.0, fov=40.0, texel_size=0.01, mni=30.0, seed=3, filter="none", device=DEVICE)
 
 
 def case_plane_supersample():
-    return wt.render_plane(_texton(channels=1), (12, 16), 1.0, 70.0, 40.0, 0.01, 30.0, 3,
-                           wt.FilterOptions("supersample", supersample=2), device=DEVICE)
+    return wt.render_plane(_texton(channels=1), (12, 16), height=1.0, tilt=70.0, fov=40.0, texel_size=0.01, mni=30.0, seed=3,
+                           filter=wt.FilterOptions("supersample", supersample=2), device=DEVICE)
 
 
 def case_surface_points():
     p, n = _surface_points()
-    return wt.surface_noise(_texton(), p * 3.0, n, 0.05, 60.0, 4, device=DEVICE)
+    return wt.surface_noise(_texton(), p * 3.0, n, 0.05, mni=60.0, seed=4, device=DEVICE)
 
 
 def case_surface_tangents_order3():
     p, n = _surface_points(seed=3)
     t = np.cross(n, [0.3, 0.4, 0.5])
-    return wt.surface_noise(_texton(order=3, channels=1), p, n, 0.04, 40.0, 5, tangents=t, device=DEVICE)
+    return wt.surface_noise(_texton(order=3, channels=1), p, n, 0.04, mni=40.0, seed=5, tangents=t, device=DEVICE)
 
 
 def case_render_mesh():
@@ -130,19 +130,19 @@ def case_render_mesh():
 
 
 def case_texture_mesh():
-    mesh = wt.texture_mesh(_mesh(), _texton(), 0.05, 60.0, 2, max_edge=8.0, device=DEVICE, warn=False)
+    mesh = wt.texture_mesh(_mesh(), _texton(), 0.05, mni=60.0, seed=2, max_edge=8.0, device=DEVICE, warn=False)
     return np.asarray(mesh.visual.vertex_colors)
 
 
 def case_mixed_strips():
     ts = [_texton(seed=s, mean=0.2 + 0.3 * s) for s in range(3)]
-    return wt.synthesize_mixed(ts, "strips", (24, 60), 30.0, 4, device=DEVICE)
+    return wt.synthesize_mixed(ts, "strips", (24, 60), mni=30.0, seed=4, device=DEVICE)
 
 
 def case_mixed_map():
     ts = [_texton(seed=s, channels=1, mean=0.3 + 0.4 * s) for s in range(2)]
     rho = np.linspace(0.0, 1.0, 30 * 36).reshape(30, 36)
-    return wt.synthesize_mixed(ts, rho, (30, 36), 30.0, 5, scale=0.8, device=DEVICE)
+    return wt.synthesize_mixed(ts, rho, (30, 36), mni=30.0, seed=5, scale=0.8, device=DEVICE)
 
 
 def _torus_vertices():
@@ -162,7 +162,7 @@ def _block_path(points, normals, simd, texel_size=0.05, **kw):
     before = B.SIMD
     B.SIMD = simd
     try:
-        return wt.surface_noise(_texton(), points, normals, texel_size, 60.0, 7, device=DEVICE, method="blocks", **kw)
+        return wt.surface_noise(_texton(), points, normals, texel_size, mni=60.0, seed=7, device=DEVICE, method="blocks", **kw)
     finally:
         B.SIMD = before
 

@@ -37,7 +37,7 @@ LAYERS = {
     "noise": 8, "canvas": 8, "frames": 8, "blocks": 8,
     "filtering": 9, "raster": 9,
     "synthesis": 10, "plane": 10,
-    "mixing": 11, "surface": 11, "dask": 11,
+    "mixing": 11, "surface": 11, "dask": 11, "batches": 11,
     "mesh": 12,
     "render": 13,
     "bake": 14, "demo": 14, "view_core": 14,

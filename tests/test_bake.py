@@ -125,7 +125,7 @@ class TestPlane:
     def test_texels_are_the_noise_at_their_centres(self, device):
         """Texel (i, j) of a bake of the unit plane (UV = xy) is g at ((j + ½)/R, 1 − (i + ½)/R, 0)."""
         r = 32
-        baked = bake_mesh(plane_with_uvs(), T, 1 / 64, r, seed=3, supersample=1, device=device)
+        baked = bake_mesh(plane_with_uvs(), T, 1 / 64, resolution=r, seed=3, supersample=1, device=device)
         assert isinstance(baked, BakedMesh) and baked.uv_source == "mesh" and baked.coverage.all()
         assert baked.texels_per_texton_texel == pytest.approx(0.5) and baked.samples == 1
         j, i = np.meshgrid(np.arange(r), np.arange(r))
@@ -137,7 +137,7 @@ class TestPlane:
         """At 4 texton texels per texel the default takes 4 × 4 samples at the centres of a
         4 × 4 grid over each texel, and averages them: exactly that mean of surface_noise."""
         r = 16
-        baked = bake_mesh(plane_with_uvs(), T, 1 / 64, r, seed=2, device=device)
+        baked = bake_mesh(plane_with_uvs(), T, 1 / 64, resolution=r, seed=2, device=device)
         assert baked.texels_per_texton_texel == pytest.approx(0.25) and baked.samples == 16
         offs = (np.arange(4) + 0.5) / 4
         ox, oy = np.meshgrid(offs, offs)
@@ -149,12 +149,12 @@ class TestPlane:
         np.testing.assert_allclose(baked.texture.reshape(-1, 3), g.reshape(r * r, 16, 3).mean(axis=1), atol=2e-6)
         # anti-aliased: the averages vary less than point samples (16 samples, 1 texel apart,
         # correlated over the texton: the variance drops, by far less than 16)
-        point = bake_mesh(plane_with_uvs(), T, 1 / 64, r, seed=2, supersample=1, device=device)
+        point = bake_mesh(plane_with_uvs(), T, 1 / 64, resolution=r, seed=2, supersample=1, device=device)
         assert baked.texture.var() < 0.8 * point.texture.var()
 
     def test_texels_per_texton_texel_is_reported(self, device):
         for res, want in ((64, 1.0), (128, 2.0), (32, 0.5)):
-            b = bake_mesh(plane_with_uvs(size=2.0), T, 2 / 64, res, supersample=1, device=device)
+            b = bake_mesh(plane_with_uvs(size=2.0), T, 2 / 64, resolution=res, supersample=1, device=device)
             assert b.texels_per_texton_texel == pytest.approx(want)
 
     def test_render_of_the_bake_matches_render_mesh(self, device):
@@ -165,10 +165,10 @@ class TestPlane:
 
         texel, res, h = 1 / 64, 256, 48
         plane = plane_with_uvs()
-        baked = bake_mesh(plane, T, texel, res, seed=4, supersample=1, device=device)
+        baked = bake_mesh(plane, T, texel, resolution=res, seed=4, supersample=1, device=device)
         cam = Camera((0.5, 0.5, 3.0), (0.5, 0.5, 0.0), up=(0, 1.0, 0), fov=15.0)
         light = np.array([0.3, -0.2, 1.0])
-        img = render_mesh(plane, T, (h, h), texel, cam, seed=4, light=light, device=device)
+        img = render_mesh(plane, T, (h, h), texel_size=texel, camera=cam, seed=4, light=light, device=device)
         tan = np.tan(np.radians(7.5))
         sy, sx = np.meshgrid((1 - 2 * (np.arange(h) + 0.5) / h) * tan, (2 * (np.arange(h) + 0.5) / h - 1) * tan,
                              indexing="ij")
@@ -192,12 +192,12 @@ TORUS_TEXEL = 0.1  # about 5 texture texels per texton texel at 256²
 def torus(device):
     pytest.importorskip("xatlas")
     mesh = trimesh.creation.torus(1.0, 0.35, major_sections=48, minor_sections=24)
-    return mesh, bake_mesh(mesh, TS, TORUS_TEXEL, 256, seed=5, supersample=1, device=device)
+    return mesh, bake_mesh(mesh, TS, TORUS_TEXEL, resolution=256, seed=5, supersample=1, device=device)
 
 
 @pytest.fixture(scope="module")
 def baked(device):
-    return bake_mesh(plane_with_uvs(), T, 1 / 32, 64, seed=1, device=device)
+    return bake_mesh(plane_with_uvs(), T, 1 / 32, resolution=64, seed=1, device=device)
 
 
 class TestAtlas:
@@ -272,7 +272,7 @@ class TestAtlas:
         gap = np.abs(bilinear(baked.texture, ua) - bilinear(baked.texture, ub)).max(axis=1)
         assert np.mean(gap <= 2 * omega) > 0.99
         # the same atlas (as the mesh's own UVs) without a gutter
-        bare = bake_mesh(out, TS, TORUS_TEXEL, 256, seed=5, supersample=1, gutter=0, device=device)
+        bare = bake_mesh(out, TS, TORUS_TEXEL, resolution=256, seed=5, supersample=1, gutter=0, device=device)
         assert bare.uv_source == "mesh"
         np.testing.assert_array_equal(bare.coverage, baked.coverage)
         gap0 = np.abs(bilinear(bare.texture, ua) - bilinear(bare.texture, ub)).max(axis=1)
@@ -286,13 +286,13 @@ class TestAtlas:
         from warp_texton.render import cast_rays
 
         mesh, baked = torus
-        (glb,) = write_baked(baked, tmp_path / "torus", "glb")
+        (glb,) = write_baked(baked, tmp_path / "torus", fmt="glb")
         # the scene's one geometry: force="mesh" would concatenate and recompute the normals
         (loaded,) = trimesh.load(glb, process=False).geometry.values()
         np.testing.assert_allclose(loaded.vertex_normals, baked.mesh.vertex_normals, atol=1e-6)
         cam = Camera.framing(mesh, view=(-40, 35), zoom=1.4)
-        ref = render_mesh(mesh, TS, (96, 96), TORUS_TEXEL, cam, seed=5, device=device).astype(np.float64)
-        img = render_baked(loaded, (96, 96), cam, device=device).astype(np.float64)
+        ref = render_mesh(mesh, TS, (96, 96), texel_size=TORUS_TEXEL, camera=cam, seed=5, device=device).astype(np.float64)
+        img = render_baked(loaded, (96, 96), camera=cam, device=device).astype(np.float64)
         hits = cast_rays(loaded, (96, 96), cam, device=device)
         bg = np.float32(0.92)
         both = np.any(ref != bg, axis=2) & np.any(img != bg, axis=2) & hits.hit
@@ -312,7 +312,7 @@ class TestAtlas:
         mesh = plane_with_uvs()
         mesh.visual = trimesh.visual.TextureVisuals(uv=0.25 + 0.5 * np.asarray(mesh.visual.uv))
         r, gutter = 64, 3
-        baked = bake_mesh(mesh, T, 1 / 32, r, seed=3, supersample=1, gutter=gutter, device=device)
+        baked = bake_mesh(mesh, T, 1 / 32, resolution=r, seed=3, supersample=1, gutter=gutter, device=device)
         assert baked.coverage.sum() == 32 * 32
         dist = ndi.distance_transform_edt(~baked.coverage)
         ring = (dist > 0) & (dist <= gutter)
@@ -327,7 +327,7 @@ class TestAtlas:
 
 class TestFiles:
     def test_glb_loads_back_with_uvs_material_and_image(self, baked, tmp_path):
-        (glb,) = write_baked(baked, tmp_path / "plane", "glb")
+        (glb,) = write_baked(baked, tmp_path / "plane", fmt="glb")
         assert glb.name == "plane.glb"
         scene = trimesh.load(glb, process=False)
         (mesh,) = scene.geometry.values()
@@ -344,7 +344,7 @@ class TestFiles:
         assert parts(tmp_path) == []
 
     def test_obj_mtl_png(self, baked, tmp_path):
-        paths = write_baked(baked, tmp_path / "plane", "obj", texture="exr")
+        paths = write_baked(baked, tmp_path / "plane", fmt="obj", texture="exr")
         assert [p.name for p in paths] == ["plane.obj", "plane.mtl", "plane.png", "plane_texture.exr"]
         mtl = (tmp_path / "plane.mtl").read_text().splitlines()
         assert "map_Kd plane.png" in mtl and any(ln.startswith("Kd 1.0") for ln in mtl)
@@ -360,17 +360,17 @@ class TestFiles:
     def test_exr_linear_and_png_texture(self, baked, tmp_path):
         from warp_texton import read_image
 
-        write_baked(baked, tmp_path / "a", "glb", texture="exr", linear=True)
+        write_baked(baked, tmp_path / "a", fmt="glb", texture="exr", linear=True)
         lin = read_image(tmp_path / "a_texture.exr")
         np.testing.assert_allclose(lin, srgb_to_linear(np.clip(baked.texture, 0, 1)), rtol=1e-6, atol=1e-7)
-        write_baked(baked, tmp_path / "b", "glb", texture="png")
+        write_baked(baked, tmp_path / "b", fmt="glb", texture="png")
         png = np.asarray(Image.open(tmp_path / "b_texture.png"))
         np.testing.assert_array_equal(png, to_8bit(baked.texture))
 
     def test_all_files_or_none(self, baked, tmp_path):
         (tmp_path / "plane_texture.exr").mkdir()  # the last file cannot be written
         with pytest.raises(TextonError, match="is a folder"):
-            write_baked(baked, tmp_path / "plane", "obj", texture="exr")
+            write_baked(baked, tmp_path / "plane", fmt="obj", texture="exr")
         assert sorted(p.name for p in tmp_path.iterdir()) == ["plane_texture.exr"]
         assert parts(tmp_path) == []
 
@@ -426,7 +426,7 @@ class TestErrors:
                 check_uvs(np.asarray(uv, float), 4)
             return
         with pytest.raises(TextonError, match=rf"^floor: {match}.*uv='atlas'"):
-            bake_mesh(mesh, T, 0.1, 16, name="floor", device=device)
+            bake_mesh(mesh, T, 0.1, resolution=16, name="floor", device=device)
 
     def test_overlapping_uvs(self, device):
         # both triangles mapped onto the same half of the texture
@@ -435,9 +435,9 @@ class TestErrors:
         mesh = trimesh.Trimesh(v, [[0, 1, 2], [0, 3, 2]], visual=trimesh.visual.TextureVisuals(uv=uv),
                                process=False)
         with pytest.raises(TextonError, match=r"^mesh: its UVs overlap \(\d+\.\d % .*uv='atlas'"):
-            bake_mesh(mesh, T, 0.1, 32, device=device)
+            bake_mesh(mesh, T, 0.1, resolution=32, device=device)
         pytest.importorskip("xatlas")
-        assert bake_mesh(mesh, T, 0.1, 32, uv="atlas", device=device).uv_source == "atlas"
+        assert bake_mesh(mesh, T, 0.1, resolution=32, uv="atlas", device=device).uv_source == "atlas"
 
     @pytest.mark.parametrize(
         "kw, match",
@@ -461,19 +461,19 @@ class TestErrors:
 
     def test_no_uvs_with_uv_mesh(self, device):
         with pytest.raises(TextonError, match="has no UVs"):
-            bake_mesh(trimesh.creation.box(), T, 0.1, 16, uv="mesh", device=device)
+            bake_mesh(trimesh.creation.box(), T, 0.1, resolution=16, uv="mesh", device=device)
 
     def test_memory_budget(self, device):
         set_memory_budget("1M")
         try:
             with pytest.raises(TextonError, match=r"a 4096x4096 bake needs about .* over the memory budget"):
-                bake_mesh(plane_with_uvs(), T, 0.1, 4096, device=device)
+                bake_mesh(plane_with_uvs(), T, 0.1, resolution=4096, device=device)
         finally:
             set_memory_budget(None)
 
     def test_missing_xatlas(self, monkeypatch, device):
         monkeypatch.setitem(sys.modules, "xatlas", None)  # import fails as if not installed
         with pytest.raises(TextonError, match=r"needs the xatlas package: pip install 'warp-texton\[mesh\]'"):
-            bake_mesh(trimesh.creation.box(), T, 0.1, 16, device=device)
+            bake_mesh(trimesh.creation.box(), T, 0.1, resolution=16, device=device)
         # a mesh with UVs needs no atlas
-        assert bake_mesh(plane_with_uvs(), T, 0.1, 16, device=device).uv_source == "mesh"
+        assert bake_mesh(plane_with_uvs(), T, 0.1, resolution=16, device=device).uv_source == "mesh"

@@ -594,7 +594,7 @@ class TestUpAxisJobs:
         mesh = load(tmp_path / "tall.glb")
         lo, hi = mesh.bounds
         texel = float(np.linalg.norm(hi - lo)) / 256
-        want = render_mesh(mesh, load_texton(texton_path), (24, 24), texel, up="y", view=(-30.0, 15.0), fov=50.0,
+        want = render_mesh(mesh, load_texton(texton_path), (24, 24), texel_size=texel, up="y", view=(-30.0, 15.0), fov=50.0,
                            device="cpu")
         got = np.asarray(Image.open(tmp_path / "out" / "tall.png"), np.float32) / 255
         np.testing.assert_allclose(got, want, atol=0.5 / 255 + 1e-6)

@@ -613,7 +613,7 @@ def plane_case(device):
     t = random_texton(seed=12, correlated=False)
     h, w = PLANE_SHAPE
     ts = plane_texel_size()
-    out = {f: render_plane(t, PLANE_SHAPE, 1.0, PLANE_TILT, PLANE_FOV, ts, seed=3, filter=f, device=device)
+    out = {f: render_plane(t, PLANE_SHAPE, height=1.0, tilt=PLANE_TILT, fov=PLANE_FOV, texel_size=ts, seed=3, filter=f, device=device)
            for f in ("none", *FILTERED)}
     view = PlaneView(PLANE_SHAPE, 1.0, PLANE_TILT, PLANE_FOV, ts)
     far = np.arange(h // 2 * w)  # the reference on the far half only
@@ -674,7 +674,7 @@ class TestPlane:
         monkeypatch.setattr(filtering, "SUPERSAMPLE_BATCH", 16 * 16)
         t = random_texton(seed=12, correlated=False)
         view = PlaneView((16, 16), 1.0, 60.0, 40.0, 0.01)
-        full = render_plane(t, (16, 16), 1.0, 60.0, 40.0, 0.01, seed=3, filter=FilterOptions("supersample", supersample=4),
+        full = render_plane(t, (16, 16), height=1.0, tilt=60.0, fov=40.0, texel_size=0.01, seed=3, filter=FilterOptions("supersample", supersample=4),
                             device=device).reshape(-1, 1)
         px = np.arange(16, 48)
         np.testing.assert_array_equal(plane_pixels(t, view, px, seed=3, filter=FilterOptions("supersample", supersample=4),
@@ -684,7 +684,7 @@ class TestPlane:
     def test_above_the_horizon_is_the_mean(self, filter, device):
         t = random_texton(channels=3, seed=13, mean=0.3, correlated=False)
         view = PlaneView((40, 30), 1.0, 80.0, 40.0, 0.01)
-        g = render_plane(t, (40, 30), 1.0, 80.0, 40.0, 0.01, seed=1, filter=FilterOptions(filter, supersample=3), device=device)
+        g = render_plane(t, (40, 30), height=1.0, tilt=80.0, fov=40.0, texel_size=0.01, seed=1, filter=FilterOptions(filter, supersample=3), device=device)
         assert g.shape == (40, 30, 3) and g.dtype == np.float32
         i = np.arange(40) + 0.5
         sky = ~np.isfinite(view.texels(i, np.full(40, 15.0))).all(axis=1)  # rows whose centre misses the plane
@@ -722,9 +722,9 @@ class TestPlane:
         t = random_texton(channels=3, seed=14, correlated=False)
         ts = plane_texel_size()
         kw = dict(seed=2, device=device)
-        a8 = render_plane(t, (48, 32), 1.0, PLANE_TILT, PLANE_FOV, ts, filter="anisotropic", **kw)
-        a1 = render_plane(t, (48, 32), 1.0, PLANE_TILT, PLANE_FOV, ts, filter=FilterOptions("anisotropic", max_aniso=1), **kw)
-        mip = render_plane(t, (48, 32), 1.0, PLANE_TILT, PLANE_FOV, ts, filter="mip", **kw)
+        a8 = render_plane(t, (48, 32), height=1.0, tilt=PLANE_TILT, fov=PLANE_FOV, texel_size=ts, filter="anisotropic", **kw)
+        a1 = render_plane(t, (48, 32), height=1.0, tilt=PLANE_TILT, fov=PLANE_FOV, texel_size=ts, filter=FilterOptions("anisotropic", max_aniso=1), **kw)
+        mip = render_plane(t, (48, 32), height=1.0, tilt=PLANE_TILT, fov=PLANE_FOV, texel_size=ts, filter="mip", **kw)
         assert a8.shape == (48, 32, 3)
         assert np.abs(a8 - a1).max() > 0.05 * noise_sd(t)  # max_aniso reaches the kernel
         # max_aniso=1: one lookup as wide as the major axis, i.e. "mip" at the anisotropic bias
@@ -991,6 +991,6 @@ class TestDeviceMatchesCpu:
         t = random_texton(channels=3, seed=44, correlated=False)
         ts = plane_texel_size()
         kw = dict(seed=5, filter=FilterOptions(filter, supersample=4))
-        a = render_plane(t, (48, 64), 1.0, PLANE_TILT, PLANE_FOV, ts, device="cpu", **kw)
-        b = render_plane(t, (48, 64), 1.0, PLANE_TILT, PLANE_FOV, ts, device=gpu, **kw)
+        a = render_plane(t, (48, 64), height=1.0, tilt=PLANE_TILT, fov=PLANE_FOV, texel_size=ts, device="cpu", **kw)
+        b = render_plane(t, (48, 64), height=1.0, tilt=PLANE_TILT, fov=PLANE_FOV, texel_size=ts, device=gpu, **kw)
         assert_same_noise(a, b, t, rtol=1e-4)

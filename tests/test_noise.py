@@ -72,7 +72,7 @@ def mean_periodogram(texton, seeds_offsets, mni=30.0, rotation=0.0, *, device):
     """Mean periodogram over the independent windows of one raster per (seed, offset)."""
     acc, count = 0.0, 0
     for seed, offset in seeds_offsets:
-        g = synthesize(texton, (RASTER, RASTER), mni, seed, rotation=rotation, offset=offset, device=device)
+        g = synthesize(texton, (RASTER, RASTER), mni=mni, seed=seed, rotation=rotation, offset=offset, device=device)
         p, k = window_periodograms(g, float(texton.mean[0]), L, L + GAP)
         acc, count = acc + p * k, count + k
     return acc / count, count
@@ -188,7 +188,7 @@ def kurtosis_over_seeds(texton: Texton, mni: float, seeds, shape=(256, 256), *, 
     """
     ks = []
     for seed in seeds:
-        g = synthesize(texton, shape, mni, seed, device=device)[:, :, 0].astype(np.float64) - texton.mean[0]
+        g = synthesize(texton, shape, mni=mni, seed=seed, device=device)[:, :, 0].astype(np.float64) - texton.mean[0]
         ks.append(np.mean(g**4) / np.mean(g**2) ** 2 - 3.0)
     ks = np.array(ks)
     return ks.mean(), ks.std(ddof=1) / math.sqrt(ks.size)
@@ -206,7 +206,7 @@ class TestImpactShape:
         lam_ = 20.0 / 96**2  # ~20 impacts on the 96 × 96 texels below
         mni = lam_ * t.support_area
         q = 8  # pixels per texel
-        g = synthesize(t, (96 * q, 96 * q), mni, seed=5, scale=q, offset=(-40.0, 13.0), device=device)
+        g = synthesize(t, (96 * q, 96 * q), mni=mni, seed=5, scale=q, offset=(-40.0, 13.0), device=device)
         g = g[:, :, 0].astype(np.float64)
         # g = m + (f − λΣα)/√λ: where no impact reaches, g = m − √λ Σα exactly
         f = (g - 0.5) * math.sqrt(lam_) + lam_ * alpha.sum()
@@ -251,7 +251,7 @@ class TestMoments:
         t = random_texton(channels=3, order=1, seed=3, mean=0.4)
         mni, seeds, shape = 30.0, (0, 1, 2), (512, 512)
         g = np.concatenate(
-            [synthesize(t, shape, mni, s, device=device, poisson=poisson).reshape(-1, 3) for s in seeds]
+            [synthesize(t, shape, mni=mni, seed=s, device=device, poisson=poisson).reshape(-1, 3) for s in seeds]
         ).astype(np.float64)
         n = g.shape[0]
         # Mean: Var(m̂_a) = (1/N) Σ_τ C_aa(τ) = (Σα_a)² / N, an upper bound on a raster.
@@ -365,8 +365,8 @@ class TestConsistency:
     def test_synthesize_equals_evaluate_at_pixel_centres(self, order, channels, scale, rotation, offset, device):
         t = random_texton(channels=channels, order=order, seed=20 + order)
         shape = (24, 20)
-        g = synthesize(t, shape, 30.0, 3, scale, rotation, offset, device=device)
-        e = evaluate(t, pixel_points(shape, scale, rotation, offset), 30.0, 3, device).reshape(g.shape)
+        g = synthesize(t, shape, mni=30.0, seed=3, scale=scale, rotation=rotation, offset=offset, device=device)
+        e = evaluate(t, pixel_points(shape, scale, rotation, offset), mni=30.0, seed=3, device=device).reshape(g.shape)
         # float32 positions relative to cell corners: ~1e-5 std; far from the origin the
         # positions far from the origin lose float32 digits inside the kernels
         far = max(abs(v) for v in offset) > 100
@@ -453,7 +453,7 @@ class TestConsistency:
         t = random_texton(order=1, seed=42)
         period, mni = (40, 24), 30.0
         g = np.concatenate(
-            [synthesize(t, (24, 40), mni, s, period=period, device=device)[:, :, 0].ravel() for s in range(40)]
+            [synthesize(t, (24, 40), mni=mni, seed=s, period=period, device=device)[:, :, 0].ravel() for s in range(40)]
         ).astype(np.float64) - t.mean[0]
         # one period per seed: the torus mean is (N − λ P²) Σα / (P² √λ) with N ~ Poisson(λ P²)
         n_seeds, area = 40, 40 * 24
@@ -521,8 +521,8 @@ class TestDeviceMatchesCpu:
     @pytest.mark.parametrize("scale, rotation, offset", GEOMETRIES)
     def test_synthesize_matches_cpu(self, order, scale, rotation, offset, gpu):
         t = random_texton(channels=3, order=order, seed=60 + order)
-        a = synthesize(t, (48, 40), 30.0, 11, scale, rotation, offset, device="cpu")
-        b = synthesize(t, (48, 40), 30.0, 11, scale, rotation, offset, device=gpu)
+        a = synthesize(t, (48, 40), mni=30.0, seed=11, scale=scale, rotation=rotation, offset=offset, device="cpu")
+        b = synthesize(t, (48, 40), mni=30.0, seed=11, scale=scale, rotation=rotation, offset=offset, device=gpu)
         assert b.dtype == np.float32 and b.shape == a.shape
         assert_same_noise(a, b, t, 1e-4, 0.02 if order == 0 else 0.0)
 

@@ -24,7 +24,7 @@ import pytest
 
 import warp_texton
 import warp_texton.canvas
-import warp_texton.synthesis
+import warp_texton.batches
 from warp_texton.dask import synthesize_dask, write_zarr
 from helpers import assert_nothing_written, assert_same_noise, noise_sd, parts, random_texton, run_cli
 from warp_texton import FilterOptions, TextonError, evaluate, render_plane, synthesize, synthesize_batch
@@ -178,7 +178,7 @@ class TestBatch:
                                                             rotation=10.0, offset=(1e6, -2e6), device=device))
 
     def test_draws(self):
-        p = warp_texton.synthesis.draw_batch_params
+        p = warp_texton.batches.draw_batch_params
         a = p(3, 2000, 7, (0.5, 2.0), (10.0, 20.0), ((-5.0, 5.0), (100.0, 101.0)))
         assert a.seed.min() >= 0 and a.seed.max() < 2**32 and len(set(a.seed)) > 1990
         assert ((a.scale >= 0.5) & (a.scale <= 2.0)).all() and ((a.rotation >= 10) & (a.rotation <= 20)).all()

@@ -20,7 +20,8 @@ from .texton import Texton, load_texton
 from .analysis import analyze, model_error
 from .dsn import dsn
 from .filtering import FilterOptions
-from .synthesis import Batch, BatchParams, synthesize, synthesize_batch, evaluate
+from .synthesis import synthesize, evaluate
+from .batches import Batch, BatchParams, synthesize_batch
 from .plane import render_plane
 from .mixing import mix_textons, synthesize_mixed
 from .frames import tangent_frames

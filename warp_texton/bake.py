@@ -295,7 +295,7 @@ def bake_mesh(
     >>> baked = bake_mesh(torus, texton, texel_size=0.05, resolution=64, device="cpu")
     >>> baked.uv_source, baked.texture.shape
     ('atlas', (64, 64, 1))
-    >>> write_baked(baked, "torus_baked", "glb", texture="png")
+    >>> write_baked(baked, "torus_baked", fmt="glb", texture="png")
     [PosixPath('torus_baked.glb'), PosixPath('torus_baked_texture.png')]
     >>> (glb,) = trimesh.load("torus_baked.glb").geometry.values()
     >>> bake_mesh(glb, texton, texel_size=0.05, resolution=64, device="cpu").uv_source

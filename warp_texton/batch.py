@@ -336,9 +336,9 @@ def _run(job: SurfaceJob, outputs: list[Path], notes: list[str]) -> None:
         img = render_mesh(mesh, texton, job.render, texel_size=texel, mni=job.mni, seed=job.seed,
                           device=job.device, up=up, view=job.view, fov=job.fov)
     if job.bake is not None:
-        baked = bake_mesh(mesh, texton, texel, job.bake, mni=job.mni, seed=job.seed, uv=job.uv,
+        baked = bake_mesh(mesh, texton, texel, resolution=job.bake, mni=job.mni, seed=job.seed, uv=job.uv,
                           supersample=job.supersample, device=job.device, up=up, name=job.mesh)
-        write_baked(baked, stem, job.format, job.texture, job.exr_linear)
+        write_baked(baked, stem, fmt=job.format, texture=job.texture, linear=job.exr_linear)
         notes.append(f"{job.mesh}: {job.bake}x{job.bake} texture, {baked.texels_per_texton_texel:.3g} texels per "
                      f"texton texel (median), noise samples per texel: {baked.samples:.3g} (mean), UVs from the "
                      f"{baked.uv_source}")

@@ -223,7 +223,7 @@ def texture_mesh(
     if warn and spacing > 1.0:
         warnings.warn(f"{name}: vertices are {spacing:.3g} texels apart (median edge), so vertex colours blur the "
                       "texture; bake a texture (--bake RES) or subdivide (--max-edge 1)", stacklevel=2)
-    colours = surface_noise(texton, vertices, vertex_normals(out, up), texel, mni, seed, device=device, up=up,
+    colours = surface_noise(texton, vertices, vertex_normals(out, up), texel, mni=mni, seed=seed, device=device, up=up,
                             side=side)
     if colours.shape[1] == 1:
         colours = np.repeat(colours, 3, axis=1)

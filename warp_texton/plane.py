@@ -177,7 +177,7 @@ def render_plane(
     bar = progress_bar(progress and len(parts) > 1, h, "render-plane", "row")
     try:
         for r0, r1 in parts:
-            plane_pixels(texton, view, np.arange(r0 * w, r1 * w), mni, seed, options, device,
+            plane_pixels(texton, view, np.arange(r0 * w, r1 * w), mni=mni, seed=seed, filter=options, device=device,
                          progress=progress and len(parts) == 1, out=canvas.pixels(r0 * w, r1 * w))
             bar.update(r1 - r0)
     finally:
