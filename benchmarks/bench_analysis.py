@@ -77,6 +77,7 @@ def baseline_analyze(u: np.ndarray, size: int, order: int, iterations: int, seed
 
     # the same start as the package: the white noise's phase, in every channel, projected
     a_hat = np.repeat(full_phase((m, n), seed)[:, :, None], c, axis=2)
+    alpha = np.zeros((m, n, c))
     for it in range(iterations):
         if it:
             a_hat = np.fft.fft2(alpha, axes=(0, 1))

@@ -288,22 +288,8 @@ def _format_texton_text(t: Texton) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _parse_texton_text(path: Path) -> Texton:
-    def bad(what):
-        return TextonError(f"{path}: malformed .texton file: {what}")
-
-    try:
-        with open(path, "rb") as f:
-            raw = f.read(MAX_TEXTON_FILE_BYTES + 1)
-    except OSError as exc:
-        raise TextonError(f"{path}: cannot read ({exc.strerror})") from None
-    if len(raw) > MAX_TEXTON_FILE_BYTES:
-        raise bad(f"larger than {MAX_TEXTON_FILE_BYTES >> 20} MiB")
-    try:
-        text = raw.decode("ascii")
-    except UnicodeDecodeError:
-        raise bad("not ASCII text") from None
-    lines = text.splitlines()
+def _texton_header(lines: list[str], bad) -> tuple[int, np.ndarray, int, int]:
+    """(order, mean, width, height) from the five header lines of a .texton file."""
     if not lines or lines[0].strip() != "TEXTON":
         raise bad("the first line must be TEXTON")
     try:
@@ -321,6 +307,26 @@ def _parse_texton_text(path: Path) -> Texton:
         raise bad("the mean line must hold three finite values")
     if not (1 <= w <= MAX_TEXTON_SIDE and 1 <= h <= MAX_TEXTON_SIDE):
         raise bad(f"size {w} x {h} is outside 1..{MAX_TEXTON_SIDE}")
+    return order, mean, w, h
+
+
+def _parse_texton_text(path: Path) -> Texton:
+    def bad(what):
+        return TextonError(f"{path}: malformed .texton file: {what}")
+
+    try:
+        with open(path, "rb") as f:
+            raw = f.read(MAX_TEXTON_FILE_BYTES + 1)
+    except OSError as exc:
+        raise TextonError(f"{path}: cannot read ({exc.strerror})") from None
+    if len(raw) > MAX_TEXTON_FILE_BYTES:
+        raise bad(f"larger than {MAX_TEXTON_FILE_BYTES >> 20} MiB")
+    try:
+        text = raw.decode("ascii")
+    except UnicodeDecodeError:
+        raise bad("not ASCII text") from None
+    lines = text.splitlines()
+    order, mean, w, h = _texton_header(lines, bad)
     body = lines[5: 5 + w * h]
     if len(body) < w * h:
         raise bad(f"expected {w * h} coefficient lines, found {len(body)}")
