@@ -98,7 +98,7 @@ def noise_setup(texton: Texton, mni: float, period=None, cell_factor: float = CE
     side = cell_factor * max(hi[0] - lo[0], hi[1] - lo[1])
     if not 0.0 < float(np.float32(side)) < math.inf:
         raise TextonError(f"cell_factor {cell_factor:g} makes cells of {side:.3g} texels, which float32 cannot "
-                          f"hold; use a cell_factor near the default {CELL_FACTOR}")
+                          f"hold; use a cell_factor near the default {CELL_FACTOR}", param="cell_factor")
     if period is None:
         cell = (side, side)
         period_cells = (0, 0)
@@ -110,8 +110,9 @@ def noise_setup(texton: Texton, mni: float, period=None, cell_factor: float = CE
             raise TextonError(
                 f"period ({px:.6g}, {py:.6g}) texels spans {px / side:.4g} x {py / side:.4g} noise cells of "
                 f"{side:.3g} texels; "
-                f"a period can span at most 2**30 cells, i.e. {MAX_CELL_INDEX * side:.4g} texels for this "
-                "texton and cell_factor (the noise is defined within that range anyway); use a smaller period"
+                f"periods span at most 2**30 cells, i.e. {MAX_CELL_INDEX * side:.4g} texels for this "
+                "texton and cell_factor (the noise is defined within that range anyway); use a smaller period",
+                param="period", mentions=("period",),
             )
         nx = max(1, round(px / side))
         ny = max(1, round(py / side))
@@ -123,19 +124,20 @@ def noise_setup(texton: Texton, mni: float, period=None, cell_factor: float = CE
         cell = tuple(float(np.float32(c)) for c in cell)
     if not all(0.0 < c < math.inf for c in cell):  # a period far below a texel
         raise TextonError(f"period {period!r} makes cells of {cell[0]:.3g} x {cell[1]:.3g} texels, which float32 "
-                          "cannot hold; use a period of at least a texel")
+                          "cannot hold; use a period of at least a texel", param="period")
     lam = mni / area
     per_point = (math.ceil((hi[0] - lo[0]) / cell[0]) + 1) * (math.ceil((hi[1] - lo[1]) / cell[1]) + 1)
     if per_point > MAX_CELLS_PER_POINT:
         raise TextonError(
             f"cells of {cell[0]:.3g} x {cell[1]:.3g} texels are too small for a texton support of "
             f"{hi[0] - lo[0]:g} x {hi[1] - lo[1]:g}: each point would visit {per_point} cells "
-            f"(at most {MAX_CELLS_PER_POINT}); use a larger cell_factor or period"
+            f"(at most {MAX_CELLS_PER_POINT}); use a larger cell_factor or period", mentions=("cell_factor", "period")
         )
     if lam * cell[0] * cell[1] > MAX_CELL_MEAN:
         raise TextonError(
             f"mni {mni:g} with cell_factor {cell_factor:g} makes cells hold {lam * cell[0] * cell[1]:.3g} impacts "
-            f"on average (at most {MAX_CELL_MEAN:g}); use a lower mni or a smaller cell_factor (default {CELL_FACTOR})"
+            f"on average (at most {MAX_CELL_MEAN:g}); use a lower mni or a smaller cell_factor (default {CELL_FACTOR})",
+            param="mni", mentions=("mni", "cell_factor")
         )
     return NoiseSetup(lam, cell, period_cells, lo, hi, padded_coeffs(texton), mni)
 
@@ -166,11 +168,11 @@ def check_period(period) -> tuple[float, float]:
 
 def _pair(value, name: str, what: str):
     if isinstance(value, (str, bytes)):
-        raise TextonError(f"{name} must be a pair {what}, got {value!r:.60}")
+        raise TextonError(f"{name} must be a pair {what}, got {value!r:.60}", param=name)
     try:
         a, b = value
     except Exception:  # not iterable, wrong length
-        raise TextonError(f"{name} must be a pair {what}, got {value!r:.60}") from None
+        raise TextonError(f"{name} must be a pair {what}, got {value!r:.60}", param=name) from None
     return a, b
 
 
@@ -214,7 +216,7 @@ def check_points_cost(setup: NoiseSetup, count: int, what: str, evaluations: flo
     """Refuse ``count`` point evaluations (``evaluations`` walks each) beyond the budgets."""
     check_memory(count * bytes_per_point, what, "use fewer points")
     check_work(count * evaluations * visits_per_point(setup), f"{what} at MNI {setup.mni:.6g}",
-               "use fewer points or a lower mni")
+               "use fewer points or a lower mni", mentions=("mni",))
 
 
 def raster_cost(windows, blocks, shape, stack, marked: bool = False, splat: bool = True):
@@ -246,8 +248,8 @@ def raster_cost(windows, blocks, shape, stack, marked: bool = False, splat: bool
 def check_raster_cost(windows, blocks, shape, stack, marked: bool = False, splat: bool = True) -> None:
     """Refuse rasters whose impact blocks and output, or work, exceed the budgets."""
     nbytes, work, what = raster_cost(windows, blocks, shape, stack, marked, splat)
-    check_memory(nbytes, what, "use a smaller raster, a larger scale or a lower mni")
-    check_work(work, what, "use a smaller raster or a lower mni")
+    check_memory(nbytes, what, "use a smaller raster, a larger scale or a lower mni", mentions=("scale", "mni"))
+    check_work(work, what, "use a smaller raster or a lower mni", mentions=("mni",))
 
 
 def cell_limit(setup: NoiseSetup) -> float:
@@ -314,7 +316,7 @@ def raster_geometry(shape, scale, rotation, offset):
     scale = check_positive(scale, "scale")
     if scale > MAX_SCALE:
         raise TextonError(f"scale must be at most {MAX_SCALE:g} pixels per texel (float32 positions cannot "
-                          f"resolve finer pixels), got {scale:g}")
+                          f"resolve finer pixels), got {scale:g}", param="scale")
     rotation = check_real(rotation, "rotation")
     ox, oy = check_pair(offset, "offset")
     th = math.radians(rotation)
@@ -323,7 +325,7 @@ def raster_geometry(shape, scale, rotation, offset):
         step = rot / scale  # columns: noise step per pixel along x (j) and along y (i)
     h, w = shape
     if not np.isfinite(step).all() or not np.isfinite(step * max(h, w)).all():
-        raise TextonError(f"scale {scale!r} is too small: pixel positions overflow")
+        raise TextonError(f"scale {scale!r} is too small: pixel positions overflow", param="scale")
     return np.array([ox, oy]), step
 
 
@@ -407,7 +409,7 @@ def window_block(win: RasterWindow, shape):
     if ncx * ncy > MAX_CELLS:
         raise TextonError(
             f"scale {win.scale} makes this {h}x{w} raster cover {ncx * ncy} noise cells "
-            f"(at most {MAX_CELLS}); use a larger scale or a smaller raster"
+            f"(at most {MAX_CELLS}); use a larger scale or a smaller raster", param="scale", mentions=("scale",)
         )
     return cx0, cy0, ncx, ncy
 
@@ -423,7 +425,7 @@ def raster_impacts(windows, shape, blocks=None) -> float:
     if bound > MAX_IMPACTS:
         raise TextonError(
             f"this raster needs about {expected:.3g} impacts (at most {MAX_IMPACTS}); "
-            "use a lower mni, a larger scale or a smaller raster"
+            "use a lower mni, a larger scale or a smaller raster", mentions=("mni", "scale")
         )
     return bound
 

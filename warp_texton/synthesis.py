@@ -178,7 +178,7 @@ def synthesize(
     else:  # the whole raster's work; its memory is that of one strip at a time (checked in rasters)
         _, work, what = raster_cost([whole], [window_block(whole, (h, w))], (h, w), TextonStack.of([setup.coeffs]),
                                     splat=method != "gather")
-        check_work(work, what, "use a smaller raster or a lower mni")
+        check_work(work, what, "use a smaller raster or a lower mni", mentions=("mni",))
     parts = strips(h, w, pixel_cost(options, filtered))
     r0, r1 = parts[0]
     work = (r1 - r0) * w * 40 if filtered else raster_impacts([whole], (r1 - r0, w)) * IMPACT_BYTES
