@@ -31,7 +31,9 @@ from warp_texton import (TextonError, analyze, load_texton, read_image, render_p
                          synthesize_mixed)
 from warp_texton.demo import demo_texture_path
 from warp_texton.view import serve
-from warp_texton.view_core import Analysis, Mix, Noise, Tile, Viewer, rotate, tile_window, to_8bit, view_window
+from warp_texton.view_core import Viewer
+from warp_texton.view_images import to_8bit
+from warp_texton.view_query import Analysis, Mix, Noise, Tile, rotate, tile_window, view_window
 
 DEVICE = "cpu"
 SIZE = 16  # texton side: small, so that tiles are quick

@@ -20,7 +20,8 @@ from PIL import Image
 
 from warp_texton import analyze, read_image, render_plane, synthesize
 from warp_texton.view import serve
-from warp_texton.view_core import Noise, Tile, tile_window, to_8bit, view_window
+from warp_texton.view_images import to_8bit
+from warp_texton.view_query import Noise, Tile, tile_window, view_window
 
 from test_view import DEVICE, SIZE, run_cli, small_rgb
 

@@ -7,9 +7,7 @@ import sys
 
 from .cli_options import Command, filter_help, input_file
 from .filter_options import FILTERS
-
-#: The filters the viewer offers: those quick enough for its tiles.
-VIEW_FILTERS = {name: kind for name, kind in FILTERS.items() if kind.interactive}
+from .view_query import VIEW_FILTERS
 
 
 def _arguments(p: argparse.ArgumentParser) -> None:
@@ -27,7 +25,7 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=0, help="start noise seed")
     p.add_argument("--mni", type=float, default=30.0, help="start mean number of impacts per point")
     p.add_argument("--filter", choices=VIEW_FILTERS, default="anisotropic",
-                   help="start filter for zoomed-out views. " + filter_help(VIEW_FILTERS))
+                   help="start filter for zoomed-out views. " + filter_help({k: FILTERS[k] for k in VIEW_FILTERS}))
     p.add_argument("--png-level", type=int, default=0, choices=range(10), metavar="0-9",
                    help="zlib level of the tiles: 0 is the fastest to make, 1-9 save bandwidth over a slow link")
     p.add_argument("-v", "--verbose", action="store_true", help="log every request")
