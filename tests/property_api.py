@@ -35,8 +35,6 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 NAN, INF = float("nan"), float("inf")
-#: Issues that own functions whose failures this suite reports but does not fix.
-MESH_ISSUE = "issue 12 (mesh assets: surface.py, batch.py)"
 
 
 @dataclass

@@ -199,6 +199,19 @@ BAD_TILES = [
 ]
 
 
+def test_filters_come_from_the_registry(client):
+    """The page offers the registry's interactive filters, each with its description,
+    and the zoom reaches further out for those that filter footprints."""
+    from warp_texton.filter_options import FILTERS
+
+    info = json.loads(client.request("/api/info")[2])
+    offered = info["bounds"]["filters"]
+    assert offered == [k for k, kind in FILTERS.items() if kind.interactive] and "supersample" not in offered
+    assert info["filter_notes"] == {k: FILTERS[k].description for k in offered}
+    assert {k: z < info["bounds"]["zoom_min"]["none"] for k, z in info["bounds"]["zoom_min"].items()} == \
+        {k: FILTERS[k].footprint for k in offered}
+
+
 @pytest.mark.parametrize("change, reason", BAD_TILES, ids=[r for _, r in BAD_TILES])
 def test_bad_parameters_get_a_one_line_400(client, change, reason):
     params = {"z": 0, "x": 0, "y": 0, **change}

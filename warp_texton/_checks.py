@@ -111,24 +111,7 @@ def as_image(u, name: str = "u", *, finite: bool = True, limit: float | None = M
     ±``limit`` (:data:`MAX_VALUE` by default; ``None``: float32's range).
     Integer arrays are scaled by their dtype's range (see the module's notes).
     """
-    if isinstance(u, (str, bytes)) or u is None:
-        raise TextonError(f"{name}: expected a numeric image array, got {type(u).__name__} {u!r:.60}", param=name)
-    try:
-        a = np.asarray(u)
-    except Exception as exc:  # ragged lists and the like
-        raise TextonError(f"{name}: not an image array ({exc})", param=name) from None
-    if a.dtype == object or not (np.issubdtype(a.dtype, np.number) or a.dtype == bool):
-        raise TextonError(f"{name}: expected a numeric image array, got dtype {a.dtype}", param=name)
-    if np.iscomplexobj(a):
-        raise TextonError(f"{name}: expected a real image, got a complex array", param=name)
-    if a.ndim == 2:
-        a = a[:, :, None]
-    if a.ndim != 3:
-        raise TextonError(
-            f"{name}: expected an image of shape (H, W) or (H, W, C), got shape {a.shape}", param=name
-        )
-    if a.shape[0] == 0 or a.shape[1] == 0:
-        raise TextonError(f"{name}: the image is empty (shape {a.shape})", param=name)
+    a = _image_array(u, name)
     # the float32 copy (and a float64 one for integers): an array view may be far larger than its memory
     check_memory(a.shape[0] * a.shape[1] * min(a.shape[2], 3) * (12.0 if a.dtype.kind in "uib" else 4.0),
                  f"{name}: a {a.shape[1]}x{a.shape[0]} image", "use a smaller image", param=name)
@@ -151,6 +134,29 @@ def as_image(u, name: str = "u", *, finite: bool = True, limit: float | None = M
     if finite and not np.isfinite(a).all():
         bad = int(np.count_nonzero(~np.isfinite(a)))
         raise TextonError(f"{name}: contains {bad} NaN or infinite values; pixels must be finite", param=name)
+    return a
+
+
+def _image_array(u, name: str) -> np.ndarray:
+    """``u`` as a non-empty (H, W, C) array of real numbers or booleans, as it is."""
+    if isinstance(u, (str, bytes)) or u is None:
+        raise TextonError(f"{name}: expected a numeric image array, got {type(u).__name__} {u!r:.60}", param=name)
+    try:
+        a = np.asarray(u)
+    except Exception as exc:  # ragged lists and the like
+        raise TextonError(f"{name}: not an image array ({exc})", param=name) from None
+    if a.dtype == object or not (np.issubdtype(a.dtype, np.number) or a.dtype == bool):
+        raise TextonError(f"{name}: expected a numeric image array, got dtype {a.dtype}", param=name)
+    if np.iscomplexobj(a):
+        raise TextonError(f"{name}: expected a real image, got a complex array", param=name)
+    if a.ndim == 2:
+        a = a[:, :, None]
+    if a.ndim != 3:
+        raise TextonError(
+            f"{name}: expected an image of shape (H, W) or (H, W, C), got shape {a.shape}", param=name
+        )
+    if a.shape[0] == 0 or a.shape[1] == 0:
+        raise TextonError(f"{name}: the image is empty (shape {a.shape})", param=name)
     return a
 
 
