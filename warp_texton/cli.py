@@ -50,7 +50,8 @@ def build_parser() -> argparse.ArgumentParser:
         description=(
             "Texton noise by example. 'analyze' learns a small texton from an example of a "
             "Gaussian texture (fabric, wood, stone, sand...); 'synthesize' evaluates texton noise "
-            "on a raster of any size; 'render-plane' shows it on a ground plane in perspective, anti-aliased; 'mix' blends two textures; 'gaussian' samples the texture's Gaussian model by FFT; "
+            "on a raster of any size; 'render-plane' shows it on a ground plane in perspective, anti-aliased; "
+            "'mix' blends two textures; 'gaussian' samples the texture's Gaussian model by FFT; "
             "'demo' runs everything on a texture shipped with the package."
         ),
         formatter_class=_Formatter,

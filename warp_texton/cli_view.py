@@ -17,7 +17,8 @@ def _arguments(p: argparse.ArgumentParser) -> None:
                    help="address to bind; anything but 127.0.0.1 lets others on the network use it (with a warning)")
     p.add_argument("--device", help="cpu, cuda or cuda:N (default: CUDA when available)")
     p.add_argument("--open", action="store_true", help="open the page in the default web browser")
-    p.add_argument("--mix", metavar="B", help="second image or texton for the mixing mode (the page can also upload one)")
+    p.add_argument("--mix", metavar="B",
+                   help="second image or texton for the mixing mode (the page can also upload one)")
     p.add_argument("--size", type=int, default=64, help="start texton size, texels")
     p.add_argument("--order", type=int, default=1, choices=(0, 1, 3, 5), help="start interpolation order")
     p.add_argument("--no-color-correction", dest="color_correction", action="store_false",

@@ -15,10 +15,10 @@ class TextonError(ValueError):
         The whole message, in the API's words ("mni must be a finite number > 0").
     param : str, optional
         The name of the argument the error is about, as the message spells it
-        (``"mni"``, ``"shape[1] (width)"``, ``"u"``); None when no single
-        argument is at fault.
+        (``"mni"``, ``"shape[1] (width)"``, ``"u"``); the message starts with it.
+        None when no single argument is at fault.
     mentions : tuple of str
-        Other argument names the message speaks of, usually in its advice
+        Argument names the message speaks of elsewhere, usually in its advice
         ("use a lower mni"). With ``param``, they let a front end such as the
         command line put its own names (``--mni``, a file name) in their place.
 
@@ -31,13 +31,7 @@ class TextonError(ValueError):
     True
     """
 
-    def __init__(self, message: str = "", param: str | None = None, *, mentions: tuple[str, ...] = ()):
+    def __init__(self, message: str, param: str | None = None, *, mentions: tuple[str, ...] = ()):
         super().__init__(message)
         self.param = param
         self.mentions = tuple(mentions)
-
-    @property
-    def names(self) -> tuple[str, ...]:
-        """Every argument name the message speaks of: ``param`` first, then ``mentions``."""
-        return ((self.param,) if self.param else ()) + tuple(m for m in self.mentions if m != self.param)
-
