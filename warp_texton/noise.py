@@ -90,7 +90,8 @@ def noise_setup(texton: Texton, mni: float, period=None, cell_factor: float = CE
     cell_factor = check_positive(cell_factor, "cell_factor")
     area = texton.support_area  # a mask computation: once
     if area == 0:
-        raise TextonError("texton: every coefficient is zero, so its noise is the constant mean; nothing to synthesize")
+        raise TextonError("texton: every coefficient is zero, so its noise is the constant mean; nothing to synthesize",
+                          param="texton")
     r, s = texton.size
     reach = support_reach(texton.order)
     lo = (-reach, -reach)
