@@ -303,3 +303,51 @@ def test_demo_lists_what_it_writes(tmp_path, capsys):
     assert run_cli(["demo", "-o", out]) == 0
     listed = {Path(line).name for line in capsys.readouterr().out.splitlines() if line.startswith(str(out))}
     assert listed == {p.name for p in out.iterdir()}
+
+
+# ------------------------------------------------------------------ the library's words
+class TestCommandLineWords:
+    """Errors name the options and files that set the arguments they carry (param, mentions)."""
+
+    NAMES = {"mni": "--mni", "size": "--size", "u": "wood.png", "offset[0]": "--offset X", "offset": "--offset"}
+
+    @pytest.mark.parametrize("message, param, mentions, expected", [
+        ("mni must be at least 0.001, got 0", "mni", (), "--mni must be at least 0.001, got 0"),
+        ("u: the image (8x8) is too small for size 9 (choose size <= 8)", "u", ("size",),
+         "wood.png: the image (8x8) is too small for --size 9 (choose --size <= 8)"),
+        ("offset[0] must be a finite number, got nan", "offset[0]", (), "--offset X must be a finite number, got nan"),
+        # only the names the error carries, and only where they stand alone
+        ("size must be at least 2; the mni is fine", "size", (), "--size must be at least 2; the mni is fine"),
+        ("needs 1e12 operations at MNI 30; use a lower mni.", None, ("mni",),
+         "needs 1e12 operations at MNI 30; use a lower --mni."),
+        ("omni mni_x --mni 'mni' mni[0]: use a lower mni", None, ("mni",),
+         "omni mni_x --mni 'mni' mni[0]: use a lower --mni"),
+        ("mnis must be given", "mni", (), "mnis must be given"),
+        ("cell_factor 1e-300 is too small", "cell_factor", (), "cell_factor 1e-300 is too small"),
+    ])
+    def test_in_cli_words(self, message, param, mentions, expected):
+        from warp_texton import TextonError
+        from warp_texton.cli_options import in_cli_words
+
+        assert in_cli_words(TextonError(message, param, mentions=mentions), self.NAMES) == expected
+
+    def test_every_command_names_only_its_own_options(self, capsys):
+        """A command's names map library arguments to options the command has."""
+        from warp_texton.cli import COMMANDS
+
+        for name, command in COMMANDS.items():
+            assert run_cli([name, "--help"]) == 0
+            words = set(capsys.readouterr().out.replace(",", " ").replace("[", " ").split())
+            for option in command.names.values():
+                assert all(part.split()[0] in words for part in option.split("/")), (name, option)
+
+    def test_filters_come_from_the_registry(self, capsys):
+        from warp_texton.filter_options import FILTERS
+
+        assert run_cli(["synthesize", "--help"]) == 0
+        text = " ".join(capsys.readouterr().out.split())
+        for kind in FILTERS.values():
+            assert f"{kind.name}: {kind.description}" in text
+        assert run_cli(["view", "--help"]) == 0
+        text = " ".join(capsys.readouterr().out.split())
+        assert "{none,mip,anisotropic}" in text and "supersample:" not in text

@@ -34,9 +34,6 @@ from warp_texton.noise import MAX_CELL_INDEX, noise_setup
 from warp_texton.texton import MAX_TEXTON_SIDE
 from helpers import assert_nothing_written, parts, random_texton, raw_exr, run_cli
 
-MESH_ISSUE = "issue 12 (mesh assets) owns surface.py and batch.py"
-
-
 @pytest.fixture(autouse=True)
 def fresh_budgets(monkeypatch):
     for env in (limits.BUDGET_ENV, limits.WORK_ENV):
@@ -516,6 +513,38 @@ class TestOneError:
     def test_texton_error(self, call, match):
         with pytest.raises(TextonError, match=match):
             call(self.T)
+
+    @pytest.mark.parametrize("call, param", [
+        (lambda t: synthesize(t, (8, 8), mni=0, device="cpu"), "mni"),
+        (lambda t: synthesize(t, (8, 0), device="cpu"), "shape[1] (width)"),
+        (lambda t: synthesize(t, (8, 8), offset=(np.nan, 0), device="cpu"), "offset[0]"),
+        (lambda t: synthesize(t, (8, 8), seed=-1, device="cpu"), "seed"),
+        (lambda t: render_plane(t, (8, 8), height=0, device="cpu"), "height (the camera's height above the plane)"),
+        (lambda t: FilterOptions("mip", max_aniso=0), "max_aniso"),
+        (lambda t: FilterOptions("bilinear"), "filter"),
+        (lambda t: analyze(np.random.rand(16, 16), size=40), "u"),
+        (lambda t: gaussian_texture(np.zeros((8, 8))), "u"),
+    ], ids=["mni", "width", "offset", "seed", "camera height", "max_aniso", "filter", "size", "constant"])
+    def test_error_names_its_parameter(self, call, param):
+        """The error's param is the argument its message starts with; it survives pickling
+        (errors cross process pools)."""
+        import pickle
+
+        with pytest.raises(TextonError) as info:
+            call(self.T)
+        err = info.value
+        assert err.param == param and str(err).startswith(param), (err.param, str(err))
+        copy = pickle.loads(pickle.dumps(err))
+        assert (type(copy), str(copy), copy.param, copy.mentions) == (TextonError, str(err), err.param, err.mentions)
+
+    def test_errors_list_the_arguments_their_advice_names(self):
+        with pytest.raises(TextonError, match="too small for size 40") as info:
+            analyze(np.random.rand(16, 16), size=40)
+        assert info.value.mentions == ("size",)
+        limits.set_work_budget("1K")  # the autouse fixture restores it
+        with pytest.raises(TextonError, match="a lower mni") as info:
+            synthesize(self.T, (64, 64), device="cpu")
+        assert "mni" in info.value.mentions
 
     def test_texton_save_with_numpy_metadata(self, tmp_path):
         from warp_texton import load_texton

@@ -783,7 +783,7 @@ class TestErrors:
     @pytest.mark.parametrize(
         "kw, match",
         [
-            (dict(size=49), r"u, v: the common image size \(48x48\) is too small for size 49; .*size <= 48"),
+            (dict(size=49), r"u, v: the common grid of both images \(48x48\) is too small for size 49; .*size <= 48"),
             (dict(size=1), "size must be at least 2"),
             (dict(size=8.0), "size must be an integer"),
             (dict(order=2), "order must be one of 0, 1, 3, 5"),
@@ -801,7 +801,7 @@ class TestErrors:
         # the common size is the smaller of each side: 48 × 20 here
         u, _ = pair(1, shape=(64, 20))
         _, v = pair(1)
-        with pytest.raises(TextonError, match=r"common image size \(48x20\) is too small for size 21"):
+        with pytest.raises(TextonError, match=r"common grid of both images \(48x20\) is too small for size 21"):
             mix_textons(u, v, [0.5], size=21, iterations=1)
         assert mix_textons(u, v, [0.5], size=20, iterations=1)[0].size == (20, 20)
 

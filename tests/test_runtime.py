@@ -1,4 +1,4 @@
-"""Warp start-up and the CPU thread split (warp_texton._runtime)."""
+"""Warp start-up (only when needed) and the CPU thread split (warp_texton._runtime)."""
 
 from __future__ import annotations
 
@@ -81,3 +81,49 @@ def test_map_points_gathers_the_parts_in_order(device):
     got = map_points(device, K, 513, lambda a, b: np.arange(a, b)[:, None] * np.ones(3))
     np.testing.assert_array_equal(got[:, 0], np.arange(513))
     assert got.dtype == np.float32 and got.shape == (513, 3)
+
+
+# The command line answers --version, --help and usage errors without starting Warp
+# (a second or more), and the package imports its parts on first use.
+NO_WARP = r"""
+import sys
+from warp_texton.cli import main
+for argv in (["--version"], ["--help"], ["synthesize", "--help"], ["surface", "--help"], ["view", "--help"],
+             ["synthesize", "in.png", "-o", "out.png", "--width", "wide"], ["nope"], ["analyze", "in.png"]):
+    try:
+        status = main(argv)
+    except SystemExit as exc:
+        status = exc.code
+    assert status == (0 if argv[-1] in ("--version", "--help") else 2), (argv, status)
+import warp_texton
+warp_texton.TextonError, warp_texton.__version__
+loaded = sorted(m for m in sys.modules if m == "warp" or m.startswith("warp."))
+print("warp modules:", loaded)
+assert not loaded
+"""
+
+
+def test_command_line_start_up_does_not_import_warp():
+    done = subprocess.run([sys.executable, "-c", NO_WARP], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "warp modules: []" in done.stdout
+
+
+def test_package_names_are_imported_on_first_use():
+    """``__all__``, the names type checkers see (imported under TYPE_CHECKING) and the
+    names the package resolves are the same, and each resolves to its module's object."""
+    import ast
+    import importlib
+    from pathlib import Path
+
+    import warp_texton
+
+    tree = ast.parse(Path(warp_texton.__file__).read_text())
+    typed = {a.asname or a.name: node.module for stmt in tree.body if isinstance(stmt, ast.If)
+             and ast.unparse(stmt.test) == "TYPE_CHECKING" for node in stmt.body for a in node.names}
+    assert set(typed) | {"TextonError", "__version__"} == set(warp_texton.__all__)
+    for name, module in typed.items():
+        assert getattr(warp_texton, name) is getattr(importlib.import_module(f"warp_texton.{module}"), name), name
+    assert set(warp_texton.__all__) <= set(dir(warp_texton))
+    with pytest.raises(AttributeError, match="no_such_name"):
+        warp_texton.no_such_name  # noqa: B018

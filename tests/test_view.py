@@ -31,7 +31,9 @@ from warp_texton import (TextonError, analyze, load_texton, read_image, render_p
                          synthesize_mixed)
 from warp_texton.demo import demo_texture_path
 from warp_texton.view import serve
-from warp_texton.view_core import Analysis, Mix, Noise, Tile, Viewer, rotate, tile_window, to_8bit, view_window
+from warp_texton.view_core import Viewer
+from warp_texton.view_images import to_8bit
+from warp_texton.view_query import Analysis, Mix, Noise, Tile, rotate, tile_window, view_window
 
 DEVICE = "cpu"
 SIZE = 16  # texton side: small, so that tiles are quick
@@ -98,7 +100,7 @@ def test_tiles_are_windows_of_one_raster(texton, z, rotation, filter):
     """Four neighbouring tiles, far from the origin, assembled, are one synthesize window."""
     noise = Noise(seed=3, mni=20.0, rotation=rotation, filter=filter)
     t, x0, y0 = 64, 12345, -678
-    tiles = {(dx, dy): synthesize(texton, w.shape, noise.mni, noise.seed, w.scale, w.rotation, w.offset,
+    tiles = {(dx, dy): synthesize(texton, w.shape, mni=noise.mni, seed=noise.seed, scale=w.scale, rotation=w.rotation, offset=w.offset,
                                   device=DEVICE, filter=filter)
              for dx in (0, 1) for dy in (0, 1)
              for w in [tile_window(Tile(z, x0 + dx, y0 + dy, t), noise)]}
@@ -106,7 +108,7 @@ def test_tiles_are_windows_of_one_raster(texton, z, rotation, filter):
                              np.concatenate([tiles[0, 1], tiles[1, 1]], axis=1)], axis=0)
     s = 2.0 ** z
     whole = view_window(2 * t, 2 * t, s, rotation, x0 * t / s, y0 * t / s)
-    big = synthesize(texton, whole.shape, noise.mni, noise.seed, whole.scale, whole.rotation, whole.offset,
+    big = synthesize(texton, whole.shape, mni=noise.mni, seed=noise.seed, scale=whole.scale, rotation=whole.rotation, offset=whole.offset,
                      device=DEVICE, filter=filter)
     assert np.abs(joined - big).max() < 2e-5
     # and the seams are not special: steps across them are like steps inside a tile
@@ -140,7 +142,7 @@ def test_mixed_tiles_join(rgb_path, steps, start, end):
         h, w = t + 2 * margin, 4 * t + 2 * margin
         x = (np.arange(w) - margin + 0.5)
         rho = np.broadcast_to(mix.rho(x)[None, :], (h, w))
-        big = synthesize_mixed(textons, rho, (h, w), noise.mni, noise.seed, 1.0, (-margin, t - margin),
+        big = synthesize_mixed(textons, rho, (h, w), mni=noise.mni, seed=noise.seed, scale=1.0, offset=(-margin, t - margin),
                                device=DEVICE)[margin:margin + t, margin:margin + 4 * t]
         assert np.abs(joined - big).max() < 2e-5
         assert not np.allclose(tiles[0], tiles[3], atol=0.05)  # it does change from A to B
@@ -153,7 +155,7 @@ def test_http_tile_is_synthesize_rounded_to_8_bits(client, texton):
                                        size=SIZE, order=1, cc=1)
     assert status == 200 and headers["Content-Type"] == "image/png"
     w = tile_window(Tile(1, -3, 2, 256), Noise(5, 12.5, 20.0, "none"))
-    want = synthesize(texton, w.shape, 12.5, 5, w.scale, w.rotation, w.offset, device=DEVICE)
+    want = synthesize(texton, w.shape, mni=12.5, seed=5, scale=w.scale, rotation=w.rotation, offset=w.offset, device=DEVICE)
     np.testing.assert_array_equal(decode_png(body), to_8bit(want))
 
 
@@ -195,6 +197,19 @@ BAD_TILES = [
     ({"mode": "mix"}, "missing parameter 'b'"),
     ({"mode": "mix", "b": "nope", "ra": "0", "rb": "10"}, "unknown second input"),
 ]
+
+
+def test_filters_come_from_the_registry(client):
+    """The page offers the registry's interactive filters, each with its description,
+    and the zoom reaches further out for those that filter footprints."""
+    from warp_texton.filter_options import FILTERS
+
+    info = json.loads(client.request("/api/info")[2])
+    offered = info["bounds"]["filters"]
+    assert offered == [k for k, kind in FILTERS.items() if kind.interactive] and "supersample" not in offered
+    assert info["filter_notes"] == {k: FILTERS[k].description for k in offered}
+    assert {k: z < info["bounds"]["zoom_min"]["none"] for k, z in info["bounds"]["zoom_min"].items()} == \
+        {k: FILTERS[k].footprint for k in offered}
 
 
 @pytest.mark.parametrize("change, reason", BAD_TILES, ids=[r for _, r in BAD_TILES])
@@ -445,7 +460,7 @@ def test_texton_file_input(texton, tmp_path):
         status, _, body = c.get("/tile", z=0, x=1, y=1, seed=4)
         w = tile_window(Tile(0, 1, 1, 256), Noise(4, 30.0, 0.0, "none"))
         np.testing.assert_array_equal(decode_png(body), to_8bit(synthesize(
-            load_texton(path), w.shape, 30.0, 4, w.scale, w.rotation, w.offset, device=DEVICE)))
+            load_texton(path), w.shape, mni=30.0, seed=4, scale=w.scale, rotation=w.rotation, offset=w.offset, device=DEVICE)))
         plan = json.loads(c.get("/api/plan", w=32, h=16, scale=1, left=0, top=0, seed=4)[2])
         assert plan["cli"][0].startswith(f"warp-texton synthesize {shlex.quote(str(path))} ")
         panel = json.loads(c.get("/api/panel")[2])
@@ -496,7 +511,7 @@ def test_export_view_is_what_its_commands_make(client, texton, tmp_path, fmt):
     got.parent.mkdir()
     got.write_bytes(data)
     w = view_window(96, 40, 0.5, -33.0, -1234.25, 87.5)
-    want = synthesize(texton, w.shape, 18.0, 6, w.scale, w.rotation, w.offset, device=DEVICE, filter="anisotropic")
+    want = synthesize(texton, w.shape, mni=18.0, seed=6, scale=w.scale, rotation=w.rotation, offset=w.offset, device=DEVICE, filter="anisotropic")
     values = read_image(got)
     if fmt == "png":
         np.testing.assert_array_equal(to_8bit(values), to_8bit(want))
@@ -525,7 +540,7 @@ def test_export_tile_is_seamless(client, texton, tmp_path):
     path.write_bytes(client.get("/export", **params)[2])
     tile = read_image(path)
     # two by two copies of the tile are one window of the periodic noise
-    big = synthesize(texton, (96, 128), 30.0, 2, 2.0, 0.0, (0.0, 0.0), period=(32.0, 24.0), device=DEVICE)
+    big = synthesize(texton, (96, 128), mni=30.0, seed=2, scale=2.0, rotation=0.0, offset=(0.0, 0.0), period=(32.0, 24.0), device=DEVICE)
     np.testing.assert_allclose(np.tile(tile, (2, 2, 1)), big, atol=1e-5)
     run_cli(plan["cli"], tmp_path / "..")
     np.testing.assert_allclose(read_image(tmp_path / ".." / plan["file"]), tile, atol=1e-6)

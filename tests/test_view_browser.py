@@ -20,7 +20,8 @@ from PIL import Image
 
 from warp_texton import analyze, read_image, render_plane, synthesize
 from warp_texton.view import serve
-from warp_texton.view_core import Noise, Tile, tile_window, to_8bit, view_window
+from warp_texton.view_images import to_8bit
+from warp_texton.view_query import Noise, Tile, tile_window, view_window
 
 from test_view import DEVICE, SIZE, run_cli, small_rgb
 
@@ -96,12 +97,12 @@ def expected(page, texton, noise: Noise):
         row = []
         for x in range(x0, x1 + 1):
             win = tile_window(Tile(z, x, y, t), noise)
-            row.append(synthesize(texton, win.shape, noise.mni, noise.seed, win.scale, win.rotation, win.offset,
+            row.append(synthesize(texton, win.shape, mni=noise.mni, seed=noise.seed, scale=win.scale, rotation=win.rotation, offset=win.offset,
                                   device=DEVICE, filter=noise.filter))
         rows.append(np.concatenate(row, axis=1))
     tiles = np.concatenate(rows, axis=0)[i0 - y0 * t:i0 - y0 * t + h, j0 - x0 * t:j0 - x0 * t + w]
     win = view_window(w, h, s, noise.rotation, v["left"], v["top"])
-    whole = synthesize(texton, win.shape, noise.mni, noise.seed, win.scale, win.rotation, win.offset,
+    whole = synthesize(texton, win.shape, mni=noise.mni, seed=noise.seed, scale=win.scale, rotation=win.rotation, offset=win.offset,
                        device=DEVICE, filter=noise.filter)
     return to_8bit(tiles), to_8bit(whole)
 
@@ -226,7 +227,7 @@ def test_export_downloads_the_promised_file(page, rgb_path, tmp_path, fmt, size)
         scale = v["scale"] * w / v["width"]
         cx, cy = v["left"] + v["width"] / 2 / v["scale"], v["top"] + v["height"] / 2 / v["scale"]
         win = view_window(w, h, scale, -20.0, cx - w / 2 / scale, cy - h / 2 / scale)
-        want = synthesize(texton_of(rgb_path), win.shape, 30.0, 0, win.scale, win.rotation, win.offset,
+        want = synthesize(texton_of(rgb_path), win.shape, mni=30.0, seed=0, scale=win.scale, rotation=win.rotation, offset=win.offset,
                           device=DEVICE, filter="anisotropic")
         np.testing.assert_allclose(got, want, atol=1e-5)
     python = page.inner_text("#export-python")

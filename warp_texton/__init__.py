@@ -4,6 +4,10 @@ Learn a small *texton* from an example of a Gaussian texture (NumPy FFT
 analysis), then evaluate *texton noise* — randomly scattered, summed copies of
 the texton — anywhere, with NVIDIA Warp kernels on the CPU or a CUDA GPU.
 
+The names below are imported on first use (PEP 562), so that importing a part
+of the package that needs no Warp (the command line's ``--help``, the errors)
+does not start it.
+
 References
 ----------
 EUSIPCO: B. Galerne, A. Leclaire, L. Moisan, "A Texton for Fast and Flexible
@@ -12,23 +16,47 @@ CGF: B. Galerne, A. Leclaire, L. Moisan, "Texton Noise", Computer Graphics
 Forum 2017.
 """
 
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING
+
 from ._version import __version__
 from .errors import TextonError
-from .io import read_image, write_image
-from .gaussian import periodic_component, gaussian_texture
-from .texton import Texton, load_texton
-from .analysis import analyze, model_error
-from .dsn import dsn
-from .filtering import FilterOptions
-from .synthesis import synthesize, evaluate
-from .batches import Batch, BatchParams, synthesize_batch
-from .plane import render_plane
-from .mixing import mix_textons, synthesize_mixed
-from .frames import tangent_frames
-from .surface import surface_noise
-from .mesh import texture_mesh
-from .render import Camera, render_mesh
-from .bake import BakedMesh, bake_mesh, render_baked, write_baked
+
+if TYPE_CHECKING:  # what type checkers and documentation tools see; at run time, __getattr__
+    from .analysis import analyze, model_error
+    from .bake import BakedMesh, bake_mesh, render_baked, write_baked
+    from .dsn import dsn
+    from .filter_options import FilterOptions
+    from .gaussian import gaussian_texture, periodic_component
+    from .io import read_image, write_image
+    from .mixing import mix_textons, synthesize_mixed
+    from .plane import render_plane
+    from .batches import Batch, BatchParams, synthesize_batch
+    from .frames import tangent_frames
+    from .mesh import texture_mesh
+    from .render import Camera, render_mesh
+    from .surface import surface_noise
+    from .synthesis import evaluate, synthesize
+    from .texton import Texton, load_texton
+
+#: The module of each public name that is imported on first use.
+_LAZY = {
+    "analyze": "analysis", "model_error": "analysis",
+    "BakedMesh": "bake", "bake_mesh": "bake", "render_baked": "bake", "write_baked": "bake",
+    "dsn": "dsn",
+    "FilterOptions": "filter_options",
+    "gaussian_texture": "gaussian", "periodic_component": "gaussian",
+    "read_image": "io", "write_image": "io",
+    "mix_textons": "mixing", "synthesize_mixed": "mixing",
+    "render_plane": "plane",
+    "Camera": "render", "render_mesh": "render", "surface_noise": "surface", "tangent_frames": "frames",
+    "texture_mesh": "mesh",
+    "Batch": "batches", "BatchParams": "batches", "synthesize_batch": "batches",
+    "evaluate": "synthesis", "synthesize": "synthesis",
+    "Texton": "texton", "load_texton": "texton",
+}
 
 __all__ = [
     "BakedMesh",
@@ -61,3 +89,16 @@ __all__ = [
     "write_baked",
     "write_image",
 ]
+
+
+def __getattr__(name: str):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value  # once: later lookups do not come here
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -1,8 +1,8 @@
 """Argument checks shared by the public functions.
 
 Each check raises :class:`TextonError` with a message that names the argument
-and what would be accepted, so that callers never see a NumPy traceback for a
-user mistake. Numbers are numbers: strings such as ``"30"`` are refused where
+and what would be accepted, and with the argument's name as its ``param``, so
+that callers never see a NumPy traceback for a user mistake. Numbers are numbers: strings such as ``"30"`` are refused where
 a number is meant, rather than converted.
 
 Image values. An integer image array is scaled by its dtype's range, as image
@@ -54,9 +54,10 @@ def check_path(value, name: str) -> Path:
         return value
     if isinstance(value, str) or (isinstance(value, os.PathLike) and isinstance(os.fspath(value), str)):
         if not str(value) or "\x00" in str(value):
-            raise TextonError(f"{name} must be a non-empty file name, got {value!r}")
+            raise TextonError(f"{name} must be a non-empty file name, got {value!r}", param=name)
         return Path(value)
-    raise TextonError(f"{name} must be a file name (str or path), got {type(value).__name__} {value!r:.60}")
+    raise TextonError(f"{name} must be a file name (str or path), got {type(value).__name__} {value!r:.60}",
+                      param=name)
 
 
 def as_real_array(value, name: str, what: str = "an array of numbers") -> np.ndarray:
@@ -65,11 +66,11 @@ def as_real_array(value, name: str, what: str = "an array of numbers") -> np.nda
     try:
         a = np.asarray(value)
     except Exception:  # ragged sequences and the like
-        raise TextonError(f"{name} must be {what}, got {value!r:.80}") from None
+        raise TextonError(f"{name} must be {what}, got {value!r:.80}", param=name) from None
     if a.dtype.kind not in "iuf":
-        raise TextonError(f"{name} must be {what}, got {_describe(a, value)}")
+        raise TextonError(f"{name} must be {what}, got {_describe(a, value)}", param=name)
     if a.dtype != np.float64:
-        check_memory(8.0 * a.size, f"{name}: {a.size} values", f"give fewer values for {name}")
+        check_memory(8.0 * a.size, f"{name}: {a.size} values", f"give fewer values for {name}", param=name)
     with np.errstate(over="ignore"):
         return a.astype(np.float64, copy=False)
 
@@ -91,14 +92,14 @@ def check_range(a: np.ndarray, name: str, limit: float | None, what: str = "valu
     finite = np.isfinite(a)
     if not finite.all():
         bad = int(a.size - np.count_nonzero(finite))
-        raise TextonError(f"{name}: contains {bad} NaN or infinite values; {what} must be finite")
+        raise TextonError(f"{name}: contains {bad} NaN or infinite values; {what} must be finite", param=name)
     bound = FLOAT32_MAX if limit is None else limit
     lo, hi = float(a.min()), float(a.max())
     if max(-lo, hi) > bound:
         raise TextonError(
             f"{name}: {what} range from {lo:.3g} to {hi:.3g}; accepted: within ±{bound:.3g}"
-            + ("" if limit is None else " (larger values would overflow float32 arithmetic; rescale them)")
-        )
+            + ("" if limit is None else " (larger values would overflow float32 arithmetic; rescale them)"),
+            param=name)
 
 
 def as_image(u, name: str = "u", *, finite: bool = True, limit: float | None = MAX_VALUE) -> np.ndarray:
@@ -110,34 +111,17 @@ def as_image(u, name: str = "u", *, finite: bool = True, limit: float | None = M
     ±``limit`` (:data:`MAX_VALUE` by default; ``None``: float32's range).
     Integer arrays are scaled by their dtype's range (see the module's notes).
     """
-    if isinstance(u, (str, bytes)) or u is None:
-        raise TextonError(f"{name}: expected a numeric image array, got {type(u).__name__} {u!r:.60}")
-    try:
-        a = np.asarray(u)
-    except Exception as exc:  # ragged lists and the like
-        raise TextonError(f"{name}: not an image array ({exc})") from None
-    if a.dtype == object or not (np.issubdtype(a.dtype, np.number) or a.dtype == bool):
-        raise TextonError(f"{name}: expected a numeric image array, got dtype {a.dtype}")
-    if np.iscomplexobj(a):
-        raise TextonError(f"{name}: expected a real image, got a complex array")
-    if a.ndim == 2:
-        a = a[:, :, None]
-    if a.ndim != 3:
-        raise TextonError(
-            f"{name}: expected an image of shape (H, W) or (H, W, C), got shape {a.shape}"
-        )
-    if a.shape[0] == 0 or a.shape[1] == 0:
-        raise TextonError(f"{name}: the image is empty (shape {a.shape})")
+    a = _image_array(u, name)
     # the float32 copy (and a float64 one for integers): an array view may be far larger than its memory
     check_memory(a.shape[0] * a.shape[1] * min(a.shape[2], 3) * (12.0 if a.dtype.kind in "uib" else 4.0),
-                 f"{name}: a {a.shape[1]}x{a.shape[0]} image", "use a smaller image")
+                 f"{name}: a {a.shape[1]}x{a.shape[0]} image", "use a smaller image", param=name)
     c = a.shape[2]
     if c == 4:
         warnings.warn(f"{name}: dropping the alpha channel of an RGBA image", stacklevel=3)
         a = a[:, :, :3]
     elif c not in CHANNELS:
         raise TextonError(
-            f"{name}: has {c} channels; expected 1 (grey), 3 (RGB) or 4 (RGBA, alpha dropped)"
+            f"{name}: has {c} channels; expected 1 (grey), 3 (RGB) or 4 (RGBA, alpha dropped)", param=name
         )
     if a.dtype == bool:
         a = a.astype(np.float32)
@@ -149,7 +133,30 @@ def as_image(u, name: str = "u", *, finite: bool = True, limit: float | None = M
     a = np.ascontiguousarray(a, dtype=np.float32)
     if finite and not np.isfinite(a).all():
         bad = int(np.count_nonzero(~np.isfinite(a)))
-        raise TextonError(f"{name}: contains {bad} NaN or infinite values; pixels must be finite")
+        raise TextonError(f"{name}: contains {bad} NaN or infinite values; pixels must be finite", param=name)
+    return a
+
+
+def _image_array(u, name: str) -> np.ndarray:
+    """``u`` as a non-empty (H, W, C) array of real numbers or booleans, as it is."""
+    if isinstance(u, (str, bytes)) or u is None:
+        raise TextonError(f"{name}: expected a numeric image array, got {type(u).__name__} {u!r:.60}", param=name)
+    try:
+        a = np.asarray(u)
+    except Exception as exc:  # ragged lists and the like
+        raise TextonError(f"{name}: not an image array ({exc})", param=name) from None
+    if a.dtype == object or not (np.issubdtype(a.dtype, np.number) or a.dtype == bool):
+        raise TextonError(f"{name}: expected a numeric image array, got dtype {a.dtype}", param=name)
+    if np.iscomplexobj(a):
+        raise TextonError(f"{name}: expected a real image, got a complex array", param=name)
+    if a.ndim == 2:
+        a = a[:, :, None]
+    if a.ndim != 3:
+        raise TextonError(
+            f"{name}: expected an image of shape (H, W) or (H, W, C), got shape {a.shape}", param=name
+        )
+    if a.shape[0] == 0 or a.shape[1] == 0:
+        raise TextonError(f"{name}: the image is empty (shape {a.shape})", param=name)
     return a
 
 
@@ -157,25 +164,25 @@ def check_int(value, name: str, *, minimum: int | None = None, maximum: int | No
               choices=None) -> int:
     """An integer argument, optionally bounded or drawn from ``choices``."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
-        raise TextonError(f"{name} must be an integer, got {value!r:.60}")
+        raise TextonError(f"{name} must be an integer, got {value!r:.60}", param=name)
     value = int(value)
     if choices is not None and value not in choices:
         listed = ", ".join(str(c) for c in choices)
-        raise TextonError(f"{name} must be one of {listed}, got {value}")
+        raise TextonError(f"{name} must be one of {listed}, got {value}", param=name)
     if minimum is not None and value < minimum:
-        raise TextonError(f"{name} must be at least {minimum}, got {value}")
+        raise TextonError(f"{name} must be at least {minimum}, got {value}", param=name)
     if maximum is not None and value > maximum:
-        raise TextonError(f"{name} must be at most {maximum}, got {value}")
+        raise TextonError(f"{name} must be at most {maximum}, got {value}", param=name)
     return value
 
 
 def check_positive(value, name: str) -> float:
     """A finite, strictly positive real number."""
     if not is_real(value):
-        raise TextonError(f"{name} must be a positive number, got {value!r:.60}")
+        raise TextonError(f"{name} must be a positive number, got {value!r:.60}", param=name)
     value = float(value)
     if not math.isfinite(value) or value <= 0.0:
-        raise TextonError(f"{name} must be a finite number > 0, got {value}")
+        raise TextonError(f"{name} must be a finite number > 0, got {value}", param=name)
     return value
 
 
@@ -185,52 +192,52 @@ def check_mni(mni, name: str = "mni") -> float:
     mni = check_positive(mni, name)
     if mni < MIN_MNI:
         raise TextonError(f"{name} must be at least {MIN_MNI:g} (the noise divides by the square root of the "
-                          f"intensity), got {mni:g}")
+                          f"intensity), got {mni:g}", param=name)
     return mni
 
 
 def check_real(value, name: str, *, minimum: float | None = None, maximum: float | None = None) -> float:
     """A finite real number, optionally within [minimum, maximum]."""
     if not is_real(value):
-        raise TextonError(f"{name} must be a number, got {value!r:.60}")
+        raise TextonError(f"{name} must be a number, got {value!r:.60}", param=name)
     value = float(value)
     if not math.isfinite(value):
-        raise TextonError(f"{name} must be a finite number, got {value}")
+        raise TextonError(f"{name} must be a finite number, got {value}", param=name)
     if minimum is not None and value < minimum:
-        raise TextonError(f"{name} must be at least {minimum:g}, got {value:g}")
+        raise TextonError(f"{name} must be at least {minimum:g}, got {value:g}", param=name)
     if maximum is not None and value > maximum:
-        raise TextonError(f"{name} must be at most {maximum:g}, got {value:g}")
+        raise TextonError(f"{name} must be at most {maximum:g}, got {value:g}", param=name)
     return value
 
 
 def check_bool(value, name: str) -> bool:
     """A flag: True or False (NumPy booleans too), not a string or a number."""
     if not isinstance(value, (bool, np.bool_)):
-        raise TextonError(f"{name} must be True or False, got {value!r:.60}")
+        raise TextonError(f"{name} must be True or False, got {value!r:.60}", param=name)
     return bool(value)
 
 
 def check_seed(seed) -> int:
     """A user seed: any integer in [0, 2**32)."""
     if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, numbers.Integral):
-        raise TextonError(f"seed must be an integer in [0, 2**32), got {seed!r:.60}")
+        raise TextonError(f"seed must be an integer in [0, 2**32), got {seed!r:.60}", param="seed")
     if not 0 <= int(seed) < 2**32:
-        raise TextonError(f"seed must be an integer in [0, 2**32), got {seed}")
+        raise TextonError(f"seed must be an integer in [0, 2**32), got {seed}", param="seed")
     return int(seed)
 
 
 def check_shape(shape, name: str = "shape", *, max_pixels: int = 1 << 28) -> tuple[int, int]:
     """An output raster shape ``(H, W)`` of positive integers that fits in memory."""
     if isinstance(shape, (str, bytes)):
-        raise TextonError(f"{name} must be a pair (height, width), got {shape!r:.60}")
+        raise TextonError(f"{name} must be a pair (height, width), got {shape!r:.60}", param=name)
     try:
         h, w = shape
     except Exception:  # not iterable, wrong length, or an array that refuses to unpack
-        raise TextonError(f"{name} must be a pair (height, width), got {shape!r:.60}") from None
+        raise TextonError(f"{name} must be a pair (height, width), got {shape!r:.60}", param=name) from None
     h = check_int(h, f"{name}[0] (height)", minimum=1)
     w = check_int(w, f"{name}[1] (width)", minimum=1)
     if h * w > max_pixels:
         raise TextonError(
-            f"{name} {h}x{w} is too large: at most {max_pixels} pixels ({h * w} asked)"
+            f"{name} {h}x{w} is too large: at most {max_pixels} pixels ({h * w} asked)", param=name
         )
     return h, w

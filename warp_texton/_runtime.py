@@ -70,12 +70,12 @@ def resolve_device(device=None) -> str:
         return "cuda:0" if wp.is_cuda_available() else "cpu"
     if str(device).startswith("cuda") and not wp.is_cuda_available():
         names = ", ".join(str(d) for d in wp.get_devices())
-        raise TextonError(f"device: {device!r} asked for, but no CUDA device is available; available: {names}")
+        raise TextonError(f"device: {device!r} asked for, but no CUDA device is available; available: {names}", param="device")
     try:
         return str(wp.get_device(device))
     except Exception:
         names = ", ".join(str(d) for d in wp.get_devices())
-        raise TextonError(f"device: unknown device {device!r}; available: {names}") from None
+        raise TextonError(f"device: unknown device {device!r}; available: {names}", param="device") from None
 
 
 def is_cpu(device) -> bool:

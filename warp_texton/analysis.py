@@ -39,7 +39,7 @@ ANALYSIS_BYTES_PER_VALUE = 96
 def check_support(support) -> str:
     """The name of a support shape."""
     if not isinstance(support, str) or support not in SUPPORTS:
-        raise TextonError(f"support must be one of {', '.join(SUPPORTS)}, got {support!r:.60}")
+        raise TextonError(f"support must be one of {', '.join(SUPPORTS)}, got {support!r:.60}", param="support")
     return support
 
 
@@ -49,7 +49,7 @@ def check_size_fits(size: int, grid, name: str, what: str = "the image") -> None
     if size > min(m, n):
         raise TextonError(
             f"{name}: {what} ({m}x{n}) is too small for size {size}; the texton's support must lie inside "
-            f"the image (choose size <= {min(m, n)})"
+            f"the image (choose size <= {min(m, n)})", param=name, mentions=("size",)
         )
 
 
@@ -65,9 +65,10 @@ def check_analysis_cost(grid, channels: int, iterations: int, what: str, textons
     the memory or work budget."""
     m, n = grid
     nbytes = ANALYSIS_BYTES_PER_VALUE * float(m) * n * channels + 8.0 * textons * size * size * channels
-    check_memory(nbytes, what, "use a smaller image" + (" or fewer rhos" if textons > 1 else ""))
+    check_memory(nbytes, what, "use a smaller image" + (" or fewer rhos" if textons > 1 else ""), mentions=("rhos",))
     check_work(textons * analysis_work(grid, channels, iterations), what + f" with {iterations} iterations",
-               "use fewer iterations or a smaller image" + (" or fewer rhos" if textons > 1 else ""))
+               "use fewer iterations or a smaller image" + (" or fewer rhos" if textons > 1 else ""),
+               mentions=("iterations", "rhos"))
 
 
 def support_mask(size: int, support: str = "square") -> np.ndarray:

@@ -22,6 +22,7 @@ from ._runtime import progress_bar, resolve_device
 from .canvas import Canvas, check_output, group_size, result_bytes
 from .errors import TextonError
 from .filtering import (
+    COST_HINT_NAMES,
     FILTER_BYTES_PER_PIXEL,
     FilterOptions,
     RasterPixels,
@@ -52,7 +53,7 @@ from .texton import Texton
 
 if TYPE_CHECKING:
     pass
-from .synthesis import filter_hint, filtered_work
+from .synthesis import filtered_work
 
 #: Host memory per batch item besides its pixels: its drawn parameters (NumPy) and its
 #: window (a small Python object with its geometry): 1.2 KiB measured (tracemalloc, 20 000 items
@@ -412,7 +413,8 @@ def check_batch_cost(textons: list[Texton], setups: list[NoiseSetup], h: int, w:
     if filtered:
         what += f" ({len(filtered)} with filter {options.kind!r})"
     check_raster_cost(items_bytes + nbytes, work, what, "use a smaller count or shape, or make the batch in parts",
-                      filter_hint(options) if filtered else "use a smaller count or shape, or a lower mni")
+                      options.spec.cost_hint if filtered else "use a smaller count or shape, or a lower mni",
+                      mentions=("count", "shape", *COST_HINT_NAMES))
 
 
 def _runs(items: list[int]) -> list[tuple[int, int]]:

@@ -18,49 +18,21 @@ from a :class:`FilterOptions` to the kernels.
 
 from __future__ import annotations
 
-import numbers
-from dataclasses import dataclass
-
 import numpy as np
 import warp as wp
 
-from ._checks import as_real_array, check_int
+from ._checks import as_real_array
 from ._runtime import map_points, split_launch
 from .errors import TextonError
+# the options and the registry of kinds are part of this module's interface too
+from .filter_options import (FADE_ENERGY, FILTERS, LOD_BIAS, MAX_ANISO, MAX_LOD_BIAS, MAX_MAX_ANISO,  # noqa: F401
+                             MAX_SUPERSAMPLE, SUPERSAMPLE, FilterKind, FilterOptions)
 from .kernels import filter2d as F
 from .kernels.noise2d import PAD
 from .limits import check_memory, check_work
 from .noise import NoiseSetup, cell_limit, params_mean, point_values, support_reach, visits_per_point, walk_cost
 from .texton import Texton, lag0_covariance
 
-FILTERS = ("none", "mip", "anisotropic", "supersample")
-#: Most lookups along a footprint's major axis ("anisotropic"); past this
-#: anisotropy the level rises instead, as GPU anisotropic filtering does.
-MAX_ANISO = 8
-#: Added to log2 of a lookup's width to pick its level, per filter. A level-ℓ
-#: lookup blurs like a box of width √3 · 2^ℓ (block mean, then the bilinear
-#: tent), so −log2 √3 ≈ −0.79 would match the pixel box's second moment. The
-#: defaults are the optima measured on the plane benchmark with two textures
-#: (docs/benchmarks.md): "mip" sits lower because its single lookup takes the
-#: major axis as its width and so over-blurs along the minor one.
-LOD_BIAS = {"mip": -1.3, "anisotropic": -0.6}
-#: The pyramid ends at the first level whose noise keeps less than this
-#: fraction of the texton noise's variance (∫h_ℓ² / ∫h²); past that level the
-#: filtered noise fades to its mean. The coarse levels of a textured texton
-#: carry little variance but cost the most (the widest supports, the most
-#: lookups). On the plane benchmark, 0.1 instead of keeping every level costs
-#: 0.002 in error for about a fifth of the time; 0.25 saves more but flattens
-#: a band of the far field that still has visible grain (docs/model.md §13).
-#: Smooth textures keep all their levels.
-FADE_ENERGY = 0.1
-#: Default samples per pixel side for ``filter="supersample"``.
-SUPERSAMPLE = 20
-#: Bounds on ``supersample`` and ``max_aniso`` (a pixel's work grows with them).
-MAX_SUPERSAMPLE = 64
-MAX_MAX_ANISO = 64
-#: Bound on ``lod_bias``: a texton of 4096 texels has 13 levels, so a larger
-#: bias only selects the first or the last one.
-MAX_LOD_BIAS = 64
 #: Footprint entries are clamped to ±this many texels: far past the coarsest
 #: MIP level, where the filtered noise is its mean, and safe in float32.
 MAX_FOOTPRINT = 1.0e12
@@ -73,84 +45,8 @@ COST_SAMPLES = 4096
 FILTER_BYTES_PER_PIXEL = 160
 
 
-@dataclass(frozen=True)
-class FilterOptions:
-    """How noise is anti-aliased for each pixel's footprint (CGF §5); validated once.
-
-    Parameters
-    ----------
-    kind : {"none", "mip", "anisotropic", "supersample"}
-        "mip" looks the texton up in a MIP pyramid at the footprint's major
-        length; "anisotropic" also averages up to ``max_aniso`` lookups along
-        its major axis; "supersample" averages ``supersample``² jittered
-        evaluations over the footprint (the reference). Where every footprint
-        needs a single lookup of the unfiltered texton (up to about 2.5 texels
-        for "mip", 1.5 for round footprints with "anisotropic"), "mip" and
-        "anisotropic" are exactly "none".
-    max_aniso : int in [1, 64]
-        Most lookups along a footprint's major axis for "anisotropic"; past
-        that anisotropy the level rises instead.
-    supersample : int in [1, 64]
-        Samples per pixel side for "supersample".
-    fade_energy : float in [0, 1]
-        The MIP pyramid ends at the first level whose noise keeps less than
-        this fraction of the variance; larger footprints fade to the mean
-        (0 keeps every level).
-    lod_bias : float, optional
-        Added to log2 of the lookup width to pick the level; default
-        ``LOD_BIAS[kind]`` (measured optima, docs/benchmarks.md).
-
-    Examples
-    --------
-    >>> FilterOptions("anisotropic", max_aniso=4).max_aniso
-    4
-    >>> FilterOptions.of("mip") == FilterOptions("mip")
-    True
-    """
-
-    kind: str = "none"
-    max_aniso: int = MAX_ANISO
-    supersample: int = SUPERSAMPLE
-    fade_energy: float = FADE_ENERGY
-    lod_bias: float | None = None
-
-    def __post_init__(self):
-        if not isinstance(self.kind, str) or self.kind not in FILTERS:
-            raise TextonError(f"filter must be one of {', '.join(FILTERS)}, got {self.kind!r}")
-        n = check_int(self.supersample, "supersample", minimum=1)
-        a = check_int(self.max_aniso, "max_aniso", minimum=1)
-        if n > MAX_SUPERSAMPLE:
-            raise TextonError(f"supersample must be at most {MAX_SUPERSAMPLE} (samples per pixel side), got {n}")
-        if a > MAX_MAX_ANISO:
-            raise TextonError(f"max_aniso must be at most {MAX_MAX_ANISO}, got {a}")
-        object.__setattr__(self, "supersample", n)
-        object.__setattr__(self, "max_aniso", a)
-        object.__setattr__(self, "fade_energy", _fraction(self.fade_energy))
-        if self.lod_bias is not None:
-            if isinstance(self.lod_bias, bool) or not isinstance(self.lod_bias, numbers.Real) \
-                    or not -MAX_LOD_BIAS <= self.lod_bias <= MAX_LOD_BIAS:
-                raise TextonError(f"lod_bias must be a number in [-{MAX_LOD_BIAS}, {MAX_LOD_BIAS}] (MIP levels), "
-                                  f"got {self.lod_bias!r:.60}")
-            object.__setattr__(self, "lod_bias", float(self.lod_bias))
-
-    @classmethod
-    def of(cls, value) -> "FilterOptions":
-        """``value`` itself, or the default options of the filter it names."""
-        return value if isinstance(value, cls) else cls(value)
-
-    @property
-    def bias(self) -> float:
-        """The level bias in use ("mip" and "anisotropic")."""
-        return LOD_BIAS[self.kind] if self.lod_bias is None else self.lod_bias
-
-
-def _fraction(value) -> float:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise TextonError(f"fade_energy must be a number in [0, 1], got {value!r}")
-    if not 0.0 <= float(value) <= 1.0:
-        raise TextonError(f"fade_energy must be in [0, 1] (0 keeps every MIP level), got {value!r}")
-    return float(value)
-
+#: The arguments the filters' cost hints name.
+COST_HINT_NAMES = ("supersample", "max_aniso", "fade_energy", "mni")
 
 #: What one filtered pixel costs, in raster pixels (a walk over its cells per
 #: lookup): it sizes the strips of filtered rasters and plane views.
@@ -161,9 +57,9 @@ def pixel_cost(options: FilterOptions, filtered: bool = True) -> int:
     """What one pixel costs with ``options``, in raster pixels."""
     if not filtered:
         return 1
-    if options.kind == "supersample":
+    if options.spec.supersamples:
         return POINT_COST * options.supersample ** 2
-    if options.kind == "anisotropic":
+    if options.spec.axis_lookups:
         return POINT_COST * max(1, options.max_aniso // 2)
     return POINT_COST
 
@@ -244,10 +140,11 @@ def check_jacobian(jacobian, shape) -> np.ndarray:
     J = as_real_array(jacobian, "jacobian", "an array of shape (2, 2) or (H, W, 2, 2) of numbers")
     h, w = shape
     if J.shape not in ((2, 2), (h, w, 2, 2)):
-        raise TextonError(f"jacobian must have shape (2, 2) or ({h}, {w}, 2, 2) for this raster, got {J.shape}")
+        raise TextonError(f"jacobian must have shape (2, 2) or ({h}, {w}, 2, 2) for this raster, got {J.shape}",
+                          param="jacobian")
     if not np.isfinite(J).all():
         raise TextonError(f"jacobian contains {int((~np.isfinite(J)).sum())} NaN or infinite values; "
-                          "footprints must be finite (use 0 for no filtering)")
+                          "footprints must be finite (use 0 for no filtering)", param="jacobian")
     return np.clip(J, -MAX_FOOTPRINT, MAX_FOOTPRINT)
 
 
@@ -261,7 +158,7 @@ def footprint_levels(J: np.ndarray, options: FilterOptions):
     minor = np.sqrt(np.maximum(half - disc, 0.0))
     n = np.ones(np.shape(major), int)
     width = major
-    if options.kind == "anisotropic":
+    if options.spec.axis_lookups:
         with np.errstate(divide="ignore", invalid="ignore"):
             n = np.where(major > minor * options.max_aniso, options.max_aniso, np.ceil(major / minor - 1e-4))
         n = np.maximum(np.nan_to_num(n, nan=1.0), 1).astype(int)
@@ -274,9 +171,9 @@ def footprint_levels(J: np.ndarray, options: FilterOptions):
 def needs_filtering(J: np.ndarray, options: FilterOptions) -> bool:
     """Whether ``options`` differ from the plain noise for some footprint of J:
     with one lookup at level 0 everywhere, "mip" and "anisotropic" are "none"."""
-    if options.kind == "supersample":
+    if options.spec.supersamples:
         return True
-    if options.kind == "none":
+    if not options.spec.footprint:
         return False
     n, lod = footprint_levels(J, options)
     return bool(np.any(n > 1) or np.any(lod > 0))
@@ -355,10 +252,10 @@ def filter_work(texton: Texton, setup: NoiseSetup, J: np.ndarray, options: Filte
     seen = np.isfinite(J).all(axis=(1, 2))
     share = float(seen.mean()) if J.shape[0] else 1.0
     walk = visits_per_point(setup)
-    if options.kind == "none":
-        return walk * share
-    if options.kind == "supersample":
+    if options.spec.supersamples:
         return walk * options.supersample ** 2 * share
+    if not options.spec.footprint:
+        return walk * share
     J = J[seen]
     if not J.shape[0]:
         return 0.0
@@ -390,10 +287,8 @@ def check_filter_cost(texton: Texton, setup: NoiseSetup, count: int, J: np.ndarr
     """Refuse filtering ``count`` pixels (sampled footprints ``J``) beyond the budgets."""
     check_memory(float(count) * FILTER_BYTES_PER_PIXEL, what, "use a smaller image")
     work = float(count) * filter_work(texton, setup, J, options)
-    hint = {"supersample": "use a smaller supersample, a smaller image or a lower mni",
-            "anisotropic": "use a smaller max_aniso, a larger fade_energy, a smaller image or a lower mni"}
-    check_work(work, f"{what} with filter {options.kind!r} at MNI {setup.mni:.6g}",
-               hint.get(options.kind, "use a smaller image or a lower mni"))
+    check_work(work, f"{what} with filter {options.kind!r} at MNI {setup.mni:.6g}", options.spec.cost_hint,
+               mentions=COST_HINT_NAMES)
 
 
 def filter_pixels(p, texton: Texton, setup: NoiseSetup, pixels: PixelSet, options: FilterOptions, device,
@@ -404,14 +299,14 @@ def filter_pixels(p, texton: Texton, setup: NoiseSetup, pixels: PixelSet, option
     With ``out`` (a (pixels.count,) vec3 array on ``device``) the values are
     written there and nothing is returned.
     """
-    if options.kind == "none":
-        return point_values(p, setup.coeffs, pixels.centres(0, pixels.count), device, out)
-    if options.kind == "supersample":
+    if options.spec.supersamples:
         values = supersampled(p, setup.coeffs, pixels, options.supersample, seed, device, cell_limit(setup), progress)
         if out is None:
             return values
         out.assign(values)  # averaged on the host: one upload
         return None
+    if not options.spec.footprint:
+        return point_values(p, setup.coeffs, pixels.centres(0, pixels.count), device, out)
     return filtered_points(p, texton, pixels, options, device, out)
 
 
@@ -419,7 +314,7 @@ def filtered_points(p, texton: Texton, pixels: PixelSet, options: FilterOptions,
     """(N, 3) "mip" or "anisotropic" values at the pixels' centres and footprints
     (written into ``out`` when given)."""
     f = F.Filter()
-    f.mode = F.MIP if options.kind == "mip" else F.ANISOTROPIC
+    f.mode = F.ANISOTROPIC if options.spec.axis_lookups else F.MIP
     f.max_aniso = options.max_aniso
     f.lod_bias = options.bias
     with wp.ScopedDevice(device):

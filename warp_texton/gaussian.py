@@ -132,7 +132,7 @@ def normalized_kernel(u, periodic: bool = True, name: str = "u") -> tuple[np.nda
     floor = 1e-12 * max(1.0, float(np.abs(mean).max()))
     if not np.any(np.abs(t) > floor):
         raise TextonError(f"{name}: the image is constant (its variations are below {floor:.3g}, 1e-12 of "
-                          "max(1, |mean|)); there is no variance to model")
+                          "max(1, |mean|)); there is no variance to model", param=name)
     return mean, t
 
 

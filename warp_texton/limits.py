@@ -117,11 +117,14 @@ def format_bytes(n: float) -> str:
     return f"{int(n)} bytes"
 
 
-def check_memory(nbytes: float, what: str, hint: str) -> None:
+def check_memory(nbytes: float, what: str, hint: str, *, param: str | None = None,
+                 mentions: tuple[str, ...] = ()) -> None:
     """Refuse work whose peak allocation ``nbytes`` exceeds the budget.
 
     ``what`` names the request (``"a 16384x16384 raster at MNI 16000"``),
-    ``hint`` says what to change (``"use a lower mni or a smaller raster"``).
+    ``hint`` says what to change (``"use a lower mni or a smaller raster"``);
+    ``param`` and ``mentions`` name the arguments the two speak of (``mentions=("mni",)``),
+    as :class:`TextonError` carries them.
     """
     budget = memory_budget()
     if not nbytes <= budget:  # NaN and inf are refused too
@@ -129,7 +132,8 @@ def check_memory(nbytes: float, what: str, hint: str) -> None:
         example = f"{math.ceil(nbytes / (1 << 30))}G" if math.isfinite(nbytes) else "16G"
         raise TextonError(
             f"{what} needs about {size}, over the memory budget of {format_bytes(budget)}; "
-            f"{hint} (or raise the budget with {BUDGET_ENV}, e.g. {BUDGET_ENV}={example})"
+            f"{hint} (or raise the budget with {BUDGET_ENV}, e.g. {BUDGET_ENV}={example})",
+            param, mentions=mentions,
         )
 
 
@@ -199,11 +203,13 @@ def work_log():
         _log.entries = outer
 
 
-def check_work(operations: float, what: str, hint: str) -> None:
+def check_work(operations: float, what: str, hint: str, *, param: str | None = None,
+               mentions: tuple[str, ...] = ()) -> None:
     """Refuse a request whose estimated work exceeds the work budget.
 
     ``what`` names the request (``"a 4096x4096 raster at MNI 30000"``), ``hint``
-    says what to change (``"use a lower mni or a smaller raster"``).
+    says what to change (``"use a lower mni or a smaller raster"``); ``param``
+    and ``mentions`` as for :func:`check_memory`.
     """
     entries = getattr(_log, "entries", None)
     if entries is not None:
@@ -214,5 +220,6 @@ def check_work(operations: float, what: str, hint: str) -> None:
         example = f"1e{math.ceil(math.log10(operations))}" if math.isfinite(operations) else "1e13"
         raise TextonError(
             f"{what} needs about {size} operations, over the work budget of {budget:.3g}; "
-            f"{hint} (or raise the budget with {WORK_ENV}, e.g. {WORK_ENV}={example})"
+            f"{hint} (or raise the budget with {WORK_ENV}, e.g. {WORK_ENV}={example})",
+            param, mentions=mentions,
         )

@@ -82,13 +82,13 @@ def barycentre_spectrum(tu_hat: np.ndarray, tv_hat: np.ndarray, rho: float) -> n
 def _check_rhos(rhos) -> list[float]:
     a = as_real_array(rhos, "rhos", "numbers in [0, 1]")
     if a.ndim > 1:
-        raise TextonError(f"rhos must be numbers in [0, 1] (a sequence), got an array of shape {a.shape}")
+        raise TextonError(f"rhos must be numbers in [0, 1] (a sequence), got an array of shape {a.shape}", param="rhos")
     values = [float(r) for r in np.atleast_1d(a)]
     if not values:
-        raise TextonError("rhos must hold at least one value in [0, 1]")
+        raise TextonError("rhos must hold at least one value in [0, 1]", param="rhos")
     bad = [r for r in values if not (0.0 <= r <= 1.0)]
     if bad:
-        raise TextonError(f"rhos must lie in [0, 1]; got {bad[0]!r}")
+        raise TextonError(f"rhos must lie in [0, 1]; got {bad[0]!r}", param="rhos")
     return values
 
 
@@ -102,7 +102,7 @@ def _model(x, grid, name: str, periodic: bool):
         if x.size[0] > grid[0] or x.size[1] > grid[1]:
             raise TextonError(
                 f"{name}: a {x.size[0]}x{x.size[1]} texton does not fit the {grid[0]}x{grid[1]} grid of the "
-                "other image; mix it with a larger image, or with a texton"
+                "other image; mix it with a larger image, or with a texton", param=name
             )
         t_hat = texton_half_spectrum(x, grid)
         cov = x.covariance()
@@ -225,7 +225,7 @@ def mix_textons(
     else:
         side = 2 * max(max(t.size) for t in (u, v)) + 2 * size
         grid = (side, side)
-    check_size_fits(size, grid, "u, v", "the common image size")
+    check_size_fits(size, grid, "u, v", "the common grid of both images")
     c = max(x.shape[2] if not isinstance(x, Texton) else x.channels for x in (u, v))
     check_analysis_cost(grid, c, iterations, f"mixing {len(rhos)} textons on a {grid[1]}x{grid[0]} grid",
                         textons=len(rhos), size=size)
@@ -284,11 +284,13 @@ def _check_weights(weights, shape) -> np.ndarray | None:
     if rho.ndim == 3 and rho.shape[2] == 1:
         rho = rho[:, :, 0]
     if rho.shape != tuple(shape):
-        raise TextonError(f"weights map has shape {rho.shape}; it must match the raster shape {tuple(shape)}")
+        raise TextonError(f"weights map has shape {rho.shape}; it must match the raster shape {tuple(shape)}",
+                          param="weights map")
     if not np.isfinite(rho).all():
-        raise TextonError("weights map contains NaN or infinite values; values must lie in [0, 1]")
+        raise TextonError("weights map contains NaN or infinite values; values must lie in [0, 1]", param="weights map")
     if rho.min() < 0.0 or rho.max() > 1.0:
-        raise TextonError(f"weights map values must lie in [0, 1]; found {rho.min():g} to {rho.max():g}")
+        raise TextonError(f"weights map values must lie in [0, 1]; found {rho.min():g} to {rho.max():g}",
+                          param="weights map")
     return np.ascontiguousarray(rho, dtype=np.float32)
 
 

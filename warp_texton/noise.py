@@ -75,7 +75,8 @@ def noise_setup(texton: Texton, mni: float, period=None, cell_factor: float = CE
     cell_factor = check_positive(cell_factor, "cell_factor")
     area = texton.support_area  # a mask computation: once
     if area == 0:
-        raise TextonError("texton: every coefficient is zero, so its noise is the constant mean; nothing to synthesize")
+        raise TextonError("texton: every coefficient is zero, so its noise is the constant mean; nothing to synthesize",
+                          param="texton")
     r, s = texton.size
     reach = support_reach(texton.order)
     lo = (-reach, -reach)
@@ -83,7 +84,7 @@ def noise_setup(texton: Texton, mni: float, period=None, cell_factor: float = CE
     side = cell_factor * max(hi[0] - lo[0], hi[1] - lo[1])
     if not 0.0 < float(np.float32(side)) < math.inf:
         raise TextonError(f"cell_factor {cell_factor:g} makes cells of {side:.3g} texels, which float32 cannot "
-                          f"hold; use a cell_factor near the default {CELL_FACTOR}")
+                          f"hold; use a cell_factor near the default {CELL_FACTOR}", param="cell_factor")
     if period is None:
         cell = (side, side)
         period_cells = (0, 0)
@@ -95,8 +96,9 @@ def noise_setup(texton: Texton, mni: float, period=None, cell_factor: float = CE
             raise TextonError(
                 f"period ({px:.6g}, {py:.6g}) texels spans {px / side:.4g} x {py / side:.4g} noise cells of "
                 f"{side:.3g} texels; "
-                f"a period can span at most 2**30 cells, i.e. {MAX_CELL_INDEX * side:.4g} texels for this "
-                "texton and cell_factor (the noise is defined within that range anyway); use a smaller period"
+                f"periods span at most 2**30 cells, i.e. {MAX_CELL_INDEX * side:.4g} texels for this "
+                "texton and cell_factor (the noise is defined within that range anyway); use a smaller period",
+                param="period", mentions=("period",),
             )
         nx = max(1, round(px / side))
         ny = max(1, round(py / side))
@@ -108,19 +110,20 @@ def noise_setup(texton: Texton, mni: float, period=None, cell_factor: float = CE
         cell = tuple(float(np.float32(c)) for c in cell)
     if not all(0.0 < c < math.inf for c in cell):  # a period far below a texel
         raise TextonError(f"period {period!r} makes cells of {cell[0]:.3g} x {cell[1]:.3g} texels, which float32 "
-                          "cannot hold; use a period of at least a texel")
+                          "cannot hold; use a period of at least a texel", param="period")
     lam = mni / area
     per_point = (math.ceil((hi[0] - lo[0]) / cell[0]) + 1) * (math.ceil((hi[1] - lo[1]) / cell[1]) + 1)
     if per_point > MAX_CELLS_PER_POINT:
         raise TextonError(
             f"cells of {cell[0]:.3g} x {cell[1]:.3g} texels are too small for a texton support of "
             f"{hi[0] - lo[0]:g} x {hi[1] - lo[1]:g}: each point would visit {per_point} cells "
-            f"(at most {MAX_CELLS_PER_POINT}); use a larger cell_factor or period"
+            f"(at most {MAX_CELLS_PER_POINT}); use a larger cell_factor or period", mentions=("cell_factor", "period")
         )
     if lam * cell[0] * cell[1] > MAX_CELL_MEAN:
         raise TextonError(
             f"mni {mni:g} with cell_factor {cell_factor:g} makes cells hold {lam * cell[0] * cell[1]:.3g} impacts "
-            f"on average (at most {MAX_CELL_MEAN:g}); use a lower mni or a smaller cell_factor (default {CELL_FACTOR})"
+            f"on average (at most {MAX_CELL_MEAN:g}); use a lower mni or a smaller cell_factor (default {CELL_FACTOR})",
+            param="mni", mentions=("mni", "cell_factor")
         )
     return NoiseSetup(lam, cell, period_cells, lo, hi, padded_coeffs(texton), mni)
 
@@ -151,11 +154,11 @@ def check_period(period) -> tuple[float, float]:
 
 def _pair(value, name: str, what: str):
     if isinstance(value, (str, bytes)):
-        raise TextonError(f"{name} must be a pair {what}, got {value!r:.60}")
+        raise TextonError(f"{name} must be a pair {what}, got {value!r:.60}", param=name)
     try:
         a, b = value
     except Exception:  # not iterable, wrong length
-        raise TextonError(f"{name} must be a pair {what}, got {value!r:.60}") from None
+        raise TextonError(f"{name} must be a pair {what}, got {value!r:.60}", param=name) from None
     return a, b
 
 
@@ -201,7 +204,8 @@ def lookup_cost(order: int, on_grid: bool) -> float:
 def check_points_cost(setup: NoiseSetup, count: int, what: str) -> None:
     """The budget check of a call that evaluates ``count`` points, one walk each."""
     check_memory(count * POINT_BYTES, what, "use fewer points")
-    check_work(count * visits_per_point(setup), f"{what} at MNI {setup.mni:.6g}", "use fewer points or a lower mni")
+    check_work(count * visits_per_point(setup), f"{what} at MNI {setup.mni:.6g}", "use fewer points or a lower mni",
+               mentions=("mni",))
 
 
 def cell_limit(setup: NoiseSetup) -> float:

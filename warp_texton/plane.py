@@ -43,9 +43,9 @@ class PlaneView:
         self.texel_size = check_positive(texel_size, "texel_size")
         tilt, fov = check_real(tilt, "tilt"), check_real(fov, "fov")
         if not (0.0 <= tilt < 90.0):
-            raise TextonError(f"tilt must be in [0, 90) degrees (0 looks straight down), got {tilt!r}")
+            raise TextonError(f"tilt must be in [0, 90) degrees (0 looks straight down), got {tilt!r}", param="tilt")
         if not (0.0 < fov < 180.0):
-            raise TextonError(f"fov must be in (0, 180) degrees, got {fov!r}")
+            raise TextonError(f"fov must be in (0, 180) degrees, got {fov!r}", param="fov")
         self.tilt, self.fov = tilt, fov
         h, _ = self.shape
         self.focal = (h / 2.0) / math.tan(math.radians(fov) / 2.0)
@@ -171,7 +171,7 @@ def render_plane(
     device = resolve_device(device)
     check_plane_cost(texton, setup, view, None, options)
     check_memory(result_bytes(1, h, w, texton.channels, device, output) + h * w * 16,
-                 f"a {h}x{w} plane view", "use a smaller shape")
+                 f"a {h}x{w} plane view", "use a smaller shape", mentions=("shape",))
     canvas = Canvas((h, w), device)
     parts = strips(h, w, pixel_cost(options, True))
     bar = progress_bar(progress and len(parts) > 1, h, "render-plane", "row")
@@ -207,8 +207,7 @@ def plane_pixels(texton: Texton, view: PlaneView, pixels, *, mni: float = 30.0, 
     limit = cell_limit(setup)
     hit = np.isfinite(centre).all(axis=1) & (np.abs(centre) < limit).all(axis=1)
     idx = np.flatnonzero(hit)
-    wants_footprints = options.kind in ("mip", "anisotropic")
-    seen = PlanePixels(view, keys[idx], np.ascontiguousarray(centre[idx]), wants_footprints)
+    seen = PlanePixels(view, keys[idx], np.ascontiguousarray(centre[idx]), options.spec.footprint)
     if out is not None:
         fill_pixels(out, idx, params_mean(p), device,
                     lambda target: filter_pixels(p, texton, setup, seen, options, device, seed, progress, target))

@@ -59,7 +59,7 @@ def raster_geometry(shape, scale, rotation, offset):
     scale = check_positive(scale, "scale")
     if scale > MAX_SCALE:
         raise TextonError(f"scale must be at most {MAX_SCALE:g} pixels per texel (float32 positions cannot "
-                          f"resolve finer pixels), got {scale:g}")
+                          f"resolve finer pixels), got {scale:g}", param="scale")
     rotation = check_real(rotation, "rotation")
     ox, oy = check_pair(offset, "offset")
     th = math.radians(rotation)
@@ -68,7 +68,7 @@ def raster_geometry(shape, scale, rotation, offset):
         step = rot / scale  # columns: noise step per pixel along x (j) and along y (i)
     h, w = shape
     if not np.isfinite(step).all() or not np.isfinite(step * max(h, w)).all():
-        raise TextonError(f"scale {scale!r} is too small: pixel positions overflow")
+        raise TextonError(f"scale {scale!r} is too small: pixel positions overflow", param="scale")
     return np.array([ox, oy]), step
 
 
@@ -152,7 +152,7 @@ def window_block(win: RasterWindow, shape):
     if ncx * ncy > MAX_CELLS:
         raise TextonError(
             f"scale {win.scale} makes this {h}x{w} raster cover {ncx * ncy} noise cells "
-            f"(at most {MAX_CELLS}); use a larger scale or a smaller raster"
+            f"(at most {MAX_CELLS}); use a larger scale or a smaller raster", param="scale", mentions=("scale",)
         )
     return cx0, cy0, ncx, ncy
 
@@ -172,7 +172,7 @@ def raster_impacts(windows, shape, blocks=None) -> float:
     if bound > MAX_IMPACTS:
         raise TextonError(
             f"this raster needs about {expected:.3g} impacts (at most {MAX_IMPACTS}); "
-            "use a lower mni, a larger scale or a smaller raster"
+            "use a lower mni, a larger scale or a smaller raster", mentions=("mni", "scale")
         )
     return bound
 
@@ -206,13 +206,15 @@ def raster_cost(windows, shape, stack: TextonStack, *, blocks=None, marked: bool
 
 def check_raster_cost(nbytes: float, work: float, what: str,
                       memory_hint: str = "use a smaller raster, a larger scale or a lower mni",
-                      work_hint: str = "use a smaller raster or a lower mni") -> None:
+                      work_hint: str = "use a smaller raster or a lower mni",
+                      mentions: tuple[str, ...] = ("scale", "mni")) -> None:
     """The budget check of a call that makes rasters, once per call: ``nbytes`` (its
     output and its largest pass's :func:`raster_cost`) and ``work`` (all its passes).
     Work first: at a high MNI both are over, and the work's hint names the mni,
-    which brings both down."""
-    check_work(work, what, work_hint)
-    check_memory(nbytes, what, memory_hint)
+    which brings both down. ``mentions``: the argument names the hints speak of
+    (see :class:`TextonError`)."""
+    check_work(work, what, work_hint, mentions=mentions)
+    check_memory(nbytes, what, memory_hint, mentions=mentions)
 
 
 def check_method(method) -> str:

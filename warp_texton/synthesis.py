@@ -25,6 +25,7 @@ from ._runtime import progress_bar, resolve_device
 from .canvas import Canvas, check_output, result_bytes, strips
 from .errors import TextonError
 from .filtering import (
+    COST_HINT_NAMES,
     COST_SAMPLES,
     FILTER_BYTES_PER_PIXEL,
     FilterOptions,
@@ -65,9 +66,6 @@ if TYPE_CHECKING:
 
 #: Pixel windows are placed with int32 indices in the kernels.
 MAX_PIXEL_INDEX = 1 << 30
-#: What to make smaller when a filter's work is over the budget, besides the
-#: raster and the mni.
-FILTER_KNOBS = {"supersample": "supersample", "anisotropic": "max_aniso"}
 
 
 def check_pixel_offset(pixel_offset) -> tuple[int, int]:
@@ -359,7 +357,7 @@ def synthesize(
         work = filtered_work(texton, setup, J, options, h * w)
         strip_bytes = strip[0] * w * FILTER_BYTES_PER_PIXEL
         what = f"a {w}x{h} raster with filter {options.kind!r} at MNI {setup.mni:.6g}"
-        hint = filter_hint(options)
+        hint = options.spec.cost_hint
         blocks = None
     else:
         method = resolve_method(method, device)
@@ -371,7 +369,7 @@ def synthesize(
             blocks = None
     check_raster_cost(result_bytes(1, h, w, texton.channels, device, output) + strip_bytes, work, what,
                       "use a smaller shape, or warp_texton.dask.synthesize_dask (or the CLI's .zarr output) "
-                      "for rasters larger than memory", hint)
+                      "for rasters larger than memory", hint, mentions=("shape", *COST_HINT_NAMES))
     p = params_struct(rec) if filtered else rec
     canvas = Canvas((h, w), device)
     rows = canvas.rows(w)
@@ -494,8 +492,3 @@ def filtered_work(texton: Texton, setup: NoiseSetup, J: np.ndarray, options: Fil
     sample = J[np.linspace(0, len(J) - 1, min(len(J), COST_SAMPLES)).astype(np.int64)]
     return count * filter_work(texton, setup, sample, options)
 
-
-def filter_hint(options: FilterOptions) -> str:
-    """What to change when filtering with ``options`` is over the work budget."""
-    knob = FILTER_KNOBS.get(options.kind)
-    return f"use a smaller {knob}, a smaller raster or a lower mni" if knob else "use a smaller raster or a lower mni"

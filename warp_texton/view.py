@@ -32,8 +32,10 @@ import numpy as np
 
 from ._version import __version__
 from .errors import TextonError
-from .view_core import (MAX_UPLOAD_BYTES, MNI_RANGE, ORDERS, PNG_LEVEL, TEXTON_SIZES, VIEW_FILTERS, Analysis,
-                        BadRequest, ClientGone, Noise, Query, Viewer, digest)
+from .view_core import ClientGone, Viewer
+from .view_images import PNG_LEVEL
+from .view_inputs import MAX_UPLOAD_BYTES, digest
+from .view_query import MNI_RANGE, ORDERS, TEXTON_SIZES, VIEW_FILTERS, Analysis, BadRequest, Noise, Query
 
 LOOPBACK = ("127.0.0.1", "localhost", "::1")
 STATIC = {"/": ("index.html", "text/html; charset=utf-8"),
@@ -265,18 +267,44 @@ class ViewerHandle:
 
 def _check_port(port) -> int:
     if isinstance(port, bool) or not isinstance(port, (int, np.integer)) or not 0 <= int(port) <= 65535:
-        raise TextonError(f"port must be an integer in [0, 65535] (0: any free port), got {port!r}")
+        raise TextonError(f"port must be an integer in [0, 65535] (0: any free port), got {port!r}", param="port")
     return int(port)
 
 
 def _check_host(host) -> tuple[str, int]:
     if not isinstance(host, str) or not host or any(c.isspace() for c in host):
-        raise TextonError(f"host must be a host name or IP address, e.g. 127.0.0.1, got {host!r}")
+        raise TextonError(f"host must be a host name or IP address, e.g. 127.0.0.1, got {host!r}", param="host")
     try:
         infos = socket.getaddrinfo(host, None, type=socket.SOCK_STREAM)
     except (socket.gaierror, UnicodeError):
-        raise TextonError(f"host {host!r} does not resolve to an address of this machine") from None
+        raise TextonError(f"host {host!r} does not resolve to an address of this machine", param="host") from None
     return host, infos[0][0]
+
+
+def _cache_bytes(cache_mb) -> int:
+    try:
+        cache_bytes = int(float(cache_mb) * (1 << 20))
+    except (TypeError, ValueError):
+        raise TextonError(f"cache_mb must be a number >= 0, got {cache_mb!r}", param="cache_mb") from None
+    if cache_bytes < 0:
+        raise TextonError(f"cache_mb must be a number >= 0, got {cache_mb!r}", param="cache_mb")
+    return cache_bytes
+
+
+def _start_settings(size, order, color_correction, seed, mni, filter) -> tuple[Analysis, Noise]:
+    """The page's start settings, within the bounds its requests have."""
+    if filter not in VIEW_FILTERS:
+        raise TextonError(f"filter must be one of {', '.join(VIEW_FILTERS)}, got {filter!r}", param="filter")
+    if isinstance(mni, bool) or not isinstance(mni, (int, float)) or not MNI_RANGE[0] <= mni <= MNI_RANGE[1]:
+        raise TextonError(f"mni must be a number in [{MNI_RANGE[0]:g}, {MNI_RANGE[1]:g}], got {mni!r}", param="mni")
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**32:
+        raise TextonError(f"seed must be an integer in [0, 2**32), got {seed!r}", param="seed")
+    if isinstance(size, bool) or not isinstance(size, int) or not TEXTON_SIZES[0] <= size <= TEXTON_SIZES[1]:
+        raise TextonError(f"size must be an integer in [{TEXTON_SIZES[0]}, {TEXTON_SIZES[1]}], got {size!r}",
+                          param="size")
+    if order not in ORDERS or isinstance(order, bool):
+        raise TextonError(f"order must be one of {', '.join(map(str, ORDERS))}, got {order!r}", param="order")
+    return Analysis(size, order, bool(color_correction)), Noise(seed, float(mni), 0.0, filter)
 
 
 def serve(input, *, port: int = 8000, host: str = "127.0.0.1", device=None, mix=None, size: int = 64,
@@ -341,25 +369,11 @@ def serve(input, *, port: int = 8000, host: str = "127.0.0.1", device=None, mix=
     port = _check_port(port)
     host, family = _check_host(host)
     if isinstance(slots, bool) or not isinstance(slots, int) or not 1 <= slots <= 64:
-        raise TextonError(f"slots must be an integer in [1, 64], got {slots!r}")
-    try:
-        cache_bytes = int(float(cache_mb) * (1 << 20))
-    except (TypeError, ValueError):
-        raise TextonError(f"cache_mb must be a number >= 0, got {cache_mb!r}") from None
-    if cache_bytes < 0:
-        raise TextonError(f"cache_mb must be a number >= 0, got {cache_mb!r}")
+        raise TextonError(f"slots must be an integer in [1, 64], got {slots!r}", param="slots")
+    cache_bytes = _cache_bytes(cache_mb)
     if isinstance(png_level, bool) or not isinstance(png_level, int) or not 0 <= png_level <= 9:
-        raise TextonError(f"png_level must be an integer in [0, 9], got {png_level!r}")
-    if filter not in VIEW_FILTERS:
-        raise TextonError(f"filter must be one of {', '.join(VIEW_FILTERS)}, got {filter!r}")
-    if isinstance(mni, bool) or not isinstance(mni, (int, float)) or not MNI_RANGE[0] <= mni <= MNI_RANGE[1]:
-        raise TextonError(f"mni must be a number in [{MNI_RANGE[0]:g}, {MNI_RANGE[1]:g}], got {mni!r}")
-    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**32:
-        raise TextonError(f"seed must be an integer in [0, 2**32), got {seed!r}")
-    if isinstance(size, bool) or not isinstance(size, int) or not TEXTON_SIZES[0] <= size <= TEXTON_SIZES[1]:
-        raise TextonError(f"size must be an integer in [{TEXTON_SIZES[0]}, {TEXTON_SIZES[1]}], got {size!r}")
-    if order not in ORDERS or isinstance(order, bool):
-        raise TextonError(f"order must be one of {', '.join(map(str, ORDERS))}, got {order!r}")
+        raise TextonError(f"png_level must be an integer in [0, 9], got {png_level!r}", param="png_level")
+    analysis, noise = _start_settings(size, order, color_correction, seed, mni, filter)
     if host not in LOOPBACK:
         warnings.warn(f"serving on {host}: anyone who can reach this address can use the viewer "
                       "(no authentication); SSH port forwarding keeps it private (docs/viewer.md)", stacklevel=2)
@@ -369,11 +383,11 @@ def serve(input, *, port: int = 8000, host: str = "127.0.0.1", device=None, mix=
         server = server_class((host, port), _Handler)
     except OSError as exc:
         reason = "is in use" if exc.errno in (98, 48, 10048) else f"cannot be used ({exc.strerror or exc})"
-        raise TextonError(f"port {port} on {host} {reason}; choose another with --port (0: any free port)") from None
+        raise TextonError(f"port {port} on {host} {reason}; choose another with --port (0: any free port)",
+                          param="port") from None
     try:
-        viewer = Viewer(input, mix=mix, device=device, analysis=Analysis(size, order, bool(color_correction)),
-                        noise=Noise(seed, float(mni), 0.0, filter), slots=slots, cache_bytes=cache_bytes,
-                        png_level=png_level)
+        viewer = Viewer(input, mix=mix, device=device, analysis=analysis, noise=noise, slots=slots,
+                        cache_bytes=cache_bytes, png_level=png_level)
     except BaseException:
         server.server_close()
         raise

@@ -421,6 +421,11 @@
     $("seed").value = state.seed;
     $("mni").min = Math.max(1, Math.ceil(info.bounds.mni[0]));
     $("mni").value = state.mni;
+    for (const f of info.bounds.filters) {  // the server's registry of filters: names and what each does
+      const option = new Option(f, f);
+      option.title = info.filter_notes[f];
+      $("filter").add(option);
+    }
     $("filter").value = state.filter;
     const sizes = $("size");
     const largest = info.input_size ? Math.floor((Math.min(...info.input_size) + 1) / 2) : info.bounds.texton_size[1];

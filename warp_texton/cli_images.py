@@ -1,0 +1,338 @@
+"""The commands of ``warp-texton`` that write images: ``analyze``, ``gaussian``,
+``synthesize``, ``render-plane``, ``mix`` and ``demo``.
+
+Each command's arguments and handler stand together, then its :class:`Command`
+record; the library modules are imported inside the handlers, so that
+``--help`` does not start Warp.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from .cli_options import (ANALYSIS_NAMES, FILTER_NAMES, NOISE_IMAGE_NAMES, SHAPE_NAMES, Command,
+                          add_analysis_options, add_filter_options, add_format_options, add_noise_image_options,
+                          add_run_options, dtype_of, filter_options, input_file, seconds_since, texton_of)
+from .errors import TextonError
+
+
+# ------------------------------------------------------------------ analyze
+def _analyze_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("input", help="example image (PNG, JPEG, EXR...)")
+    p.add_argument("-o", "--output", required=True, help="output texton: OUT.exr or OUT.texton")
+    add_analysis_options(p)
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar or summary")
+
+
+def _analyze(args) -> None:
+    from .analysis import analyze
+    from .io import read_image
+
+    out = Path(args.output)
+    if out.suffix.lower() not in (".exr", ".texton"):
+        raise TextonError(f"{out}: unsupported texton extension {out.suffix or '(none)'!r}; use .exr or .texton")
+    u = read_image(args.input)
+    t0 = time.perf_counter()
+    texton = analyze(u, size=args.size, order=args.order, iterations=args.iterations, seed=args.seed,
+                     periodic=args.periodic, color_correction=args.color_correction,
+                     support=args.support, progress=not args.quiet)
+    texton.metadata["source"] = Path(args.input).name
+    texton.save(out)
+    if not args.quiet:
+        print(f"{out}: {texton.size[0]}x{texton.size[1]} texton, order {texton.order}, "
+              f"model error {texton.metadata['model_error']:.3f} ({seconds_since(t0)})")
+
+
+ANALYZE = Command(
+    "analyze", "compute the texton of an example image",
+    "Compute the texton of an example image (EUSIPCO Alg. 2 / CGF Alg. 1) and save it as EXR or as a "
+    "reference-viewer .texton file.",
+    _analyze_arguments, _analyze, ANALYSIS_NAMES, input_file,
+    epilog="""examples:
+  warp-texton analyze wood.png -o wood.exr
+  warp-texton analyze wood.png -o wood.texton --size 32 --order 1
+""")
+
+
+# ------------------------------------------------------------------ gaussian
+def _gaussian_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("input", help="example image")
+    p.add_argument("-o", "--output", required=True, help="output image: .png, .jpg or .exr")
+    p.add_argument("--width", type=int, help="output width (default: the input's)")
+    p.add_argument("--height", type=int, help="output height (default: the input's)")
+    p.add_argument("--seed", type=int, default=0, help="random seed")
+    p.add_argument("--no-periodic", dest="periodic", action="store_false",
+                   help="model the image itself, not its periodic component")
+
+
+def _gaussian(args) -> None:
+    from .gaussian import gaussian_texture
+    from .io import check_image_path, read_image, write_image
+
+    out = check_image_path(args.output)
+    u = read_image(args.input)
+    shape = (u.shape[0] if args.height is None else args.height, u.shape[1] if args.width is None else args.width)
+    write_image(out, gaussian_texture(u, shape=shape, seed=args.seed, periodic=args.periodic))
+
+
+GAUSSIAN = Command(
+    "gaussian", "sample the Gaussian model of an image (FFT)",
+    "Sample the Gaussian texture model of an image by FFT (ADSN). At the input's own size the result tiles "
+    "seamlessly.",
+    _gaussian_arguments, _gaussian, {**SHAPE_NAMES, "seed": "--seed"}, input_file,
+    epilog="""examples:
+  warp-texton gaussian wood.png -o wood_gaussian.png
+  warp-texton gaussian wood.png -o big.exr --width 1024 --height 768 --seed 3
+""")
+
+
+# ------------------------------------------------------------------ synthesize
+def _synthesize_arguments(p: argparse.ArgumentParser) -> None:
+    add_noise_image_options(p, "raster", zarr=True)
+    p.add_argument("--scale", type=float, default=1.0, help="pixels per texel")
+    p.add_argument("--rotation", type=float, default=0.0, help="rotation of the noise, degrees")
+    p.add_argument("--offset", type=float, nargs=2, default=(0.0, 0.0), metavar=("X", "Y"),
+                   help="noise position of the raster's top-left corner, texels")
+    p.add_argument("--period", type=float, nargs=2, metavar=("PX", "PY"),
+                   help="make the noise periodic (texels): a seamless tile")
+    add_filter_options(p, default="none")
+    add_run_options(p)
+    add_format_options(p, zarr=True)
+    add_analysis_options(p, seed=False)
+
+
+def _synthesize(args) -> None:
+    from .io import check_dtype, check_image_path, write_image
+    from .synthesis import synthesize
+
+    out = Path(args.output)
+    dtype = dtype_of(args)
+    if out.suffix.lower() == ".zarr":
+        return _synthesize_zarr(args, out, dtype)
+    zarr_only = [name for name, value in (("--chunk", args.chunk), ("--workers", args.workers),
+                                          ("--overwrite", args.overwrite or None),
+                                          ("--scheduler", None if args.scheduler == "threads" else args.scheduler))
+                 if value is not None]
+    if zarr_only:
+        raise TextonError(f"{', '.join(zarr_only)} apply to .zarr outputs only")
+    out = check_image_path(out)
+    check_dtype(out, dtype)
+    options = filter_options(args)
+    t0 = time.perf_counter()
+    texton = texton_of(args)
+    noise = synthesize(texton, shape=(args.height, args.width), mni=args.mni, seed=args.seed, scale=args.scale,
+                       rotation=args.rotation, offset=tuple(args.offset), period=args.period, device=args.device,
+                       filter=options, progress=not args.quiet)
+    write_image(out, noise, dtype=dtype, compression=args.compression)
+    if not args.quiet:
+        print(f"{out}: {args.width}x{args.height} texton noise, MNI {args.mni:g} ({seconds_since(t0)})")
+
+
+def _zarr_chunk(args, h: int, w: int, default: int) -> tuple[int, int]:
+    """The (rows, columns) of a chunk: --chunk, or ``default``, at most the raster's."""
+    if args.chunk is None:
+        return min(default, h), min(default, w)
+    if args.chunk < 1:
+        raise TextonError(f"--chunk must be a positive number of pixels, got {args.chunk}")
+    if args.chunk > max(h, w):
+        raise TextonError(f"--chunk {args.chunk} exceeds the {w}x{h} raster; use at most {max(h, w)}")
+    return min(args.chunk, h), min(args.chunk, w)
+
+
+def _synthesize_zarr(args, out: Path, dtype) -> None:
+    """synthesize -o NAME.zarr: the raster written chunk by chunk (warp_texton.dask)."""
+    try:
+        from .dask import CHUNK, ZARR_DTYPE, ZARR_DTYPES, check_big_shape, check_scheduler, write_zarr
+    except ImportError:
+        raise TextonError('.zarr outputs need Dask and Zarr: pip install "warp-texton[dask]"') from None
+    check_scheduler(args.scheduler)
+    if dtype is not None and dtype not in ZARR_DTYPES:
+        raise TextonError(f"--dtype for a Zarr store must be one of {', '.join(ZARR_DTYPES)}, got {dtype}")
+    if args.workers is not None and args.workers < 1:
+        raise TextonError(f"--workers must be at least 1, got {args.workers}")
+    if args.compression is not None:
+        raise TextonError("--compression applies to .exr and .tif outputs; Zarr chunks are zstd-compressed")
+    if out.exists() and not args.overwrite:
+        raise TextonError(f"{out}: exists; give --overwrite to replace it")
+    h, w = check_big_shape((args.height, args.width))
+    chunk = _zarr_chunk(args, h, w, CHUNK)
+    t0 = time.perf_counter()
+    texton = texton_of(args)
+    report = write_zarr(out, texton, (h, w), chunk, dtype or ZARR_DTYPE, scheduler=args.scheduler,
+                        workers=args.workers, overwrite=args.overwrite, progress=not args.quiet,
+                        mni=args.mni, seed=args.seed, scale=args.scale, rotation=args.rotation,
+                        offset=tuple(args.offset), period=args.period, device=args.device,
+                        filter=filter_options(args))
+    if not args.quiet:
+        print(f"{out}: {w}x{h} texton noise, MNI {args.mni:g}, {report['dtype']} Zarr in chunks of "
+              f"{chunk[0]}x{chunk[1]} ({seconds_since(t0)})")
+
+
+SYNTHESIZE = Command(
+    "synthesize", "texton noise on a raster (Warp kernels)",
+    "Evaluate texton noise on a raster with the Warp kernels. INPUT is a texton (.texton, or an EXR written by "
+    "'analyze') or an example image, which is analysed first with the analysis options.",
+    _synthesize_arguments, _synthesize,
+    {**NOISE_IMAGE_NAMES, **FILTER_NAMES, **ANALYSIS_NAMES, "scale": "--scale", "rotation": "--rotation",
+     "offset[0]": "--offset X", "offset[1]": "--offset Y", "offset": "--offset",
+     "period[0]": "--period PX", "period[1]": "--period PY", "period": "--period"},
+    input_file,
+    epilog="""examples:
+  warp-texton synthesize wood.exr -o noise.png --width 1920 --height 1080
+  warp-texton synthesize wood.png -o tile.exr --width 512 --height 512 --period 512 512
+  warp-texton synthesize wood.texton -o far.png --scale 0.25 --rotation 30 --mni 10
+  warp-texton synthesize wood.texton -o far_aa.png --scale 0.1 --filter anisotropic
+  warp-texton synthesize wood.texton -o wood16.png --dtype uint16
+  warp-texton synthesize wood.texton -o big.zarr --width 65536 --height 65536 --chunk 4096 --dtype uint8
+  warp-texton synthesize wood.texton -o big.zarr --width 65536 --height 65536 --scheduler tcp://10.0.0.5:8786
+""")
+
+
+# ------------------------------------------------------------------ render-plane
+def _render_plane_arguments(p: argparse.ArgumentParser) -> None:
+    add_noise_image_options(p, "image")
+    p.add_argument("--camera-height", type=float, default=1.0, help="camera height above the plane, world units")
+    p.add_argument("--tilt", type=float, default=70.0,
+                   help="degrees between the view direction and straight down (0: straight down)")
+    p.add_argument("--fov", type=float, default=40.0, help="vertical field of view, degrees")
+    p.add_argument("--texel-size", type=float, default=0.002, help="world units per texel")
+    add_filter_options(p, default="anisotropic")
+    add_run_options(p)
+    add_format_options(p)
+    add_analysis_options(p, seed=False)
+
+
+def _render_plane(args) -> None:
+    from .io import check_dtype, check_image_path, write_image
+    from .plane import render_plane
+
+    out = check_image_path(args.output)
+    dtype = check_dtype(out, dtype_of(args))
+    options = filter_options(args)
+    t0 = time.perf_counter()
+    texton = texton_of(args)
+    image = render_plane(texton, (args.height, args.width), height=args.camera_height, tilt=args.tilt,
+                         fov=args.fov, texel_size=args.texel_size, mni=args.mni, seed=args.seed,
+                         filter=options, device=args.device, progress=not args.quiet)
+    write_image(out, image, dtype=dtype, compression=args.compression)
+    if not args.quiet:
+        print(f"{out}: {args.width}x{args.height} plane, filter {args.filter}, MNI {args.mni:g} "
+              f"({seconds_since(t0)})")
+
+
+RENDER_PLANE = Command(
+    "render-plane", "an infinite textured ground plane in perspective",
+    "Render an infinite ground plane covered with texton noise, seen in perspective (CGF Fig. 3), with the "
+    "texton filtered for each pixel's footprint (CGF section 5). INPUT is a texton file or an example image.",
+    _render_plane_arguments, _render_plane,
+    {**NOISE_IMAGE_NAMES, **FILTER_NAMES, **ANALYSIS_NAMES,
+     "height (the camera's height above the plane)": "--camera-height", "tilt": "--tilt", "fov": "--fov",
+     "texel_size": "--texel-size"},
+    input_file,
+    epilog="""examples:
+  warp-texton render-plane wood.exr -o plane.png --width 1024 --height 1024
+  warp-texton render-plane wood.texton -o plane_mip.png --filter mip --tilt 80 --texel-size 0.002
+  warp-texton render-plane wood.exr -o reference.exr --filter supersample --supersample 20
+""")
+
+
+# ------------------------------------------------------------------ mix
+def _mix_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("a", metavar="A", help="first texture: image or texton")
+    p.add_argument("b", metavar="B", help="second texture: image or texton")
+    p.add_argument("-o", "--output", required=True, help="output image: .png, .jpg or .exr")
+    p.add_argument("--steps", type=int, default=21, help="number of textons from A to B (>= 2)")
+    p.add_argument("--map", help="grey image of rho in [0, 1] (black = A, white = B); default: strips")
+    p.add_argument("--width", type=int, help="raster width (default: the map's, else 1024)")
+    p.add_argument("--height", type=int, help="raster height (default: the map's, else 256)")
+    p.add_argument("--mni", type=float, default=30.0, help="mean number of impacts per point")
+    p.add_argument("--seed", type=int, default=0, help="random seed (analysis and noise)")
+    add_run_options(p)
+    add_analysis_options(p, seed=False)
+
+
+def _load_texture(path):
+    from .io import read_image
+    from .texton import is_texton_path, load_texton
+
+    return load_texton(path) if is_texton_path(path) else read_image(path)
+
+
+def _mix_weights(args):
+    """(weights, shape): the --map's grey values and its shape, or strips."""
+    from .io import read_image
+
+    if args.map is None:
+        return "strips", (256 if args.height is None else args.height, 1024 if args.width is None else args.width)
+    weights = read_image(args.map).mean(axis=2)
+    shape = (weights.shape[0] if args.height is None else args.height,
+             weights.shape[1] if args.width is None else args.width)
+    if shape != weights.shape:
+        raise TextonError(f"--map is {weights.shape[1]}x{weights.shape[0]}; --width/--height must match it "
+                          f"(got {shape[1]}x{shape[0]})")
+    return weights, shape
+
+
+def _mix(args) -> None:
+    import numpy as np
+
+    from .io import check_image_path, write_image
+    from .limits import check_memory
+    from .mixing import mix_textons, synthesize_mixed
+
+    out = check_image_path(args.output)
+    if args.steps < 2:
+        raise TextonError(f"--steps must be at least 2, got {args.steps}")
+    check_memory(16.0 * args.steps, f"--steps {args.steps}", "use fewer --steps")  # before the list of rhos
+    weights, shape = _mix_weights(args)
+    t0 = time.perf_counter()
+    textons = mix_textons(_load_texture(args.a), _load_texture(args.b), np.linspace(0.0, 1.0, args.steps),
+                          size=args.size, order=args.order, seed=args.seed, iterations=args.iterations,
+                          periodic=args.periodic, color_correction=args.color_correction,
+                          support=args.support, progress=not args.quiet)
+    noise = synthesize_mixed(textons, weights, shape, mni=args.mni, seed=args.seed, device=args.device)
+    write_image(out, noise)
+    if not args.quiet:
+        print(f"{out}: {shape[1]}x{shape[0]} mix of {args.steps} textons ({seconds_since(t0)})")
+
+
+def _mix_files(args) -> dict[str, str]:
+    return {"u, v": f"{args.a}, {args.b}", "u": args.a, "v": args.b}
+
+
+MIX = Command(
+    "mix", "progressive mix of two textures (texton noise)",
+    "Mix two textures along the optimal-transport path between their Gaussian models (CGF §7): textons for "
+    "--steps values of rho from A to B, then spatially varying texton noise, across the width in strips or "
+    "driven by a grey map (black = A, white = B). A and B are images or textons.",
+    _mix_arguments, _mix,
+    {**NOISE_IMAGE_NAMES, **ANALYSIS_NAMES, "weights map": "--map", "weights": "--map", "rhos": "--steps"},
+    _mix_files,
+    epilog="""examples:
+  warp-texton mix wood.png marble.png -o mix.png --steps 21 --width 2048 --height 256
+  warp-texton mix wood.exr marble.texton -o mix.exr --map mask.png
+""")
+
+
+# ------------------------------------------------------------------ demo
+def _demo_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("-o", "--out-dir", default="demo_out", help="folder to write into")
+    p.add_argument("--seed", type=int, default=0, help="random seed")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+
+
+def _demo(args) -> None:
+    from .demo import run_demo
+
+    for path in run_demo(args.out_dir, seed=args.seed, progress=not args.quiet):
+        if not args.quiet:
+            print(path)
+
+
+DEMO = Command(
+    "demo", "analyse the bundled texture and write pictures",
+    "Analyse a small CC0 texture shipped with the package and write the input, its Gaussian version, the "
+    "texton (and the noise) as PNG and EXR.",
+    _demo_arguments, _demo, {"seed": "--seed"})

@@ -1,0 +1,215 @@
+"""What the commands of ``warp-texton`` share: the command record, the option
+groups several commands take (each with the library arguments its options
+set), and the library's errors in the command line's words.
+
+A command (:class:`Command`) is its arguments and its handler side by side,
+plus ``names``: the library arguments its options set (``"mni"`` ->
+``"--mni"``). A :class:`~warp_texton.TextonError` says which argument it is
+about (``param``) and which others its message speaks of (``mentions``); the
+command line puts the option, or the file given for an input, in their place
+(:func:`in_cli_words`). Nothing here imports Warp: ``--help`` and usage errors
+stay quick.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+
+from .errors import TextonError
+from .filter_options import FADE_ENERGY, FILTERS, MAX_ANISO, SUPERSAMPLE, FilterKind
+
+
+def no_files(args: argparse.Namespace) -> dict[str, str]:
+    return {}
+
+
+def input_file(args: argparse.Namespace) -> dict[str, str]:
+    """The library's names of a command's one input (an image, or a texton) -> the file given."""
+    return {"u": args.input, "texton": args.input}
+
+
+@dataclass(frozen=True)
+class Command:
+    """One ``warp-texton`` command.
+
+    ``arguments(parser)`` adds its arguments, ``run(args)`` does the work and
+    returns the exit status (None: 0). ``names`` maps the library arguments
+    its options set to those options, and ``files(args)`` the library's names
+    of its inputs to the files given for them: together they put an error in
+    the command line's words.
+    """
+
+    name: str
+    help: str
+    description: str
+    arguments: Callable[[argparse.ArgumentParser], None]
+    run: Callable[[argparse.Namespace], int | None]
+    names: Mapping[str, str] = field(default_factory=dict)
+    files: Callable[[argparse.Namespace], dict[str, str]] = no_files
+    epilog: str | None = None
+
+
+# ------------------------------------------------------------------ option groups
+#: The options of the analysis of an example image, by the argument they set.
+ANALYSIS_NAMES = {"size": "--size", "order": "--order", "iterations": "--iterations", "seed": "--seed",
+                  "support": "--support"}
+
+
+def add_analysis_options(p: argparse.ArgumentParser, seed: bool = True) -> None:
+    g = p.add_argument_group("analysis options" + ("" if seed else " (when INPUT is an image)"))
+    g.add_argument("--size", type=int, default=64, help="texton side (square) or diameter (disk), in texels")
+    g.add_argument("--order", type=int, default=1, choices=(0, 1, 3, 5),
+                   help="interpolation order: 0 nearest (EUSIPCO SOT), 1 bilinear (CGF), 3/5 B-spline")
+    g.add_argument("--iterations", type=int, default=50, help="alternating projections")
+    if seed:
+        g.add_argument("--seed", type=int, default=0, help="random seed")
+    g.add_argument("--support", choices=("square", "disk"), default="square", help="shape of the texton support")
+    g.add_argument("--no-periodic", dest="periodic", action="store_false",
+                   help="analyse the image itself, not its periodic component")
+    g.add_argument("--no-color-correction", dest="color_correction", action="store_false",
+                   help="skip the colour-covariance correction")
+
+
+#: The size of an output raster, by the argument it sets.
+SHAPE_NAMES = {"shape[0] (height)": "--height", "shape[1] (width)": "--width", "shape": "--width/--height"}
+#: The options of the commands that write noise images (INPUT, the size, MNI, seed, device).
+NOISE_IMAGE_NAMES = {**SHAPE_NAMES, "mni": "--mni", "seed": "--seed", "device": "--device"}
+
+
+def add_noise_image_options(p: argparse.ArgumentParser, what: str, zarr: bool = False) -> None:
+    """INPUT, -o, the image size, MNI and seed of the commands that write noise images."""
+    p.add_argument("input", help="texton file or example image")
+    p.add_argument("-o", "--output", required=True,
+                   help="output image: .png, .jpg, .exr or .tif" + (", or a .zarr store" if zarr else ""))
+    p.add_argument("--width", type=int, default=512, help=f"{what} width in pixels")
+    p.add_argument("--height", type=int, default=512, help=f"{what} height in pixels")
+    p.add_argument("--mni", type=float, default=30.0, help="mean number of impacts per point")
+    p.add_argument("--seed", type=int, default=0, help="random seed (analysis and noise)")
+
+
+def add_run_options(p: argparse.ArgumentParser, quiet: str = "no progress or summary") -> None:
+    """--device and -q."""
+    p.add_argument("--device", help="cpu, cuda or cuda:N (default: CUDA when available)")
+    p.add_argument("-q", "--quiet", action="store_true", help=quiet)
+
+
+#: The options of the filters, by the argument they set.
+FILTER_NAMES = {"filter": "--filter", "supersample": "--supersample", "max_aniso": "--max-aniso",
+                "fade_energy": "--fade-energy"}
+
+
+def filter_help(kinds: Mapping[str, FilterKind]) -> str:
+    """The kinds of a --filter option, one clause each."""
+    return "; ".join(f"{k.name}: {k.description}" for k in kinds.values())
+
+
+def add_filter_options(p: argparse.ArgumentParser, default: str) -> None:
+    p.add_argument("--filter", choices=FILTERS, default=default,
+                   help="anti-aliasing for each pixel's footprint. " + filter_help(FILTERS))
+    p.add_argument("--supersample", type=int, default=SUPERSAMPLE,
+                   help="samples per pixel side for --filter supersample")
+    p.add_argument("--max-aniso", type=int, default=MAX_ANISO,
+                   help="most lookups along a footprint's major axis for --filter anisotropic")
+    p.add_argument("--fade-energy", type=float, default=FADE_ENERGY,
+                   help="end the MIP pyramid at the first level keeping less than this fraction of the "
+                        "variance; larger footprints fade to the mean (0 keeps every level)")
+
+
+def filter_options(args):
+    """The FilterOptions of --filter, --supersample, --max-aniso and --fade-energy."""
+    from .filter_options import FilterOptions
+
+    return FilterOptions(args.filter, max_aniso=args.max_aniso, supersample=args.supersample,
+                         fade_energy=args.fade_energy)
+
+
+def add_format_options(p: argparse.ArgumentParser, zarr: bool = False) -> None:
+    """How the output stores its pixels (and, with ``zarr``, how a .zarr store is written)."""
+    from .io import EXR_COMPRESSIONS, TIFF_COMPRESSIONS
+
+    g = p.add_argument_group("output format")
+    g.add_argument("--dtype", choices=("uint8", "uint16", "float16", "float32"),
+                   help="stored pixel type: PNG uint8 (default) or uint16; EXR float32 (default) or float16; TIFF "
+                        "any, default float32" + ("; Zarr any, default float16" if zarr else "")
+                        + ". Integer types clip to [0, 1] and say how many pixels were clipped")
+    g.add_argument("--half", action="store_true", help="short for --dtype float16")
+    g.add_argument("--compression", choices=sorted(set(EXR_COMPRESSIONS) | set(TIFF_COMPRESSIONS)),
+                   help=f"EXR: {', '.join(EXR_COMPRESSIONS)} (default zip; pxr24, b44, b44a, dwaa, dwab are lossy); "
+                        f"TIFF: {', '.join(TIFF_COMPRESSIONS)} (default zlib)")
+    if zarr:
+        g = p.add_argument_group("Zarr output (-o NAME.zarr): chunk by chunk, larger than memory")
+        g.add_argument("--chunk", type=int, help="chunk side in pixels (default 4096, at most the raster's)")
+        g.add_argument("--scheduler", default="threads",
+                       help="threads, processes, or the address of a dask.distributed scheduler (tcp://HOST:8786), "
+                            "whose workers must see the output path")
+        g.add_argument("--workers", type=int, help="local threads or processes (default: the cores)")
+        g.add_argument("--overwrite", action="store_true", help="replace an existing store once the new one is done")
+
+
+def dtype_of(args):
+    """--dtype, or float16 for --half."""
+    if args.half and args.dtype not in (None, "float16"):
+        raise TextonError(f"--half and --dtype {args.dtype} disagree; give one of them")
+    return "float16" if args.half else args.dtype
+
+
+# ------------------------------------------------------------------ inputs and timing
+def texton_of(args, path=None):
+    """The texton file ``path`` (default: args.input), or the texton of that example
+    image, analysed with the analysis options."""
+    from .analysis import analyze
+    from .io import read_image
+    from .texton import is_texton_path, load_texton
+
+    path = args.input if path is None else path
+    if is_texton_path(path):
+        return load_texton(path)
+    return analyze(read_image(path), size=args.size, order=args.order, iterations=args.iterations,
+                   seed=args.seed, periodic=args.periodic, color_correction=args.color_correction,
+                   support=args.support, progress=not args.quiet)
+
+
+def seconds_since(t0: float) -> str:
+    return f"{time.perf_counter() - t0:.2f} s"
+
+
+# ------------------------------------------------------------------ errors
+def _stands_alone(text: str, start: int, end: int) -> bool:
+    """Whether text[start:end] is a whole name, not part of a longer one ("mni" in
+    "omni" or "--mni", "offset" in "offset[0]", "size" in "size_x")."""
+    before = text[start - 1] if start else " "
+    after = text[end] if end < len(text) else " "
+    return not (before.isalnum() or before in "_-.'") and not (after.isalnum() or after in "_[")
+
+
+def _replace_name(text: str, name: str, by: str) -> str:
+    parts, start = [], 0
+    while (k := text.find(name, start)) >= 0:
+        end = k + len(name)
+        parts.append(text[start:k] + (by if _stands_alone(text, k, end) else name))
+        start = end
+    return "".join(parts) + text[start:]
+
+
+def in_cli_words(error: TextonError, names: Mapping[str, str]) -> str:
+    """The message of ``error`` with the command line's ``names`` for the library's:
+    the argument it is about where the message starts with it (``"mni must be..."``),
+    and every argument it mentions wherever it stands (``"use a lower mni"``).
+
+    >>> e = TextonError("mni must be at least 0.001; use a lower mni", param="mni", mentions=("scale",))
+    >>> in_cli_words(e, {"mni": "--mni"})
+    '--mni must be at least 0.001; use a lower mni'
+    >>> in_cli_words(TextonError("use a lower mni", mentions=("mni",)), {"mni": "--mni"})
+    'use a lower --mni'
+    """
+    message = str(error)
+    param = error.param
+    if param in names and message.startswith(param) and _stands_alone(message, 0, len(param)):
+        message = names[param] + message[len(param):]
+    for name in error.mentions:
+        if name in names:
+            message = _replace_name(message, name, names[name])
+    return message

@@ -1,0 +1,236 @@
+"""``warp-texton surface``: surface noise on a batch of meshes.
+
+The options are checked once, here, rather than failing every mesh; then the
+jobs run on threads or a Dask cluster (:mod:`warp_texton.batch`), and one bad
+mesh is reported while the others finish.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import sys
+from pathlib import Path
+
+from .cli_options import ANALYSIS_NAMES, Command, add_analysis_options, add_run_options, texton_of
+from .errors import TextonError
+
+
+def _arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("meshes", nargs="+", metavar="MESH", help="mesh files, glob patterns, or @list.txt")
+    p.add_argument("--texton", required=True,
+                   help="texton file (.exr or .texton) or example image (analysed once for the batch)")
+    p.add_argument("--out-dir", required=True, help="folder for the outputs (created if missing)")
+    p.add_argument("--texel-size", type=float, help="world units per texel (default: bounding-box diagonal / 256)")
+    p.add_argument("--mni", type=float, default=60.0, help="mean number of impacts per point")
+    p.add_argument("--seed", type=int, default=0, help="random seed (analysis and noise)")
+    p.add_argument("--bake", type=int, metavar="RES",
+                   help="bake the noise into a RES x RES texture on UVs (GLB or OBJ+MTL+PNG)")
+    p.add_argument("--uv", choices=("auto", "mesh", "atlas"), default="auto",
+                   help="with --bake: the mesh's UVs when it has them (auto), only them (mesh), or a new atlas")
+    p.add_argument("--texture", choices=("png", "exr"),
+                   help="with --bake: also write the texture alone as NAME_texture.png (8-bit sRGB) or .exr")
+    p.add_argument("--exr-linear", action="store_true",
+                   help="an EXR texture holds linear values (the sRGB decoding) instead of the noise's own values")
+    p.add_argument("--supersample", type=int, metavar="N",
+                   help="with --bake: N x N samples per texel (default: by each texel's footprint)")
+    p.add_argument("--max-edge", type=float, help="subdivide until no edge is longer than this many texels")
+    p.add_argument("--render", metavar="WxH", help="also write a PNG render of this size, e.g. 512x512")
+    p.add_argument("--up", choices=("auto", "x", "y", "z"), default="auto",
+                   help="the meshes' up axis: auto is y for .glb/.gltf (Y-up by definition), z otherwise")
+    p.add_argument("--view", metavar="AZ,EL",
+                   help="render camera azimuth and elevation in degrees (default -55,25: front left, above; "
+                        "a negative azimuth as --view=-30,20)")
+    p.add_argument("--fov", type=float, help="render vertical field of view, degrees (default 35)")
+    p.add_argument("--format", choices=("ply", "obj", "glb"),
+                   help="mesh output format (default: glb with --bake, else ply)")
+    p.add_argument("--overwrite", action="store_true", help="redo meshes whose outputs exist")
+    p.add_argument("--jobs", type=int, default=1, help="meshes processed at once")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run the batch on this dask.distributed scheduler (paths must be visible to its workers)")
+    add_run_options(p, quiet="no progress bar")
+    add_analysis_options(p, seed=False)
+
+
+# ------------------------------------------------------------------ options
+def _render_size(text):
+    """--render WxH -> (H, W), or None."""
+    if text is None:
+        return None
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise TextonError(f"--render must be WIDTHxHEIGHT, e.g. 512x512, got {text!r}") from None
+    return h, w
+
+
+def _check_bake_options(args) -> None:
+    """--bake and the options that apply to baked textures only."""
+    from ._checks import check_int
+    from .bake import MAX_RESOLUTION
+
+    if args.bake is None:
+        for name, value in (("--texture", args.texture), ("--supersample", args.supersample),
+                            ("--exr-linear", args.exr_linear or None), ("--uv", None if args.uv == "auto" else 1)):
+            if value is not None:
+                raise TextonError(f"{name} applies to baked textures: add --bake RES")
+        return
+    check_int(args.bake, "--bake", minimum=1)
+    if args.bake > MAX_RESOLUTION:
+        raise TextonError(f"--bake must be at most {MAX_RESOLUTION} texels per side, got {args.bake}")
+    if args.format == "ply":
+        raise TextonError("--bake writes --format glb or obj (a PLY file cannot carry a texture)")
+    if args.max_edge is not None:
+        raise TextonError("--max-edge subdivides for vertex colours; a --bake texture does not need it")
+
+
+def _view_angles(text):
+    """--view AZ,EL -> (azimuth, elevation), or None."""
+    from .render import view_direction
+
+    if text is None:
+        return None
+    try:
+        view = tuple(float(v) for v in text.split(","))
+        if len(view) != 2:
+            raise ValueError
+    except ValueError:
+        raise TextonError(f"--view must be AZIMUTH,ELEVATION in degrees, e.g. 30,20, got {text!r}") from None
+    try:
+        view_direction(view)
+    except TextonError as exc:
+        raise TextonError(f"--view: {exc}") from None
+    return view
+
+
+def _check_options(args):
+    """(render shape, view angles), every option checked once for the whole batch."""
+    from ._checks import check_int, check_positive, check_seed, check_shape
+
+    render = _render_size(args.render)
+    if args.jobs < 1:
+        raise TextonError(f"--jobs must be at least 1, got {args.jobs}")
+    if render is not None:
+        check_shape(render, "--render")
+    check_positive(args.mni, "--mni")
+    check_seed(args.seed)
+    for value, option in ((args.texel_size, "--texel-size"), (args.max_edge, "--max-edge")):
+        if value is not None:
+            check_positive(value, option)
+    _check_bake_options(args)
+    if args.supersample is not None:
+        check_int(args.supersample, "--supersample", minimum=1)
+    if args.exr_linear and args.texture != "exr":
+        raise TextonError("--exr-linear applies to --texture exr")
+    view = _view_angles(args.view)
+    if args.fov is not None:
+        check_positive(args.fov, "--fov")
+        if args.fov >= 180:
+            raise TextonError(f"--fov must be below 180 degrees, got {args.fov}")
+    return render, view
+
+
+# ------------------------------------------------------------------ the batch
+@contextlib.contextmanager
+def _executor(scheduler):
+    """The executor of a dask.distributed scheduler (closed on the way out), or None: local threads."""
+    if scheduler is None:
+        yield None
+        return
+    try:
+        from dask.distributed import Client
+    except ImportError:
+        raise TextonError("--scheduler needs dask.distributed: pip install 'warp-texton[dask]'") from None
+    try:
+        client = Client(scheduler, timeout=10)
+    except Exception as exc:
+        raise TextonError(f"--scheduler {scheduler}: cannot connect ({type(exc).__name__}: {exc})") from None
+    try:
+        yield client.get_executor()
+    finally:
+        client.close()
+
+
+def _surface_texton(args):
+    """The batch's texton: a texton file, or an example image analysed once (a bad one fails the batch)."""
+    from .texton import is_texton_path, load_texton
+
+    if is_texton_path(args.texton):
+        load_texton(args.texton)  # checked once here; the jobs read it themselves
+        return args.texton
+    try:
+        return texton_of(args, args.texton)
+    except TextonError as exc:
+        if exc.param == "u" or "u" in exc.mentions or args.texton in str(exc):
+            raise  # it names the image (as the file, in the command line's words)
+        raise TextonError(f"--texton {args.texton}: {exc}", exc.param, mentions=exc.mentions) from None
+
+
+def _run_jobs(args, executor, device, render, view):
+    """(results, interrupted) of the batch's jobs."""
+    from .batch import BatchInterrupted, SurfaceJob, check_unique_outputs, expand_meshes, run_batch
+
+    texton = _surface_texton(args)
+    meshes = expand_meshes(args.meshes)
+    out = Path(args.out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    jobs = [SurfaceJob(m, texton, str(out), args.texel_size, args.mni, args.seed, args.max_edge, render,
+                       args.format, args.overwrite, device, bake=args.bake, uv=args.uv, texture=args.texture,
+                       exr_linear=args.exr_linear, supersample=args.supersample, up=args.up, view=view,
+                       fov=args.fov) for m in meshes]
+    check_unique_outputs(jobs)
+    try:
+        return run_batch(jobs, executor=executor, jobs_in_parallel=args.jobs, progress=not args.quiet), False
+    except BatchInterrupted as exc:
+        return exc.results, True
+
+
+def _report(results, interrupted: bool, quiet: bool) -> int:
+    """Print what the batch did (errors, warnings, counts) and return the exit status."""
+    for r in results:
+        if r.status == "failed" and (quiet or interrupted):
+            print(f"warp-texton: error: {r.message}", file=sys.stderr)
+        for note in r.warnings:
+            warning = "texels apart" in note
+            if warning or not quiet:
+                print(f"warp-texton: {'warning' if warning else 'note'}: {note}", file=sys.stderr)
+    counts = {s: sum(r.status == s for r in results) for s in ("done", "skipped", "failed", "cancelled")}
+    line = f"{counts['done']} done, {counts['skipped']} skipped, {counts['failed']} failed"
+    if interrupted:
+        print(f"warp-texton: interrupted: {line}, {counts['cancelled']} cancelled", file=sys.stderr)
+        return 130
+    print(line, file=sys.stderr)
+    return 1 if counts["failed"] else 0
+
+
+def _surface(args) -> int:
+    from ._runtime import resolve_device
+
+    try:
+        render, view = _check_options(args)
+        device = resolve_device(args.device)
+        with _executor(args.scheduler) as executor:
+            results, interrupted = _run_jobs(args, executor, device, render, view)
+    except KeyboardInterrupt:  # before or after the batch itself (which reports its own)
+        print("warp-texton: interrupted", file=sys.stderr)
+        return 130
+    return _report(results, interrupted, args.quiet)
+
+
+SURFACE = Command(
+    "surface", "texture meshes with surface noise (batch)",
+    "Put surface texton noise (CGF §6) on meshes: baked into a texture on UVs (--bake RES: the mesh's own UVs, "
+    "or an atlas made by xatlas) or as vertex colours, and optionally render each one. Outputs are named after "
+    "each input's stem; finished outputs are skipped unless --overwrite. One bad mesh is reported and the "
+    "others still finish; the exit status is 1 if any failed, 130 if interrupted.",
+    _arguments, _surface,
+    {**ANALYSIS_NAMES, "mni": "--mni", "texel_size": "--texel-size", "max_edge": "--max-edge", "fov": "--fov",
+     "device": "--device"},
+    lambda args: {"u": args.texton},
+    epilog="""examples:
+  warp-texton surface scans/*.ply --texton wood.exr --out-dir textured --render 512x512
+  warp-texton surface scans/*.ply --texton wood.png --out-dir baked --bake 2048 --texture png
+  warp-texton surface model.glb --texton wood.exr --out-dir out --bake 1024 --format obj --render 800x600 --view 30,20
+  warp-texton surface @meshes.txt --texton wood.texton --out-dir out --texel-size 0.002 --format glb --jobs 2
+  warp-texton surface 'scans/*.ply' --texton wood.exr --out-dir out --bake 2048 --scheduler tcp://head:8786
+""")

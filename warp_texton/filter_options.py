@@ -1,0 +1,187 @@
+"""The filter kinds and the options of a filter (CGF §5), without Warp.
+
+:data:`FILTERS` is the one registry of the filter kinds: each
+:class:`FilterKind` says what the code that uses a filter needs to know (does
+it need each pixel's footprint, does it supersample, what it costs, how it is
+described). :mod:`warp_texton.filtering` dispatches on these facts, the ground
+plane computes footprints only for the kinds that need them, and the command
+line and the viewer list the kinds from here. A new kind is a record here and a
+branch in :func:`warp_texton.filtering.filter_pixels`.
+
+This module imports no Warp, so that ``warp-texton --help`` lists the filters
+without starting it.
+"""
+
+from __future__ import annotations
+
+import numbers
+from dataclasses import dataclass
+
+from ._checks import check_int
+from .errors import TextonError
+
+
+@dataclass(frozen=True)
+class FilterKind:
+    """One filter kind: the facts its callers ask about.
+
+    Attributes
+    ----------
+    name : str
+        The ``filter`` value that selects it.
+    description : str
+        One line for ``--help`` and the viewer.
+    footprint : bool
+        It looks the texton up in its MIP pyramid at each pixel's footprint,
+        so the caller computes footprints.
+    axis_lookups : bool
+        It averages up to ``max_aniso`` lookups along the footprint's major axis.
+    supersamples : bool
+        It averages ``supersample``² jittered evaluations per pixel.
+    lod_bias : float or None
+        The default level bias of a footprint kind (measured optima,
+        docs/benchmarks.md).
+    interactive : bool
+        Quick enough for the viewer's tiles.
+    cost_hint : str
+        What to change when its work is over the budget.
+    """
+
+    name: str
+    description: str
+    footprint: bool = False
+    axis_lookups: bool = False
+    supersamples: bool = False
+    lod_bias: float | None = None
+    interactive: bool = True
+    cost_hint: str = "use a smaller image or a lower mni"
+
+
+#: The filter kinds, by name. The level biases are added to log2 of a lookup's
+#: width to pick its level. A level-ℓ lookup blurs like a box of width √3 · 2^ℓ
+#: (block mean, then the bilinear tent), so −log2 √3 ≈ −0.79 would match the
+#: pixel box's second moment. The values are the optima measured on the plane
+#: benchmark with two textures (docs/benchmarks.md): "mip" sits lower because its
+#: single lookup takes the major axis as its width and so over-blurs along the
+#: minor one.
+FILTERS: dict[str, FilterKind] = {k.name: k for k in (
+    FilterKind("none", "the unfiltered noise (aliases when zoomed out)"),
+    FilterKind("mip", "one lookup of the texton's MIP pyramid at each pixel's footprint",
+               footprint=True, lod_bias=-1.3),
+    FilterKind("anisotropic", "up to max_aniso MIP lookups along each footprint's major axis",
+               footprint=True, axis_lookups=True, lod_bias=-0.6,
+               cost_hint="use a smaller max_aniso, a larger fade_energy, a smaller image or a lower mni"),
+    FilterKind("supersample", "the average of supersample x supersample jittered samples per pixel (the "
+               "reference; slow)", supersamples=True, interactive=False,
+               cost_hint="use a smaller supersample, a smaller image or a lower mni"),
+)}
+#: The default level bias of each footprint kind.
+LOD_BIAS = {k.name: k.lod_bias for k in FILTERS.values() if k.lod_bias is not None}
+#: Most lookups along a footprint's major axis ("anisotropic"); past this
+#: anisotropy the level rises instead, as GPU anisotropic filtering does.
+MAX_ANISO = 8
+#: The pyramid ends at the first level whose noise keeps less than this
+#: fraction of the texton noise's variance (∫h_ℓ² / ∫h²); past that level the
+#: filtered noise fades to its mean. The coarse levels of a textured texton
+#: carry little variance but cost the most (the widest supports, the most
+#: lookups). On the plane benchmark, 0.1 instead of keeping every level costs
+#: 0.002 in error for about a fifth of the time; 0.25 saves more but flattens
+#: a band of the far field that still has visible grain (docs/model.md §13).
+#: Smooth textures keep all their levels.
+FADE_ENERGY = 0.1
+#: Default samples per pixel side for ``filter="supersample"``.
+SUPERSAMPLE = 20
+#: Bounds on ``supersample`` and ``max_aniso`` (a pixel's work grows with them).
+MAX_SUPERSAMPLE = 64
+MAX_MAX_ANISO = 64
+#: Bound on ``lod_bias``: a texton of 4096 texels has 13 levels, so a larger
+#: bias only selects the first or the last one.
+MAX_LOD_BIAS = 64
+
+
+@dataclass(frozen=True)
+class FilterOptions:
+    """How noise is anti-aliased for each pixel's footprint (CGF §5); validated once.
+
+    Parameters
+    ----------
+    kind : {"none", "mip", "anisotropic", "supersample"}
+        "mip" looks the texton up in a MIP pyramid at the footprint's major
+        length; "anisotropic" also averages up to ``max_aniso`` lookups along
+        its major axis; "supersample" averages ``supersample``² jittered
+        evaluations over the footprint (the reference). Where every footprint
+        needs a single lookup of the unfiltered texton (up to about 2.5 texels
+        for "mip", 1.5 for round footprints with "anisotropic"), "mip" and
+        "anisotropic" are exactly "none". :data:`FILTERS` lists them.
+    max_aniso : int in [1, 64]
+        Most lookups along a footprint's major axis for "anisotropic"; past
+        that anisotropy the level rises instead.
+    supersample : int in [1, 64]
+        Samples per pixel side for "supersample".
+    fade_energy : float in [0, 1]
+        The MIP pyramid ends at the first level whose noise keeps less than
+        this fraction of the variance; larger footprints fade to the mean
+        (0 keeps every level).
+    lod_bias : float, optional
+        Added to log2 of the lookup width to pick the level; default
+        ``LOD_BIAS[kind]`` (measured optima, docs/benchmarks.md).
+
+    Examples
+    --------
+    >>> FilterOptions("anisotropic", max_aniso=4).max_aniso
+    4
+    >>> FilterOptions.of("mip") == FilterOptions("mip")
+    True
+    >>> FilterOptions("mip").spec.footprint
+    True
+    """
+
+    kind: str = "none"
+    max_aniso: int = MAX_ANISO
+    supersample: int = SUPERSAMPLE
+    fade_energy: float = FADE_ENERGY
+    lod_bias: float | None = None
+
+    def __post_init__(self):
+        if not isinstance(self.kind, str) or self.kind not in FILTERS:
+            raise TextonError(f"filter must be one of {', '.join(FILTERS)}, got {self.kind!r}", param="filter")
+        n = check_int(self.supersample, "supersample", minimum=1)
+        a = check_int(self.max_aniso, "max_aniso", minimum=1)
+        if n > MAX_SUPERSAMPLE:
+            raise TextonError(f"supersample must be at most {MAX_SUPERSAMPLE} (samples per pixel side), got {n}",
+                              param="supersample")
+        if a > MAX_MAX_ANISO:
+            raise TextonError(f"max_aniso must be at most {MAX_MAX_ANISO}, got {a}", param="max_aniso")
+        object.__setattr__(self, "supersample", n)
+        object.__setattr__(self, "max_aniso", a)
+        object.__setattr__(self, "fade_energy", _fraction(self.fade_energy))
+        if self.lod_bias is not None:
+            if isinstance(self.lod_bias, bool) or not isinstance(self.lod_bias, numbers.Real) \
+                    or not -MAX_LOD_BIAS <= self.lod_bias <= MAX_LOD_BIAS:
+                raise TextonError(f"lod_bias must be a number in [-{MAX_LOD_BIAS}, {MAX_LOD_BIAS}] (MIP levels), "
+                                  f"got {self.lod_bias!r:.60}", param="lod_bias")
+            object.__setattr__(self, "lod_bias", float(self.lod_bias))
+
+    @classmethod
+    def of(cls, value) -> "FilterOptions":
+        """``value`` itself, or the default options of the filter it names."""
+        return value if isinstance(value, cls) else cls(value)
+
+    @property
+    def spec(self) -> FilterKind:
+        """The registry's record of ``kind``."""
+        return FILTERS[self.kind]
+
+    @property
+    def bias(self) -> float:
+        """The level bias in use (the footprint kinds: "mip" and "anisotropic")."""
+        return self.spec.lod_bias if self.lod_bias is None else self.lod_bias
+
+
+def _fraction(value) -> float:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TextonError(f"fade_energy must be a number in [0, 1], got {value!r}", param="fade_energy")
+    if not 0.0 <= float(value) <= 1.0:
+        raise TextonError(f"fade_energy must be in [0, 1] (0 keeps every MIP level), got {value!r}",
+                          param="fade_energy")
+    return float(value)
