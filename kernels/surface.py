@@ -15,7 +15,7 @@ import warp as wp
 
 from .impacts import Cells3, cell_state3, cell_walk3, cube_offset, cube_span, draw_count, impact_offset3, next_impact3
 from .noise2d import PAD, texton_value
-from .surface_native import avx512_loops, cluster_sums, scan_cube
+from .surface_native import cluster_sums, scan_cube, vector_loops
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
 
@@ -396,7 +396,7 @@ def list_cluster(p: SurfaceParams, points: wp.array(dtype=wp.vec3d), normals: wp
     ⟨y_c − q, ū1⟩, ⟨y_c − q, ū2⟩ within Rμ + ρ of the support's range (a cluster
     on a surface is thin along n̄: ρ_n is far below its radius). Impacts outside those
     ranges are left off the list: none of them can reach a point. Each cube's
-    impacts are tested by ``scan_cube`` (16 at a time with AVX-512)."""
+    impacts are tested by ``scan_cube`` (16 at a time in its vector form)."""
     if k1 - k0 < min_points:
         return -1
     c = p.cells.size
@@ -654,8 +654,8 @@ def shade_hits(pixels: wp.array(dtype=wp.int32), values: wp.array(dtype=wp.vec3)
 
 @wp.kernel
 def simd_probe(out: wp.array(dtype=wp.int32)):
-    """Whether the loops of kernels/surface_native.py use AVX-512 in this build."""
-    out[0] = avx512_loops()
+    """Which form of the loops of kernels/surface_native.py this build holds (vector_loops)."""
+    out[0] = vector_loops()
 
 
 @wp.struct

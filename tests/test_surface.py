@@ -23,6 +23,9 @@ from __future__ import annotations
 
 import importlib.util
 import math
+import platform
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -953,6 +956,49 @@ def _same_values(a, b, t, device):
         np.testing.assert_allclose(a, b, atol=1e-4 * noise_sd(t))
 
 
+def _host_simd() -> str:
+    """The vector instruction set the CPU loops should be built for here: "avx512",
+    "avx2", "neon" (every AArch64 CPU has it) or "scalar"."""
+    if platform.machine().lower() in ("arm64", "aarch64"):
+        return "neon"
+    try:
+        flags = Path("/proc/cpuinfo").read_text().split("\nflags", 1)[1].split("\n", 1)[0].split()
+    except (OSError, IndexError):
+        pytest.skip("no /proc/cpuinfo flags on this system")
+    return "avx512" if "avx512f" in flags else "avx2" if "avx2" in flags else "scalar"
+
+
+def _dense_cluster_points(rng):
+    """Dense points (about a texel apart at texel 0.05, dozens per cluster cell), so that
+    the clusters list their impacts; far from the origin; mesh normals and random ones."""
+    mesh = trimesh.creation.torus(2.0, 0.7, major_sections=200, minor_sections=80)
+    offset = np.array([5e3, -2e3, 1e3])
+    p = np.concatenate([mesh.vertices, rng.uniform(-0.5, 0.5, (3000, 3))]) + offset
+    n = np.concatenate([vertex_normals(mesh), rng.normal(size=(3000, 3))])
+    return p, n
+
+
+#: Run in a fresh process: the block path built for AVX2 (no AVX-512) against the walk.
+AVX2_ONLY = """
+import numpy as np, trimesh, warp as wp
+wp.config.quiet = True
+wp.config.cpu_compiler_flags = (wp.config.cpu_compiler_flags or "-march=native").replace(
+    "-march=native", "-march=native -target-feature -avx512f")
+import warp_texton.surface as S
+from warp_texton import Texton, surface_noise
+print(S.simd_loops("cpu"))
+rng = np.random.default_rng(5)
+t = Texton(0.05 * rng.standard_normal((12, 10, 3)), [0.5] * 3)
+mesh = trimesh.creation.torus(2.0, 0.7, major_sections=120, minor_sections=50)
+p = mesh.vertices + np.array([5e3, -2e3, 1e3])
+n = np.asarray(mesh.vertex_normals)
+b = surface_noise(t, p, n, 0.05, seed=2, mni=40.0, method="points", device="cpu")
+for simd in (True, False):
+    S.SIMD = simd
+    print(np.array_equal(surface_noise(t, p, n, 0.05, seed=2, mni=40.0, method="blocks", device="cpu"), b))
+"""
+
+
 class TestBlocks:
     @pytest.mark.parametrize("order", [0, 1, 3, 5])
     def test_blocks_equal_the_walk_on_random_points(self, order, device):
@@ -987,19 +1033,15 @@ class TestBlocks:
 
     @pytest.mark.parametrize("simd", [True, False])
     def test_simd_and_scalar_loops_equal_the_walk(self, simd, device, monkeypatch):
-        # the CPU lists and gathers clusters with kernels/surface_native.py: AVX-512 where
-        # the CPU has it, plain C++ otherwise; both must sum the walk's terms in its order
+        # the CPU lists and gathers clusters with kernels/surface_native.py: the vector form
+        # where the CPU has AVX2, AVX-512 or NEON, plain C++ otherwise; both must sum the
+        # walk's terms in its order
         import warp_texton.surface as S
 
         monkeypatch.setattr(S, "SIMD", simd)
         rng = np.random.default_rng(31)
         t = random_texton((16, 12), channels=3, order=1, seed=rng)
-        # dense points (about a texel apart, dozens per cluster cell), so that the clusters
-        # list their impacts; far from the origin; mesh normals and random ones
-        mesh = trimesh.creation.torus(2.0, 0.7, major_sections=200, minor_sections=80)
-        offset = np.array([5e3, -2e3, 1e3])
-        p = np.concatenate([mesh.vertices, rng.uniform(-0.5, 0.5, (3000, 3))]) + offset
-        n = np.concatenate([vertex_normals(mesh), rng.normal(size=(3000, 3))])
+        p, n = _dense_cluster_points(rng)
         for tangents in (None, np.cross(n, rng.normal(size=3))):
             kw = dict(seed=11, mni=float(rng.uniform(20, 90)), tangents=tangents, device=device)
             a = surface_noise(t, p, n, 0.05, method="blocks", **kw)
@@ -1007,17 +1049,26 @@ class TestBlocks:
             _same_values(a, b, t, device)
             assert a.std(axis=0).min() > 0.3 * noise_sd(t)
 
-    def test_avx512_loops_are_built_where_the_cpu_has_them(self):
-        # a build that silently lost the AVX-512 loops would give the same values, only
-        # about 2x slower: check that Warp's CPU code has them on CPUs that do
+    def test_vector_loops_are_built_where_the_cpu_has_simd(self):
+        # a build that silently lost the vector loops would give the same values, only
+        # about 2x slower: check that Warp's CPU code (compiled for this CPU) has them
+        # wherever the CPU has AVX2, AVX-512 or NEON
         import warp_texton.surface as S
 
-        try:
-            flags = Path("/proc/cpuinfo").read_text().split("\nflags", 1)[1].split("\n", 1)[0].split()
-        except (OSError, IndexError):
-            pytest.skip("no /proc/cpuinfo flags on this system")
-        has = "avx512f" in flags and "avx512dq" in flags
-        assert S.simd_loops("cpu") == ("avx512" if has else "scalar")
+        assert S.simd_loops("cpu") == _host_simd()
+
+    @pytest.mark.slow
+    def test_avx2_build_takes_the_vector_loops(self, tmp_path):
+        # on an AVX-512 CPU, the build for AVX2 only (Warp's CPU flags without avx512f,
+        # in a fresh process: the flags are part of every module's build) must still take
+        # the vector form and give the walk's values bit for bit
+        if _host_simd() != "avx512":
+            pytest.skip("needs an AVX-512 CPU (an AVX2 one runs this form in every test)")
+        script = tmp_path / "avx2.py"
+        script.write_text(AVX2_ONLY)
+        done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=600)
+        assert done.returncode == 0, done.stderr[-2000:]
+        assert done.stdout.split() == ["avx2", "True", "True"]
 
     def test_blocks_spread_beyond_int64_keys(self, device):
         # two dense groups 10^7 texels apart on every axis: (10^7 / block side)^3 blocks
