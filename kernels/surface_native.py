@@ -12,8 +12,9 @@ forms:
   compares that give lane masks), compiled where Warp's CPU compiler (its
   bundled Clang, for the host CPU) targets AVX2, AVX-512 or NEON: LLVM lowers
   a 16-lane vector to one AVX-512 register, two AVX2 or four NEON ones. 16
-  impacts are tested at once and the passing ones are kept in order (a
-  scalar compaction of the lane mask's set bits); a cluster's 16 points are
+  impacts are tested at once and the passing ones are kept in order (Clang's
+  generic compressing store, or a scalar compaction of the lane mask's bits
+  where the compiler lacks it); a cluster's 16 points are
   the 16 lanes of the gather's tests, and each passing (impact, point) pair
   reads its four texels as 4-float vectors (the three channels and one unused
   float) and weighs the three channels at once;
@@ -44,14 +45,23 @@ wp.set_module_options({"enable_backward": False, "optimization_level": 3})
 _VECTOR = ("#if defined(__clang__) && !defined(__CUDACC__) && !defined(__CUDA_ARCH__) "
            "&& (defined(__AVX2__) || defined(__AVX512F__) || defined(__ARM_NEON))")
 
-#: Vector types (16 lanes; 4-float texel rows), and a 16-lane compare's lanes as
-#: the bits of an integer (bit l set where lane l is true).
+#: Vector types (16 lanes; 4-float texel rows); WT_MASKED: whether Clang has its
+#: generic masked loads and compressing stores (Clang 21 and later; a compile flag
+#: -D WT_MASKED=0 selects the plain tail loads and scalar compaction that older
+#: ones use); a 16-lane compare's lanes as the bits of an integer.
 _VECTOR_TYPES = r"""
     typedef float v16f __attribute__((ext_vector_type(16)));
     typedef int v16i __attribute__((ext_vector_type(16)));
     typedef double v16d __attribute__((ext_vector_type(16)));
     typedef bool v16b __attribute__((ext_vector_type(16)));
     typedef float v4f __attribute__((ext_vector_type(4)));
+#ifndef WT_MASKED
+#if __has_builtin(__builtin_masked_load) && __has_builtin(__builtin_masked_compress_store)
+#define WT_MASKED 1
+#else
+#define WT_MASKED 0
+#endif
+#endif
     const auto lane_bits = [](v16i m) -> unsigned {
         return (unsigned)__builtin_bit_cast(unsigned short, __builtin_convertvector(m, v16b));
     };
@@ -91,20 +101,22 @@ SCAN_CUBE = _VECTOR + _VECTOR_TYPES + r"""
         const float b0 = vbar[0], b1 = vbar[1], b2 = vbar[2];
         for (int j = j0; j < j1; j += 16) {
             const int left = j1 - j;
+            const unsigned valid = left >= 16 ? 0xFFFFu : (1u << left) - 1u;
+#if WT_MASKED
+            // Clang's generic masked loads and compressing stores (lowered to AVX-512's
+            // own, or to plain code elsewhere)
+            const v16b in = __builtin_bit_cast(v16b, (unsigned short)valid);
+            const v16f ux_ = __builtin_masked_load(in, ux.data + j);
+            const v16f uy_ = __builtin_masked_load(in, uy.data + j);
+            const v16f uz_ = __builtin_masked_load(in, uz.data + j);
+#else
             v16f ux_ = 0.0f, uy_ = 0.0f, uz_ = 0.0f;
-            unsigned valid = 0xFFFFu;
-            if (left >= 16) {
-                __builtin_memcpy(&ux_, ux.data + j, sizeof(v16f));
-                __builtin_memcpy(&uy_, uy.data + j, sizeof(v16f));
-                __builtin_memcpy(&uz_, uz.data + j, sizeof(v16f));
-            } else {
-                for (int l = 0; l < left; ++l) {
-                    ux_[l] = ux.data[j + l];
-                    uy_[l] = uy.data[j + l];
-                    uz_[l] = uz.data[j + l];
-                }
-                valid = (1u << left) - 1u;
+            for (int l = 0; l < 16 && l < left; ++l) {
+                ux_[l] = ux.data[j + l];
+                uy_[l] = uy.data[j + l];
+                uz_[l] = uz.data[j + l];
             }
+#endif
             const v16f mx = ux_ * size;
             const v16f my = uy_ * size;
             const v16f mz = uz_ * size;
@@ -119,7 +131,14 @@ SCAN_CUBE = _VECTOR + _VECTOR_TYPES + r"""
             unsigned pass = lane_bits(keep) & valid;
             const int n = __builtin_popcount(pass);
             if (n != 0 && count + n <= room) {
-                // the passing lanes, in order (a scalar compaction of the mask's bits)
+                // the passing lanes, in order
+#if WT_MASKED
+                const v16b m = __builtin_convertvector(keep, v16b) & in;
+                __builtin_masked_compress_store(m, ux_, out_x.data + at + count);
+                __builtin_masked_compress_store(m, uy_, out_y.data + at + count);
+                __builtin_masked_compress_store(m, uz_, out_z.data + at + count);
+#else
+                // (a scalar compaction of the mask's bits)
                 float* ox = out_x.data + at + count;
                 float* oy = out_y.data + at + count;
                 float* oz = out_z.data + at + count;
@@ -130,6 +149,7 @@ SCAN_CUBE = _VECTOR + _VECTOR_TYPES + r"""
                     oy[c] = uy_[l];
                     oz[c] = uz_[l];
                 }
+#endif
             }
             count += n;
         }
