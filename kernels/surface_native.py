@@ -48,7 +48,10 @@ _VECTOR = ("#if defined(__clang__) && !defined(__CUDACC__) && !defined(__CUDA_AR
 #: Vector types (16 lanes; 4-float texel rows); WT_MASKED: whether Clang has its
 #: generic masked loads and compressing stores (Clang 21 and later; a compile flag
 #: -D WT_MASKED=0 selects the plain tail loads and scalar compaction that older
-#: ones use); a 16-lane compare's lanes as the bits of an integer.
+#: ones use); WT_COMPRESS_STORE: whether to use the compressing store, except on
+#: AMD Zen 4 and 5, where LLVM lowers it to the memory form of vcompressps, which
+#: is microcoded there (llvm-project issue 133568); a 16-lane compare's lanes as
+#: the bits of an integer.
 _VECTOR_TYPES = r"""
     typedef float v16f __attribute__((ext_vector_type(16)));
     typedef int v16i __attribute__((ext_vector_type(16)));
@@ -60,6 +63,13 @@ _VECTOR_TYPES = r"""
 #define WT_MASKED 1
 #else
 #define WT_MASKED 0
+#endif
+#endif
+#ifndef WT_COMPRESS_STORE
+#if WT_MASKED && !defined(__znver4__) && !defined(__znver5__)
+#define WT_COMPRESS_STORE 1
+#else
+#define WT_COMPRESS_STORE 0
 #endif
 #endif
     const auto lane_bits = [](v16i m) -> unsigned {
@@ -103,8 +113,7 @@ SCAN_CUBE = _VECTOR + _VECTOR_TYPES + r"""
             const int left = j1 - j;
             const unsigned valid = left >= 16 ? 0xFFFFu : (1u << left) - 1u;
 #if WT_MASKED
-            // Clang's generic masked loads and compressing stores (lowered to AVX-512's
-            // own, or to plain code elsewhere)
+            // Clang's generic masked loads (AVX-512's, AVX2's, or plain loads elsewhere)
             const v16b in = __builtin_bit_cast(v16b, (unsigned short)valid);
             const v16f ux_ = __builtin_masked_load(in, ux.data + j);
             const v16f uy_ = __builtin_masked_load(in, uy.data + j);
@@ -132,8 +141,8 @@ SCAN_CUBE = _VECTOR + _VECTOR_TYPES + r"""
             const int n = __builtin_popcount(pass);
             if (n != 0 && count + n <= room) {
                 // the passing lanes, in order
-#if WT_MASKED
-                const v16b m = __builtin_convertvector(keep, v16b) & in;
+#if WT_COMPRESS_STORE
+                const v16b m = __builtin_bit_cast(v16b, (unsigned short)pass);
                 __builtin_masked_compress_store(m, ux_, out_x.data + at + count);
                 __builtin_masked_compress_store(m, uy_, out_y.data + at + count);
                 __builtin_masked_compress_store(m, uz_, out_z.data + at + count);
