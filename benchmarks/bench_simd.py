@@ -23,6 +23,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
@@ -66,7 +67,8 @@ def measure(args) -> dict:
                 S.SIMD = True
         return call
 
-    times = interleaved({"vector": run(True), "scalar": run(False)}, args.repeat)
+    clock = time.process_time if args.clock == "cpu" else time.perf_counter
+    times = interleaved({"vector": run(True), "scalar": run(False)}, args.repeat, clock)
     return {"loops": S.simd_loops("cpu"), "cpu_compiler_flags": wp.config.cpu_compiler_flags, "vertices": len(pts),
             **times, "speedup": times["scalar"]["best_s"] / times["vector"]["best_s"]}
 
@@ -78,7 +80,7 @@ def run(args) -> dict:
     builds = {"native": measure(args)}
     if builds["native"]["loops"] == "avx512":
         argv = [sys.executable, str(Path(__file__).resolve()), "--child", "--repeat", str(args.repeat),
-                "--mni", str(args.mni), "--size", str(args.size)] + (["--quick"] if args.quick else [])
+                "--mni", str(args.mni), "--size", str(args.size), "--clock", args.clock] + (["--quick"] if args.quick else [])
         done = subprocess.run(argv, env={**os.environ, FLAGS_VAR: AVX2_FLAGS}, capture_output=True, text=True,
                               check=True)
         builds["avx2_only"] = json.loads(done.stdout.strip().splitlines()[-1])
@@ -87,7 +89,7 @@ def run(args) -> dict:
               f"(x{b['speedup']:.2f})")
     return {**report_header("simd", "cpu"),
             "parameters": {"texton": [args.size, args.size], "mni": args.mni, "texel_size": 0.004,
-                           "repeat": args.repeat, "quick": args.quick},
+                           "repeat": args.repeat, "quick": args.quick, "clock": args.clock},
             "builds": builds}
 
 
@@ -95,7 +97,8 @@ def markdown(report: dict) -> str:
     p = report["parameters"]
     lines = [f"# Block path CPU loops: vector against scalar ({report['date']})", "", machine_line(report),
              f"`surface_noise` at the vertices of a torus, RGB texton {p['texton'][0]}x{p['texton'][1]}, "
-             f"MNI {p['mni']:g}; best of {p['repeat']} interleaved runs (median in brackets).", "",
+             f"MNI {p['mni']:g}; best of {p['repeat']} interleaved runs (median in brackets), "
+             f"{'CPU time of the process' if p['clock'] == 'cpu' else 'wall-clock time'}.", "",
              "| build | loops | points | vector (s) | scalar (s) | vector speed-up |", "|---|---|---:|---:|---:|---:|"]
     for name, b in report["builds"].items():
         lines.append(f"| {name} | {b['loops']} | {b['vertices']} | {b['vector']['best_s']:.3f} "
@@ -106,6 +109,9 @@ def markdown(report: dict) -> str:
 
 def main(argv=None) -> int:
     def extra(parser):
+        parser.add_argument("--clock", choices=("wall", "cpu"), default="cpu",
+                            help="wall-clock time, or the CPU time of the process (all its threads): steadier on a "
+                                 "machine that others load")
         parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)  # print measure() as JSON
 
     return run_main(__doc__, "simd", run, markdown, argv, repeat=5, mni=60.0, extra_args=extra)
