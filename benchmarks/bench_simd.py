@@ -79,8 +79,8 @@ def run(args) -> dict:
         sys.exit(0)
     builds = {"native": measure(args)}
     if builds["native"]["loops"] == "avx512":
-        argv = [sys.executable, str(Path(__file__).resolve()), "--child", "--repeat", str(args.repeat),
-                "--mni", str(args.mni), "--size", str(args.size), "--clock", args.clock] + (["--quick"] if args.quick else [])
+        argv = [sys.executable, str(Path(__file__).resolve()), "--child", "--repeat", str(args.repeat), "--mni",
+                str(args.mni), "--size", str(args.size), "--clock", args.clock] + (["--quick"] if args.quick else [])
         done = subprocess.run(argv, env={**os.environ, FLAGS_VAR: AVX2_FLAGS}, capture_output=True, text=True,
                               check=True)
         builds["avx2_only"] = json.loads(done.stdout.strip().splitlines()[-1])
