@@ -14,8 +14,8 @@ forms:
   a 16-lane vector to one AVX-512 register, two AVX2 or four NEON ones. 16
   impacts are tested at once and the passing ones are kept in order (Clang's
   generic compressing store, or a scalar compaction of the lane mask's bits
-  where the compiler lacks it); a cluster's 16 points are
-  the 16 lanes of the gather's tests, and each passing (impact, point) pair
+  on AMD Zen 4 and 5 and with Clang before 21); a cluster's 16 points are the
+  16 lanes of the gather's tests, and each passing (impact, point) pair
   reads its four texels as 4-float vectors (the three channels and one unused
   float) and weighs the three channels at once;
 * a plain C++ form, the same loops over lanes one at a time, for other CPUs,
