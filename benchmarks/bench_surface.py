@@ -39,16 +39,18 @@ from warp_texton._runtime import resolve_device  # noqa: E402
 from warp_texton.blocks import simd_loops  # noqa: E402
 
 
-def interleaved(methods: dict, repeat: int) -> dict:
-    """Best and median of ``repeat`` timed runs of each callable, taking turns (one untimed call first)."""
+def interleaved(methods: dict, repeat: int, clock=time.perf_counter) -> dict:
+    """Best and median of ``repeat`` timed runs of each callable, taking turns (one untimed call first);
+    ``clock``: wall-clock by default, ``time.process_time`` for the process's CPU time (steadier on a
+    machine that others load)."""
     for fn in methods.values():
         fn()
     times = {name: [] for name in methods}
     for _ in range(repeat):
         for name, fn in methods.items():
-            t0 = time.perf_counter()
+            t0 = clock()
             fn()
-            times[name].append(time.perf_counter() - t0)
+            times[name].append(clock() - t0)
     return {name: {"best_s": min(t), "median_s": statistics.median(t)} for name, t in times.items()}
 
 

@@ -16,7 +16,7 @@ import warp as wp
 from .blocks import CubeBlocks, clamp_to_block
 from .impacts import Cells3, cell_walk3, cube_offset, cube_span, impact_offset3
 from .noise2d import PAD, texton_value
-from .surface_native import avx512_loops, cluster_sums, scan_cube
+from .surface_native import cluster_sums, scan_cube, vector_loops
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
 
@@ -328,7 +328,7 @@ def list_cluster(p: SurfaceParams, points: wp.array(dtype=wp.vec3d), normals: wp
     ⟨y_c − q, ū1⟩, ⟨y_c − q, ū2⟩ within Rμ + ρ of the support's range (a cluster
     on a surface is thin along n̄: ρ_n is far below its radius). Impacts outside those
     ranges are left off the list: none of them can reach a point. Each cube's
-    impacts are tested by ``scan_cube`` (16 at a time with AVX-512)."""
+    impacts are tested by ``scan_cube`` (16 at a time in its vector form)."""
     if k1 - k0 < min_points:
         return -1
     c = p.cells.size
@@ -545,8 +545,8 @@ def gather_cluster_lists(
 
 @wp.kernel
 def simd_probe(out: wp.array(dtype=wp.int32)):
-    """Whether the loops of kernels/surface_native.py use AVX-512 in this build."""
-    out[0] = avx512_loops()
+    """Which form of the loops of kernels/surface_native.py this build holds (vector_loops)."""
+    out[0] = vector_loops()
 
 
 __all__ = ["PAD", "SurfaceParams", "PointFrames", "Clusters", "evaluate_surface", "prepare_points", "frame_points",

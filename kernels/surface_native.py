@@ -4,25 +4,34 @@ Two loops dominate the block path of surface noise on the CPU: listing the
 impacts of a cube that may reach a cluster of points (``scan_cube``), and
 summing a cluster's list at each of its points (``cluster_sums``). Warp's
 kernel language has no SIMD types, and its CPU code for these loops is
-scalar, so they are written here as ``wp.func_native`` snippets:
+scalar, so they are written here as ``wp.func_native`` snippets, each in two
+forms:
 
-* with AVX-512 (F and DQ; Warp compiles CPU modules for the host CPU), 16
-  impacts are tested at once and the passing ones are kept in order
-  (compressed in registers, then stored); a cluster's 16 points are the 16
-  lanes of the gather's tests, and each passing (impact, point) pair reads its
-  two texton rows with two 8-float loads and combines them with 256-bit
-  operations (512-bit shuffles cost twice as much on AMD Zen 4: measured 12 %
-  slower);
-* elsewhere (other CPUs, CUDA through NVRTC, or ``simd`` = 0) the same loops
-  run as plain scalar C++.
+* a vector form in Clang's vector extensions (``ext_vector_type``,
+  ``__builtin_shufflevector``, ``__builtin_convertvector``, element-wise
+  compares that give lane masks), compiled where Warp's CPU compiler (its
+  bundled Clang, for the host CPU) targets AVX2, AVX-512 or NEON: LLVM lowers
+  a 16-lane vector to one AVX-512 register, two AVX2 or four NEON ones. 16
+  impacts are tested at once and the passing ones are kept in order (Clang's
+  generic compressing store, or a scalar compaction of the lane mask's bits
+  on AMD Zen 4 and 5 and with Clang before 21); a cluster's 16 points are the
+  16 lanes of the gather's tests, and each passing (impact, point) pair
+  reads its four texels as 4-float vectors (the three channels and one unused
+  float) and weighs the three channels at once;
+* a plain C++ form, the same loops over lanes one at a time, for other CPUs,
+  for CUDA (NVRTC is not Clang and has no vector extensions), and where
+  ``simd`` = 0.
 
-Both paths compute every term with the same operations, in the same order and
+Both forms compute every term with the same operations, in the same order and
 with the same contractions as the Warp functions they stand for
 (``impact_offset3``, ``wp.dot``, ``slab_term``'s order-1 branch): a C++
 expression is contracted to FMAs exactly where Warp's generated code is (one
 ``wp.dot`` is one expression; every other operation is its own statement), so
-the sums are bit-identical to the per-point walk. ``tests/test_surface.py``
-checks both paths against it.
+the sums are bit-identical to the per-point walk. The slab term's weighting of
+the four texels is written once (``_SLAB_ADD``) and used by both forms, with a
+float (one channel) or a 4-float vector (three channels) as its lane type.
+``tests/test_surface.py`` checks both forms against the walk, and the recorded
+references (``blocks_*`` in tests/test_reference.py) check their values.
 """
 
 import warp as wp
@@ -31,17 +40,69 @@ from .noise2d import PAD
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
 
-#: The AVX-512 path is compiled where the CPU module targets it and never for CUDA.
-_AVX512 = "#if defined(__AVX512F__) && defined(__AVX512DQ__) && !defined(__CUDACC__)"
+#: The vector forms are compiled by Clang for a CPU with 256-bit (AVX2, AVX-512)
+#: or 128-bit (NEON) SIMD, never for CUDA (NVRTC, or Clang's CUDA mode).
+_VECTOR = ("#if defined(__clang__) && !defined(__CUDACC__) && !defined(__CUDA_ARCH__) "
+           "&& (defined(__AVX2__) || defined(__AVX512F__) || defined(__ARM_NEON))")
 
+#: Vector types (16 lanes; 4-float texel rows); WT_MASKED: whether Clang has its
+#: generic masked loads and compressing stores (Clang 21 and later; a compile flag
+#: -D WT_MASKED=0 selects the plain tail loads and scalar compaction that older
+#: ones use); WT_COMPRESS_STORE: whether to use the compressing store, except on
+#: AMD Zen 4 and 5, where LLVM lowers it to the memory form of vcompressps, which
+#: is microcoded there (llvm-project issue 133568); a 16-lane compare's lanes as
+#: the bits of an integer.
 _VECTOR_TYPES = r"""
-    typedef float v16f __attribute__((vector_size(64)));
-    typedef int v16i __attribute__((vector_size(64)));
-    typedef double v8d __attribute__((vector_size(64)));
-    typedef float v8f __attribute__((vector_size(32)));
+    typedef float v16f __attribute__((ext_vector_type(16)));
+    typedef int v16i __attribute__((ext_vector_type(16)));
+    typedef double v16d __attribute__((ext_vector_type(16)));
+    typedef bool v16b __attribute__((ext_vector_type(16)));
+    typedef float v4f __attribute__((ext_vector_type(4)));
+#ifndef WT_MASKED
+#if __has_builtin(__builtin_masked_load) && __has_builtin(__builtin_masked_compress_store)
+#define WT_MASKED 1
+#else
+#define WT_MASKED 0
+#endif
+#endif
+#ifndef WT_COMPRESS_STORE
+#if WT_MASKED && !defined(__znver4__) && !defined(__znver5__)
+#define WT_COMPRESS_STORE 1
+#else
+#define WT_COMPRESS_STORE 0
+#endif
+#endif
+    const auto lane_bits = [](v16i m) -> unsigned {
+        return (unsigned)__builtin_bit_cast(unsigned short, __builtin_convertvector(m, v16b));
+    };
 """
 
-SCAN_CUBE = _AVX512 + _VECTOR_TYPES + r"""
+#: slab_term's order-1 term (kernels/surface.py) for one lookup: the texel rows
+#: c00, c01 (j, j + 1 of row i) and c10, c11 (row i + 1) weighed by the bilinear
+#: weights and the slab weight w, added to acc. One channel with float lanes, the
+#: three at once with 4-float vectors: the same operations in the same order, each
+#: its own statement (no contraction), as Warp's code for slab_term. Warp kernels
+#: keep their own copy (slab_term is a @wp.func): Warp code can call C++ only as a
+#: whole func_native function, and the walk written in Warp is the independent
+#: implementation that tests/test_surface.py checks these loops against.
+_SLAB_ADD = r"""
+    const auto slab_add = [](auto acc, auto c00, auto c01, auto c10, auto c11, float mtx, float tx, float mty,
+                             float ty, float w) {
+        const auto a = c00 * mtx;
+        const auto b = c01 * tx;
+        const auto top = a + b;
+        const auto c = c10 * mtx;
+        const auto d = c11 * tx;
+        const auto bottom = c + d;
+        const auto e = top * mty;
+        const auto f = bottom * ty;
+        const auto g = e + f;
+        const auto h = g * w;
+        return acc + h;
+    };
+"""
+
+SCAN_CUBE = _VECTOR + _VECTOR_TYPES + r"""
     if (simd != 0) {
         int count = 0;
         const float r0 = rel[0], r1 = rel[1], r2 = rel[2];
@@ -50,11 +111,21 @@ SCAN_CUBE = _AVX512 + _VECTOR_TYPES + r"""
         const float b0 = vbar[0], b1 = vbar[1], b2 = vbar[2];
         for (int j = j0; j < j1; j += 16) {
             const int left = j1 - j;
-            const unsigned short valid = left >= 16 ? (unsigned short)0xFFFF : (unsigned short)((1u << left) - 1u);
-            const v16f zero = {};
-            const v16f ux_ = __builtin_ia32_loadups512_mask(ux.data + j, zero, valid);
-            const v16f uy_ = __builtin_ia32_loadups512_mask(uy.data + j, zero, valid);
-            const v16f uz_ = __builtin_ia32_loadups512_mask(uz.data + j, zero, valid);
+            const unsigned valid = left >= 16 ? 0xFFFFu : (1u << left) - 1u;
+#if WT_MASKED
+            // Clang's generic masked loads (AVX-512's, AVX2's, or plain loads elsewhere)
+            const v16b in = __builtin_bit_cast(v16b, (unsigned short)valid);
+            const v16f ux_ = __builtin_masked_load(in, ux.data + j);
+            const v16f uy_ = __builtin_masked_load(in, uy.data + j);
+            const v16f uz_ = __builtin_masked_load(in, uz.data + j);
+#else
+            v16f ux_ = 0.0f, uy_ = 0.0f, uz_ = 0.0f;
+            for (int l = 0; l < 16 && l < left; ++l) {
+                ux_[l] = ux.data[j + l];
+                uy_[l] = uy.data[j + l];
+                uz_[l] = uz.data[j + l];
+            }
+#endif
             const v16f mx = ux_ * size;
             const v16f my = uy_ * size;
             const v16f mz = uz_ * size;
@@ -66,18 +137,28 @@ SCAN_CUBE = _AVX512 + _VECTOR_TYPES + r"""
             const v16f b = dx * b0 + dy * b1 + dz * b2;
             const v16i keep = (__builtin_elementwise_abs(t) < t_lim) & (a >= a_lo) & (a <= a_hi) & (b >= b_lo)
                               & (b <= b_hi);
-            const unsigned short pass = (unsigned short)(__builtin_ia32_cvtd2mask512(keep) & valid);
-            const int n = __builtin_popcount((unsigned int)pass);
+            unsigned pass = lane_bits(keep) & valid;
+            const int n = __builtin_popcount(pass);
             if (n != 0 && count + n <= room) {
-                // compress in registers, then one masked store each (a compressing store
-                // to memory is microcoded and slow on some CPUs)
-                const unsigned short head = (unsigned short)((1u << n) - 1u);
-                __builtin_ia32_storeups512_mask(out_x.data + at + count,
-                                                __builtin_ia32_compresssf512_mask(ux_, zero, pass), head);
-                __builtin_ia32_storeups512_mask(out_y.data + at + count,
-                                                __builtin_ia32_compresssf512_mask(uy_, zero, pass), head);
-                __builtin_ia32_storeups512_mask(out_z.data + at + count,
-                                                __builtin_ia32_compresssf512_mask(uz_, zero, pass), head);
+                // the passing lanes, in order
+#if WT_COMPRESS_STORE
+                const v16b m = __builtin_bit_cast(v16b, (unsigned short)pass);
+                __builtin_masked_compress_store(m, ux_, out_x.data + at + count);
+                __builtin_masked_compress_store(m, uy_, out_y.data + at + count);
+                __builtin_masked_compress_store(m, uz_, out_z.data + at + count);
+#else
+                // (a scalar compaction of the mask's bits)
+                float* ox = out_x.data + at + count;
+                float* oy = out_y.data + at + count;
+                float* oz = out_z.data + at + count;
+                for (int c = 0; pass != 0; ++c) {
+                    const int l = __builtin_ctz(pass);
+                    pass &= pass - 1u;
+                    ox[c] = ux_[l];
+                    oy[c] = uy_[l];
+                    oz[c] = uz_[l];
+                }
+#endif
             }
             count += n;
         }
@@ -139,28 +220,23 @@ _LOAD_LANE = r"""
 #: normals and cube spans [span_lo, span_hi]; the list: runs r0 .. r0 + runs − 1,
 #: run r being cube cubes[run_cube[r]] with impacts u[u0 + run_end[r − 1] .. u0 +
 #: run_end[r] − 1]. Writes the raw sums (before normalisation) to out[dest[k]].
-CLUSTER_SUMS = (_AVX512 + _VECTOR_TYPES + r"""
+CLUSTER_SUMS = (_SLAB_ADD + _VECTOR + _VECTOR_TYPES + r"""
     if (simd != 0) {
         const int np = k1 - k0;
         v16f nx, ny, nz, ax, ay, az, bx, by, bz;
         v16i xl, xh, yl, yh, zl, zh, live;
-        v8d pxa, pya, pza, pxb, pyb, pzb;
-        v8f acc[16] = {};
+        v16d px, py, pz;
+        v4f acc[16] = {};
         for (int l = 0; l < 16; ++l) {
             const int k = k0 + (l < np ? l : 0);
             live[l] = l < np ? -1 : 0;
 LOAD_LANE
             const wp::vec3d y = points.data[k];
-            if (l < 8) {
-                pxa[l] = y[0]; pya[l] = y[1]; pza[l] = y[2];
-            } else {
-                pxb[l - 8] = y[0]; pyb[l - 8] = y[1]; pzb[l - 8] = y[2];
-            }
+            px[l] = y[0]; py[l] = y[1]; pz[l] = y[2];
         }
         const float* cf = (const float*)coeffs.data;
         const int row = 3 * coeffs.shape[1];
         const double cd = (double)size;
-        const v8f zero8 = {};
         alignas(64) float l_mtx[16], l_tx[16], l_mty[16], l_ty[16], l_w[16];
         alignas(64) int l_i00[16];
         int start = 0;
@@ -170,26 +246,14 @@ LOAD_LANE
             // the points whose own walk visits this cube (gather_clustered's test)
             const v16i inside = live & (cc[0] >= xl) & (cc[0] <= xh) & (cc[1] >= yl) & (cc[1] <= yh)
                                 & (cc[2] >= zl) & (cc[2] <= zh);
-            if (__builtin_ia32_cvtd2mask512(inside) != 0) {
+            if (lane_bits(inside) != 0) {
                 // cube_offset: float64 differences, rounded to float32
                 const double mx = (double)cc[0] * cd;
                 const double my = (double)cc[1] * cd;
                 const double mz = (double)cc[2] * cd;
-                const v8d exa = pxa - mx;
-                const v8d exb = pxb - mx;
-                const v8d eya = pya - my;
-                const v8d eyb = pyb - my;
-                const v8d eza = pza - mz;
-                const v8d ezb = pzb - mz;
-                const v8f fxa = __builtin_convertvector(exa, v8f);
-                const v8f fxb = __builtin_convertvector(exb, v8f);
-                const v8f fya = __builtin_convertvector(eya, v8f);
-                const v8f fyb = __builtin_convertvector(eyb, v8f);
-                const v8f fza = __builtin_convertvector(eza, v8f);
-                const v8f fzb = __builtin_convertvector(ezb, v8f);
-                const v16f rx = __builtin_shufflevector(fxa, fxb, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-                const v16f ry = __builtin_shufflevector(fya, fyb, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-                const v16f rz = __builtin_shufflevector(fza, fzb, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+                const v16f rx = __builtin_convertvector(px - mx, v16f);
+                const v16f ry = __builtin_convertvector(py - my, v16f);
+                const v16f rz = __builtin_convertvector(pz - mz, v16f);
                 for (int e = u0 + start; e < u0 + end; ++e) {
                     const float qx = ux.data[e] * size;
                     const float qy = uy.data[e] * size;
@@ -204,7 +268,7 @@ LOAD_LANE
                     const v16f zb = db + cen1;
                     const v16f at = __builtin_elementwise_abs(t);
                     const v16i ok = inside & (at < half) & (za >= lo0) & (za <= hi0) & (zb >= lo1) & (zb <= hi1);
-                    unsigned int bits = (unsigned int)(unsigned short)__builtin_ia32_cvtd2mask512(ok);
+                    unsigned bits = lane_bits(ok);
                     if (bits == 0)
                         continue;
                     const v16f q = at / half;
@@ -223,30 +287,16 @@ LOAD_LANE
                                     + (__builtin_convertvector(fx, v16i) + PADV) * 3;
                     while (bits != 0) {
                         const int l = __builtin_ctz(bits);
-                        bits &= bits - 1;
-                        // the lookup's two rows: corners (i, j), (i, j + 1) in floats 0-5 of
-                        // one 8-float load, (i + 1, j), (i + 1, j + 1) of another (the texton's
-                        // zero margin holds the two extra floats); 256-bit operations only
-                        // (512-bit shuffles cost twice as much on some CPUs)
+                        bits &= bits - 1u;
+                        // the four texels as 4-float loads: channels 0-2 and one float of the
+                        // next texel (the texton's zero margin holds the last one's)
                         const float* p0 = cf + l_i00[l];
-                        v8f top_row, bottom_row;
-                        __builtin_memcpy(&top_row, p0, sizeof(v8f));
-                        __builtin_memcpy(&bottom_row, p0 + row, sizeof(v8f));
-                        const v8f bm = l_mtx[l] - zero8;
-                        const v8f bt = l_tx[l] - zero8;
-                        const v8f wx = __builtin_shufflevector(bm, bt, 0, 1, 2, 11, 12, 13, 6, 7);
-                        const v8f p = top_row * wx;
-                        const v8f q2 = bottom_row * wx;
-                        const v8f ps = __builtin_shufflevector(p, p, 3, 4, 5, 6, 7, 0, 1, 2);
-                        const v8f qs = __builtin_shufflevector(q2, q2, 3, 4, 5, 6, 7, 0, 1, 2);
-                        // top = c(i, j)(1 − tx) + c(i, j + 1) tx in floats 0-2, and bottom
-                        const v8f top = p + ps;
-                        const v8f bottom = q2 + qs;
-                        const v8f e1 = top * l_mty[l];
-                        const v8f e2 = bottom * l_ty[l];
-                        const v8f g = e1 + e2;
-                        const v8f h = g * l_w[l];
-                        acc[l] = acc[l] + h;
+                        v4f c00, c01, c10, c11;
+                        __builtin_memcpy(&c00, p0, sizeof(v4f));
+                        __builtin_memcpy(&c01, p0 + 3, sizeof(v4f));
+                        __builtin_memcpy(&c10, p0 + row, sizeof(v4f));
+                        __builtin_memcpy(&c11, p0 + row + 3, sizeof(v4f));
+                        acc[l] = slab_add(acc[l], c00, c01, c10, c11, l_mtx[l], l_tx[l], l_mty[l], l_ty[l], l_w[l]);
                     }
                 }
             }
@@ -320,15 +370,9 @@ LOAD_LANE
                     const float mty = 1.0f - ty;
                     const float* p00 = cf + ((int)fy + PADV) * row + ((int)fx + PADV) * 3;
                     const float* p10 = p00 + row;
-#define WT_CHANNEL(ch, s) { \
-                    const float a_ = p00[ch] * mtx; const float b_ = p00[3 + ch] * tx; const float top_ = a_ + b_; \
-                    const float c_ = p10[ch] * mtx; const float d_ = p10[3 + ch] * tx; const float bot_ = c_ + d_; \
-                    const float e_ = top_ * mty; const float f_ = bot_ * ty; const float g_ = e_ + f_; \
-                    const float h_ = g_ * w; s[l] = s[l] + h_; }
-                    WT_CHANNEL(0, s0)
-                    WT_CHANNEL(1, s1)
-                    WT_CHANNEL(2, s2)
-#undef WT_CHANNEL
+                    s0[l] = slab_add(s0[l], p00[0], p00[3], p10[0], p10[3], mtx, tx, mty, ty, w);
+                    s1[l] = slab_add(s1[l], p00[1], p00[4], p10[1], p10[4], mtx, tx, mty, ty, w);
+                    s2[l] = slab_add(s2[l], p00[2], p00[5], p10[2], p10[5], mtx, tx, mty, ty, w);
                 }
             }
         }
@@ -353,12 +397,19 @@ def cluster_sums(coeffs: wp.array2d(dtype=wp.vec3), points: wp.array(dtype=wp.ve
     ...
 
 
-@wp.func_native(_AVX512 + """
+@wp.func_native(_VECTOR + """
+#if defined(__AVX512F__)
+    return 3;
+#elif defined(__AVX2__)
+    return 2;
+#else
     return 1;
+#endif
 #else
     return 0;
 #endif
 """)
-def avx512_loops() -> int:
-    """1 where this module's CPU code holds the AVX-512 loops, else 0."""
+def vector_loops() -> int:
+    """Which form of the loops this module's CPU code holds: 3 the vector form built
+    for AVX-512, 2 for AVX2, 1 for NEON; 0 the plain form (CUDA, other CPUs)."""
     ...

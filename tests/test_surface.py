@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import importlib.util
 import math
+import platform
 import subprocess
 import sys
 from pathlib import Path
@@ -270,7 +271,7 @@ class TestProposition3:
         if where == "sphere":
             d, _ = cKDTree(p / texel).query(p / texel, k=2)
             assert d[:, 1].min() > support_side(t) * math.sqrt(3)  # independent points
-        g = surface_noise(t, p, n, texel, mni, seed=7, device=device).astype(np.float64)
+        g = surface_noise(t, p, n, texel, mni=mni, seed=7, device=device).astype(np.float64)
         count = len(g)
         cov = t.covariance()
         # i.i.d. values: Var(mean_a) = C_aa / N
@@ -320,7 +321,7 @@ class TestProposition3:
         p = frame_grid([3.0, -2.0, 1.0], B, np.cross(A, B), 32, 12 * 0.1)  # 12 > r texels apart
         ks = []
         for seed in range(64):
-            g = surface_noise(t, p, np.tile(n, (len(p), 1)), 0.1, mni, seed, device=device)[:, 0] - t.mean[0]
+            g = surface_noise(t, p, np.tile(n, (len(p), 1)), 0.1, mni=mni, seed=seed, device=device)[:, 0] - t.mean[0]
             g = g.astype(np.float64)
             ks.append(np.mean(g**4) / np.mean(g**2) ** 2 - 3.0)
         # the spread over 64 independent groups of 1024 gives the standard error honestly
@@ -345,7 +346,7 @@ class TestProposition3:
         ys = (np.arange(96 * q) + 0.5) / q + 13.0
         gx, gy = np.meshgrid(xs, ys)
         pts = np.stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)], axis=1)
-        g = surface_noise(t, pts * 0.5, np.tile([0, 0, 1.0], (len(pts), 1)), 0.5, mni, seed=5, device=device)
+        g = surface_noise(t, pts * 0.5, np.tile([0, 0, 1.0], (len(pts), 1)), 0.5, mni=mni, seed=5, device=device)
         g = g[:, 0].reshape(gx.shape).astype(np.float64)
         f = (g - 0.5) * math.sqrt(lam * r / 3) + lam * r / 2 * alpha.sum()  # the raw sum
         assert np.all(f > -1e-6)
@@ -388,7 +389,7 @@ class TestPlaneSpectrum:
         acc, windows = np.zeros((L, L)), 0
         for seed, (ox, oy, oz) in ((1, (0.0, 0.0, 0.0)), (2, (-700.0, 350.0, 12.5)), (3, (40.0, -90.0, -3.0))):
             pts = np.stack([gx.ravel() + ox, gy.ravel() + oy, np.full(gx.size, oz)], axis=1)
-            g = surface_noise(t, pts, np.tile([0, 0, 1.0], (len(pts), 1)), texel, 60.0, seed, device=device)
+            g = surface_noise(t, pts, np.tile([0, 0, 1.0], (len(pts), 1)), texel, mni=60.0, seed=seed, device=device)
             g = g[:, 0].reshape(side, side).astype(np.float64) - t.mean[0]
             for y in range(0, side, L + GAP):
                 for x in range(0, side, L + GAP):
@@ -472,7 +473,7 @@ class TestTriangulation:
         out = texture_mesh(mesh, t, 0.01, mni=40.0, seed=6, device=device)
         assert out is not mesh and len(out.vertices) == len(mesh.vertices)
         n = vertex_normals(out)
-        g = surface_noise(t, out.vertices, n, 0.01, 40.0, 6, device=device)
+        g = surface_noise(t, out.vertices, n, 0.01, mni=40.0, seed=6, device=device)
         expect = np.round(np.clip(g, 0, 1) * 255).astype(int)
         c = colours(out).astype(int)
         np.testing.assert_array_equal(c[:, :3], np.repeat(expect, 3, axis=1))  # grey spread to RGB
@@ -480,7 +481,7 @@ class TestTriangulation:
         # the frame rule's directions reach the kernel
         rule = dict(up=(0.0, 1.0, 0.0), side=(0.0, 0.0, 1.0))
         other = colours(texture_mesh(mesh, t, 0.01, mni=40.0, seed=6, device=device, **rule))
-        g = surface_noise(t, out.vertices, n, 0.01, 40.0, 6, device=device, **rule)
+        g = surface_noise(t, out.vertices, n, 0.01, mni=40.0, seed=6, device=device, **rule)
         np.testing.assert_array_equal(other[:, 0], np.round(np.clip(g[:, 0], 0, 1) * 255))
         assert np.mean(other[:, 0] != c[:, 0]) > 0.5
         assert mesh.visual.kind is None  # the input is left uncoloured
@@ -922,11 +923,11 @@ class TestDeviceMatchesCpu:
         mesh = trimesh.creation.icosphere(subdivisions=3)
         mesh.visual = trimesh.visual.TextureVisuals(uv=(mesh.vertices[:, :2] + 1) / 2)  # overlapping: refused
         with pytest.raises(TextonError, match="overlap"):
-            bake_mesh(mesh, t, 0.02, 64, device=gpu)
+            bake_mesh(mesh, t, 0.02, resolution=64, device=gpu)
         plane = plane_mesh(n=5)
         plane.visual = trimesh.visual.TextureVisuals(uv=np.asarray(plane.vertices)[:, :2])
-        a = bake_mesh(plane, t, 1 / 64, 64, device="cpu").texture
-        b = bake_mesh(plane, t, 1 / 64, 64, device=gpu).texture
+        a = bake_mesh(plane, t, 1 / 64, resolution=64, device="cpu").texture
+        b = bake_mesh(plane, t, 1 / 64, resolution=64, device=gpu).texture
         np.testing.assert_allclose(a, b, atol=1e-4 * noise_sd(t))
 
     def test_render_matches_cpu(self, gpu):
@@ -954,6 +955,50 @@ def _same_values(a, b, t, device):
         np.testing.assert_array_equal(a, b)
     else:
         np.testing.assert_allclose(a, b, atol=1e-4 * noise_sd(t))
+
+
+def _host_simd() -> str:
+    """The vector instruction set the CPU loops should be built for here: "avx512",
+    "avx2", "neon" (every AArch64 CPU has it) or "scalar"."""
+    if platform.machine().lower() in ("arm64", "aarch64"):
+        return "neon"
+    try:
+        flags = Path("/proc/cpuinfo").read_text().split("\nflags", 1)[1].split("\n", 1)[0].split()
+    except (OSError, IndexError):
+        pytest.skip("no /proc/cpuinfo flags on this system")
+    return "avx512" if "avx512f" in flags else "avx2" if "avx2" in flags else "scalar"
+
+
+def _dense_cluster_points(rng):
+    """Dense points (about a texel apart at texel 0.05, dozens per cluster cell), so that
+    the clusters list their impacts; far from the origin; mesh normals and random ones."""
+    mesh = trimesh.creation.torus(2.0, 0.7, major_sections=200, minor_sections=80)
+    offset = np.array([5e3, -2e3, 1e3])
+    p = np.concatenate([mesh.vertices, rng.uniform(-0.5, 0.5, (3000, 3))]) + offset
+    n = np.concatenate([vertex_normals(mesh), rng.normal(size=(3000, 3))])
+    return p, n
+
+
+#: Run in a fresh process: the block path built for AVX2 (no AVX-512, no masked
+#: builtins) against the walk, with the vector loops and without.
+AVX2_ONLY = """
+import numpy as np, trimesh, warp as wp
+wp.config.quiet = True
+wp.config.cpu_compiler_flags = (wp.config.cpu_compiler_flags or "-march=native").replace(
+    "-march=native", "-march=native -target-feature -avx512f -D WT_MASKED=0")
+import warp_texton.blocks as S
+from warp_texton import Texton, surface_noise
+print(S.simd_loops("cpu"))
+rng = np.random.default_rng(5)
+t = Texton(0.05 * rng.standard_normal((12, 10, 3)), [0.5] * 3)
+mesh = trimesh.creation.torus(2.0, 0.7, major_sections=120, minor_sections=50)
+p = mesh.vertices + np.array([5e3, -2e3, 1e3])
+n = np.asarray(mesh.vertex_normals)
+b = surface_noise(t, p, n, 0.05, seed=2, mni=40.0, method="points", device="cpu")
+for simd in (True, False):
+    S.SIMD = simd
+    print(np.array_equal(surface_noise(t, p, n, 0.05, seed=2, mni=40.0, method="blocks", device="cpu"), b))
+"""
 
 
 class TestBlocks:
@@ -990,19 +1035,15 @@ class TestBlocks:
 
     @pytest.mark.parametrize("simd", [True, False])
     def test_simd_and_scalar_loops_equal_the_walk(self, simd, device, monkeypatch):
-        # the CPU lists and gathers clusters with kernels/surface_native.py: AVX-512 where
-        # the CPU has it, plain C++ otherwise; both must sum the walk's terms in its order
-        import warp_texton.blocks as blk
+        # the CPU lists and gathers clusters with kernels/surface_native.py: the vector form
+        # where the CPU has AVX2, AVX-512 or NEON, plain C++ otherwise; both must sum the
+        # walk's terms in its order
+        import warp_texton.blocks as S
 
         monkeypatch.setattr(blk, "SIMD", simd)
         rng = np.random.default_rng(31)
         t = random_texton((16, 12), channels=3, order=1, seed=rng)
-        # dense points (about a texel apart, dozens per cluster cell), so that the clusters
-        # list their impacts; far from the origin; mesh normals and random ones
-        mesh = trimesh.creation.torus(2.0, 0.7, major_sections=200, minor_sections=80)
-        offset = np.array([5e3, -2e3, 1e3])
-        p = np.concatenate([mesh.vertices, rng.uniform(-0.5, 0.5, (3000, 3))]) + offset
-        n = np.concatenate([vertex_normals(mesh), rng.normal(size=(3000, 3))])
+        p, n = _dense_cluster_points(rng)
         for tangents in (None, np.cross(n, rng.normal(size=3))):
             kw = dict(seed=11, mni=float(rng.uniform(20, 90)), tangents=tangents, device=device)
             a = surface_noise(t, p, n, 0.05, method="blocks", **kw)
@@ -1010,17 +1051,28 @@ class TestBlocks:
             _same_values(a, b, t, device)
             assert a.std(axis=0).min() > 0.3 * noise_sd(t)
 
-    def test_avx512_loops_are_built_where_the_cpu_has_them(self):
-        # a build that silently lost the AVX-512 loops would give the same values, only
-        # about 2x slower: check that Warp's CPU code has them on CPUs that do
-        import warp_texton.blocks as blk
+    def test_vector_loops_are_built_where_the_cpu_has_simd(self):
+        # a build that silently lost the vector loops would give the same values, only
+        # about 2x slower: check that Warp's CPU code (compiled for this CPU) has them
+        # wherever the CPU has AVX2, AVX-512 or NEON
+        import warp_texton.blocks as S
 
-        try:
-            flags = Path("/proc/cpuinfo").read_text().split("\nflags", 1)[1].split("\n", 1)[0].split()
-        except (OSError, IndexError):
-            pytest.skip("no /proc/cpuinfo flags on this system")
-        has = "avx512f" in flags and "avx512dq" in flags
-        assert blk.simd_loops("cpu") == ("avx512" if has else "scalar")
+        assert S.simd_loops("cpu") == _host_simd()
+
+    @pytest.mark.slow
+    def test_avx2_build_takes_the_vector_loops(self, tmp_path):
+        # on an AVX-512 CPU, the build for AVX2 only (Warp's CPU flags without avx512f,
+        # in a fresh process: the flags are part of every module's build) must still take
+        # the vector form and give the walk's values bit for bit; built with the plain
+        # tail loads and compaction that Clang before 21 gets (WT_MASKED=0), so that
+        # both of the vector form's variants run here
+        if _host_simd() != "avx512":
+            pytest.skip("needs an AVX-512 CPU (an AVX2 one runs this form in every test)")
+        script = tmp_path / "avx2.py"
+        script.write_text(AVX2_ONLY)
+        done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=600)
+        assert done.returncode == 0, done.stderr[-2000:]
+        assert done.stdout.split() == ["avx2", "True", "True"]
 
     def test_blocks_spread_beyond_int64_keys(self, device):
         # two dense groups 10^7 texels apart on every axis: (10^7 / block side)^3 blocks
@@ -1135,8 +1187,8 @@ class TestFarFromOrigin:
         cam_near = Camera(position=(0, -4.0, 1.0), target=(0, 0, 0), fov=40.0)
         shift = np.array([2e6, -1e6, 5e5])
         cam_far = Camera(tuple(np.array(cam_near.position) + shift), tuple(shift), fov=40.0)
-        a = render_mesh(near, t, (48, 48), 0.01, cam_near, device=device)
-        b = render_mesh(far, t, (48, 48), 0.01, cam_far, device=device)
+        a = render_mesh(near, t, (48, 48), texel_size=0.01, camera=cam_near, device=device)
+        b = render_mesh(far, t, (48, 48), texel_size=0.01, camera=cam_far, device=device)
         hit_a, hit_b = np.any(a != np.float32(0.92), axis=2), np.any(b != np.float32(0.92), axis=2)
         assert np.mean(hit_a != hit_b) < 0.01 and hit_b.mean() > 0.3  # the same silhouette
         # noise, not flat patches: neighbouring hit pixels differ as much as near the origin

@@ -51,8 +51,8 @@ CLUSTER_RUNS = 128
 CLUSTER_LEVEL = 2
 CLUSTER_CAP = 1024
 CLUSTERS_PER_ROUND = 1 << 12
-#: Use the AVX-512 loops of kernels/surface_native.py where the CPU has them (the
-#: same values as their scalar form; tests switch it off to check that form).
+#: Use the vector loops of kernels/surface_native.py where the CPU has AVX2, AVX-512
+#: or NEON (the same values as their scalar form; tests switch it off to check that form).
 SIMD = True
 
 #: Bytes a drawn cube holds through its round: its coordinates (3 int32) and its
@@ -320,13 +320,14 @@ def gather_round(p: K.SurfaceParams, coeffs, sorted_points: BlockedPoints, tan, 
 
 
 def simd_loops(device="cpu") -> str:
-    """"avx512" where the block path's CPU loops (kernels/surface_native.py) were
-    compiled for AVX-512 on this machine, "scalar" otherwise (other CPUs, CUDA, or
-    ``SIMD`` off): the two give the same values; benchmarks report which ran."""
+    """The form of the block path's CPU loops (kernels/surface_native.py) that runs:
+    "avx512", "avx2" or "neon" where their vector form was compiled for that
+    instruction set, "scalar" otherwise (other CPUs, CUDA, or ``SIMD`` off): all
+    give the same values; benchmarks report which ran."""
     device = resolve_device(device)
     if not wp.get_device(device).is_cpu or not SIMD:
         return "scalar"
     with wp.ScopedDevice(device):
         flag = wp.zeros(1, dtype=wp.int32)
         wp.launch(K.simd_probe, dim=1, inputs=[flag])
-        return "avx512" if int(flag.numpy()[0]) else "scalar"
+        return ("scalar", "neon", "avx2", "avx512")[int(flag.numpy()[0])]
