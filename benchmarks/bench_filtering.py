@@ -37,7 +37,7 @@ from common import machine_line, make_texture, report_header, run_main  # noqa: 
 
 from warp_texton import FilterOptions, analyze  # noqa: E402
 from warp_texton.filtering import FADE_ENERGY, LOD_BIAS, MAX_ANISO, kept_levels, level_energies  # noqa: E402
-from warp_texton.plane import PlaneView, plane_pixels  # noqa: E402
+from warp_texton.plane import PlaneCamera, plane_pixels  # noqa: E402
 from warp_texton._runtime import resolve_device  # noqa: E402
 
 #: The view: camera height, tilt and field of view (degrees), texel size at 1024 rows.
@@ -45,11 +45,11 @@ VIEW = {"height": 1.0, "tilt": 70.0, "fov": 40.0, "texel_1024": 0.0011}
 BANDS = 8
 
 
-def plane_view(side: int) -> PlaneView:
-    return PlaneView((side, side), VIEW["height"], VIEW["tilt"], VIEW["fov"], VIEW["texel_1024"] * 1024 / side)
+def plane_view(side: int) -> PlaneCamera:
+    return PlaneCamera((side, side), VIEW["height"], VIEW["tilt"], VIEW["fov"], VIEW["texel_1024"] * 1024 / side)
 
 
-def far_half_sample(view: PlaneView, every: int) -> np.ndarray:
+def far_half_sample(view: PlaneCamera, every: int) -> np.ndarray:
     """Flat indices of every ``every``-th row and column of the top half."""
     h, w = view.shape
     return np.arange(h // 2 * w).reshape(h // 2, w)[::every, ::every].ravel()

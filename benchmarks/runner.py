@@ -391,29 +391,10 @@ def _method_device(method: str, device: str) -> str:
     return "host" if method in HOST_METHODS else device
 
 
-def markdown(report: dict) -> str:
-    m, p, rows = report["machine"], report["parameters"], report["results"]
-    devices = ", ".join(
-        f"`{d['name']}` ({d['description']}" + (f", {d['threads']} threads)" if "threads" in d else
-                                                f", {d['memory_gib']} GiB)") for d in report["devices"])
-    commit = (report["git_commit"] or "unknown")[:10]
-    if p["repeat"] == 1:
-        runs = "one timed run each"
-    else:
-        runs = (f"best of {p['repeat']} interleaved runs, median in brackets "
-                f"(naive per-pixel: best of {min(p['repeat'], 2)})")
-    lines = [
-        f"# warp-texton benchmark runner, {p['name']} suite",
-        "",
-        f"{report['date']}; commit `{commit}`{' (uncommitted changes)' if report['git_dirty'] else ''}; "
-        f"{m['processor']}, {m['usable_cpus']} usable CPUs, {m['platform']}; Python {m['python']}, "
-        f"NumPy {m['numpy']}, SciPy {m['scipy']}, Warp {report['warp']}, warp-texton {m['warp_texton']}. "
-        f"Devices: {devices}. The whole run took {report['seconds']:.0f} s.",
-        "",
-        f"Textons analysed from a {p['image_side']}² RGB test texture ({p['texture']}), order 1; "
-        f"rasters RGB. Times in seconds after one untimed call of each method: {runs}. FFT sample and DSN "
-        "run on the host (NumPy) whatever the device. Every method returns the finished raster in host memory.",
-    ]
+def _synthesis_lines(report: dict) -> list[str]:
+    """The tables of texton noise and its peers, per device."""
+    p, rows = report["parameters"], report["results"]
+    lines: list[str] = []
     ref_h, ref_w = p["ref_shape"]
     for d in report["devices"]:
         dev = d["name"]
@@ -444,11 +425,25 @@ def markdown(report: dict) -> str:
             for t in p["texton_sizes"]:
                 kw = dict(shape=[ref_h, ref_w], mni=p["ref_mni"], texton=t)
                 lines.append(f"| {t}² | " + " | ".join(_cell(get(mt, **kw)) for mt in METHODS) + " |")
+    return lines
+
+
+def _analysis_lines(report: dict) -> list[str]:
+    """The table of analysis times."""
+    p, rows = report["parameters"], report["results"]
+    lines: list[str] = []
     lines += ["", f"## Analysis (`analyze`, {p['image_side']}² RGB, 50 iterations, host)", "",
               "| texton | time (s) |", "|---|---:|"]
     for r in rows:
         if r["case"] == "analysis":
             lines.append(f"| {r['texton']}² | {_cell(r)} |")
+    return lines
+
+
+def _mixing_lines(report: dict) -> list[str]:
+    """The table of mixed noise against plain noise."""
+    p, rows = report["parameters"], report["results"]
+    lines: list[str] = []
     mix = [r for r in rows if r["case"] == "mixing"]
     if mix:
         first = mix[0]
@@ -462,6 +457,13 @@ def markdown(report: dict) -> str:
                 h, w = r["shape"]
                 lines.append(f"| `{r['device']}` | {w}×{h} | {_cell(r)} | {_cell(plain)} | "
                              f"{r['best_s'] / plain['best_s']:.2f} |")
+    return lines
+
+
+def _filtering_lines(report: dict) -> list[str]:
+    """The table of filters: cost and error against no filtering."""
+    p, rows = report["parameters"], report["results"]
+    lines: list[str] = []
     filt = [r for r in rows if r["case"] == "filtering"]
     if filt:
         h, w = filt[0]["shape"]
@@ -471,6 +473,13 @@ def markdown(report: dict) -> str:
         for r in filt:
             lines.append(f"| `{r['device']}` | {r['method']} | {_cell(r)} | {r['cost']:.2f} | "
                          f"{r['error_ratio']:.3f} |")
+    return lines
+
+
+def _surface_lines(report: dict) -> list[str]:
+    """The table of surface noise and renders."""
+    p, rows = report["parameters"], report["results"]
+    lines: list[str] = []
     surf = [r for r in rows if r["case"] == "surface"]
     if surf:
         lines += ["", f"## Surface noise (MNI {SURFACE_MNI:g}, texton {p['ref_texton']}², unit icosphere, "
@@ -494,10 +503,40 @@ def markdown(report: dict) -> str:
                 ratio = f"{walk['best_s'] / r['best_s']:.2f}" if r["method"] == "render_mesh" else ""
                 lines.append(f"| `{r['device']}` | `{r['method']}`, {w}×{h} | {_cell(r)} | "
                              f"{r['mpix_per_s']:.1f} Mpix/s | | {ratio} |")
+    return lines
+
+
+def markdown(report: dict) -> str:
+    m, p = report["machine"], report["parameters"]
+    devices = ", ".join(
+        f"`{d['name']}` ({d['description']}" + (f", {d['threads']} threads)" if "threads" in d else
+                                                f", {d['memory_gib']} GiB)") for d in report["devices"])
+    commit = (report["git_commit"] or "unknown")[:10]
+    if p["repeat"] == 1:
+        runs = "one timed run each"
+    else:
+        runs = (f"best of {p['repeat']} interleaved runs, median in brackets "
+                f"(naive per-pixel: best of {min(p['repeat'], 2)})")
+    lines = [
+        f"# warp-texton benchmark runner, {p['name']} suite",
+        "",
+        f"{report['date']}; commit `{commit}`{' (uncommitted changes)' if report['git_dirty'] else ''}; "
+        f"{m['processor']}, {m['usable_cpus']} usable CPUs, {m['platform']}; Python {m['python']}, "
+        f"NumPy {m['numpy']}, SciPy {m['scipy']}, Warp {report['warp']}, warp-texton {m['warp_texton']}. "
+        f"Devices: {devices}. The whole run took {report['seconds']:.0f} s.",
+        "",
+        f"Textons analysed from a {p['image_side']}² RGB test texture ({p['texture']}), order 1; "
+        f"rasters RGB. Times in seconds after one untimed call of each method: {runs}. FFT sample and DSN "
+        "run on the host (NumPy) whatever the device. Every method returns the finished raster in host memory.",
+    ]
+    for section in (_synthesis_lines, _analysis_lines, _mixing_lines, _filtering_lines, _surface_lines):
+        lines += section(report)
     if report["skipped"]:
         lines += ["", "## Not measured", ""]
         lines += [f"* {s['case']}: {s['reason']}." for s in report["skipped"]]
     return "\n".join(lines) + "\n"
+
+
 
 
 def plots(report: dict, out: Path) -> list[Path]:

@@ -41,7 +41,7 @@ LAYERS = {
     "mesh": 12,
     "render": 13,
     "bake": 14, "demo": 14, "view_core": 14, "cli_options": 14,
-    "batch": 15, "view": 15,
+    "jobs": 15, "view": 15,
     "cli_images": 16, "cli_surface": 16, "cli_view": 16,
     "cli": 17,
     "__init__": 18,

@@ -290,7 +290,7 @@ class TestAtlas:
         # the scene's one geometry: force="mesh" would concatenate and recompute the normals
         (loaded,) = trimesh.load(glb, process=False).geometry.values()
         np.testing.assert_allclose(loaded.vertex_normals, baked.mesh.vertex_normals, atol=1e-6)
-        cam = Camera.framing(mesh, view=(-40, 35), zoom=1.4)
+        cam = Camera.framing(mesh, orbit=(-40, 35), zoom=1.4)
         ref = render_mesh(mesh, TS, (96, 96), texel_size=TORUS_TEXEL, camera=cam, seed=5, device=device).astype(np.float64)
         img = render_baked(loaded, (96, 96), camera=cam, device=device).astype(np.float64)
         hits = cast_rays(loaded, (96, 96), cam, device=device)

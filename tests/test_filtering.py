@@ -31,7 +31,7 @@ from warp_texton import Texton, TextonError, read_image, render_plane, synthesiz
 from warp_texton import FilterOptions, filtering
 from warp_texton.bspline import bspline
 from warp_texton.filtering import FADE_ENERGY, LOD_BIAS, texton_pyramid
-from warp_texton.plane import PlaneView, plane_pixels
+from warp_texton.plane import PlaneCamera, plane_pixels
 
 FILTERED = ("mip", "anisotropic")
 
@@ -207,7 +207,7 @@ class TestNoMinification:
         """plane_pixels always runs the filter kernel: straight down (tilt 0) every footprint is
         k·I with k below 2^(−bias), one lookup of level 0, so it is the plain noise."""
         t = random_texton(channels=3, seed=3, correlated=False)
-        view = PlaneView((32, 48), 1.0, 0.0, 40.0, texel_size)
+        view = PlaneCamera((32, 48), 1.0, 0.0, 40.0, texel_size)
         px = np.arange(32 * 48)
         i, j = np.divmod(px, 48)
         major = np.linalg.svd(view.footprints(i + 0.5, j + 0.5), compute_uv=False)[:, 0]
@@ -217,7 +217,7 @@ class TestNoMinification:
 
     def test_mip_kernel_on_a_tilted_view_below_its_level_is_none(self, device):
         t = random_texton(seed=4, correlated=False)
-        view = PlaneView((32, 48), 1.0, 30.0, 30.0, 0.05)
+        view = PlaneCamera((32, 48), 1.0, 30.0, 30.0, 0.05)
         px = np.arange(32 * 48)
         i, j = np.divmod(px, 48)
         sv = np.linalg.svd(view.footprints(i + 0.5, j + 0.5), compute_uv=False)
@@ -262,7 +262,7 @@ class TestIsotropic:
 
     def test_same_bias_same_image_on_a_plane_seen_from_above(self, device):
         t = random_texton(seed=7, correlated=False)
-        view = PlaneView((24, 32), 1.0, 0.0, 60.0, 0.002)  # J = k·I, k ≈ 24 texels
+        view = PlaneCamera((24, 32), 1.0, 0.0, 60.0, 0.002)  # J = k·I, k ≈ 24 texels
         px = np.arange(24 * 32)
         for b in (-0.79, 0.0):
             assert_same_noise(plane_pixels(t, view, px, seed=3, filter=FilterOptions("mip", lod_bias=b), device=device),
@@ -604,7 +604,7 @@ BAND = 12  # rows per band; bands 0..3 (the far half) have footprints of ~3 to ~
 def plane_texel_size():
     """The texel size that makes the bottom row's footprint one texel long (J11 = 1)."""
     h, w = PLANE_SHAPE
-    view = PlaneView(PLANE_SHAPE, 1.0, PLANE_TILT, PLANE_FOV, 1.0)
+    view = PlaneCamera(PLANE_SHAPE, 1.0, PLANE_TILT, PLANE_FOV, 1.0)
     return float(view.footprints(h - 0.5, w / 2)[1, 1])
 
 
@@ -615,7 +615,7 @@ def plane_case(device):
     ts = plane_texel_size()
     out = {f: render_plane(t, PLANE_SHAPE, height=1.0, tilt=PLANE_TILT, fov=PLANE_FOV, texel_size=ts, seed=3, filter=f, device=device)
            for f in ("none", *FILTERED)}
-    view = PlaneView(PLANE_SHAPE, 1.0, PLANE_TILT, PLANE_FOV, ts)
+    view = PlaneCamera(PLANE_SHAPE, 1.0, PLANE_TILT, PLANE_FOV, ts)
     far = np.arange(h // 2 * w)  # the reference on the far half only
     ref = plane_pixels(t, view, far, seed=3, filter=FilterOptions("supersample", supersample=8), device=device)
     return t, view, out, ref.reshape(h // 2, w, 1)
@@ -673,7 +673,7 @@ class TestPlane:
         # batches of 16 pixels at n = 4 (as 1024 pixels at n = 64 with the default batch size)
         monkeypatch.setattr(filtering, "SUPERSAMPLE_BATCH", 16 * 16)
         t = random_texton(seed=12, correlated=False)
-        view = PlaneView((16, 16), 1.0, 60.0, 40.0, 0.01)
+        view = PlaneCamera((16, 16), 1.0, 60.0, 40.0, 0.01)
         full = render_plane(t, (16, 16), height=1.0, tilt=60.0, fov=40.0, texel_size=0.01, seed=3, filter=FilterOptions("supersample", supersample=4),
                             device=device).reshape(-1, 1)
         px = np.arange(16, 48)
@@ -683,7 +683,7 @@ class TestPlane:
     @pytest.mark.parametrize("filter", ("none", *FILTERED, "supersample"))
     def test_above_the_horizon_is_the_mean(self, filter, device):
         t = random_texton(channels=3, seed=13, mean=0.3, correlated=False)
-        view = PlaneView((40, 30), 1.0, 80.0, 40.0, 0.01)
+        view = PlaneCamera((40, 30), 1.0, 80.0, 40.0, 0.01)
         g = render_plane(t, (40, 30), height=1.0, tilt=80.0, fov=40.0, texel_size=0.01, seed=1, filter=FilterOptions(filter, supersample=3), device=device)
         assert g.shape == (40, 30, 3) and g.dtype == np.float32
         i = np.arange(40) + 0.5
@@ -696,7 +696,7 @@ class TestPlane:
         """The view of the next test: its top row sees the plane, 5e7 texels away (inside the
         kernels' cell range), through a footprint of 1e11 texels (far past the coarsest level)."""
         h, w, fov, ts, tilt = NEAR_HORIZON
-        view = PlaneView((h, w), 1.0, tilt, fov, ts)
+        view = PlaneCamera((h, w), 1.0, tilt, fov, ts)
         centre = view.texels(0.5, w / 2)
         assert np.isfinite(centre).all() and 1e7 < np.abs(centre).max() < 1e8
         assert view.footprints(0.5, w / 2).max() > 1e10
@@ -728,7 +728,7 @@ class TestPlane:
         assert a8.shape == (48, 32, 3)
         assert np.abs(a8 - a1).max() > 0.05 * noise_sd(t)  # max_aniso reaches the kernel
         # max_aniso=1: one lookup as wide as the major axis, i.e. "mip" at the anisotropic bias
-        view = PlaneView((48, 32), 1.0, PLANE_TILT, PLANE_FOV, ts)
+        view = PlaneCamera((48, 32), 1.0, PLANE_TILT, PLANE_FOV, ts)
         px = np.arange(48 * 32)
         mip_b = plane_pixels(t, view, px, filter=FilterOptions("mip", lod_bias=bias("anisotropic")), **kw)
         assert_same_noise(a1.reshape(-1, 3), mip_b, t)
@@ -751,7 +751,7 @@ class TestSupersample:
         a = synthesize(t, (24, 24), seed=1, **kw)
         np.testing.assert_array_equal(a, synthesize(t, (24, 24), seed=1, **kw))
         assert np.abs(a - synthesize(t, (24, 24), seed=2, **kw)).max() > 0.1 * noise_sd(t)
-        view = PlaneView((24, 24), 1.0, 60.0, 40.0, 0.01)
+        view = PlaneCamera((24, 24), 1.0, 60.0, 40.0, 0.01)
         px = np.arange(24 * 24)
         p = plane_pixels(t, view, px, seed=1, filter=FilterOptions("supersample", supersample=5), device=device)
         np.testing.assert_array_equal(p, plane_pixels(t, view, px, seed=1, filter=FilterOptions("supersample", supersample=5),

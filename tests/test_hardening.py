@@ -591,7 +591,7 @@ class TestOneError:
 # ============================================================== meshes
 @pytest.mark.parametrize("content", [b"\x89PNG\r\n\x1a\n\x00\xff\xfe", "SELF"])
 def test_mesh_lists_binary_or_self_including(tmp_path, content):
-    from warp_texton.batch import expand_meshes
+    from warp_texton.jobs import expand_meshes
 
     listing = tmp_path / "list.txt"
     listing.write_bytes(f"@{listing}\n".encode() if content == "SELF" else content)
@@ -605,7 +605,7 @@ def test_mesh_functions_raise_texton_error(call):
     import trimesh
 
     from warp_texton import render_mesh, surface_noise, texture_mesh
-    from warp_texton.batch import expand_meshes
+    from warp_texton.jobs import expand_meshes
 
     t = random_texton((4, 4), seed=9)
     mesh = trimesh.creation.icosphere(0)

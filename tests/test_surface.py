@@ -1038,7 +1038,7 @@ class TestBlocks:
         # the CPU lists and gathers clusters with kernels/surface_native.py: the vector form
         # where the CPU has AVX2, AVX-512 or NEON, plain C++ otherwise; both must sum the
         # walk's terms in its order
-        import warp_texton.blocks as S
+        import warp_texton.blocks as blk
 
         monkeypatch.setattr(blk, "SIMD", simd)
         rng = np.random.default_rng(31)
@@ -1241,15 +1241,15 @@ class TestUpAxis:
         # the default side of the x axis is y (x itself would be parallel to up)
         np.testing.assert_array_equal(frame_rule("x")[1], [0, 1.0, 0])
 
-    def test_view_direction(self):
-        from warp_texton.render import view_direction
+    def test_orbit_direction(self):
+        from warp_texton.render import orbit_direction
 
-        np.testing.assert_allclose(view_direction((-90, 0)), [0, -1, 0], atol=1e-12)  # the front
-        np.testing.assert_allclose(view_direction((0, 90 - 1e-9)), [0, 0, 1], atol=1e-9)
-        np.testing.assert_allclose(view_direction((-90, 0), up="y"), [0, 0, 1], atol=1e-12)
+        np.testing.assert_allclose(orbit_direction((-90, 0)), [0, -1, 0], atol=1e-12)  # the front
+        np.testing.assert_allclose(orbit_direction((0, 90 - 1e-9)), [0, 0, 1], atol=1e-9)
+        np.testing.assert_allclose(orbit_direction((-90, 0), up="y"), [0, 0, 1], atol=1e-12)
         for bad in ((0, 90), (0, float("nan")), (1, 2, 3), "ab"):
-            with pytest.raises(TextonError, match="view"):
-                view_direction(bad)
+            with pytest.raises(TextonError, match="orbit"):
+                orbit_direction(bad)
 
     @pytest.mark.parametrize("up", ["y", "x"])
     def test_a_tall_box_renders_upright_for_its_up_axis(self, up, device):
@@ -1259,7 +1259,7 @@ class TestUpAxis:
         extents = {"y": (1.0, 3.0, 1.0), "x": (3.0, 1.0, 1.0)}[up]
         box = trimesh.creation.box(extents=extents)
         for axis, tall in ((up, True), ("z", False)):
-            img = render_mesh(box, t, (64, 64), up=axis, view=(-60, 10), device=device)
+            img = render_mesh(box, t, (64, 64), up=axis, orbit=(-60, 10), device=device)
             rows, cols = np.nonzero(np.any(img != np.float32(0.92), axis=2))
             height, width = np.ptp(rows), np.ptp(cols)
             assert (height > 1.5 * width) == tall, (axis, height, width)

@@ -560,7 +560,7 @@ def lookup(texture: np.ndarray, uv: np.ndarray) -> np.ndarray:
     return top * (1 - fy) + bottom * fy
 
 
-def render_baked(baked, shape=(512, 512), *, camera=None, up=UP, view=None, fov=None, light=None,
+def render_baked(baked, shape=(512, 512), *, camera=None, up=UP, orbit=None, fov=None, light=None,
                  background=(0.92, 0.92, 0.92), device=None) -> np.ndarray:
     """Render a textured mesh as a renderer shows it: each pixel's hit looks its UV up
     in the texture (bilinear), shaded as :func:`warp_texton.render_mesh` shades.
@@ -570,7 +570,7 @@ def render_baked(baked, shape=(512, 512), *, camera=None, up=UP, view=None, fov=
     baked : BakedMesh or trimesh.Trimesh
         A bake, or a mesh with UVs and a material holding an image (a GLB or OBJ
         written by :func:`write_baked`, read back with trimesh).
-    shape, camera, up, view, fov, light, background, device
+    shape, camera, up, orbit, fov, light, background, device
         As in :func:`warp_texton.render_mesh`: the same camera gives the same
         pixels, so the two renders compare pixel by pixel.
 
@@ -615,7 +615,7 @@ def render_baked(baked, shape=(512, 512), *, camera=None, up=UP, view=None, fov=
         texture = np.asarray(image.convert("RGB"), np.float64) / 255.0
     uv = check_uvs(np.asarray(mesh.visual.uv, np.float64), len(mesh.vertices))
     bg = check_background(background)
-    hits = cast_rays(mesh, shape, camera, up=up, view=view, fov=fov, light=light, device=device)
+    hits = cast_rays(mesh, shape, camera, up=up, orbit=orbit, fov=fov, light=light, device=device)
     img = np.empty(hits.face.shape + (3,), np.float32)
     img[:] = bg.astype(np.float32)
     hit = hits.hit

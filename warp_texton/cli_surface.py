@@ -1,7 +1,7 @@
 """``warp-texton surface``: surface noise on a batch of meshes.
 
 The options are checked once, here, rather than failing every mesh; then the
-jobs run on threads or a Dask cluster (:mod:`warp_texton.batch`), and one bad
+jobs run on threads or a Dask cluster (:mod:`warp_texton.jobs`), and one bad
 mesh is reported while the others finish.
 """
 
@@ -38,9 +38,9 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--render", metavar="WxH", help="also write a PNG render of this size, e.g. 512x512")
     p.add_argument("--up", choices=("auto", "x", "y", "z"), default="auto",
                    help="the meshes' up axis: auto is y for .glb/.gltf (Y-up by definition), z otherwise")
-    p.add_argument("--view", metavar="AZ,EL",
+    p.add_argument("--orbit", metavar="AZ,EL",
                    help="render camera azimuth and elevation in degrees (default -55,25: front left, above; "
-                        "a negative azimuth as --view=-30,20)")
+                        "a negative azimuth as --orbit=-30,20)")
     p.add_argument("--fov", type=float, help="render vertical field of view, degrees (default 35)")
     p.add_argument("--format", choices=("ply", "obj", "glb"),
                    help="mesh output format (default: glb with --bake, else ply)")
@@ -84,27 +84,27 @@ def _check_bake_options(args) -> None:
         raise TextonError("--max-edge subdivides for vertex colours; a --bake texture does not need it")
 
 
-def _view_angles(text):
-    """--view AZ,EL -> (azimuth, elevation), or None."""
-    from .render import view_direction
+def _orbit_angles(text):
+    """--orbit AZ,EL -> (azimuth, elevation), or None."""
+    from .render import orbit_direction
 
     if text is None:
         return None
     try:
-        view = tuple(float(v) for v in text.split(","))
-        if len(view) != 2:
+        orbit = tuple(float(v) for v in text.split(","))
+        if len(orbit) != 2:
             raise ValueError
     except ValueError:
-        raise TextonError(f"--view must be AZIMUTH,ELEVATION in degrees, e.g. 30,20, got {text!r}") from None
+        raise TextonError(f"--orbit must be AZIMUTH,ELEVATION in degrees, e.g. 30,20, got {text!r}") from None
     try:
-        view_direction(view)
+        orbit_direction(orbit)
     except TextonError as exc:
-        raise TextonError(f"--view: {exc}") from None
-    return view
+        raise TextonError(f"--orbit: {exc}") from None
+    return orbit
 
 
 def _check_options(args):
-    """(render shape, view angles), every option checked once for the whole batch."""
+    """(render shape, orbit angles), every option checked once for the whole batch."""
     from ._checks import check_int, check_positive, check_seed, check_shape
 
     render = _render_size(args.render)
@@ -122,12 +122,12 @@ def _check_options(args):
         check_int(args.supersample, "--supersample", minimum=1)
     if args.exr_linear and args.texture != "exr":
         raise TextonError("--exr-linear applies to --texture exr")
-    view = _view_angles(args.view)
+    orbit = _orbit_angles(args.orbit)
     if args.fov is not None:
         check_positive(args.fov, "--fov")
         if args.fov >= 180:
             raise TextonError(f"--fov must be below 180 degrees, got {args.fov}")
-    return render, view
+    return render, orbit
 
 
 # ------------------------------------------------------------------ the batch
@@ -166,9 +166,9 @@ def _surface_texton(args):
         raise TextonError(f"--texton {args.texton}: {exc}", exc.param, mentions=exc.mentions) from None
 
 
-def _run_jobs(args, executor, device, render, view):
+def _run_jobs(args, executor, device, render, orbit):
     """(results, interrupted) of the batch's jobs."""
-    from .batch import BatchInterrupted, SurfaceJob, check_unique_outputs, expand_meshes, run_batch
+    from .jobs import JobsInterrupted, SurfaceJob, check_unique_outputs, expand_meshes, run_jobs
 
     texton = _surface_texton(args)
     meshes = expand_meshes(args.meshes)
@@ -176,12 +176,12 @@ def _run_jobs(args, executor, device, render, view):
     out.mkdir(parents=True, exist_ok=True)
     jobs = [SurfaceJob(m, texton, str(out), args.texel_size, args.mni, args.seed, args.max_edge, render,
                        args.format, args.overwrite, device, bake=args.bake, uv=args.uv, texture=args.texture,
-                       exr_linear=args.exr_linear, supersample=args.supersample, up=args.up, view=view,
+                       exr_linear=args.exr_linear, supersample=args.supersample, up=args.up, orbit=orbit,
                        fov=args.fov) for m in meshes]
     check_unique_outputs(jobs)
     try:
-        return run_batch(jobs, executor=executor, jobs_in_parallel=args.jobs, progress=not args.quiet), False
-    except BatchInterrupted as exc:
+        return run_jobs(jobs, executor=executor, jobs_in_parallel=args.jobs, progress=not args.quiet), False
+    except JobsInterrupted as exc:
         return exc.results, True
 
 
@@ -207,10 +207,10 @@ def _surface(args) -> int:
     from ._runtime import resolve_device
 
     try:
-        render, view = _check_options(args)
+        render, orbit = _check_options(args)
         device = resolve_device(args.device)
         with _executor(args.scheduler) as executor:
-            results, interrupted = _run_jobs(args, executor, device, render, view)
+            results, interrupted = _run_jobs(args, executor, device, render, orbit)
     except KeyboardInterrupt:  # before or after the batch itself (which reports its own)
         print("warp-texton: interrupted", file=sys.stderr)
         return 130
@@ -230,7 +230,7 @@ SURFACE = Command(
     epilog="""examples:
   warp-texton surface scans/*.ply --texton wood.exr --out-dir textured --render 512x512
   warp-texton surface scans/*.ply --texton wood.png --out-dir baked --bake 2048 --texture png
-  warp-texton surface model.glb --texton wood.exr --out-dir out --bake 1024 --format obj --render 800x600 --view 30,20
+  warp-texton surface model.glb --texton wood.exr --out-dir out --bake 1024 --format obj --render 800x600 --orbit 30,20
   warp-texton surface @meshes.txt --texton wood.texton --out-dir out --texel-size 0.002 --format glb --jobs 2
   warp-texton surface 'scans/*.ply' --texton wood.exr --out-dir out --bake 2048 --scheduler tcp://head:8786
 """)

@@ -25,7 +25,7 @@ if TYPE_CHECKING:
     import warp as wp
 
 
-class PlaneView:
+class PlaneCamera:
     """A pinhole camera ``height`` above the plane z = 0, looking down at ``tilt``
     degrees from the vertical towards +Y, vertical field of view ``fov``.
 
@@ -84,13 +84,13 @@ class PlaneView:
 class PlanePixels(PixelSet):
     """The pixels of a plane view (flat indices ``keys``) whose centres see the noise."""
 
-    def __init__(self, view: PlaneView, keys, centre, wants_footprints: bool):
-        self.view = view
+    def __init__(self, camera: PlaneCamera, keys, centre, wants_footprints: bool):
+        self.camera = camera
         self.keys = np.asarray(keys, np.int64)
         self.count = self.keys.size
-        self.ii, self.jj = np.divmod(self.keys, view.shape[1])
+        self.ii, self.jj = np.divmod(self.keys, camera.shape[1])
         self.centre = centre
-        self.J = view.footprints(self.ii + 0.5, self.jj + 0.5) if wants_footprints else None
+        self.J = camera.footprints(self.ii + 0.5, self.jj + 0.5) if wants_footprints else None
 
     def centres(self, start, stop):
         return self.centre[start:stop]
@@ -99,7 +99,7 @@ class PlanePixels(PixelSet):
         return self.J[start:stop]
 
     def subpixels(self, sel, offsets):
-        return self.view.texels(self.ii[sel, None] + offsets[..., 1], self.jj[sel, None] + offsets[..., 0])
+        return self.camera.texels(self.ii[sel, None] + offsets[..., 1], self.jj[sel, None] + offsets[..., 0])
 
 
 def render_plane(
@@ -162,14 +162,14 @@ def render_plane(
     >>> render_plane(t, (24, 32), tilt=80, filter="mip", device="cpu").shape
     (24, 32, 1)
     """
-    view = PlaneView(shape, height, tilt, fov, texel_size)
-    h, w = view.shape
+    camera = PlaneCamera(shape, height, tilt, fov, texel_size)
+    h, w = camera.shape
     output = check_output(output)
     options = FilterOptions.of(filter)
     setup = noise_setup(texton, mni)  # a bad texton or mni is refused before anything is allocated
     check_seed(seed)
     device = resolve_device(device)
-    check_plane_cost(texton, setup, view, None, options)
+    check_plane_cost(texton, setup, camera, None, options)
     check_memory(result_bytes(1, h, w, texton.channels, device, output) + h * w * 16,
                  f"a {h}x{w} plane view", "use a smaller shape", mentions=("shape",))
     canvas = Canvas((h, w), device)
@@ -177,7 +177,7 @@ def render_plane(
     bar = progress_bar(progress and len(parts) > 1, h, "render-plane", "row")
     try:
         for r0, r1 in parts:
-            plane_pixels(texton, view, np.arange(r0 * w, r1 * w), mni=mni, seed=seed, filter=options, device=device,
+            plane_pixels(texton, camera, np.arange(r0 * w, r1 * w), mni=mni, seed=seed, filter=options, device=device,
                          progress=progress and len(parts) == 1, out=canvas.pixels(r0 * w, r1 * w))
             bar.update(r1 - r0)
     finally:
@@ -185,7 +185,7 @@ def render_plane(
     return canvas.result(texton.channels, output)
 
 
-def plane_pixels(texton: Texton, view: PlaneView, pixels, *, mni: float = 30.0, seed: int = 0, device=None,
+def plane_pixels(texton: Texton, camera: PlaneCamera, pixels, *, mni: float = 30.0, seed: int = 0, device=None,
                  filter="anisotropic", progress: bool = False, out=None) -> np.ndarray | None:
     """(N, C) values of the flat pixel indices ``pixels`` of :func:`render_plane`'s image
     (benchmarks compare filters on a subset of pixels this way); None: every pixel.
@@ -196,18 +196,18 @@ def plane_pixels(texton: Texton, view: PlaneView, pixels, *, mni: float = 30.0, 
     setup = noise_setup(texton, mni)
     device = resolve_device(device)
     p = noise_params(texton, setup, seed)
-    h, w = view.shape
+    h, w = camera.shape
     keys = None if pixels is None else np.asarray(pixels, np.int64)
     count = h * w if keys is None else keys.size
-    check_plane_cost(texton, setup, view, keys, options)  # the budgets, before the per-pixel arrays
+    check_plane_cost(texton, setup, camera, keys, options)  # the budgets, before the per-pixel arrays
     keys = np.arange(count) if keys is None else keys
     ii, jj = np.divmod(keys, w)
-    centre = view.texels(ii + 0.5, jj + 0.5)
+    centre = camera.texels(ii + 0.5, jj + 0.5)
     # positions whose cells the kernels could not index see the mean
     limit = cell_limit(setup)
     hit = np.isfinite(centre).all(axis=1) & (np.abs(centre) < limit).all(axis=1)
     idx = np.flatnonzero(hit)
-    seen = PlanePixels(view, keys[idx], np.ascontiguousarray(centre[idx]), options.spec.footprint)
+    seen = PlanePixels(camera, keys[idx], np.ascontiguousarray(centre[idx]), options.spec.footprint)
     if out is not None:
         fill_pixels(out, idx, params_mean(p), device,
                     lambda target: filter_pixels(p, texton, setup, seen, options, device, seed, progress, target))
@@ -218,13 +218,13 @@ def plane_pixels(texton: Texton, view: PlaneView, pixels, *, mni: float = 30.0, 
     return out[:, : texton.channels]
 
 
-def check_plane_cost(texton: Texton, setup, view: PlaneView, keys, options: FilterOptions) -> None:
+def check_plane_cost(texton: Texton, setup, camera: PlaneCamera, keys, options: FilterOptions) -> None:
     """Refuse the pixels ``keys`` (None: every pixel) of ``view`` when filtering them
     would exceed the budgets, judged from the footprints of up to COST_SAMPLES
     pixels spread over them (above the horizon a pixel costs nothing)."""
-    h, w = view.shape
+    h, w = camera.shape
     count = h * w if keys is None else keys.size
     picks = np.linspace(0, count - 1, min(count, COST_SAMPLES)).astype(np.int64) if count else np.zeros(0, np.int64)
     pi, pj = np.divmod(picks if keys is None else keys[picks], w)
-    sample = view.footprints(pi + 0.5, pj + 0.5)
+    sample = camera.footprints(pi + 0.5, pj + 0.5)
     check_filter_cost(texton, setup, count, sample, options, f"a {w}x{h} plane view")

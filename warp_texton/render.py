@@ -26,23 +26,23 @@ from .texton import Texton
 
 #: Largest render, in pixels (64 Mpx: about 4 GB at the peak of a render).
 MAX_RENDER_PIXELS = 1 << 26
-#: Default view of renders: azimuth and elevation (degrees) of the camera seen from
+#: Default orbit of renders: azimuth and elevation (degrees) of the camera seen from
 #: the mesh's centre, in the Z-up frame (azimuth 0 along +X, −90 along −Y: the front).
-VIEW = (-55.0, 25.0)
+ORBIT = (-55.0, 25.0)
 #: Default light direction in the Z-up frame (towards the light).
 LIGHT = (0.4, -0.5, 1.0)
 
 
-def view_direction(view, up=UP) -> np.ndarray:
-    """Unit vector from a mesh's centre towards the camera for ``view`` =
+def orbit_direction(orbit, up=UP) -> np.ndarray:
+    """Unit vector from a mesh's centre towards the camera for ``orbit`` =
     (azimuth, elevation) in degrees: azimuth about the up axis from the world's
     right (x), −90 looking at the front; elevation above the horizon."""
     try:
-        az, el = as_real_array(view, "view", "a pair (azimuth, elevation) of numbers, in degrees").tolist()
+        az, el = as_real_array(orbit, "orbit", "a pair (azimuth, elevation) of numbers, in degrees").tolist()
     except (TypeError, ValueError):
-        raise TextonError(f"view must be a pair (azimuth, elevation) in degrees, got {view!r:.60}") from None
+        raise TextonError(f"orbit must be a pair (azimuth, elevation) in degrees, got {orbit!r:.60}") from None
     if not (math.isfinite(az) and math.isfinite(el)) or abs(el) >= 90.0:
-        raise TextonError(f"view elevation must be finite and strictly between -90 and 90 degrees, got {view!r}")
+        raise TextonError(f"orbit elevation must be finite and strictly between -90 and 90 degrees, got {orbit!r}")
     a, e = math.radians(az), math.radians(el)
     return up_rotation(up) @ np.array([math.cos(e) * math.cos(a), math.cos(e) * math.sin(a), math.sin(e)])
 
@@ -102,11 +102,11 @@ class Camera:
 
     @classmethod
     def framing(cls, mesh, direction=None, fov: float = 35.0, up=UP, zoom: float = 1.0, *,
-                view=VIEW) -> "Camera":
+                orbit=ORBIT) -> "Camera":
         """A camera that frames ``mesh``: the one :func:`render_mesh` uses by default.
 
         It looks at the centre of the mesh's bounding box from ``direction``,
-        or by default from ``view``, far enough for the bounding sphere to
+        or by default from ``orbit``, far enough for the bounding sphere to
         fit the view with 5 % to spare. Its ``up`` is the world's up.
 
         Parameters
@@ -115,19 +115,19 @@ class Camera:
             Only its bounding box is read.
         direction : (x, y, z), optional
             From the centre towards the camera (any non-zero length); when
-            given, ``view`` is not used.
+            given, ``orbit`` is not used.
         fov : float
             Vertical field of view in degrees, in (0, 180); default 35.
         up : str or (x, y, z)
             The world's up axis, "x", "y", "z" or a vector: the camera's up
-            and the frame of ``view`` (see :func:`render_mesh`); default z.
+            and the frame of ``orbit`` (see :func:`render_mesh`); default z.
         zoom : float
             > 0; above 1 moves closer (the distance is divided by it).
-        view : (azimuth, elevation)
-            Degrees, for the up axis ``up`` (:func:`view_direction`): azimuth
+        orbit : (azimuth, elevation)
+            Degrees, for the up axis ``up`` (:func:`orbit_direction`): azimuth
             about the up axis from the world's right, −90 from the front;
             elevation above the horizon, in (−90, 90). Default (−55, 25)
-            (``VIEW``).
+            (``ORBIT``).
 
         Returns
         -------
@@ -136,7 +136,7 @@ class Camera:
         Raises
         ------
         TextonError
-            For a zero ``direction``, a bad ``view``, ``up`` or ``fov``, and
+            For a zero ``direction``, a bad ``orbit``, ``up`` or ``fov``, and
             a ``zoom`` that is not a number > 0.
 
         Examples
@@ -144,18 +144,18 @@ class Camera:
         >>> import trimesh
         >>> from warp_texton import Camera
         >>> torus = trimesh.creation.torus(major_radius=1.0, minor_radius=0.35)
-        >>> cam = Camera.framing(torus)  # the default view of render_mesh
+        >>> cam = Camera.framing(torus)  # the default orbit of render_mesh
         >>> cam.fov, [round(float(c), 2) for c in cam.position]
         (35.0, [3.52, -5.03, 2.86])
         >>> top = Camera.framing(torus, direction=(0, -0.2, 1), zoom=1.5)
-        >>> front = Camera.framing(torus, view=(-90, 0))  # from the front (−y), level
+        >>> front = Camera.framing(torus, orbit=(-90, 0))  # from the front (−y), level
         >>> [round(float(c), 2) + 0.0 for c in front.position]
         [0.0, -6.78, 0.0]
         """
         lo, hi = np.asarray(mesh.bounds, dtype=np.float64)
         centre = (lo + hi) / 2.0
         radius = max(np.linalg.norm(hi - lo) / 2.0, 1e-9)
-        d = view_direction(view, up) if direction is None else as_direction(direction, "direction")
+        d = orbit_direction(orbit, up) if direction is None else as_direction(direction, "direction")
         fov = check_positive(fov, "fov")
         if fov >= 180.0:
             raise TextonError(f"fov must be below 180 degrees, got {fov}")
@@ -225,9 +225,9 @@ def screen_box(rel: np.ndarray, forward, right, cam_up, tan_half_fov: float, asp
     return r0, r1, c0, c1
 
 
-def cast_rays(mesh, shape, camera: Camera | None = None, *, up=UP, view=None, fov=None, light=None,
+def cast_rays(mesh, shape, camera: Camera | None = None, *, up=UP, orbit=None, fov=None, light=None,
               device=None) -> RayHits:
-    """Cast one ray per pixel at ``mesh`` (the camera, view, fov, up and light of
+    """Cast one ray per pixel at ``mesh`` (the camera, orbit, fov, up and light of
     :func:`render_mesh`): the face hit, its barycentric weights, the shading normal
     (interpolated vertex normals, the face normal across creases over 30°) and the
     diffuse shade. The BVH holds the vertices in float32 around the centre of their
@@ -239,7 +239,7 @@ def cast_rays(mesh, shape, camera: Camera | None = None, *, up=UP, view=None, fo
     RayHits
     """
     h, w = check_shape(shape, max_pixels=MAX_RENDER_PIXELS)
-    box, (face_b, bary_b, nrm_b, shade_b), vertices, faces = _cast_box(mesh, (h, w), camera, up, view, fov, light,
+    box, (face_b, bary_b, nrm_b, shade_b), vertices, faces = _cast_box(mesh, (h, w), camera, up, orbit, fov, light,
                                                                        device)
     r0, r1, c0, c1 = box
     face = np.full((h, w), -1, np.int32)
@@ -257,16 +257,16 @@ def cast_rays(mesh, shape, camera: Camera | None = None, *, up=UP, view=None, fo
     return RayHits(face, weights, nrm, shade, vertices, faces)
 
 
-def _cast_box(mesh, shape, camera, up, view, fov, light, device):
+def _cast_box(mesh, shape, camera, up, orbit, fov, light, device):
     """The ray cast of :func:`cast_rays` over the mesh's screen box only: (box, (face,
     bary (u, v), normal, shade) of the box's pixels, float64 vertices, int64 faces)."""
     mesh = check_mesh(mesh)
     h, w = shape
     rot = up_rotation(up)
     if camera is None:
-        cam = Camera.framing(mesh, fov=35.0 if fov is None else fov, up=up, view=VIEW if view is None else view)
-    elif view is not None or fov is not None:
-        raise TextonError("give either camera or view/fov, not both")
+        cam = Camera.framing(mesh, fov=35.0 if fov is None else fov, up=up, orbit=ORBIT if orbit is None else orbit)
+    elif orbit is not None or fov is not None:
+        raise TextonError("give either camera or orbit/fov, not both")
     else:
         cam = camera
     if not isinstance(cam, Camera):
@@ -326,7 +326,7 @@ def render_mesh(
     light=None,
     up=UP,
     side=None,
-    view=None,
+    orbit=None,
     fov=None,
     method: str = "auto",
 ) -> np.ndarray:
@@ -348,8 +348,8 @@ def render_mesh(
         World units per texel; default: the bounding-box diagonal / 256
         (``mesh.default_texel_size``).
     camera : Camera, optional
-        Default: ``Camera.framing(mesh, up=up, view=view, fov=fov)``
-        (:meth:`Camera.framing`); not together with ``view`` or ``fov``.
+        Default: ``Camera.framing(mesh, up=up, orbit=orbit, fov=fov)``
+        (:meth:`Camera.framing`); not together with ``orbit`` or ``fov``.
     mni : float
         As in :func:`surface_noise`.
     seed : int
@@ -364,16 +364,16 @@ def render_mesh(
     up : str or (x, y, z)
         The world's up axis, "x", "y", "z" or a vector (default z): the
         frame rule's ``up``, the default camera's up, and the frame of
-        ``view`` and of the default light. glTF/GLB
+        ``orbit`` and of the default light. glTF/GLB
         files are Y-up by definition (``up="y"``); a mesh batch picks it by
         file type.
     side : (x, y, z), optional
         The frame rule's ``side`` (default: the world's right for ``up``).
-    view : (azimuth, elevation), optional
+    orbit : (azimuth, elevation), optional
         Of the default camera, degrees: azimuth about the up axis from the
         world's right, −90 from the front (−y for Z up, +z for Y up);
         elevation above the horizon, in (−90, 90). Default (−55, 25): from
-        the front left, above (:func:`view_direction`).
+        the front left, above (:func:`orbit_direction`).
     fov : float, optional
         Vertical field of view of the default camera, degrees (default 35).
     method : {"auto", "blocks", "points"}
@@ -390,7 +390,7 @@ def render_mesh(
         For the ``mesh`` and ``texton`` errors of :func:`texture_mesh`; a bad
         ``shape``, ``texel_size``, ``seed``, ``device`` or ``method``; a
         ``camera`` that is not a :class:`Camera` or given together with
-        ``view`` or ``fov``; a ``fov`` outside (0, 180); a bad ``view`` or
+        ``orbit`` or ``fov``; a ``fov`` outside (0, 180); a bad ``orbit`` or
         ``up``; a zero ``light``; a ``background`` that is not a finite RGB
         triple; the ``mni`` errors of :func:`surface_noise`; a render over
         the memory budget; and vertices too far from the origin for
@@ -441,7 +441,7 @@ def render_mesh(
     field of view:
 
     >>> box = trimesh.creation.box(extents=(1, 3, 1))  # tall along y
-    >>> upright = render_mesh(box, texton, (96, 64), up="y", view=(-60, 15), fov=45, device="cpu")
+    >>> upright = render_mesh(box, texton, (96, 64), up="y", orbit=(-60, 15), fov=45, device="cpu")
     """
     mesh = check_mesh(mesh)
     if not isinstance(texton, Texton):
@@ -456,7 +456,7 @@ def render_mesh(
     bg = check_background(background)
     device = resolve_device(device)
     p = surface_params(texton, setup, seed, "exact", up, side)
-    (r0, r1, c0, c1), (face, bary, nrm, shade), vertices, faces = _cast_box(mesh, (h, w), camera, up, view, fov,
+    (r0, r1, c0, c1), (face, bary, nrm, shade), vertices, faces = _cast_box(mesh, (h, w), camera, up, orbit, fov,
                                                                             light, device)
     hit = face >= 0
     pixels = np.flatnonzero(hit.reshape(-1)).astype(np.int32)

@@ -1,4 +1,4 @@
-"""Batch surface texturing: ``warp-texton surface`` and :mod:`warp_texton.batch`.
+"""Batch surface texturing: ``warp-texton surface`` and :mod:`warp_texton.jobs`.
 
 Small real meshes (trimesh icospheres and a torus) are written to a temporary folder
 with one broken file beside them. The command runs in-process through
@@ -21,7 +21,7 @@ import trimesh
 from PIL import Image
 
 from warp_texton import Texton, TextonError, texture_mesh
-from warp_texton.batch import JobResult, SurfaceJob, expand_meshes, run_batch, run_surface_job
+from warp_texton.jobs import JobResult, SurfaceJob, expand_meshes, run_jobs, run_surface_job
 from helpers import parts, run_cli
 
 MEAN = (0.3, 0.5, 0.7)
@@ -222,8 +222,8 @@ class TestRunBatch:
         def jobs(out):
             return [SurfaceJob(str(mesh_dir / n), str(texton_path), str(tmp_path / out), device="cpu") for n in names]
 
-        serial = run_batch(jobs("serial"))
-        parallel = run_batch(jobs("parallel"), jobs_in_parallel=3)
+        serial = run_jobs(jobs("serial"))
+        parallel = run_jobs(jobs("parallel"), jobs_in_parallel=3)
         for res in (serial, parallel):
             assert [r.mesh for r in res] == [str(mesh_dir / n) for n in names]
             assert [r.status for r in res] == ["done", "failed", "done"]
@@ -239,7 +239,7 @@ class TestRunBatch:
                 return f
 
         jobs = [SurfaceJob(str(mesh_dir / "ball.ply"), str(texton_path), str(tmp_path / "o"))]
-        (res,) = run_batch(jobs, executor=LostWorkers())
+        (res,) = run_jobs(jobs, executor=LostWorkers())
         assert res.status == "failed" and res.message == f"{jobs[0].mesh}: RuntimeError: worker lost"
         assert res.mesh == str(mesh_dir / "ball.ply")
 
@@ -434,8 +434,8 @@ def test_dask_cluster_gives_the_same_files(tmp_path, mesh_dir, texton_path, dask
         return [SurfaceJob(str(mesh_dir / n), str(texton_path), str(tmp_path / out), render=(12, 12),
                            device="cpu") for n in names]
 
-    local = run_batch(jobs("threads"), jobs_in_parallel=2)
-    remote = run_batch(jobs("dask"), executor=dask_client.get_executor())
+    local = run_jobs(jobs("threads"), jobs_in_parallel=2)
+    remote = run_jobs(jobs("dask"), executor=dask_client.get_executor())
     assert [(r.mesh, r.status, r.message) for r in remote] == [(r.mesh, r.status, r.message) for r in local]
     assert [r.status for r in remote] == ["done", "failed", "done"]
     assert [r.outputs for r in remote] == [[o.replace("threads", "dask") for o in r.outputs] for r in local]
@@ -455,7 +455,7 @@ def test_dask_reruns_a_job_whose_input_changed(tmp_path, mesh_dir, texton_path, 
     assert held.result().status == "done"
     os.utime(out / "ball.ply", (OLD, OLD))
     trimesh.creation.icosphere(subdivisions=3).export(mesh_dir / "ball.ply")  # the input changes
-    (res,) = run_batch([job], executor=dask_client.get_executor())
+    (res,) = run_jobs([job], executor=dask_client.get_executor())
     assert res.status == "done"
     assert (out / "ball.ply").stat().st_mtime != OLD, "the job was not run: the output is stale"
     assert len(load(out / "ball.ply").vertices) == 642
@@ -510,8 +510,8 @@ class TestBakeCli:
             (["--uv", "atlas"], r"--uv applies to baked textures"),
             (["--bake", "32", "--exr-linear"], r"--exr-linear applies to --texture exr"),
             (["--bake", "32", "--supersample", "0"], r"--supersample must be at least 1"),
-            (["--view", "30"], r"--view must be AZIMUTH,ELEVATION"),
-            (["--view", "30,95"], r"--view: view elevation must be finite and strictly between -90 and 90"),
+            (["--orbit", "30"], r"--orbit must be AZIMUTH,ELEVATION"),
+            (["--orbit", "30,95"], r"--orbit: orbit elevation must be finite and strictly between -90 and 90"),
             (["--fov", "200"], r"--fov must be below 180"),
             (["--up", "w"], r"invalid choice: 'w'"),
         ],
@@ -575,7 +575,7 @@ class TestBakeCli:
 
 class TestUpAxisJobs:
     def test_auto_up_is_y_for_gltf(self):
-        from warp_texton.batch import resolve_up
+        from warp_texton.jobs import resolve_up
 
         assert resolve_up("auto", "a/b.GLB") == "y" and resolve_up("auto", "x.gltf") == "y"
         assert resolve_up("auto", "x.ply") == "z" and resolve_up("auto", "x.obj") == "z"
@@ -589,12 +589,12 @@ class TestUpAxisJobs:
         box = trimesh.creation.box(extents=(1.0, 3.0, 1.0))
         box.export(tmp_path / "tall.glb")
         job = SurfaceJob(str(tmp_path / "tall.glb"), str(texton_path), str(tmp_path / "out"), render=(24, 24),
-                         view=(-30.0, 15.0), fov=50.0, device="cpu")
+                         orbit=(-30.0, 15.0), fov=50.0, device="cpu")
         assert run_surface_job(job).status == "done"
         mesh = load(tmp_path / "tall.glb")
         lo, hi = mesh.bounds
         texel = float(np.linalg.norm(hi - lo)) / 256
-        want = render_mesh(mesh, load_texton(texton_path), (24, 24), texel_size=texel, up="y", view=(-30.0, 15.0), fov=50.0,
+        want = render_mesh(mesh, load_texton(texton_path), (24, 24), texel_size=texel, up="y", orbit=(-30.0, 15.0), fov=50.0,
                            device="cpu")
         got = np.asarray(Image.open(tmp_path / "out" / "tall.png"), np.float32) / 255
         np.testing.assert_allclose(got, want, atol=0.5 / 255 + 1e-6)
@@ -635,7 +635,7 @@ class TestInterrupt:
         import threading
         import time
 
-        import warp_texton.batch as batch
+        import warp_texton.jobs as batch
 
         for k in range(4):
             trimesh.creation.icosphere(subdivisions=2).export(mesh_dir / f"m{k}.ply")

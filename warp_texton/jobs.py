@@ -91,7 +91,7 @@ class SurfaceJob:
         The mesh's up axis ("auto": Y for ``.glb``/``.gltf``, Y-up by
         definition; Z otherwise): the frame rule, the render's camera and
         light.
-    view, fov
+    orbit, fov
         The render's camera, as in :func:`warp_texton.render_mesh`.
 
     Notes
@@ -122,7 +122,7 @@ class SurfaceJob:
     exr_linear: bool = False  # an EXR texture holds the sRGB-decoded (linear) values
     supersample: int | None = None  # samples per texel side of a bake; None: by the footprint
     up: str = "auto"  # the mesh's up axis: "auto", "x", "y" or "z"
-    view: tuple[float, float] | None = None  # (azimuth, elevation) of the render, degrees
+    orbit: tuple[float, float] | None = None  # (azimuth, elevation) of the render, degrees
     fov: float | None = None  # vertical field of view of the render, degrees
 
     @property
@@ -169,8 +169,8 @@ class JobResult:
     warnings: list[str] = field(default_factory=list)
 
 
-class BatchInterrupted(KeyboardInterrupt):
-    """Ctrl-C during :func:`run_batch`: queued jobs were cancelled, running ones
+class JobsInterrupted(KeyboardInterrupt):
+    """Ctrl-C during :func:`run_jobs`: queued jobs were cancelled, running ones
     finished; ``results`` says what each job did ("cancelled" for the queued)."""
 
     def __init__(self, results):
@@ -205,7 +205,7 @@ def expand_meshes(args) -> list[str]:
 
     Examples
     --------
-    See :func:`run_batch`.
+    See :func:`run_jobs`.
     """
     return _expand(args, ())
 
@@ -284,7 +284,7 @@ def run_surface_job(job: SurfaceJob, token: str | None = None) -> JobResult:
     ----------
     job : SurfaceJob
     token : str, optional
-        Ignored: :func:`run_batch` passes a fresh one with every submission
+        Ignored: :func:`run_jobs` passes a fresh one with every submission
         so that executors that cache results of equal calls (Dask's pure
         tasks) always run the job, whose inputs may have changed on disk.
 
@@ -300,7 +300,7 @@ def run_surface_job(job: SurfaceJob, token: str | None = None) -> JobResult:
 
     Examples
     --------
-    See :func:`run_batch`.
+    See :func:`run_jobs`.
     """
     outputs = job.outputs()
     if not job.overwrite and all(p.exists() for p in outputs):
@@ -334,7 +334,7 @@ def _run(job: SurfaceJob, outputs: list[Path], notes: list[str]) -> None:
     img = None
     if job.render is not None:  # computed before anything is written: all outputs or none
         img = render_mesh(mesh, texton, job.render, texel_size=texel, mni=job.mni, seed=job.seed,
-                          device=job.device, up=up, view=job.view, fov=job.fov)
+                          device=job.device, up=up, orbit=job.orbit, fov=job.fov)
     if job.bake is not None:
         baked = bake_mesh(mesh, texton, texel, resolution=job.bake, mni=job.mni, seed=job.seed, uv=job.uv,
                           supersample=job.supersample, device=job.device, up=up, name=job.mesh)
@@ -371,7 +371,8 @@ def check_unique_outputs(jobs) -> None:
             seen[out] = job.mesh
 
 
-def run_batch(jobs, executor: Executor | None = None, jobs_in_parallel: int = 1, progress: bool = False):
+def run_jobs(jobs, *, executor: Executor | None = None, jobs_in_parallel: int = 1,
+             progress: bool = False) -> list[JobResult]:
     """Run jobs on ``executor`` (default: a pool of ``jobs_in_parallel`` threads).
 
     Submits :func:`run_surface_job` for every job. Any ``concurrent.futures``
@@ -398,7 +399,7 @@ def run_batch(jobs, executor: Executor | None = None, jobs_in_parallel: int = 1,
 
     Raises
     ------
-    BatchInterrupted
+    JobsInterrupted
         On Ctrl-C: the jobs still queued are cancelled, the running ones
         finish (their files are written whole, or not at all), and the
         exception's ``results`` hold every job's result ("cancelled" for
@@ -420,7 +421,7 @@ def run_batch(jobs, executor: Executor | None = None, jobs_in_parallel: int = 1,
     >>> from pathlib import Path
     >>> import trimesh
     >>> from warp_texton import read_image, analyze
-    >>> from warp_texton.batch import SurfaceJob, expand_meshes, run_batch, run_surface_job
+    >>> from warp_texton.jobs import SurfaceJob, expand_meshes, run_jobs, run_surface_job
     >>> from warp_texton.demo import demo_texture_path
     >>> analyze(read_image(demo_texture_path()), size=32, iterations=30).save("grass32.exr")
     >>> Path("meshes").mkdir()
@@ -433,7 +434,7 @@ def run_batch(jobs, executor: Executor | None = None, jobs_in_parallel: int = 1,
     ['meshes/broken.ply', 'meshes/sphere.ply', 'meshes/box.obj', 'meshes/missing.ply']
     >>> jobs = [SurfaceJob(p, "grass32.exr", "textured", render=(48, 64), overwrite=True, device="cpu")
     ...         for p in paths]
-    >>> for r in run_batch(jobs, jobs_in_parallel=2):
+    >>> for r in run_jobs(jobs, jobs_in_parallel=2):
     ...     print(r.status, r.message or r.mesh)
     failed meshes/broken.ply: not a mesh that trimesh can read (Not a ply file!)
     done meshes/sphere.ply
@@ -475,25 +476,31 @@ def run_batch(jobs, executor: Executor | None = None, jobs_in_parallel: int = 1,
         for fut in as_completed(futures):
             collect(fut, futures[fut])
     except KeyboardInterrupt:
-        for fut in futures:
-            fut.cancel()
-        for fut, k in futures.items():
-            if results[k] is not None:
-                continue
-            if fut.cancelled():
-                results[k] = JobResult(jobs[k].mesh, "cancelled", "interrupted before it started")
-                continue
-            try:  # a running job finishes: its outputs are complete or absent
-                fut.result()
-                collect(fut, k)
-            except BaseException:
-                results[k] = JobResult(jobs[k].mesh, "cancelled", "interrupted")
-        for k, job in enumerate(jobs[len(futures):], start=len(futures)):
-            results[k] = JobResult(job.mesh, "cancelled", "interrupted before it started")
-        raise BatchInterrupted(results) from None
+        _settle_interrupted(jobs, futures, results, collect)
+        raise JobsInterrupted(results) from None
     finally:
         if bar is not None:
             bar.close()
         if own:
             executor.shutdown(wait=True, cancel_futures=True)
     return results
+
+
+def _settle_interrupted(jobs, futures: dict, results: list, collect) -> None:
+    """After Ctrl-C: cancel what has not started, let running jobs finish (their
+    outputs are then complete or absent), and give every job a result."""
+    for fut in futures:
+        fut.cancel()
+    for fut, k in futures.items():
+        if results[k] is not None:
+            continue
+        if fut.cancelled():
+            results[k] = JobResult(jobs[k].mesh, "cancelled", "interrupted before it started")
+            continue
+        try:
+            fut.result()
+            collect(fut, k)
+        except BaseException:
+            results[k] = JobResult(jobs[k].mesh, "cancelled", "interrupted")
+    for k, job in enumerate(jobs[len(futures):], start=len(futures)):
+        results[k] = JobResult(job.mesh, "cancelled", "interrupted before it started")
