@@ -57,11 +57,11 @@ big = trimesh.creation.torus(1.0, 0.35, major_sections=1000, minor_sections=1000
 big_normals = np.asarray(big.vertex_normals)
 sphere = trimesh.creation.icosphere(subdivisions=6)
 cases = {
-    "raster grid": lambda: wt.synthesize(t, (side, side), 30.0, 1, device="cpu"),
-    "raster 4K": lambda: wt.synthesize(t, (2160, 3840), 30.0, 1, device="cpu") if not quick else None,
-    "raster rotated": lambda: wt.synthesize(t, (side, side), 30.0, 1, scale=0.8, rotation=30.0, device="cpu"),
-    "raster mixed": lambda: wt.synthesize_mixed(ts, "strips", (side, side), 30.0, 1, device="cpu"),
-    "points": lambda: wt.evaluate(t, pts, 30.0, 1, "cpu"),
+    "raster grid": lambda: wt.synthesize(t, (side, side), mni=30.0, seed=1, device="cpu"),
+    "raster 4K": lambda: wt.synthesize(t, (2160, 3840), mni=30.0, seed=1, device="cpu") if not quick else None,
+    "raster rotated": lambda: wt.synthesize(t, (side, side), mni=30.0, seed=1, scale=0.8, rotation=30.0, device="cpu"),
+    "raster mixed": lambda: wt.synthesize_mixed(ts, "strips", (side, side), mni=30.0, seed=1, device="cpu"),
+    "points": lambda: wt.evaluate(t, pts, mni=30.0, seed=1, device="cpu"),
     "plane mip": lambda: wt.render_plane(t, (side // 2, side // 2), filter="mip", device="cpu"),
     "plane anisotropic": lambda: wt.render_plane(t, (side // 2, side // 2), filter="anisotropic", device="cpu"),
     "surface points": lambda: wt.surface_noise(t, mesh.vertices, normals, 0.01, device="cpu"),
@@ -69,7 +69,7 @@ cases = {
     # the surface targets: noise at 1M points, a 1024² render (full runs only)
     "surface 1M points": lambda: wt.surface_noise(t, big.vertices, big_normals, 0.004, device="cpu") if not quick
     else None,
-    "render mesh 1024²": lambda: wt.render_mesh(sphere, t, (1024, 1024), 1 / 128, device="cpu") if not quick
+    "render mesh 1024²": lambda: wt.render_mesh(sphere, t, (1024, 1024), texel_size=1 / 128, device="cpu") if not quick
     else None,
 }
 out = {}

@@ -711,7 +711,7 @@ class TestPlane:
             "from warp_texton import Texton, render_plane\n"
             "t = Texton(0.15 * np.random.default_rng(0).standard_normal((8, 8, 1)), [0.25])\n"
             "for f in ('mip', 'anisotropic'):\n"
-            f"    g = render_plane(t, ({h}, {w}), 1.0, float(sys.argv[1]), {fov}, {ts}, filter=f, device='cpu')\n"
+            f"    g = render_plane(t, ({h}, {w}), height=1.0, tilt=float(sys.argv[1]), fov={fov}, texel_size={ts}, filter=f, device='cpu')\n"
             "    print(f, bool(np.isfinite(g).all()), float(np.abs(g[0] - 0.25).max()))\n"
         )
         out = run_isolated(code, repr(tilt))

@@ -357,7 +357,7 @@ class TestDask:
         kw = dict(seed=2, rotation=15.0, device="cpu")
         path = tmp_path / "noise.zarr"
         with pytest.warns(UserWarning, match="clipped") if dtype.startswith("uint") else _no_warning():
-            report = write_zarr(path, t, (50, 70), (20, 32), dtype, **kw)
+            report = write_zarr(path, t, (50, 70), chunks=(20, 32), dtype=dtype, **kw)
         z = zarr.open_array(str(path), mode="r")
         assert z.shape == (50, 70, 3) and z.chunks == (20, 32, 3) and str(z.dtype) == dtype
         whole = synthesize(t, (50, 70), **kw)
@@ -375,7 +375,7 @@ class TestDask:
     def test_zarr_on_local_processes(self, zarr, tmp_path):
         t = random_texton(channels=1, seed=115)
         path = tmp_path / "p.zarr"
-        write_zarr(path, t, (40, 48), 16, "float32", scheduler="processes", workers=2, seed=1, device="cpu")
+        write_zarr(path, t, (40, 48), chunks=16, dtype="float32", scheduler="processes", workers=2, seed=1, device="cpu")
         np.testing.assert_array_equal(zarr.open_array(str(path))[:], synthesize(t, (40, 48), seed=1, device="cpu"))
 
     @pytest.mark.slow
@@ -385,10 +385,10 @@ class TestDask:
         path = tmp_path / "c.zarr"
         with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
                                       silence_logs=50) as cluster:
-            write_zarr(path, t, (64, 80), (24, 30), "float32", scheduler=cluster.scheduler_address, seed=3,
+            write_zarr(path, t, (64, 80), chunks=(24, 30), dtype="float32", scheduler=cluster.scheduler_address, seed=3,
                        scale=0.7, rotation=20.0, device="cpu")
             with distributed.Client(cluster) as client:  # the lazy array, computed by the cluster's processes
-                lazy = synthesize_dask(t, (64, 80), (24, 30), seed=3, scale=0.7, rotation=20.0, device="cpu")
+                lazy = synthesize_dask(t, (64, 80), chunks=(24, 30), seed=3, scale=0.7, rotation=20.0, device="cpu")
                 computed = client.compute(lazy[10:50, 25:70]).result()
         whole = synthesize(t, (64, 80), seed=3, scale=0.7, rotation=20.0, device="cpu")
         np.testing.assert_array_equal(zarr.open_array(str(path))[:], whole)
@@ -397,11 +397,11 @@ class TestDask:
     def test_existing_store_is_refused_then_replaced_with_overwrite(self, zarr, tmp_path):
         t = random_texton(seed=117)
         path = tmp_path / "a.zarr"
-        write_zarr(path, t, (10, 10), 5, "float32", seed=1, device="cpu")
+        write_zarr(path, t, (10, 10), chunks=5, dtype="float32", seed=1, device="cpu")
         with pytest.raises(TextonError, match="exists; give --overwrite"):
-            write_zarr(path, t, (10, 10), 5, "float32", seed=2, device="cpu")
+            write_zarr(path, t, (10, 10), chunks=5, dtype="float32", seed=2, device="cpu")
         np.testing.assert_array_equal(zarr.open_array(str(path))[:], synthesize(t, (10, 10), seed=1, device="cpu"))
-        write_zarr(path, t, (10, 10), 5, "float32", seed=2, device="cpu", overwrite=True)
+        write_zarr(path, t, (10, 10), chunks=5, dtype="float32", seed=2, device="cpu", overwrite=True)
         np.testing.assert_array_equal(zarr.open_array(str(path))[:], synthesize(t, (10, 10), seed=2, device="cpu"))
         assert sorted(p.name for p in tmp_path.iterdir()) == ["a.zarr"]
 
@@ -418,7 +418,7 @@ class TestDask:
         monkeypatch.setattr(warp_texton.dask, "synthesize", broken)
         path = tmp_path / "b.zarr"
         with pytest.raises(OSError, match="No space"):
-            write_zarr(path, t, (20, 20), 5, "float32", device="cpu", workers=1)
+            write_zarr(path, t, (20, 20), chunks=5, dtype="float32", device="cpu", workers=1)
         assert list(tmp_path.iterdir()) == []
 
     @pytest.mark.parametrize("kw, match", [
@@ -446,7 +446,7 @@ class TestDask:
                           (dict(scheduler="nowhere"), "scheduler must be threads, processes or a scheduler address"),
                           (dict(workers=0), "workers must be at least 1"), (dict(colour=1), "unknown options: colour")]:
             with pytest.raises(TextonError, match=match):
-                write_zarr(tmp_path / "x.zarr", t, (10, 10), 5, device="cpu", **kw)
+                write_zarr(tmp_path / "x.zarr", t, (10, 10), chunks=5, device="cpu", **kw)
         assert list(tmp_path.iterdir()) == []
 
 
@@ -585,7 +585,7 @@ def test_large_zarr_write_keeps_memory_bounded(zarr, tmp_path):
         "t = wt.Texton(0.05 * np.random.default_rng(0).standard_normal((16, 16, 3)), [0.5] * 3)\n"
         "wt.synthesize(t, (512, 512), device='cpu')\n"
         "base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss\n"
-        "write_zarr(sys.argv[1], t, (8192, 8192), 512, 'float32', mni=10.0, device='cpu', workers=2)\n"
+        "write_zarr(sys.argv[1], t, (8192, 8192), chunks=512, dtype='float32', mni=10.0, device='cpu', workers=2)\n"
         "peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss\n"
         "print(json.dumps({'base_kib': base, 'peak_kib': peak}))\n")
     done = subprocess.run([sys.executable, "-c", script, str(tmp_path / "big.zarr")], capture_output=True, text=True,

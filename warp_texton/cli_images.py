@@ -160,7 +160,7 @@ def _synthesize_zarr(args, out: Path, dtype) -> None:
     chunk = _zarr_chunk(args, h, w, CHUNK)
     t0 = time.perf_counter()
     texton = texton_of(args)
-    report = write_zarr(out, texton, (h, w), chunk, dtype or ZARR_DTYPE, scheduler=args.scheduler,
+    report = write_zarr(out, texton, (h, w), chunks=chunk, dtype=dtype or ZARR_DTYPE, scheduler=args.scheduler,
                         workers=args.workers, overwrite=args.overwrite, progress=not args.quiet,
                         mni=args.mni, seed=args.seed, scale=args.scale, rotation=args.rotation,
                         offset=tuple(args.offset), period=args.period, device=args.device,

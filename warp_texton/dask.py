@@ -135,6 +135,7 @@ def _block(plan: _Plan, block_info=None) -> np.ndarray:
 def synthesize_dask(
     texton: Texton,
     shape,
+    *,
     chunks=CHUNK,
     mni: float = 30.0,
     seed: int = 0,
@@ -143,7 +144,6 @@ def synthesize_dask(
     offset=(0.0, 0.0),
     period=None,
     device=None,
-    *,
     poisson: str = "exact",
     cell_factor: float = CELL_FACTOR,
     method: str = "auto",
@@ -269,9 +269,9 @@ def write_zarr(
     path,
     texton: Texton,
     shape,
+    *,
     chunks=CHUNK,
     dtype: str = ZARR_DTYPE,
-    *,
     scheduler: str = "threads",
     workers: int | None = None,
     overwrite: bool = False,
@@ -343,7 +343,7 @@ def write_zarr(
     >>> import warnings
     >>> with warnings.catch_warnings():
     ...     warnings.simplefilter("ignore")       # 1.5 % of the pixels clipped to [0, 1]
-    ...     report = write_zarr(store, t, (512, 768), 256, "uint8", rotation=20, device="cpu")
+    ...     report = write_zarr(store, t, (512, 768), chunks=256, dtype="uint8", rotation=20, device="cpu")
     >>> zarr.open_array(store).shape, report["clipped"]
     ((512, 768, 3), 6022)
     """
