@@ -25,6 +25,7 @@ from __future__ import annotations
 import contextlib
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 import warp as wp
@@ -39,6 +40,9 @@ from .mesh import check_mesh, srgb_to_linear, vertex_normals
 from .render import cast_rays, check_background
 from .surface import check_method, evaluate_points, surface_params, surface_setup, texel_positions
 from .texton import Texton
+
+if TYPE_CHECKING:
+    import trimesh
 
 #: UV sources: the mesh's own UVs when it has them ("auto"), always them ("mesh"), or a new atlas ("atlas").
 UV_MODES = ("auto", "mesh", "atlas")
@@ -102,7 +106,7 @@ class BakedMesh:
     detail.
     """
 
-    mesh: object
+    mesh: trimesh.Trimesh
     texture: np.ndarray
     coverage: np.ndarray
     texels_per_texton_texel: float
@@ -173,7 +177,7 @@ def _claim(corners: np.ndarray, resolution: int, device) -> tuple[np.ndarray, np
     """(owner, cover): per texel, the face that owns it (−1: none) and how many faces hold its centre."""
     n_faces = corners.shape[0] // 3
     with wp.ScopedDevice(device):
-        c = wp.array(corners, dtype=wp.vec2d)
+        c: wp.array = wp.array(corners, dtype=wp.vec2d)
         owner = wp.full((resolution, resolution), -1, dtype=wp.int32)
         cover = wp.zeros((resolution, resolution), dtype=wp.int32)
 
@@ -512,7 +516,7 @@ def write_baked(baked: BakedMesh, stem, *, fmt: str = "glb", texture: str | None
     paths = bake_outputs(stem, fmt, texture)
     blobs: dict[Path, bytes] = {}
     if fmt == "glb":
-        blobs[paths[0]] = baked.mesh.export(file_type="glb")
+        blobs[paths[0]] = cast(bytes, baked.mesh.export(file_type="glb"))  # a GLB is binary
     else:
         from trimesh.exchange.obj import export_obj
 
@@ -613,6 +617,9 @@ def render_baked(baked, shape=(512, 512), *, camera=None, up=UP, orbit=None, fov
         if uv is None or image is None:
             raise TextonError("baked must be a BakedMesh or a mesh with UVs and a texture image")
         texture = np.asarray(image.convert("RGB"), np.float64) / 255.0
+    from trimesh.visual import TextureVisuals
+
+    assert isinstance(mesh.visual, TextureVisuals), "a baked mesh, or one with UVs"
     uv = check_uvs(np.asarray(mesh.visual.uv, np.float64), len(mesh.vertices))
     bg = check_background(background)
     hits = cast_rays(mesh, shape, camera, up=up, orbit=orbit, fov=fov, light=light, device=device)

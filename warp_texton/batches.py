@@ -207,7 +207,7 @@ def draw_batch_params(n_textons: int, count: int, seed, scale, rotation, offset,
                               f"got {seeds.dtype} {seeds.shape}")
         if seeds.size and (seeds.min() < 0 or seeds.max() >= 2**32):
             raise TextonError("seed values must be integers in [0, 2**32)")
-        entropy = [int(s) for s in seeds]
+        entropy: int | list[int] = [int(s) for s in seeds]
     else:
         entropy = check_seed(seed)
     streams = [np.random.default_rng(s) for s in np.random.SeedSequence(entropy).spawn(5)]
@@ -419,7 +419,7 @@ def check_batch_cost(textons: list[Texton], setups: list[NoiseSetup], h: int, w:
 
 def _runs(items: list[int]) -> list[tuple[int, int]]:
     """Maximal runs [k0, k1) of consecutive integers in the sorted list ``items``."""
-    runs = []
+    runs: list[list[int]] = []
     for k in items:
         if runs and runs[-1][1] == k:
             runs[-1][1] = k + 1

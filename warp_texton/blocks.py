@@ -101,7 +101,7 @@ def sort_into_blocks(pos: np.ndarray, nrm: np.ndarray | None, cell: float, reach
     scale = 8.0 / c
     shift = 3 + BLOCK_SHIFT
     pos = np.ascontiguousarray(pos, dtype=np.float64)
-    points = wp.array(pos, dtype=wp.vec3d, device="cpu", copy=False)
+    points: wp.array = wp.array(pos, dtype=wp.vec3d, device="cpu", copy=False)
     # the eighth of a cube each point lies in, floor(y · 8 / c) (any rounding will do:
     # a sort key); its block of BLOCK_CUBES = 2**BLOCK_SHIFT cubes of 8 eighths per side,
     # numbered from the blocks of the smallest coordinates (floor and the product are
@@ -114,7 +114,7 @@ def sort_into_blocks(pos: np.ndarray, nrm: np.ndarray | None, cell: float, reach
     if float(span[0]) * float(span[1]) * float(span[2]) < 2.0**46:
         # the keys in a CPU kernel (several times faster than NumPy on (N, 3) arrays)
         keys = wp.empty(len(pos), dtype=wp.int64, device="cpu")
-        spread = wp.array(_SPREAD, dtype=wp.int64, device="cpu")
+        spread: wp.array = wp.array(_SPREAD, dtype=wp.int64, device="cpu")
         split_launch("cpu", KB, len(pos), lambda a, b: wp.launch(
             KB.block_keys, dim=b - a, device="cpu",
             inputs=[points[a:b], wp.float64(scale), wp.int64(shift), *(wp.int64(o) for o in own_min),
@@ -139,10 +139,10 @@ def sort_into_blocks(pos: np.ndarray, nrm: np.ndarray | None, cell: float, reach
     else:
         ps = np.empty_like(pos)
         ns = np.empty((len(pos), 3), np.float32)
-        wp_order = wp.array(order, dtype=wp.int64, device="cpu", copy=False)
-        normals = wp.array(np.ascontiguousarray(nrm, dtype=np.float32), dtype=wp.vec3, device="cpu", copy=False)
-        wp_ps = wp.array(ps, dtype=wp.vec3d, device="cpu", copy=False)
-        wp_ns = wp.array(ns, dtype=wp.vec3, device="cpu", copy=False)
+        wp_order: wp.array = wp.array(order, dtype=wp.int64, device="cpu", copy=False)
+        normals: wp.array = wp.array(np.ascontiguousarray(nrm, dtype=np.float32), dtype=wp.vec3, device="cpu", copy=False)
+        wp_ps: wp.array = wp.array(ps, dtype=wp.vec3d, device="cpu", copy=False)
+        wp_ns: wp.array = wp.array(ns, dtype=wp.vec3, device="cpu", copy=False)
         split_launch("cpu", KB, len(pos), lambda a, b: wp.launch(
             KB.take_points, dim=b - a, device="cpu", inputs=[wp_order[a:b], points, normals, wp_ps[a:b], wp_ns[a:b]]))
     # floor((min p − R)/c) = min floor((p − R)/c): floor and rounding are monotone
@@ -182,7 +182,7 @@ def draw_cubes(cells: Cells3, lo: np.ndarray, dims: np.ndarray, device) -> KB.Cu
     d = dims[owner]
     coords = lo[owner] + np.stack([local % d[:, 0], (local // d[:, 0]) % d[:, 1], local // (d[:, 0] * d[:, 1])],
                                   axis=1)
-    cube_arr = wp.array(coords.astype(np.int32), dtype=wp.vec3i)
+    cube_arr: wp.array = wp.array(coords.astype(np.int32), dtype=wp.vec3i)
     counts = wp.empty(total + 1, dtype=wp.int32)
     split_launch(device, KB, total, lambda a, b: wp.launch(KB.count_cubes, dim=b - a,
                                                            inputs=[cells, cube_arr[a:b], counts[a:b]]))
@@ -265,15 +265,16 @@ def gather_round(p: K.SurfaceParams, coeffs, sorted_points: BlockedPoints, tan, 
     ``lists`` and gathered one thread per point."""
     pos, nrm, order, clusters = (sorted_points.pos, sorted_points.nrm, sorted_points.order,
                                  sorted_points.clusters)
+    assert nrm is not None, "surface points carry normals"
     p0, p1 = int(starts[0]), int(ends[-1])
     block_of = np.repeat(np.arange(len(starts), dtype=np.int32), ends - starts)
     m = p1 - p0
     on_cpu = wp.get_device(device).is_cpu
     # the CPU reads the sorted copies in place (contiguous rows of float64 / float32)
-    pts = wp.array(pos[p0:p1], dtype=wp.vec3d, copy=not on_cpu)
-    nrms = wp.array(nrm[p0:p1], dtype=wp.vec3, copy=not on_cpu)
+    pts: wp.array = wp.array(pos[p0:p1], dtype=wp.vec3d, copy=not on_cpu)
+    nrms: wp.array = wp.array(nrm[p0:p1], dtype=wp.vec3, copy=not on_cpu)
     tans = wp.array(tan[p0:p1], dtype=wp.vec3, copy=not on_cpu) if tan is not None else wp.zeros(1, dtype=wp.vec3)
-    owners = wp.array(block_of, dtype=wp.int32)
+    owners: wp.array = wp.array(block_of, dtype=wp.int32)
     frames = K.PointFrames()
     frames.u1, frames.u2 = wp.empty(m, dtype=wp.vec3), wp.empty(m, dtype=wp.vec3)
     frames.lo, frames.hi = wp.empty(m, dtype=wp.vec3i), wp.empty(m, dtype=wp.vec3i)
@@ -286,17 +287,17 @@ def gather_round(p: K.SurfaceParams, coeffs, sorted_points: BlockedPoints, tan, 
 
     if not by_cluster:  # gather_cluster_lists frames its own points
         split_launch(device, K, m, frame)
-    dest = wp.array(order[p0:p1], dtype=wp.int64, copy=not on_cpu)
+    dest: wp.array = wp.array(order[p0:p1], dtype=wp.int64, copy=not on_cpu)
     # one thread per cluster on the CPU (cluster_sums: SIMD over its points) for
     # order-1 textons; one per point elsewhere (the GPU, and other orders)
     simd = int(bool(SIMD))
     # the round's clusters (a cluster never straddles blocks: block starts are cluster starts)
     mine = clusters[(clusters >= p0) & (clusters < p1)]
     cfirst = np.r_[mine - p0, m].astype(np.int32)
-    cluster_of = None if by_cluster else wp.array(np.repeat(np.arange(len(mine), dtype=np.int32), np.diff(cfirst)),
+    cluster_of: wp.array | None = None if by_cluster else wp.array(np.repeat(np.arange(len(mine), dtype=np.int32), np.diff(cfirst)),
                                                   dtype=wp.int32)
     if by_cluster:
-        first = wp.array(cfirst, dtype=wp.int32)
+        first: wp.array = wp.array(cfirst, dtype=wp.int32)
 
         def gather(a, b):
             wp.launch(K.gather_cluster_lists, dim=b - a, inputs=[p, coeffs, pts, nrms, tans, int(tan is not None),
@@ -306,6 +307,7 @@ def gather_round(p: K.SurfaceParams, coeffs, sorted_points: BlockedPoints, tan, 
 
         split_launch(device, K, len(mine), gather)
     else:
+        assert lists is not None, "gather_blocks lists the clusters unless by_cluster"
         cl = lists.clusters
         for m0 in range(0, len(mine), CLUSTERS_PER_ROUND):
             m1 = min(m0 + CLUSTERS_PER_ROUND, len(mine))

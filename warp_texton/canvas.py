@@ -9,6 +9,8 @@ views; the front ends cut large outputs into strips of bounded work
 
 from __future__ import annotations
 
+from typing import Literal, overload
+
 import numpy as np
 import warp as wp
 
@@ -38,23 +40,29 @@ class Canvas:
         self.shape = tuple(int(s) for s in shape)
         self.device = device
         if is_cpu(device):
-            self.host = np.zeros(self.shape + (3,), np.float32)
-            self.data = wp.array(self.host, dtype=wp.float32, device=device, copy=False)
+            self.host: np.ndarray | None = np.zeros(self.shape + (3,), np.float32)
+            self.data: wp.array = wp.array(self.host, dtype=wp.float32, device=device, copy=False)
         else:
             self.host = None
             self.data = wp.zeros(self.shape + (3,), dtype=wp.float32, device=device)
         self.size = int(np.prod(self.shape))
 
-    def pixels(self, start: int, stop: int):
+    def pixels(self, start: int, stop: int) -> wp.array:
         """Values start…stop (row-major order) as a 1-D vec3 view."""
         return wp.array(ptr=self.data.ptr + start * VEC3_BYTES, dtype=wp.vec3, shape=(stop - start,),
                         device=self.device)
 
-    def rows(self, width: int):
+    def rows(self, width: int) -> wp.array:
         """All values as a (size / width, width) vec3 view."""
         return wp.array(ptr=self.data.ptr, dtype=wp.vec3, shape=(self.size // width, width), device=self.device)
 
-    def result(self, channels: int, output: str):
+    @overload
+    def result(self, channels: int, output: Literal["numpy"]) -> np.ndarray: ...
+
+    @overload
+    def result(self, channels: int, output: str) -> np.ndarray | wp.array: ...
+
+    def result(self, channels: int, output: str) -> np.ndarray | wp.array:
         if output == "warp":
             return self.data if channels == 3 else \
                 self.data[(slice(None),) * len(self.shape) + (slice(0, channels),)].contiguous()
@@ -78,7 +86,7 @@ def fill_pixels(out, index: np.ndarray, mean, device, compute) -> None:
             wp.launch(K.scatter_values, dim=index.size, inputs=[values, wp.array(index.astype(np.int64), dtype=wp.int64), out])
 
 
-def strips(h: int, w: int, cost: int = 1):
+def strips(h: int, w: int, cost: int = 1) -> list[tuple[int, int]]:
     """Row ranges (r0, r1) cutting an H × W raster into strips of about STRIP_WORK,
     for pixels that each cost ``cost`` raster pixels."""
     rows = max(1, STRIP_WORK // max(1, w * cost))

@@ -207,7 +207,7 @@ def in_cli_words(error: TextonError, names: Mapping[str, str]) -> str:
     """
     message = str(error)
     param = error.param
-    if param in names and message.startswith(param) and _stands_alone(message, 0, len(param)):
+    if param is not None and param in names and message.startswith(param) and _stands_alone(message, 0, len(param)):
         message = names[param] + message[len(param):]
     for name in error.mentions:
         if name in names:

@@ -23,6 +23,7 @@ import shutil
 import tempfile
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
@@ -38,6 +39,11 @@ from .noise import CELL_FACTOR, noise_setup
 from .raster import raster_geometry, raster_reach
 from .synthesis import synthesize
 from .texton import Texton
+
+if TYPE_CHECKING:
+    from concurrent.futures import Executor
+
+    import dask.array
 
 #: Default chunk side, pixels: 4096² RGB float32 is 192 MiB while it is computed.
 CHUNK = 4096
@@ -124,7 +130,8 @@ class _Plan:
 
 
 def _chunk(plan: _Plan, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
-    return synthesize(plan.texton, (r1 - r0, c1 - c0), pixel_offset=(r0, c0), **plan.options)
+    # plan.options hold no output: NumPy, the default
+    return cast(np.ndarray, synthesize(plan.texton, (r1 - r0, c1 - c0), pixel_offset=(r0, c0), **plan.options))
 
 
 def _block(plan: _Plan, block_info=None) -> np.ndarray:
@@ -148,7 +155,7 @@ def synthesize_dask(
     cell_factor: float = CELL_FACTOR,
     method: str = "auto",
     filter="none",
-):
+) -> dask.array.Array:
     """Texton noise on an H × W raster as a lazy ``dask.array`` of (H, W, C) float32.
 
     Chunk (r, c) is ``synthesize(texton, chunk shape, ..., pixel_offset=(r0, c0))``:
@@ -253,7 +260,7 @@ def _atomic_folder(path: Path, overwrite: bool):
         raise
 
 
-def check_scheduler(scheduler):
+def check_scheduler(scheduler) -> tuple[str, str | None]:
     """("threads" | "processes" | "distributed", address or None)."""
     if not isinstance(scheduler, str) or not scheduler:
         raise TextonError(f"scheduler must be threads, processes or a scheduler address, got {scheduler!r}")
@@ -380,7 +387,7 @@ def write_zarr(
         task = functools.partial(_store_chunk, plan, str(tmp), dtype)
         bar = progress_bar(progress, len(grid), "zarr", "chunk")
         try:
-            if kind == "distributed":
+            if address is not None:  # kind "distributed"
                 clipped = _run_distributed(address, task, grid, bar)
             else:
                 clipped = _run_local(kind, n_workers, task, grid, bar)
@@ -416,7 +423,7 @@ def _run_local(kind: str, workers: int, task, grid, bar) -> int:
     if kind == "threads":
         from concurrent.futures import ThreadPoolExecutor
 
-        pool = ThreadPoolExecutor(workers)
+        pool: Executor = ThreadPoolExecutor(workers)
     else:
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor

@@ -173,8 +173,8 @@ class FilterOptions:
         return FILTERS[self.kind]
 
     @property
-    def bias(self) -> float:
-        """The level bias in use (the footprint kinds: "mip" and "anisotropic")."""
+    def bias(self) -> float | None:
+        """The level bias in use (the footprint kinds: "mip" and "anisotropic"; None for the others)."""
         return self.spec.lod_bias if self.lod_bias is None else self.lod_bias
 
 

@@ -18,6 +18,8 @@ from a :class:`FilterOptions` to the kernels.
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
+
 import numpy as np
 import warp as wp
 
@@ -180,18 +182,25 @@ def needs_filtering(J: np.ndarray, options: FilterOptions) -> bool:
 
 
 # ------------------------------------------------------------------- pixels
-class PixelSet:
+class PixelSet(ABC):
     """Pixels to filter: ``count`` of them, each with a flat index ``keys[k]``
-    (which seeds its supersampling jitter), a texel-space centre and footprint.
-
-    Subclasses give ``centres(start, stop) -> (n, 2)`` float64,
-    ``footprints(start, stop) -> (n or 1, 2, 2)`` and ``subpixels(sel, offsets)
-    -> (len(sel), n², 2)``: the texel positions of the offsets (len(sel), n², 2)
-    in [0, 1)² of pixels ``sel``, NaN where a sub-pixel sees no noise.
-    """
+    (which seeds its supersampling jitter), a texel-space centre and footprint."""
 
     count: int
     keys: np.ndarray
+
+    @abstractmethod
+    def centres(self, start: int, stop: int) -> np.ndarray:
+        """float64 (n, 2) texel-space centres of pixels start…stop."""
+
+    @abstractmethod
+    def footprints(self, start: int, stop: int) -> np.ndarray:
+        """(n or 1, 2, 2) footprints of pixels start…stop."""
+
+    @abstractmethod
+    def subpixels(self, sel: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+        """(len(sel), n², 2) texel positions of the offsets (len(sel), n², 2) in
+        [0, 1)² of pixels ``sel``, NaN where a sub-pixel sees no noise."""
 
 
 class RasterPixels(PixelSet):
@@ -221,13 +230,13 @@ class RasterPixels(PixelSet):
         j = j + self.first[1]
         return self.origin + np.stack([j + 0.5, i + 0.5], -1) @ self.step.T
 
-    def centres(self, start, stop):
+    def centres(self, start, stop) -> np.ndarray:
         return self._centres(np.arange(start, stop))
 
-    def footprints(self, start, stop):
+    def footprints(self, start, stop) -> np.ndarray:
         return self.flat if self.flat.shape[0] == 1 else self.flat[start:stop]
 
-    def subpixels(self, sel, offsets):
+    def subpixels(self, sel, offsets) -> np.ndarray:
         base = self._centres(sel)[:, None, :]
         rel = offsets - 0.5  # (len(sel), n², 2) in pixel units
         if self.flat.shape[0] == 1:

@@ -109,7 +109,7 @@ def remove_leftovers(path) -> list[Path]:
     parent = path.parent if str(path.parent) else Path(".")
     prefix = _part_prefix(path.name, _name_max(parent))
     host = host_tag()
-    removed = []
+    removed: list[Path] = []
     try:
         candidates = [e for e in os.scandir(parent) if e.name.startswith(prefix) and e.name.endswith(PART_SUFFIX)]
     except OSError:

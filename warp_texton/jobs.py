@@ -15,6 +15,7 @@ import os
 import io
 import sys
 import uuid
+from typing import cast
 from concurrent.futures import Executor, ThreadPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -242,8 +243,7 @@ def _expand(args, lists: tuple) -> list[str]:
             out.extend(sorted(glob.glob(arg, recursive=True)) or [arg])
         else:
             out.append(arg)
-    seen = set()
-    return [p for p in out if not (p in seen or seen.add(p))]
+    return list(dict.fromkeys(out))  # first occurrences, in order
 
 
 def _load_mesh(path: str):
@@ -450,7 +450,7 @@ def run_jobs(jobs, *, executor: Executor | None = None, jobs_in_parallel: int = 
     """
     jobs = list(jobs)
     own = executor is None
-    if own:
+    if executor is None:
         executor = ThreadPoolExecutor(max(1, jobs_in_parallel))
     bar = None
     if progress:
@@ -483,7 +483,7 @@ def run_jobs(jobs, *, executor: Executor | None = None, jobs_in_parallel: int = 
             bar.close()
         if own:
             executor.shutdown(wait=True, cancel_futures=True)
-    return results
+    return cast("list[JobResult]", results)  # as_completed collected every job
 
 
 def _settle_interrupted(jobs, futures: dict, results: list, collect) -> None:

@@ -27,6 +27,7 @@ import math
 import os
 import re
 import threading
+from collections.abc import Iterator
 
 from .errors import TextonError
 
@@ -183,7 +184,7 @@ _log = threading.local()
 
 
 @contextlib.contextmanager
-def work_log():
+def work_log() -> Iterator[list[tuple[str, float]]]:
     """Collect the work estimates that calls in this thread check: yields a list
     that receives ``(what, operations)`` for each :func:`check_work`, accepted
     or not (the benchmarks compare them with measured times).

@@ -233,5 +233,7 @@ def texture_mesh(
     rgba = np.empty((len(vertices), 4), np.uint8)
     rgba[:, :3] = np.round(colours * 255.0)
     rgba[:, 3] = 255
-    out.visual.vertex_colors = rgba
+    visual = out.visual
+    assert isinstance(visual, trimesh.visual.ColorVisuals), "a new Trimesh without UVs"
+    visual.vertex_colors = rgba
     return out

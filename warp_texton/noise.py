@@ -107,7 +107,7 @@ def noise_setup(texton: Texton, mni: float, period=None, cell_factor: float = CE
     # The kernels hold the cell side in float32: use that same value on the host,
     # so that host-placed blocks and kernel-placed cells coincide far from the origin.
     with np.errstate(over="ignore"):
-        cell = tuple(float(np.float32(c)) for c in cell)
+        cell = (float(np.float32(cell[0])), float(np.float32(cell[1])))
     if not all(0.0 < c < math.inf for c in cell):  # a period far below a texel
         raise TextonError(f"period {period!r} makes cells of {cell[0]:.3g} x {cell[1]:.3g} texels, which float32 "
                           "cannot hold; use a period of at least a texel", param="period")
@@ -267,7 +267,7 @@ def point_values(p, coeffs: np.ndarray, pts: np.ndarray, device, out=None) -> np
     and nothing is returned.
     """
     with wp.ScopedDevice(device):
-        c = wp.array(coeffs, dtype=wp.vec3)
+        c: wp.array = wp.array(coeffs, dtype=wp.vec3)
         if out is not None:
             def launch(start, stop):
                 wp.launch(K.evaluate_points, dim=stop - start,

@@ -54,7 +54,7 @@ class PlaneCamera:
         h, w = self.shape
         return (j - w / 2.0) / self.focal, (i - h / 2.0) / self.focal
 
-    def texels(self, i, j):
+    def texels(self, i, j) -> np.ndarray:
         """Texel positions (…, 2) of image points (row i, column j) (pixel corners
         at integers); NaN where the ray misses the plane."""
         t = math.radians(self.tilt)
@@ -66,7 +66,7 @@ class PlaneCamera:
         y = -s * (math.sin(t) - v * math.cos(t)) / self.texel_size
         return np.stack([x, y], -1)
 
-    def footprints(self, i, j):
+    def footprints(self, i, j) -> np.ndarray:
         """Jacobians (…, 2, 2) of the texel position w.r.t. (column, row) at image points."""
         t = math.radians(self.tilt)
         u, v = self._uv(np.asarray(i, np.float64), np.asarray(j, np.float64))
@@ -92,13 +92,14 @@ class PlanePixels(PixelSet):
         self.centre = centre
         self.J = camera.footprints(self.ii + 0.5, self.jj + 0.5) if wants_footprints else None
 
-    def centres(self, start, stop):
+    def centres(self, start, stop) -> np.ndarray:
         return self.centre[start:stop]
 
-    def footprints(self, start, stop):
+    def footprints(self, start, stop) -> np.ndarray:
+        assert self.J is not None, "made with wants_footprints"
         return self.J[start:stop]
 
-    def subpixels(self, sel, offsets):
+    def subpixels(self, sel, offsets) -> np.ndarray:
         return self.camera.texels(self.ii[sel, None] + offsets[..., 1], self.jj[sel, None] + offsets[..., 0])
 
 

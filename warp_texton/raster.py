@@ -242,7 +242,7 @@ def struct_array(table: np.ndarray, struct, device):
     per-call parsing of the struct's NumPy dtype. Keep the owner alive while
     the array is used."""
     raw = np.ascontiguousarray(table).view(np.uint8)
-    owner = wp.array(raw, dtype=wp.uint8, device=device, copy=not is_cpu(device))
+    owner: wp.array = wp.array(raw, dtype=wp.uint8, device=device, copy=not is_cpu(device))
     return wp.array(ptr=owner.ptr, dtype=struct, shape=(table.shape[0],), device=device), owner
 
 
@@ -300,7 +300,7 @@ def rasters(windows, stack: TextonStack, shape, device, method: str, out,
     first_cells = np.concatenate([[0], np.cumsum(ncells)])
     with wp.ScopedDevice(device):
         wins, owner = struct_array(table, K.Window, device)
-        cell_window = wp.array(np.repeat(np.arange(len(windows), dtype=np.int32), ncells), dtype=wp.int32)
+        cell_window: wp.array = wp.array(np.repeat(np.arange(len(windows), dtype=np.int32), ncells), dtype=wp.int32)
         counts = wp.zeros(n_cells + 1, dtype=wp.int32)
         wp.launch(K.count_impacts, dim=n_cells, inputs=[wins, cell_window, counts])
         offsets = wp.zeros(n_cells + 1, dtype=wp.int32)
@@ -314,7 +314,7 @@ def rasters(windows, stack: TextonStack, shape, device, method: str, out,
         impact_cell = wp.empty(max(n, 1), dtype=wp.int32)
         if n:
             wp.launch(K.emit_impacts, dim=n_cells, inputs=[wins, cell_window, offsets, impacts, impact_cell])
-        coeffs = wp.array(stack.coeffs, dtype=wp.vec3)
+        coeffs: wp.array = wp.array(stack.coeffs, dtype=wp.vec3)
         marks = K.Marks()
         if regions is None:
             marks.marked = 0

@@ -298,10 +298,10 @@ def _cast_box(mesh, shape, camera, up, orbit, fov, light, device):
         return (r0, r0, c0, c0), (np.full((0, 0), -1, np.int32), np.zeros((0, 0, 2), np.float32),
                                   np.zeros((0, 0, 3), np.float32), np.zeros((0, 0), np.float32)), vertices, faces_np
     with wp.ScopedDevice(device):
-        points = wp.array(vertices - origin, dtype=wp.vec3)
-        indices = wp.array(faces_np.astype(np.int32).reshape(-1), dtype=wp.int32)
+        points: wp.array = wp.array(vertices - origin, dtype=wp.vec3)
+        indices: wp.array = wp.array(faces_np.astype(np.int32).reshape(-1), dtype=wp.int32)
         wmesh = wp.Mesh(points=points, indices=indices)
-        normals = wp.array(vertex_normals(mesh, up), dtype=wp.vec3)
+        normals: wp.array = wp.array(vertex_normals(mesh, up), dtype=wp.vec3)
         outs = [wp.empty((rh, rw), dtype=t) for t in (wp.int32, wp.vec2, wp.vec3, wp.float32)]
 
         def band(a, b):
@@ -471,7 +471,7 @@ def render_mesh(
             # the hits in float64 texel units from their faces' vertices and weights (as
             # RayHits.points), and their normals, in one pass
             pos_w, nrm_w = wp.empty(pixels.size, dtype=wp.vec3d), wp.empty(pixels.size, dtype=wp.vec3)
-            pix = wp.array(pixels, dtype=wp.int32)
+            pix: wp.array = wp.array(pixels, dtype=wp.int32)
             inputs = [wp.array(face.reshape(-1), dtype=wp.int32, copy=not on_cpu),
                       wp.array(bary.reshape(-1, 2), dtype=wp.vec2, copy=not on_cpu),
                       wp.array(nrm.reshape(-1, 3), dtype=wp.vec3, copy=not on_cpu),
@@ -480,8 +480,8 @@ def render_mesh(
             split_launch(device, KR, pixels.size, lambda a, b: wp.launch(
                 KR.hit_points, dim=b - a, inputs=[pix[a:b], *inputs, pos_w[a:b], nrm_w[a:b]]))
             g = evaluate_points(p, setup, pos_w.numpy(), nrm_w.numpy(), None, device, method)
-            g_w = wp.array(g, dtype=wp.vec3)
-            shade_w = wp.array(shade.reshape(-1), dtype=wp.float32, copy=not on_cpu)
+            g_w: wp.array = wp.array(g, dtype=wp.vec3)
+            shade_w: wp.array = wp.array(shade.reshape(-1), dtype=wp.float32, copy=not on_cpu)
             split_launch(device, KR, pixels.size, lambda a, b: wp.launch(
                 KR.shade_hits, dim=b - a, inputs=[pix[a:b], g_w[a:b], shade_w, c1 - c0, r0, c0,
                                                  int(texton.channels == 1), img_w]))

@@ -61,9 +61,9 @@ def _prepare_points(pts: np.ndarray, normals: np.ndarray, texel: float) -> tuple
     pos = np.empty((n, 3))
     unit = np.empty((n, 3), np.float32)
     length = np.empty(n)
-    inputs = [wp.array(np.ascontiguousarray(pts), dtype=wp.vec3d, device="cpu", copy=False),
+    inputs: list[wp.array] = [wp.array(np.ascontiguousarray(pts), dtype=wp.vec3d, device="cpu", copy=False),
               wp.array(np.ascontiguousarray(normals), dtype=wp.vec3d, device="cpu", copy=False)]
-    outputs = [wp.array(a, dtype=t, device="cpu", copy=False)
+    outputs: list[wp.array] = [wp.array(a, dtype=t, device="cpu", copy=False)
                for a, t in ((pos, wp.vec3d), (unit, wp.vec3), (length, wp.float64))]
     split_launch("cpu", K, n, lambda a, b: wp.launch(
         K.prepare_points, dim=b - a, device="cpu",
@@ -361,7 +361,7 @@ def evaluate_points(p: K.SurfaceParams, setup: SurfaceSetup, pos: np.ndarray, nr
     if method == "auto":
         method = "points" if n < AUTO_MIN_POINTS else "blocks"
     with wp.ScopedDevice(device):
-        coeffs = wp.array(setup.coeffs, dtype=wp.vec3)
+        coeffs: wp.array = wp.array(setup.coeffs, dtype=wp.vec3)
         if method == "points":
             dummy = wp.zeros(1, dtype=wp.vec3)
 

@@ -281,10 +281,10 @@ def _format_texton_text(t: Texton) -> str:
     src = str(t.metadata.get("source", "unknown")).replace("\n", " ")
     src = src.encode("ascii", "replace").decode("ascii")
     try:
-        rows, cols = (int(v) for v in t.metadata.get("source_shape") or (0, 0))
+        src_rows, src_cols = (int(v) for v in t.metadata.get("source_shape") or (0, 0))
     except (TypeError, ValueError, OverflowError):
-        rows, cols = 0, 0  # the line is informative only
-    lines.append(f"Original image: {src} ({cols} x {rows})")
+        src_rows, src_cols = 0, 0  # the line is informative only
+    lines.append(f"Original image: {src} ({src_cols} x {src_rows})")
     return "\n".join(lines) + "\n"
 
 
@@ -343,7 +343,7 @@ def _parse_texton_text(path: Path) -> Texton:
     # Strip the zero frame the format carries, when it is there.
     if h >= 3 and w >= 3 and not (a[0].any() or a[-1].any() or a[:, 0].any() or a[:, -1].any()):
         a = a[1:-1, 1:-1]
-    metadata = {"format": "texton-v1"}
+    metadata: dict[str, object] = {"format": "texton-v1"}
     tail = " ".join(lines[5 + w * h:]).strip()
     m = re.match(r"Original image:\s*(.*?)\s*\((\d+)\s*x\s*(\d+)\)\s*$", tail)
     if m:

@@ -50,6 +50,7 @@ def _page(name: str) -> bytes:
 
 
 class _Handler(BaseHTTPRequestHandler):
+    server: _Server
     protocol_version = "HTTP/1.1"
     server_version = f"warp-texton/{__version__}"
     #: idle keep-alive connections are closed after this many seconds
@@ -207,10 +208,18 @@ class _Handler(BaseHTTPRequestHandler):
         if len(data) != length:
             raise BadRequest("upload cut short")
         b = self.viewer.add_upload(data, unquote(self.headers.get("X-Filename", "upload")))
+        assert b.image is not None, "uploads are images"
         self._json({"id": b.digest, "name": b.name, "width": b.image.shape[1], "height": b.image.shape[0]})
 
 
 class _Server(ThreadingHTTPServer):
+    # set by serve() before the first request
+    viewer: Viewer
+    verbose: bool
+    pages: dict[str, bytes]
+    any_host: bool
+    host_names: set[str]
+
     daemon_threads = True
     # a burst of tile requests must queue in the kernel, not be refused
     request_queue_size = 256

@@ -17,7 +17,7 @@ class Memo:
         self._total = 0
         self._lock = threading.Lock()
         self._done: OrderedDict = OrderedDict()
-        self._pending: dict = {}
+        self._pending: dict[object, Future] = {}
 
     def get(self, key, compute):
         with self._lock:
@@ -26,7 +26,7 @@ class Memo:
                 return self._done[key]
             future = self._pending.get(key)
             owner = future is None
-            if owner:
+            if future is None:
                 future = self._pending[key] = Future()
         if not owner:
             return future.result()

@@ -23,8 +23,10 @@ import shutil
 import tempfile
 import threading
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 
@@ -60,7 +62,7 @@ class Export:
 
     name: str
     plan: dict
-    make: object  # () -> float32 image
+    make: Callable[[], np.ndarray]  # the float32 image
 
 
 class Viewer:
@@ -89,7 +91,7 @@ class Viewer:
         if mix is not None:
             b = load_source(mix, "mix")
             self._uploads[b.digest] = b
-            self.start_b = b.digest
+            self.start_b: str | None = b.digest
         else:
             self.start_b = None
         # an input that cannot be analysed with the start settings fails now, not in the page
@@ -166,8 +168,10 @@ class Viewer:
         """The float32 (T, T, C) values of a tile."""
         if mix is None:
             w = tile_window(tile, noise)
-            return synthesize(self.texton(analysis), w.shape, mni=noise.mni, seed=noise.seed, scale=w.scale, rotation=w.rotation, offset=w.offset,
-                              device=self.device, filter=noise.filter)
+            # output="numpy" (the default) gives NumPy
+            return cast(np.ndarray, synthesize(self.texton(analysis), w.shape, mni=noise.mni, seed=noise.seed,
+                                               scale=w.scale, rotation=w.rotation, offset=w.offset,
+                                               device=self.device, filter=noise.filter))
         return self.mixed_tile(tile, analysis, noise, mix)
 
     def mixed_tile(self, tile: Tile, analysis: Analysis, noise: Noise, mix: Mix) -> np.ndarray:
@@ -192,7 +196,7 @@ class Viewer:
 
     # -- requests: the query of a GET whose src was checked -> (key, make(alive) -> PNG bytes);
     #    the image is a pure function of its key (and of the input), so the key makes its ETag
-    def tile_request(self, q: Query):
+    def tile_request(self, q: Query) -> tuple[tuple, Callable[..., bytes]]:
         mixing = q.choice("mode", ("noise", "mix"), default="noise") == "mix"
         analysis = parse_analysis(q, self.defaults[0])
         noise = parse_noise(q, self.defaults[1], rotation=not mixing)
@@ -207,7 +211,7 @@ class Viewer:
         return key, lambda alive: self._memo_image(
             key, alive, lambda: png_bytes(self.tile(tile, analysis, noise, mix), self.png_level))
 
-    def plane_request(self, q: Query):
+    def plane_request(self, q: Query) -> tuple[tuple, Callable[..., bytes]]:
         analysis = parse_analysis(q, self.defaults[0])
         noise = parse_noise(q, self.defaults[1], rotation=False)
         plane = parse_plane(q)
@@ -236,9 +240,10 @@ class Viewer:
         raise ClientGone()
 
     def plane(self, plane: Plane, analysis: Analysis, noise: Noise) -> np.ndarray:
-        return render_plane(self.texton(analysis), (plane.height, plane.width), height=plane.camera_height,
-                            tilt=plane.tilt, fov=plane.fov, texel_size=plane.texel_size, mni=noise.mni,
-                            seed=noise.seed, filter=noise.filter, device=self.device)
+        return cast(np.ndarray, render_plane(self.texton(analysis), (plane.height, plane.width),
+                                             height=plane.camera_height, tilt=plane.tilt, fov=plane.fov,
+                                             texel_size=plane.texel_size, mni=noise.mni, seed=noise.seed,
+                                             filter=noise.filter, device=self.device))
 
     # -- side panel
     def panel(self, analysis: Analysis, seed: int) -> dict:
@@ -271,7 +276,8 @@ class Viewer:
         # the noise's periodogram, averaged over 4 windows: its expectation is |α̂|² b̂ (CGF eq. (4))
         measured = np.zeros(grid)
         for k in range(4):
-            g = synthesize(texton, grid, mni=30.0, seed=seed, offset=(k * 10.0 * grid[1], 0.0), device=self.device)
+            g = cast(np.ndarray, synthesize(texton, grid, mni=30.0, seed=seed, offset=(k * 10.0 * grid[1], 0.0),
+                                            device=self.device))
             g = g.astype(np.float64) - g.mean(axis=(0, 1))
             measured += (np.abs(np.fft.fft2(g, axes=(0, 1))) ** 2).sum(axis=2) / (grid[0] * grid[1] * 4)
         pictures = log_spectra(*([] if model is None else [model]), noise_model, measured)
@@ -305,13 +311,13 @@ class Viewer:
             plan = plan_mix(name, (h, w), scale, corner, analysis, noise, mix, self.source, self.second(mix.b),
                             self.device)
 
-            def make():
+            def make_mix() -> np.ndarray:
                 x = corner[0] + (np.arange(w) + 0.5) / scale
                 rho = np.broadcast_to(mix.rho(x)[None, :], (h, w))
                 return synthesize_mixed(self.mixed_textons(analysis, mix), rho, (h, w), mni=noise.mni, seed=noise.seed,
                                         scale=scale, offset=corner, device=self.device)
 
-            return Export(name, plan, make)
+            return Export(name, plan, make_mix)
         noise = parse_noise(q, self.defaults[1])
         kind = q.choice("kind", ("view", "tile"), default="view")
         w, h = parse_size(q)
@@ -325,10 +331,10 @@ class Viewer:
         q.finish()
         name = f"{kind if kind == 'tile' else 'noise'}_{w}x{h}_seed{noise.seed}.{fmt}"
 
-        def make():
-            return synthesize(self.texton(analysis), window.shape, mni=noise.mni, seed=noise.seed, scale=window.scale,
-                              rotation=window.rotation, offset=window.offset, period=window.period, device=self.device,
-                              filter=noise.filter)
+        def make() -> np.ndarray:
+            return cast(np.ndarray, synthesize(self.texton(analysis), window.shape, mni=noise.mni, seed=noise.seed,
+                                               scale=window.scale, rotation=window.rotation, offset=window.offset,
+                                               period=window.period, device=self.device, filter=noise.filter))
 
         return Export(name, plan_noise(name, window, analysis, noise, self.source, self.device), make)
 
@@ -352,7 +358,7 @@ class Viewer:
             start_b = self._uploads.get(self.start_b) if self.start_b else None
         return {
             "version": __version__, "src": self.src, "name": self.source.name, "kind": self.source.kind,
-            "channels": (self.source.texton.channels if image is None else image.shape[2]),
+            "channels": self.source.channels,
             "input_size": None if image is None else [image.shape[1], image.shape[0]],
             "device": self.device,
             "defaults": {"size": analysis.size, "order": analysis.order, "cc": analysis.color_correction,

@@ -39,7 +39,7 @@ def data_url(img: np.ndarray, side: int | None = None, nearest: bool = False) ->
     if side is not None:
         k = side / max(im.size)
         size = (max(1, round(im.size[0] * k)), max(1, round(im.size[1] * k)))
-        im = im.resize(size, Image.NEAREST if nearest else Image.LANCZOS)
+        im = im.resize(size, Image.Resampling.NEAREST if nearest else Image.Resampling.LANCZOS)
     buf = io.BytesIO()
     im.save(buf, format="PNG")
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")

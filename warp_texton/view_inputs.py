@@ -38,6 +38,13 @@ class Source:
     def kind(self) -> str:
         return "texton" if self.texton is not None else "image"
 
+    @property
+    def channels(self) -> int:
+        if self.image is not None:
+            return self.image.shape[2]
+        assert self.texton is not None, "a source holds an image or a texton"
+        return self.texton.channels
+
 
 def digest(*parts) -> str:
     h = hashlib.sha256()
