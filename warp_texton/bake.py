@@ -237,10 +237,20 @@ def bake_mesh(
         World units per texton texel (as :func:`warp_texton.texture_mesh`).
     resolution : int
         Texture side in texels (1 to 16384).
-    mni, seed, device, up, side, method
-        As in :func:`warp_texton.surface_noise`; the normals are the
-        renderer's (interpolated vertex normals, the face normal across
-        creases).
+    mni : float
+        Mean number of impacts per point (default 60), as in :func:`warp_texton.surface_noise`.
+    seed : int
+        As in :func:`warp_texton.surface_noise`.
+    device : str, optional
+        As in :func:`warp_texton.surface_noise`.
+    up : str or (x, y, z)
+        The frame rule's up direction, as in :func:`warp_texton.surface_noise`;
+        the normals are the renderer's (interpolated vertex normals, the face
+        normal across creases).
+    side : (x, y, z), optional
+        The frame rule's second direction, as in :func:`warp_texton.surface_noise`.
+    method : {"auto", "blocks", "points"}
+        As in :func:`warp_texton.surface_noise`.
     uv : "auto", "mesh" or "atlas"
         "auto": the mesh's UVs when it has them, else an xatlas atlas; "mesh":
         its UVs or an error; "atlas": a new atlas, ignoring any UVs.
@@ -574,9 +584,23 @@ def render_baked(baked, shape=(512, 512), *, camera=None, up=UP, orbit=None, fov
     baked : BakedMesh or trimesh.Trimesh
         A bake, or a mesh with UVs and a material holding an image (a GLB or OBJ
         written by :func:`write_baked`, read back with trimesh).
-    shape, camera, up, orbit, fov, light, background, device
-        As in :func:`warp_texton.render_mesh`: the same camera gives the same
-        pixels, so the two renders compare pixel by pixel.
+    shape : (height, width)
+        As in :func:`warp_texton.render_mesh`.
+    camera : Camera, optional
+        As in :func:`warp_texton.render_mesh`: the same camera gives the same pixels, so the two renders
+        compare pixel by pixel.
+    up : str or (x, y, z)
+        As in :func:`warp_texton.render_mesh`.
+    orbit : (azimuth, elevation), optional
+        As in :func:`warp_texton.render_mesh`.
+    fov : float, optional
+        As in :func:`warp_texton.render_mesh`.
+    light : (x, y, z), optional
+        As in :func:`warp_texton.render_mesh`.
+    background : (r, g, b)
+        As in :func:`warp_texton.render_mesh`.
+    device : str, optional
+        As in :func:`warp_texton.render_mesh`.
 
     Returns
     -------

@@ -282,7 +282,17 @@ def synthesize_batch(
     offset : (x, y), ((x_lo, x_hi), (y_lo, y_hi)) or array (count, 2)
         One offset for all, each coordinate drawn uniformly, or one per item.
         Ranges are tuples or lists; per-item values are NumPy arrays.
-    period, filter, device, poisson, cell_factor, method
+    period : (Px, Py), optional
+        As in :func:`synthesize`, for every item.
+    filter : str or FilterOptions
+        As in :func:`synthesize`, for every item.
+    device : str, optional
+        As in :func:`synthesize`, for every item.
+    poisson : {"exact", "gaussian"}
+        As in :func:`synthesize`, for every item.
+    cell_factor : float
+        As in :func:`synthesize`, for every item.
+    method : {"auto", "splat", "gather"}
         As in :func:`synthesize`, for every item.
     texton_index : int array (count,), optional
         Which texton each item uses; default drawn uniformly.

@@ -170,9 +170,32 @@ def synthesize_dask(
         Each side at most 2**30 pixels; no limit on the pixel count.
     chunks : int or (rows, columns)
         Chunk size, positive and at most the raster's; default 4096.
-    mni, seed, scale, rotation, offset, period, device, poisson, cell_factor, method, filter
-        As in :func:`warp_texton.synthesize` (a constant footprint: no per-pixel
-        ``jacobian``).
+    mni : float
+        Mean number of impacts per point, as in :func:`warp_texton.synthesize`.
+    seed : int
+        The noise's seed, as in :func:`warp_texton.synthesize`.
+    scale : float
+        Pixels per texel, as in :func:`warp_texton.synthesize`.
+    rotation : float
+        Degrees, counter-clockwise on screen, as in :func:`warp_texton.synthesize`.
+    offset : (x, y)
+        Noise position of the raster's top-left corner, texels, as in
+        :func:`warp_texton.synthesize`.
+    period : (Px, Py), optional
+        Periods of a periodic noise, texels (``None``: it never repeats), as in
+        :func:`warp_texton.synthesize`.
+    device : str, optional
+        Warp device, as in :func:`warp_texton.synthesize`.
+    poisson : {"exact", "gaussian"}
+        How the cells' impact counts are drawn, as in :func:`warp_texton.synthesize`.
+    cell_factor : float
+        Side of the random cells relative to the texton's support, as in
+        :func:`warp_texton.synthesize`.
+    method : {"auto", "splat", "gather"}
+        How the raster is computed, as in :func:`warp_texton.synthesize`.
+    filter : str or FilterOptions
+        The anti-aliasing filter, as in :func:`warp_texton.synthesize`, with a
+        constant footprint (no per-pixel ``jacobian``).
 
     Returns
     -------
@@ -298,7 +321,11 @@ def write_zarr(
     ----------
     path : str or Path
         The store (a folder, conventionally ``*.zarr``); must not exist unless ``overwrite``.
-    texton, shape, chunks
+    texton : Texton
+        As in :func:`synthesize_dask`.
+    shape : (height, width)
+        As in :func:`synthesize_dask`.
+    chunks : int or (rows, columns)
         As in :func:`synthesize_dask`; the store's chunks are the same (all
         channels in one chunk).
     dtype : {"float16", "float32", "uint16", "uint8"}

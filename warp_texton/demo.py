@@ -54,8 +54,10 @@ def run_demo(out_dir, size: int = 64, seed: int = 0, progress: bool = True) -> l
     ----------
     out_dir : str or Path
         Created when missing.
-    size, seed
-        As in :func:`warp_texton.analyze` (the seed also seeds the noise).
+    size : int
+        As in :func:`warp_texton.analyze`.
+    seed : int
+        As in :func:`warp_texton.analyze`; it also seeds the noise.
     progress : bool
         Show the analysis's progress bar.
 

@@ -1,11 +1,14 @@
-"""Anti-aliased texton noise (CGF §5): filter options, the texton's MIP pyramid, footprints.
+"""Anti-aliased texton noise (CGF §5): the texton's MIP pyramid, footprints, the filters.
 
 Averaging texton noise over a pixel's footprint F gives the noise of the
 filtered texton h ∗ 1_F/|F| with the same impacts, so filtering the noise is
 filtering the texton. ``"mip"`` and ``"anisotropic"`` look the filtered texton
 up in a MIP pyramid of block means (see kernels/filter2d.py);
 ``"supersample"`` averages n × n jittered evaluations per pixel, the
-reference they are measured against.
+reference they are measured against. The options of a filter,
+:class:`~warp_texton.FilterOptions`, and the registry of kinds,
+:data:`FILTERS`, are defined in :mod:`warp_texton.filter_options` and are part
+of this module's interface too.
 
 A footprint is the 2 × 2 Jacobian J of the texel position with respect to the
 pixel position: its columns are the texel-space steps of one pixel to the
@@ -35,24 +38,24 @@ from .limits import check_memory, check_work
 from .noise import NoiseSetup, cell_limit, params_mean, point_values, support_reach, visits_per_point, walk_cost
 from .texton import Texton, lag0_covariance
 
-#: Footprint entries are clamped to ±this many texels: far past the coarsest
-#: MIP level, where the filtered noise is its mean, and safe in float32.
 MAX_FOOTPRINT = 1.0e12
-#: Sub-pixel evaluations per batch when supersampling (bounds host memory).
+"""Footprint entries are clamped to ±this many texels: far past the coarsest
+MIP level, where the filtered noise is its mean, and safe in float32."""
 SUPERSAMPLE_BATCH = 1 << 22
-#: Footprints sampled (evenly over the pixels) to estimate a filter's work.
+"""Sub-pixel evaluations per batch when supersampling (bounds host memory)."""
 COST_SAMPLES = 4096
-#: Host bytes per filtered pixel: keys, centres and footprints (float64), the
-#: float32 copies sent to the kernels, the (N, 3) result and its reshaped copy.
+"""Footprints sampled (evenly over the pixels) to estimate a filter's work."""
 FILTER_BYTES_PER_PIXEL = 160
+"""Host bytes per filtered pixel: keys, centres and footprints (float64), the
+float32 copies sent to the kernels, the (N, 3) result and its reshaped copy."""
 
 
-#: The arguments the filters' cost hints name.
 COST_HINT_NAMES = ("supersample", "max_aniso", "fade_energy", "mni")
+"""The arguments the filters' cost hints name."""
 
-#: What one filtered pixel costs, in raster pixels (a walk over its cells per
-#: lookup): it sizes the strips of filtered rasters and plane views.
 POINT_COST = 8
+"""What one filtered pixel costs, in raster pixels (a walk over its cells per
+lookup): it sizes the strips of filtered rasters and plane views."""
 
 
 def pixel_cost(options: FilterOptions, filtered: bool = True) -> int:
@@ -68,10 +71,46 @@ def pixel_cost(options: FilterOptions, filtered: bool = True) -> int:
 
 # ------------------------------------------------------------------ pyramid
 def texton_pyramid(texton: Texton) -> list[np.ndarray]:
-    """The MIP levels of a texton's coefficients: level ℓ + 1 holds the means of
-    2 × 2 blocks of level ℓ (odd sides padded with zeros), down to one
-    coefficient. h_ℓ(y) = Σ_k α_ℓ(k) ψ((y − (2^ℓ − 1)/2) / 2^ℓ − k) then has the
-    integral of h at every level.
+    """The MIP levels of a texton's coefficients, from the coefficients down to a single one.
+
+    Parameters
+    ----------
+    texton : Texton
+
+    Returns
+    -------
+    list of float32 arrays (r_ℓ, s_ℓ, C)
+        Level 0 is ``texton.coeffs``; level ℓ + 1 holds the means of the
+        2 × 2 blocks of level ℓ, an odd side padded with zeros; the last level
+        is (1, 1, C).
+
+    Notes
+    -----
+    The texton of level ℓ,
+
+        h_ℓ(y) = Σ_k α_ℓ(k) ψ((y − (2^ℓ − 1)/2) / 2^ℓ − k),
+
+    has the integral of the texton h at every level: ``4**ℓ * levels[ℓ].sum()``
+    is ``texton.integral``. The filters use the first
+    :func:`kept_levels` of them. Derivation: docs/model.md §13.
+
+    References
+    ----------
+    CGF §5 (the filtered texton, looked up in a MIP pyramid).
+
+    Examples
+    --------
+    A 6 × 6 texton of integral 1 has levels of sides 6, 3, 2 (3 padded to 4)
+    and 1, each of integral 1:
+
+    >>> import numpy as np
+    >>> from warp_texton import Texton
+    >>> texton = Texton(np.arange(1, 37).reshape(6, 6, 1) / 666, [0.5])
+    >>> levels = texton_pyramid(texton)
+    >>> [lv.shape[0] for lv in levels], texton.integral
+    ([6, 3, 2, 1], array([1.]))
+    >>> [round(float(lv.sum()) * 4**ell, 4) for ell, lv in enumerate(levels)]
+    [1.0, 1.0, 1.0, 1.0]
     """
     levels = [np.asarray(texton.coeffs, np.float64)]
     while max(levels[-1].shape[:2]) > 1:
@@ -84,8 +123,35 @@ def texton_pyramid(texton: Texton) -> list[np.ndarray]:
 
 
 def level_energies(texton: Texton, levels=None) -> np.ndarray:
-    """∫h_ℓ² / ∫h² for every MIP level (summed over channels): the variance the
-    noise of level ℓ keeps. ∫h_ℓ² = 4^ℓ Σ_τ b(τ) Σ_x α_ℓ(x) α_ℓ(x + τ)."""
+    """The share of the noise's variance that the noise of each MIP level keeps.
+
+    Parameters
+    ----------
+    texton : Texton
+    levels : list of arrays, optional
+        A pyramid already computed by :func:`texton_pyramid` for ``texton``
+        (default: computed here).
+
+    Returns
+    -------
+    float64 array (L,)
+        ∫h_ℓ h_ℓᵀ / ∫h hᵀ for every level ℓ (traces: summed over channels):
+        1 at level 0, decreasing; all ones for a texton of zero energy.
+
+    Notes
+    -----
+    ∫h_ℓ² = 4^ℓ Σ_τ b(τ) Σ_x α_ℓ(x) α_ℓ(x + τ), where b is the autocorrelation
+    of the texton's B-spline ψ and α_ℓ the coefficients of level ℓ
+    (docs/model.md §13, "Choosing the level").
+
+    Examples
+    --------
+    >>> from warp_texton import analyze, read_image
+    >>> from warp_texton.demo import demo_texture_path
+    >>> texton = analyze(read_image(demo_texture_path()), size=64, seed=0)
+    >>> level_energies(texton).round(2)
+    array([1.  , 0.64, 0.38, 0.19, 0.08, 0.02, 0.01])
+    """
     levels = texton_pyramid(texton) if levels is None else levels
     e = np.array([4.0 ** ell * np.trace(np.atleast_2d(lag0_covariance(a.astype(np.float64), texton.order)))
                   for ell, a in enumerate(levels)])
@@ -93,8 +159,39 @@ def level_energies(texton: Texton, levels=None) -> np.ndarray:
 
 
 def kept_levels(texton: Texton, levels=None, fade_energy: float = FADE_ENERGY) -> int:
-    """How many MIP levels the filters use: up to and including the first level
-    whose energy is below ``fade_energy`` (all of them if none is)."""
+    """How many MIP levels the filters use.
+
+    Parameters
+    ----------
+    texton : Texton
+    levels : list of float32 arrays, optional
+        The texton's :func:`texton_pyramid`, when it is at hand; default:
+        computed here.
+    fade_energy : float
+        The share of the variance (:func:`level_energies`) below which the
+        pyramid ends; default :data:`~warp_texton.filtering.FADE_ENERGY`, as
+        in :class:`~warp_texton.FilterOptions`. 0 keeps every level.
+
+    Returns
+    -------
+    int
+        The levels up to and including the first whose share is below
+        ``fade_energy``; all of them if none is. Past the last one the
+        filtered noise fades to its mean (docs/model.md §13, "Choosing the
+        level").
+
+    Examples
+    --------
+    The texton of the demo texture keeps 5 of its 7 levels:
+
+    >>> from warp_texton import analyze, read_image
+    >>> from warp_texton.demo import demo_texture_path
+    >>> levels = texton_pyramid(texton := analyze(read_image(demo_texture_path()), size=64, seed=0))
+    >>> kept_levels(texton, levels)  # shares 1, 0.64, 0.38, 0.19, 0.08: levels 0 to 4, then the mean
+    5
+    >>> kept_levels(texton, levels, fade_energy=0.0)
+    7
+    """
     e = level_energies(texton, levels)
     below = np.flatnonzero(e < fade_energy)
     return int(below[0]) + 1 if below.size else len(e)
@@ -151,8 +248,61 @@ def check_jacobian(jacobian, shape) -> np.ndarray:
 
 
 def footprint_levels(J: np.ndarray, options: FilterOptions):
-    """Lookups per pixel and MIP level (before clamping at 0) that ``options``
-    pick for footprints ``J`` (..., 2, 2); the kernels make the same choice."""
+    """The lookups per pixel and the MIP level that a filter chooses for footprints.
+
+    The kernels make the same choice; this is its host copy, for measuring
+    and explaining it.
+
+    Parameters
+    ----------
+    J : array (..., 2, 2)
+        Footprints: the Jacobians of the texel position with respect to the
+        pixel position (column, row), as :meth:`warp_texton.plane.PlaneCamera.footprints`
+        gives them and ``synthesize(..., jacobian=...)`` takes them.
+    options : FilterOptions
+        Of kind ``"mip"`` or ``"anisotropic"``.
+
+    Returns
+    -------
+    n : int array
+        Lookups per pixel, of J's leading shape (1 for ``"mip"``).
+    lod : float array
+        The MIP level, of J's leading shape, before the clamp at 0 and the
+        fade past the last kept level (:func:`kept_levels`).
+
+    Notes
+    -----
+    With major and minor the singular values of J and ``bias`` =
+    ``options.bias`` (``options.lod_bias``, or ``LOD_BIAS[kind]`` when it is
+    ``None``): for ``"anisotropic"``,
+
+        n = min(⌈major / minor⌉, max_aniso),   lod = log2 max(minor, major / n) + bias;
+
+    for ``"mip"``, n = 1 and lod = log2 major + bias (docs/model.md §13,
+    "Anisotropic lookups").
+
+    References
+    ----------
+    CGF §5.
+
+    Examples
+    --------
+    The footprint of the plane benchmark's camera at a pixel a quarter of the
+    way down, in the middle column:
+
+    >>> from warp_texton import FilterOptions
+    >>> from warp_texton.plane import PlaneCamera
+    >>> camera = PlaneCamera((1024, 1024), height=1.0, tilt=70.0, fov=40.0, texel_size=0.0011)
+    >>> J = camera.footprints(255.5, 511.5)
+    >>> J.round(2).tolist()
+    [[3.79, 0.01], [0.0, 22.18]]
+    >>> n, lod = footprint_levels(J, FilterOptions("anisotropic"))
+    >>> int(n), round(float(lod), 2)  # six lookups between levels 1 and 2
+    (6, 1.32)
+    >>> n, lod = footprint_levels(J, FilterOptions("mip"))
+    >>> int(n), round(float(lod), 2)
+    (1, 3.17)
+    """
     m = np.einsum("...ij,...kj->...ik", J, J)
     half = 0.5 * (m[..., 0, 0] + m[..., 1, 1])
     disc = np.sqrt(0.25 * (m[..., 0, 0] - m[..., 1, 1]) ** 2 + m[..., 0, 1] ** 2)

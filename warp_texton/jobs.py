@@ -63,7 +63,11 @@ class SurfaceJob:
         Folder for the outputs, created when missing (on the worker).
     texel_size : float, optional
         World units per texel; ``None``: the mesh's bounding-box diagonal / 256.
-    mni, seed, max_edge
+    mni : float
+        As in :func:`warp_texton.texture_mesh`.
+    seed : int
+        As in :func:`warp_texton.texture_mesh`.
+    max_edge : float, optional
         As in :func:`warp_texton.texture_mesh`.
     render : (height, width), optional
         Size of a PNG render by :func:`warp_texton.render_mesh` (default
@@ -81,7 +85,9 @@ class SurfaceJob:
         A texture side: bake the noise into a texture on UVs
         (:func:`warp_texton.bake_mesh`, :func:`warp_texton.write_baked`)
         instead of vertex colours.
-    uv, supersample
+    uv : {"auto", "mesh", "atlas"}
+        As in :func:`warp_texton.bake_mesh`.
+    supersample : int, optional
         As in :func:`warp_texton.bake_mesh`.
     texture : {"png", "exr"}, optional
         With ``bake``: also write the texture alone.
@@ -92,8 +98,10 @@ class SurfaceJob:
         The mesh's up axis ("auto": Y for ``.glb``/``.gltf``, Y-up by
         definition; Z otherwise): the frame rule, the render's camera and
         light.
-    orbit, fov
-        The render's camera, as in :func:`warp_texton.render_mesh`.
+    orbit : (azimuth, elevation), optional
+        The render's camera angles, as in :func:`warp_texton.render_mesh`.
+    fov : float, optional
+        The render's field of view, as in :func:`warp_texton.render_mesh`.
 
     Notes
     -----

@@ -40,9 +40,10 @@ def barycentre_spectrum(tu_hat: np.ndarray, tv_hat: np.ndarray, rho: float) -> n
 
     Parameters
     ----------
-    tu_hat, tv_hat : complex array (..., C)
-        DFTs (full or rfft half-plane) of two real kernels on one grid,
-        channels last, of one shape.
+    tu_hat : complex array (..., C)
+        DFT (full or rfft half-plane) of a real kernel, channels last.
+    tv_hat : complex array (..., C)
+        DFT of a second real kernel on the same grid, of the same shape.
     rho : float
         Not checked: values outside [0, 1] extrapolate along the line.
 
@@ -133,17 +134,32 @@ def mix_textons(
 
     Parameters
     ----------
-    u, v : image arrays (H, W[, C]) or Texton
-        The two textures. Images of different sizes are centre-cropped to the
-        common size; a grey input is mixed with an RGB one as three equal
-        channels. A Texton stands for its own Gaussian model.
+    u : image array (H, W[, C]) or Texton
+        The first texture (ρ = 0). Images of different sizes are
+        centre-cropped to the common size; a grey input is mixed with an
+        RGB one as three equal channels. A Texton stands for its own
+        Gaussian model.
+    v : image array (H, W[, C]) or Texton
+        The second texture (ρ = 1), as ``u``.
     rhos : sequence of float in [0, 1]
         Mixing parameters: 0 gives u's model, 1 gives v's.
-    size, order, seed, iterations, periodic, color_correction, support
-        As in :func:`warp_texton.analyze`. Every ρ starts from the same white
-        noise (the seed), so the textons are comparable across ρ; they are a
-        continuous function of ρ, though after many iterations a step of 0.05
-        can move them as far as a change of seed (the projections are not convex).
+    size : int
+        As in :func:`warp_texton.analyze`.
+    order : {0, 1, 3, 5}
+        As in :func:`warp_texton.analyze`.
+    iterations : int
+        As in :func:`warp_texton.analyze`.
+    seed : int
+        As in :func:`warp_texton.analyze`. Every ρ starts from the same white noise (the seed), so the
+        textons are comparable across ρ; they are a continuous function of ρ,
+        though after many iterations a step of 0.05 can move them as far as a
+        change of seed (the projections are not convex).
+    periodic : bool
+        As in :func:`warp_texton.analyze`.
+    color_correction : bool
+        As in :func:`warp_texton.analyze`.
+    support : {"square", "disk"}
+        As in :func:`warp_texton.analyze`.
     progress : bool
         Show a progress bar over the ρ values.
 
@@ -324,9 +340,22 @@ def synthesize_mixed(
         mean goes linearly from the first texton's to the last's. A map: each
         impact takes texton round(ρ (R − 1)) at the nearest pixel; the mean at
         each pixel is the textons' means interpolated at its ρ.
-    shape, mni, seed, scale, offset, device, method
-        As in :func:`warp_texton.synthesize` (no rotation: strips and maps
-        live in the raster's frame).
+    shape : (height, width)
+        Raster size in pixels (see :func:`warp_texton.synthesize`).
+    mni : float
+        Mean number of impacts per point (see :func:`warp_texton.synthesize`).
+    seed : int
+        The noise's seed (see :func:`warp_texton.synthesize`).
+    scale : float
+        Pixels per texel (see :func:`warp_texton.synthesize`).
+    offset : (x, y)
+        Noise position of the raster's top-left corner, texels (see
+        :func:`warp_texton.synthesize`). There is no rotation: strips and maps
+        live in the raster's frame.
+    device : str, optional
+        Warp device (see :func:`warp_texton.synthesize`).
+    method : {"auto", "splat", "gather"}
+        How the raster is computed (see :func:`warp_texton.synthesize`).
 
     Returns
     -------

@@ -26,15 +26,74 @@ if TYPE_CHECKING:
 
 
 class PlaneCamera:
-    """A pinhole camera ``height`` above the plane z = 0, looking down at ``tilt``
-    degrees from the vertical towards +Y, vertical field of view ``fov``.
+    """The camera of :func:`~warp_texton.render_plane`: a pinhole ``height`` above the plane z = 0.
+
+    It looks towards +Y, its view direction ``tilt`` degrees from straight
+    down, with a vertical field of view ``fov``. It takes the arguments of
+    :func:`~warp_texton.render_plane` of the same names, with the same checks.
+
+    Parameters
+    ----------
+    shape : (height, width)
+        The image size in pixels; see :func:`~warp_texton.render_plane` for
+        this and the other arguments.
+    height : float
+        Above the plane, world units.
+    tilt : float
+        Degrees from straight down, in [0, 90).
+    fov : float
+        Vertical, degrees.
+    texel_size : float
+        World units per texel.
+
+    Attributes
+    ----------
+    shape : (int, int)
+        ``(H, W)``, as checked.
+    height : float
+    tilt : float
+    fov : float
+    texel_size : float
+    focal : float
+        The focal length in pixels, ``(H/2) / tan(fov/2)``.
+
+    Raises
+    ------
+    TextonError
+        For a bad ``shape``; a ``height`` or ``texel_size`` that is not a
+        finite number > 0; a ``tilt`` outside [0, 90) or a ``fov`` outside
+        (0, 180), or either not a number.
+
+    Notes
+    -----
+    Image points are ``(i, j)`` = (row, column) with pixel corners at
+    integers, so the centre of pixel (i, j) is ``(i + 0.5, j + 0.5)``; both
+    methods broadcast over arrays of i and j.
 
     Pixel (i, j) of an H × W image looks along d + u r − v up with
-    u = (j + ½ − W/2)/f, v = (i + ½ − H/2)/f, f = (H/2)/tan(fov/2), so rows go
+    u = (j + ½ − W/2)/f, v = (i + ½ − H/2)/f, f = ``focal``, so rows go
     from the far side (top) to the near side (bottom). A ray that meets the
     plane does so at distance s = height / (cos t + v sin t); the texel
     position is (X, −Y) / texel_size so that the texture keeps its orientation
-    when seen from above.
+    when seen from above. Derivation of the footprints: docs/model.md §13,
+    "The ground plane of render_plane".
+
+    References
+    ----------
+    CGF Fig. 3 (a textured ground plane in perspective, filtered per pixel).
+
+    Examples
+    --------
+    >>> camera = PlaneCamera((1024, 1024), height=1.0, tilt=70.0, fov=40.0, texel_size=0.0011)
+    >>> round(camera.focal, 1)
+    1406.7
+    >>> camera.texels(255.5, 511.5).round(2).tolist()  # 5.9 world units ahead (+Y), texel y = -Y / texel_size
+    [-1.89, -5337.37]
+    >>> camera.footprints(255.5, 511.5).round(2).tolist()
+    [[3.79, 0.01], [0.0, 22.18]]
+    >>> sky = PlaneCamera((64, 64), height=1.0, tilt=80.0, fov=40.0, texel_size=0.01)
+    >>> sky.texels(0.5, 0.5).tolist(), sky.texels(63.5, 31.5).round(2).tolist()  # above and below the horizon
+    ([nan, nan], [-1.08, -175.24])
     """
 
     def __init__(self, shape, height, tilt, fov, texel_size):
@@ -55,8 +114,22 @@ class PlaneCamera:
         return (j - w / 2.0) / self.focal, (i - h / 2.0) / self.focal
 
     def texels(self, i, j) -> np.ndarray:
-        """Texel positions (…, 2) of image points (row i, column j) (pixel corners
-        at integers); NaN where the ray misses the plane."""
+        """The texel positions that image points see on the plane.
+
+        Parameters
+        ----------
+        i : float or array
+            Rows of the image points, pixel corners at integers (the centre
+            of pixel (i, j) is (i + 0.5, j + 0.5)).
+        j : float or array
+            Their columns, broadcast with ``i``.
+
+        Returns
+        -------
+        float64 array (..., 2)
+            The texel position ``(x, y)`` each point sees; NaN where its ray
+            misses the plane (at or above the horizon).
+        """
         t = math.radians(self.tilt)
         u, v = self._uv(np.asarray(i, np.float64), np.asarray(j, np.float64))
         den = math.cos(t) + v * math.sin(t)
@@ -67,7 +140,24 @@ class PlaneCamera:
         return np.stack([x, y], -1)
 
     def footprints(self, i, j) -> np.ndarray:
-        """Jacobians (…, 2, 2) of the texel position w.r.t. (column, row) at image points."""
+        """The footprints of image points: Jacobians of the texel position with respect to (column, row).
+
+        Parameters
+        ----------
+        i : float or array
+            Rows of the image points, as in :meth:`texels`.
+        j : float or array
+            Their columns, broadcast with ``i``.
+
+        Returns
+        -------
+        float64 array (..., 2, 2)
+            The footprint ``jacobian`` that :func:`~warp_texton.synthesize`
+            takes, at each point: its columns are the texel-space steps of one
+            pixel to the right and one pixel down. NaN entries where the ray
+            misses the plane. Derived in docs/model.md §13, "The ground plane
+            of render_plane".
+        """
         t = math.radians(self.tilt)
         u, v = self._uv(np.asarray(i, np.float64), np.asarray(j, np.float64))
         den = math.cos(t) + v * math.sin(t)
@@ -120,48 +210,100 @@ def render_plane(
 ) -> np.ndarray | wp.array:
     """An infinite ground plane textured with texton noise, seen in perspective (CGF Fig. 3).
 
+    The plane z = 0 covered with texton noise, seen by a pinhole camera
+    ``height`` above it that looks towards +Y, its view direction ``tilt``
+    degrees from straight down (:class:`~warp_texton.plane.PlaneCamera`). The
+    top of the image is the far side; with the defaults the view reaches 20°
+    short of the horizon. Every pixel is filtered for its own footprint, which
+    grows and stretches with the distance.
+
     Parameters
     ----------
     texton : Texton
     shape : (height, width)
-        Image size in pixels.
+        Image size in pixels, at most 2**28 pixels.
     height : float
-        Camera height above the plane, world units.
+        Camera height above the plane, world units, > 0.
     tilt : float
-        Degrees between the view direction and straight down: 0 looks straight
-        down, towards 90 the view reaches the horizon. In [0, 90).
+        Degrees between the view direction and straight down, in [0, 90): 0
+        looks straight down, and the horizon enters the view once
+        ``tilt + fov/2`` reaches 90.
     fov : float
-        Vertical field of view, degrees. The top of the image is the far side.
+        Vertical field of view in degrees, in (0, 180).
     texel_size : float
-        World units per texel.
-    mni, seed
-        As in :func:`warp_texton.synthesize`.
+        World units per texel, > 0: smaller values give a finer texture.
+    mni : float
+        Mean number of impacts per point, as in :func:`~warp_texton.synthesize`.
+    seed : int
+        The impacts' seed, as in :func:`~warp_texton.synthesize`.
+    device : str, optional
+        Warp device, as in :func:`~warp_texton.synthesize`.
     filter : str or FilterOptions
         Per-pixel filtering of the texton for the pixel's footprint (CGF §5):
-        "none", "mip", "anisotropic" (default), or "supersample" (the n × n
-        supersampled reference, 20 × 20 by default); a
-        :class:`~warp_texton.FilterOptions` sets ``max_aniso``,
-        ``supersample`` or ``fade_energy``.
-    device : str, optional
-    progress : bool
-        Show a progress bar over the rows of a large view (once it has run for
-        two seconds).
+        "none", "mip", "anisotropic" (the default) or "supersample" (the n × n
+        supersampled reference, 20 × 20 by default), or a
+        :class:`~warp_texton.FilterOptions` that sets ``max_aniso``,
+        ``supersample``, ``fade_energy`` or ``lod_bias``, as in
+        :func:`~warp_texton.synthesize`. The footprints come from the camera,
+        and with "supersample" each sub-pixel is projected onto the plane
+        exactly.
     output : {"numpy", "warp"}
         A NumPy array, or a ``wp.array`` on ``device`` that is never copied to
-        the host (see :func:`warp_texton.synthesize`).
+        the host (see :func:`~warp_texton.synthesize`).
+    progress : bool
+        Show a progress bar over the rows of a large view (computed in strips
+        of bounded work) once it has run for two seconds.
 
     Returns
     -------
-    float32 array (height, width, C), NumPy or ``wp.array``; pixels that see no
-    plane (above the horizon, or beyond ±2**29 noise cells) hold the texton mean.
+    float32 array (height, width, C), NumPy or ``wp.array``
+        Pixels that see no plane (at or above the horizon) or whose centre
+        lies more than 2**29 noise cells from the origin hold the texton's
+        mean. With the same texton, ``mni`` and ``seed`` every filter shows
+        the same impacts, so the images differ only by their blur.
+
+    Raises
+    ------
+    TextonError
+        For a bad ``shape``; a ``height`` or ``texel_size`` that is not a
+        finite number > 0; a ``tilt`` outside [0, 90) or a ``fov`` outside
+        (0, 180), or either not a number; an unknown ``filter`` (and the
+        errors of :class:`~warp_texton.FilterOptions`); a bad ``output``; a
+        view over the memory or work budget; and the ``texton``, ``mni``,
+        ``seed`` and ``device`` errors of :func:`~warp_texton.synthesize`.
+
+    References
+    ----------
+    CGF §5 (filtering), Fig. 3 (the ground plane). Derivations: docs/model.md §13.
 
     Examples
     --------
-    >>> import numpy as np
-    >>> from warp_texton import Texton, render_plane
-    >>> t = Texton(np.random.default_rng(0).standard_normal((8, 8, 1)) / 8, [0.5])
-    >>> render_plane(t, (24, 32), tilt=80, filter="mip", device="cpu").shape
-    (24, 32, 1)
+    >>> from warp_texton import analyze, read_image
+    >>> from warp_texton.demo import demo_texture_path
+    >>> texton = analyze(read_image(demo_texture_path()), size=64, seed=0)
+    >>> plane = render_plane(texton, (64, 64), seed=1, device="cpu")  # anisotropic, at most 8 lookups
+    >>> raw = render_plane(texton, (64, 64), seed=1, filter="none", device="cpu")  # the far half aliases
+    >>> plane.shape, plane.dtype
+    ((64, 64, 1), dtype('float32'))
+    >>> round(float(raw[:8].std()), 3), round(float(plane[:8].std()), 3)
+    (0.154, 0.0)
+
+    The top rows are past the last MIP level kept for this texton
+    (:func:`~warp_texton.filtering.kept_levels`), where the filtered noise is
+    its mean. With the horizon in view (tilt 80 + half of fov 40 = 100
+    degrees), the sky holds the mean too:
+
+    >>> sky = render_plane(texton, (32, 64), tilt=80.0, filter="mip", seed=1, device="cpu")
+    >>> bool(sky[0, 0, 0] == texton.mean[0])
+    True
+
+    The reference of a small view, 4 × 4 jittered samples per pixel, and a
+    finer texture:
+
+    >>> from warp_texton import FilterOptions
+    >>> ref = render_plane(texton, (16, 16), filter=FilterOptions("supersample", supersample=4),
+    ...                    seed=1, device="cpu")
+    >>> fine = render_plane(texton, (64, 64), tilt=60.0, texel_size=0.01, seed=1, device="cpu")
     """
     camera = PlaneCamera(shape, height, tilt, fov, texel_size)
     h, w = camera.shape
@@ -188,10 +330,71 @@ def render_plane(
 
 def plane_pixels(texton: Texton, camera: PlaneCamera, pixels, *, mni: float = 30.0, seed: int = 0, device=None,
                  filter="anisotropic", progress: bool = False, out=None) -> np.ndarray | None:
-    """(N, C) values of the flat pixel indices ``pixels`` of :func:`render_plane`'s image
-    (benchmarks compare filters on a subset of pixels this way); None: every pixel.
-    With ``out`` (an (N,) vec3 array on the device) all three channels are written
-    there instead."""
+    """Some pixels of :func:`~warp_texton.render_plane`'s image, without rendering the rest.
+
+    Parameters
+    ----------
+    texton : Texton
+    camera : PlaneCamera
+        The view, made with the ``shape``, ``height``, ``tilt``, ``fov`` and
+        ``texel_size`` that :func:`~warp_texton.render_plane` would take.
+    pixels : int array (N,) or None
+        Flat pixel indices ``i * W + j``, not checked (keep them in
+        [0, H·W)); ``None``: every pixel, in order.
+    mni : float
+        As in :func:`~warp_texton.render_plane`.
+    seed : int
+        As in :func:`~warp_texton.render_plane`.
+    device : str, optional
+        As in :func:`~warp_texton.render_plane`.
+    filter : str or FilterOptions
+        As in :func:`~warp_texton.render_plane` (default "anisotropic").
+    progress : bool
+        Show the supersampling's progress bar.
+    out : warp.array of vec3 (N,), optional
+        An array on ``device`` into which all three channels of the values are
+        written (unused channels of a grey texton are 0), instead of returning
+        them: :func:`~warp_texton.render_plane` fills its output in strips this
+        way, without a copy through the host.
+
+    Returns
+    -------
+    float32 array (N, C) or None
+        The values of the pixels, equal to the same pixels of
+        :func:`~warp_texton.render_plane` with the same arguments; ``None``
+        when ``out`` is given.
+
+    Raises
+    ------
+    TextonError
+        For an unknown ``filter``, a view over the memory or work budget, and
+        the ``texton``, ``mni``, ``seed`` and ``device`` errors of
+        :func:`~warp_texton.synthesize`.
+
+    Notes
+    -----
+    The benchmark computes its supersampled reference on a subset of pixels
+    this way, and measures other settings with
+    ``FilterOptions(..., lod_bias=...)`` and ``fade_energy``.
+
+    Examples
+    --------
+    >>> from warp_texton import analyze, read_image
+    >>> from warp_texton.demo import demo_texture_path
+    >>> texton = analyze(read_image(demo_texture_path()), size=64, seed=0)
+    >>> from warp_texton import render_plane
+    >>> camera = PlaneCamera((64, 64), height=1.0, tilt=70.0, fov=40.0, texel_size=0.01)
+    >>> img = render_plane(texton, (64, 64), texel_size=0.01, seed=1, device="cpu")
+    >>> some = plane_pixels(texton, camera, [0, 1000, 64 * 64 - 1], seed=1, device="cpu")
+    >>> some.shape, bool(np.array_equal(some, img.reshape(-1, 1)[[0, 1000, 64 * 64 - 1]]))
+    ((3, 1), True)
+    >>> import warp as wp
+    >>> out = wp.zeros(3, dtype=wp.vec3, device="cpu")
+    >>> plane_pixels(texton, camera, [0, 1000, 64 * 64 - 1], seed=1, device="cpu", out=out) is None
+    True
+    >>> bool(np.array_equal(out.numpy()[:, :1], some))
+    True
+    """
     options = FilterOptions.of(filter)
     seed = check_seed(seed)
     setup = noise_setup(texton, mni)
@@ -220,7 +423,7 @@ def plane_pixels(texton: Texton, camera: PlaneCamera, pixels, *, mni: float = 30
 
 
 def check_plane_cost(texton: Texton, setup, camera: PlaneCamera, keys, options: FilterOptions) -> None:
-    """Refuse the pixels ``keys`` (None: every pixel) of ``view`` when filtering them
+    """Refuse the pixels ``keys`` (None: every pixel) of ``camera`` when filtering them
     would exceed the budgets, judged from the footprints of up to COST_SAMPLES
     pixels spread over them (above the horizon a pixel costs nothing)."""
     h, w = camera.shape

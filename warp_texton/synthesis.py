@@ -414,10 +414,20 @@ def evaluate(
     points : array (N, 2)
         Positions (x, y) in texel units, x to the right, y down; converted to
         float64.
-    mni, seed, device, period, poisson, cell_factor
+    mni : float
+        As in :func:`synthesize`.
+    seed : int
         As in :func:`synthesize`; the same values give the same noise, so
         ``synthesize(t, ...)[i, j]`` equals ``evaluate`` at that pixel's
         position to float32 rounding.
+    device : str, optional
+        As in :func:`synthesize`.
+    period : (Px, Py), optional
+        As in :func:`synthesize`.
+    poisson : {"exact", "gaussian"}
+        As in :func:`synthesize`.
+    cell_factor : float
+        As in :func:`synthesize`.
     output : {"numpy", "warp"}
         A NumPy array, or a ``wp.array`` on ``device`` (see :func:`synthesize`).
 

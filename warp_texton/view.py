@@ -340,10 +340,18 @@ def serve(input, *, port: int = 8000, host: str = "127.0.0.1", device=None, mix=
         CUDA when available.
     mix : path or Texton, optional
         A second input for the mixing mode (more can be uploaded from the page).
-    size, order, color_correction
-        Start values of the analysis settings.
-    seed, mni, filter
-        Start values of the noise settings shown by the page.
+    size : int
+        Start value of the analysis's texton size (as in :func:`warp_texton.analyze`).
+    order : {0, 1, 3, 5}
+        Start value of the analysis's order.
+    color_correction : bool
+        Start value of the analysis's colour correction.
+    seed : int
+        Start value of the noise's seed shown by the page.
+    mni : float
+        Start value of the mean number of impacts per point.
+    filter : {"none", "mip", "anisotropic"}
+        Start value of the filter (the viewer offers the quick ones).
     slots : int
         Computations that run at once; other requests wait in turn.
     cache_mb : float
