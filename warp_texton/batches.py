@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 import numbers
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 
@@ -51,8 +51,6 @@ from .raster import (
 )
 from .texton import Texton
 
-if TYPE_CHECKING:
-    pass
 from .synthesis import filtered_work
 
 #: Host memory per batch item besides its pixels: its drawn parameters (NumPy) and its
