@@ -49,9 +49,8 @@ from .raster import (
     resolve_method,
     window_block,
 )
-from .texton import Texton
-
 from .synthesis import filtered_work
+from .texton import Texton
 
 #: Host memory per batch item besides its pixels: its drawn parameters (NumPy) and its
 #: window (a small Python object with its geometry): 1.2 KiB measured (tracemalloc, 20 000 items
