@@ -342,7 +342,7 @@ def grid(images: dict, path: Path, title: str) -> Path:
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=100, format="png")
+        fig.savefig(tmp, dpi=72, format="png")
     plt.close(fig)
     return path
 
