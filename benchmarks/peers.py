@@ -9,6 +9,9 @@ arguments that returns the finished (H, W, C) float32 raster on the host.
   pixel and channel: the cost floor of a procedural noise on the same device.
 * ``NaivePerPixel`` — ``warp_texton.evaluate`` at every pixel centre: each
   pixel draws its neighbouring cells' impacts itself, nothing is shared.
+* ``TilingBlending`` — tiling and blending with the histogram-preserving
+  operator (Heitz & Neyret, HPG 2018; Deliot & Heitz, GPU Zen 2, 2019), NumPy,
+  host only: the quality peer of ``bench_quality.py`` (docs/quality.md).
 
 The Perlin kernel is benchmark code, not package code, so it lives here.
 """
