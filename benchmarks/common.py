@@ -1,5 +1,5 @@
 """Helpers shared by the benchmark scripts: machine description, git state,
-atomic result files and the colour test texture."""
+atomic result files, the colour test texture and a reader of GIMP patterns."""
 
 from __future__ import annotations
 
@@ -8,6 +8,7 @@ import datetime as _dt
 import json
 import os
 import platform
+import struct
 import subprocess
 from pathlib import Path
 
@@ -18,6 +19,10 @@ import warp_texton
 from warp_texton.io import atomic_path
 
 HERE = Path(__file__).resolve().parent
+#: Debian's gimp-data (GPL-3+): small seamless patterns, read by read_gpat
+GIMP_PATTERNS = Path("/usr/share/gimp/2.0/patterns")
+#: GIMP patterns are small; refuse files that claim absurd sizes.
+GPAT_MAX_SIDE = 8192
 
 # Channels of the test texture: grass, gravel and brick mixed so that they correlate.
 MIX = np.array([
@@ -36,6 +41,29 @@ def make_texture(side: int) -> np.ndarray:
     x0 = (sources[0].shape[1] - side) // 2
     stack = np.stack([s[y0:y0 + side, x0:x0 + side] for s in sources], axis=-1) / 255.0
     return np.ascontiguousarray(stack @ MIX.T, dtype=np.float32)
+
+
+def read_gpat(path: Path) -> np.ndarray:
+    """A GIMP pattern (``.pat``) as a float32 (H, W, C) image in [0, 1], C = 1 or 3.
+
+    Format: big-endian uint32 header_size, version (1), width, height,
+    bytes_per_pixel (1 grey, 2 grey + alpha, 3 RGB, 4 RGBA), the magic
+    ``GPAT``, a NUL-terminated UTF-8 name up to header_size, then the rows of
+    raw 8-bit pixels. Alpha is dropped.
+    """
+    data = Path(path).read_bytes()
+    if len(data) < 24:
+        raise ValueError(f"{path}: too short for a GIMP pattern header")
+    header_size, version, width, height, bpp = struct.unpack(">5I", data[:20])
+    if data[20:24] != b"GPAT" or version != 1:
+        raise ValueError(f"{path}: not a GIMP pattern (magic {data[20:24]!r}, version {version})")
+    if bpp not in (1, 2, 3, 4) or not (0 < width <= GPAT_MAX_SIDE and 0 < height <= GPAT_MAX_SIDE):
+        raise ValueError(f"{path}: unsupported pattern {width}x{height} with {bpp} bytes per pixel")
+    if header_size < 24 or header_size + width * height * bpp > len(data):
+        raise ValueError(f"{path}: header size {header_size} or pixel data do not fit the file")
+    pixels = np.frombuffer(data, np.uint8, count=width * height * bpp, offset=header_size)
+    pixels = pixels.reshape(height, width, bpp)[:, :, : 1 if bpp <= 2 else 3]
+    return pixels.astype(np.float32) / 255.0
 
 
 def processor_name() -> str:

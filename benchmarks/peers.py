@@ -9,6 +9,9 @@ arguments that returns the finished (H, W, C) float32 raster on the host.
   pixel and channel: the cost floor of a procedural noise on the same device.
 * ``NaivePerPixel`` — ``warp_texton.evaluate`` at every pixel centre: each
   pixel draws its neighbouring cells' impacts itself, nothing is shared.
+* ``TilingBlending`` — tiling and blending with the histogram-preserving
+  operator (Heitz & Neyret, HPG 2018; Deliot & Heitz, GPU Zen 2, 2019), NumPy,
+  host only: the quality peer of ``bench_quality.py`` (docs/quality.md).
 
 The Perlin kernel is benchmark code, not package code, so it lives here.
 """
@@ -20,12 +23,14 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import warp as wp
+from scipy import special
 
 from warp_texton import dsn, evaluate, synthesize
 
 from .bench_synthesis import FFTSample
 
-__all__ = ["FFTSample", "DSNSample", "PerlinRaster", "NaivePerPixel", "TextonNoise", "cpu_threads"]
+__all__ = ["FFTSample", "DSNSample", "PerlinRaster", "NaivePerPixel", "TextonNoise", "TilingBlending",
+           "HistogramTransform", "variance_preserving_blend", "triangle_grid", "cpu_threads"]
 
 #: Perlin lattice cells per pixel: one feature every 16 pixels, about a 64² texton's grain.
 PERLIN_FEATURE = 16.0
@@ -116,3 +121,150 @@ class NaivePerPixel:
     def __call__(self):
         values = evaluate(self.texton, self.points, mni=self.mni, seed=1, device=self.device)
         return values.reshape(*self.shape, -1)
+
+
+# ---------------------------------------------------------------- tiling and blending
+#
+# Written by hand from the papers' description (no maintained Python library does it:
+# the published versions are shaders inside engines): Heitz & Neyret, "High-Performance
+# By-Example Noise using a Histogram-Preserving Blending Operator", HPG 2018, and Deliot &
+# Heitz, "Procedural Stochastic Textures by Tiling and Blending", GPU Zen 2, 2019.
+
+#: Entries of the inverse lookup table (Gaussian → decorrelated value), per channel.
+LUT_SIZE = 4096
+_SQRT3 = np.sqrt(3.0)
+
+
+class HistogramTransform:
+    """The histogram-preserving transform of an example (HPG 2018 §3, GPU Zen 2 §1.3).
+
+    Colours are decorrelated by PCA (the eigenvectors of their covariance); each
+    decorrelated channel is mapped to a standard Gaussian through its empirical
+    CDF (pixel rank r of N → Φ⁻¹((r + ½) / N)), and back through a lookup table of
+    its quantiles at ``lut_size`` evenly spaced probabilities.
+    """
+
+    def __init__(self, u: np.ndarray, lut_size: int = LUT_SIZE):
+        u = np.asarray(u, np.float64)
+        u = u[:, :, None] if u.ndim == 2 else u
+        h, w, c = u.shape
+        flat = u.reshape(-1, c)
+        self.mean = flat.mean(axis=0)
+        _, self.basis = np.linalg.eigh(np.atleast_2d(np.cov(flat, rowvar=False)))  # columns: axes
+        d = (flat - self.mean) @ self.basis
+        n = d.shape[0]
+        order = np.argsort(d, axis=0, kind="stable")  # ties broken by position: deterministic
+        ranks = np.empty_like(order)
+        np.put_along_axis(ranks, order, np.arange(n)[:, None], axis=0)
+        #: the example in the Gaussian space, (H, W, C): every channel N(0, 1) exactly
+        self.gaussian = special.ndtri((ranks + 0.5) / n).reshape(h, w, c)
+        sorted_d = np.take_along_axis(d, order, axis=0)
+        picks = np.minimum(((np.arange(lut_size) + 0.5) / lut_size * n).astype(int), n - 1)
+        self.lut = sorted_d[picks]  # (lut_size, C): the quantile function of each channel
+
+    def inverse(self, g: np.ndarray) -> np.ndarray:
+        """Gaussian values (..., C) back to the example's colours: LUT, then undo the PCA."""
+        size = self.lut.shape[0]
+        pos = special.ndtr(g) * size - 0.5
+        d = np.stack([np.interp(pos[..., k], np.arange(size), self.lut[:, k]) for k in range(g.shape[-1])], -1)
+        return (d @ self.basis.T + self.mean).astype(np.float32)
+
+
+def variance_preserving_blend(values: np.ndarray, weights: np.ndarray, mean: float = 0.0) -> np.ndarray:
+    """HPG 2018 eq. (4): (Σ wᵢ Gᵢ − μ) / √(Σ wᵢ²) + μ, for weights that sum to 1.
+
+    ``values`` (K, ..., C) are the K patches, ``weights`` (K, ...) their weights.
+    """
+    w = weights[..., None]
+    return ((w * values).sum(axis=0) - mean) / np.sqrt((w * w).sum(axis=0)) + mean
+
+
+def triangle_grid(points: np.ndarray, side: float) -> tuple[np.ndarray, np.ndarray]:
+    """The triangle of each point on a grid of equilateral triangles of ``side`` pixels.
+
+    Returns the lattice coordinates (a, b) of its three vertices, (3, ..., 2)
+    integers, vertex (a, b) at ``side`` · (a + b/2, b √3/2), and their barycentric
+    weights (3, ...). Points are (..., 2) as (x, y).
+    """
+    q = np.asarray(points, np.float64) / side
+    s = np.stack([q[..., 0] - q[..., 1] / _SQRT3, 2.0 * q[..., 1] / _SQRT3], -1)  # skewed: vertices on Z²
+    base = np.floor(s)
+    f = s - base
+    upper = f[..., 0] + f[..., 1] > 1.0  # the triangle (1,0)-(0,1)-(1,1) of the cell
+    one = np.ones_like(f[..., 0])
+    corner = np.where(upper[..., None], base + 1.0, base)
+    vx = np.stack([corner, base + np.stack([one, 0 * one], -1), base + np.stack([0 * one, one], -1)])
+    w0 = np.where(upper, f[..., 0] + f[..., 1] - 1.0, 1.0 - f[..., 0] - f[..., 1])
+    w1 = np.where(upper, 1.0 - f[..., 1], f[..., 0])
+    w2 = np.where(upper, 1.0 - f[..., 0], f[..., 1])
+    return vx.astype(np.int64), np.stack([w0, w1, w2])
+
+
+def _hash(a: np.ndarray, b: np.ndarray, seed: int, salt: int) -> np.ndarray:
+    """A 64-bit avalanche hash (splitmix64's finaliser) of integer lattice coordinates."""
+    with np.errstate(over="ignore"):
+        z = (a.astype(np.uint64) * np.uint64(0x9E3779B97F4A7C15) + b.astype(np.uint64) * np.uint64(0xC2B2AE3D27D4EB4F)
+             + np.uint64((seed * 0x165667B1 + salt) & 0xFFFFFFFFFFFFFFFF))
+        z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+        z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+        return z ^ (z >> np.uint64(31))
+
+
+class TilingBlending:
+    """Tiling and blending with the histogram-preserving operator, on the host (NumPy).
+
+    Each output pixel lies in a triangle of an equilateral grid; each vertex of the
+    grid shows the example translated by a random offset (a hash of the vertex and
+    the seed); the three patches are blended with the pixel's barycentric weights by
+    the variance-preserving operator in the example's Gaussianised space, then mapped
+    back (:class:`HistogramTransform`). Nearest-pixel lookups: a pixel whose weight
+    is 1 for one vertex is that patch's pixel.
+
+    ``side`` is the triangles' side in pixels; a vertex's patch is seen up to
+    ``side`` away from it. By default a quarter of the example's smaller side, and
+    the patches' centres are drawn at least ``side`` from the border of a
+    non-periodic example, so that none crosses it; half of it for a ``periodic``
+    (seamless) example, which is read wrapped.
+
+    References
+    ----------
+    E. Heitz, F. Neyret, "High-Performance By-Example Noise using a
+    Histogram-Preserving Blending Operator", Proc. ACM CGIT (HPG) 1(2), 2018.
+    T. Deliot, E. Heitz, "Procedural Stochastic Textures by Tiling and Blending",
+    GPU Zen 2, 2019.
+    """
+
+    def __init__(self, u: np.ndarray, *, side: float | None = None, periodic: bool = False,
+                 lut_size: int = LUT_SIZE):
+        self.transform = HistogramTransform(u, lut_size)
+        self.height, self.width = self.transform.gaussian.shape[:2]
+        small = min(self.height, self.width)
+        self.side = float(side if side is not None else small / (2 if periodic else 4))
+        # a patch reaches `side` around its centre: non-periodic examples keep it inside
+        self.periodic = periodic or small <= 2 * self.side + 2
+
+    def offsets(self, vertices: np.ndarray, seed: int) -> tuple[np.ndarray, np.ndarray]:
+        """(row, column) translations from output to example of each vertex's patch.
+
+        The vertex's random centre in the example (a hash of the vertex and the seed)
+        minus the vertex's position in the output.
+        """
+        a, b = vertices[..., 0], vertices[..., 1]
+        margin = 0.0 if self.periodic else self.side + 1.0
+        centres = []
+        for salt, extent in ((1, self.height), (2, self.width)):
+            unit = (_hash(a, b, seed, salt) >> np.uint64(11)).astype(np.float64) / 2.0 ** 53
+            centres.append(margin + unit * (extent - 2.0 * margin))
+        return centres[0] - self.side * b * _SQRT3 / 2.0, centres[1] - self.side * (a + b / 2.0)
+
+    def __call__(self, shape, *, seed: int = 0) -> np.ndarray:
+        h, w = shape
+        yy, xx = np.meshgrid(np.arange(h), np.arange(w), indexing="ij")
+        vertices, weights = triangle_grid(np.stack([xx + 0.5, yy + 0.5], -1), self.side)
+        dy, dx = self.offsets(vertices, seed)
+        # nearest pixel: each patch is the example translated by a whole number of pixels
+        rows, cols = np.floor(yy + 0.5 + dy).astype(np.int64), np.floor(xx + 0.5 + dx).astype(np.int64)
+        if self.periodic:
+            rows, cols = rows % self.height, cols % self.width
+        patches = self.transform.gaussian[rows, cols]  # (3, h, w, C)
+        return self.transform.inverse(variance_preserving_blend(patches, weights))

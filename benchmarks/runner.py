@@ -12,6 +12,11 @@ machine load (see ``peers.py``):
 * a naive per-pixel texton noise (``evaluate`` at every pixel centre, no
   shared impacts), to show what drawing the impacts once per raster gains.
 
+Then, once (on the first device), the quality of texton noise against the FFT
+sample and tiling and blending on real textures (``bench_quality.py``:
+spectrum, marginal histograms, clipped pixels, repetition, time per megapixel;
+grass and brick at 256² in the quick suite, every texture at 512² in the full).
+
 Two parameter sets: ``--quick`` (CI smoke run: 256² and 512², MNI 30, texton
 32², one run each) and the full one (256² to 3840×2160, MNI 5 to 60, textons
 16² to 128², best of 5). Writes ``runner.json`` (machine, devices, Warp
@@ -75,6 +80,8 @@ class Suite:
     mix_sizes: tuple
     surface_subdivisions: int  # icosphere: 3 → 642 vertices, 6 → 40 962, 8 → 655 362
     surface_render: tuple  # (height, width) of the surface render
+    quality_textures: tuple | None  # names of bench_quality.TEXTURES; None: all that load here
+    quality_shape: tuple  # (height, width) of the quality outputs
 
 
 QUICK = Suite(
@@ -82,6 +89,7 @@ QUICK = Suite(
     ref_shape=(512, 512), ref_mni=30.0, ref_texton=32, repeat=1, image_side=256,
     naive_max_pixels=512 * 512, mix_steps=5, mix_sizes=((256, 256),),
     surface_subdivisions=3, surface_render=(128, 128),
+    quality_textures=("grass", "brick"), quality_shape=(256, 256),
 )
 FULL = Suite(
     name="full", sizes=((256, 256), (512, 512), (1024, 1024), (2048, 2048), (2160, 3840)),
@@ -89,6 +97,7 @@ FULL = Suite(
     ref_shape=(1024, 1024), ref_mni=30.0, ref_texton=64, repeat=5, image_side=512,
     naive_max_pixels=1024 * 1024, mix_steps=21, mix_sizes=((1024, 1024), (2160, 3840)),
     surface_subdivisions=8, surface_render=(1024, 1024),
+    quality_textures=None, quality_shape=(512, 512),
 )
 
 
@@ -335,6 +344,22 @@ def surface_case(suite: Suite, textons: dict, device: str, report: Report) -> No
           flush=True)
 
 
+def quality_case(suite: Suite, device: str, report: Report) -> None:
+    """Which method for which texture: ``bench_quality.compare`` of texton noise and its
+    peers on real textures (spectrum, marginals, clipping, repetition, time)."""
+    from . import bench_quality
+
+    textures, skipped = bench_quality.select(suite.quality_textures)
+    for s in skipped:
+        report.skip(s["case"], s["reason"])
+    h, w = suite.quality_shape
+    print(f"quality on {device}: {len(textures)} textures, outputs {w}x{h}", flush=True)
+    rows, _ = bench_quality.compare(textures, bench_quality.METHODS, suite.quality_shape, texton=suite.ref_texton,
+                                    mni=suite.ref_mni, device=device, repeat=suite.repeat)
+    for r in rows:
+        report.add(case="quality", **r)
+
+
 # ---------------------------------------------------------------- the run
 
 
@@ -352,6 +377,7 @@ def run(suite: Suite, devices: list[str]) -> dict:
         filtering_case(suite, textons, device, report)
         surface_case(suite, textons, device, report)
         mixing_case(suite, u, device, cache, report)
+    quality_case(suite, devices[0], report)  # the measures do not depend on the device
     machine = machine_info()
     machine["threads"] = os.cpu_count()
     return {
@@ -506,6 +532,18 @@ def _surface_lines(report: dict) -> list[str]:
     return lines
 
 
+def _quality_lines(report: dict) -> list[str]:
+    """The quality table (bench_quality.py)."""
+    from .bench_quality import table_lines
+
+    rows = [r for r in report["results"] if r["case"] == "quality"]
+    if not rows:
+        return []
+    shape = next((r["shape"] for r in rows if "shape" in r), [0, 0])
+    return ["", f"## Quality on real textures ({shape[1]}×{shape[0]} outputs, texton {report['parameters']['ref_texton']}², "
+            "see docs/quality.md)", "", *table_lines({"results": rows})]
+
+
 def markdown(report: dict) -> str:
     m, p = report["machine"], report["parameters"]
     devices = ", ".join(
@@ -529,7 +567,8 @@ def markdown(report: dict) -> str:
         f"rasters RGB. Times in seconds after one untimed call of each method: {runs}. FFT sample and DSN "
         "run on the host (NumPy) whatever the device. Every method returns the finished raster in host memory.",
     ]
-    for section in (_synthesis_lines, _analysis_lines, _mixing_lines, _filtering_lines, _surface_lines):
+    for section in (_synthesis_lines, _analysis_lines, _mixing_lines, _filtering_lines, _surface_lines,
+                    _quality_lines):
         lines += section(report)
     if report["skipped"]:
         lines += ["", "## Not measured", ""]

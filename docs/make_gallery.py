@@ -3,7 +3,7 @@
 Textures (see DATA.md of the project): scikit-image's grass, gravel and brick
 (512 × 512 grey, CC0) and, when Debian's ``gimp-data`` is installed, GIMP's
 seamless colour pattern Wood/walnut (128 × 128, GPL-3+), read from its
-``.pat`` file by the small GPAT reader below; without it that row is left out.
+``.pat`` file by the small GPAT reader of ``benchmarks/common.py``; without it that row is left out.
 
 For each texture: the input, a sample of its Gaussian model
 (``gaussian_texture``), its texton (``texton_preview``), texton noise at MNI 5,
@@ -19,7 +19,6 @@ fixed seeds (CUDA gives the same noise).
 from __future__ import annotations
 
 import importlib.util
-import struct
 import sys
 import time
 from pathlib import Path
@@ -31,18 +30,18 @@ from warp_texton import (analyze, gaussian_texture, mix_textons, synthesize, syn
 from warp_texton.demo import texton_preview
 from warp_texton.io import atomic_path
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+from common import GIMP_PATTERNS, read_gpat  # noqa: E402  (one GPAT reader, shared with the benchmarks)
+
 HERE = Path(__file__).resolve().parent
 OUT = HERE / "images" / "gallery"
 PAGE = HERE / "gallery.md"
-GIMP_PATTERNS = Path("/usr/share/gimp/2.0/patterns")
 WALNUT = GIMP_PATTERNS / "Wood" / "walnut.pat"
 
 SIDE = 256  # every panel is SIDE × SIDE pixels
 MNIS = (5, 10, 30)
 SEED = 1
 DEVICE = "cpu"
-#: GIMP patterns are small; refuse files that claim absurd sizes.
-GPAT_MAX_SIDE = 8192
 
 
 #: The "Filtered plane" section: its pictures come from docs/make_filtering_images.py.
@@ -60,29 +59,6 @@ FILTERED_PLANE = [
     "[anisotropic](images/filtering/plane_anisotropic.png), [reference](images/filtering/plane_reference.png) "
     "(made by `docs/make_filtering_images.py`; errors and times in [benchmarks.md](benchmarks.md)).",
 ]
-
-def read_gpat(path: Path) -> np.ndarray:
-    """A GIMP pattern (``.pat``) as a float32 (H, W, C) image in [0, 1], C = 1 or 3.
-
-    Format: big-endian uint32 header_size, version (1), width, height,
-    bytes_per_pixel (1 grey, 2 grey + alpha, 3 RGB, 4 RGBA), the magic
-    ``GPAT``, a NUL-terminated UTF-8 name up to header_size, then the rows of
-    raw 8-bit pixels. Alpha is dropped.
-    """
-    data = Path(path).read_bytes()
-    if len(data) < 24:
-        raise ValueError(f"{path}: too short for a GIMP pattern header")
-    header_size, version, width, height, bpp = struct.unpack(">5I", data[:20])
-    if data[20:24] != b"GPAT" or version != 1:
-        raise ValueError(f"{path}: not a GIMP pattern (magic {data[20:24]!r}, version {version})")
-    if bpp not in (1, 2, 3, 4) or not (0 < width <= GPAT_MAX_SIDE and 0 < height <= GPAT_MAX_SIDE):
-        raise ValueError(f"{path}: unsupported pattern {width}x{height} with {bpp} bytes per pixel")
-    if header_size < 24 or header_size + width * height * bpp > len(data):
-        raise ValueError(f"{path}: header size {header_size} or pixel data do not fit the file")
-    pixels = np.frombuffer(data, np.uint8, count=width * height * bpp, offset=header_size)
-    pixels = pixels.reshape(height, width, bpp)[:, :, : 1 if bpp <= 2 else 3]
-    return pixels.astype(np.float32) / 255.0
-
 
 def centre_crop(u: np.ndarray, side: int) -> np.ndarray:
     y0, x0 = (u.shape[0] - side) // 2, (u.shape[1] - side) // 2
