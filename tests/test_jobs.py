@@ -21,7 +21,8 @@ import trimesh
 from PIL import Image
 
 from warp_texton import Texton, TextonError, texture_mesh
-from warp_texton.jobs import JobResult, SurfaceJob, expand_meshes, run_jobs, run_surface_job
+from warp_texton.jobs import JobResult, SurfaceJob, expand_meshes, resolve_up, run_jobs, run_surface_job
+from warp_texton.mesh_files import gltf_rotation
 from helpers import parts, run_cli
 
 MEAN = (0.3, 0.5, 0.7)
@@ -74,16 +75,18 @@ def load(path) -> trimesh.Trimesh:
     return trimesh.load(str(path), force="mesh", process=False)
 
 
-def expected_colours(mesh_path, texton_path, seed=0, mni=60.0, linear=False):
+def expected_colours(mesh_path, texton_path, seed=0, mni=60.0, linear=False, up=None):
     """What a job computes: texel = bounding-box diagonal / 256, then texture_mesh
-    (linear colours for glTF's COLOR_0)."""
+    (linear colours for glTF's COLOR_0) with the format's up axis (``--up auto``)."""
+    from warp_texton.jobs import resolve_up
+
     from warp_texton import load_texton
 
     mesh = load(mesh_path)
     lo, hi = mesh.bounds
     texel = float(np.linalg.norm(hi - lo)) / 256.0
     out = texture_mesh(mesh, load_texton(texton_path), texel, mni=mni, seed=seed, device="cpu", linear=linear,
-                       warn=False)
+                       warn=False, up=up or resolve_up("auto", str(mesh_path)))
     return np.asarray(out.visual.vertex_colors)
 
 
@@ -262,7 +265,9 @@ class TestCli:
             assert mesh.visual.kind == "vertex"
             c = np.asarray(mesh.visual.vertex_colors)
             assert c.shape == (len(source.vertices), 4)
-            np.testing.assert_allclose(mesh.vertices, source.vertices, atol=1e-6)
+            # a GLB is Y-up: the Z-up PLY turned to +Y, the Y-up OBJ as it is; PLY and OBJ keep the axes
+            turn = gltf_rotation(resolve_up("auto", src)) if fmt == "glb" else np.eye(3)
+            np.testing.assert_allclose(mesh.vertices, source.vertices @ turn.T, atol=1e-6)
             np.testing.assert_array_equal(c, expected_colours(mesh_dir / src, texton_path, linear=fmt == "glb"))
             # the texton's mean colour: 162 (ball) or 288 (ring) vertices ≥ 20 texels apart
             # (independent), sd 0.08 each: 5 sd of the mean ≤ 0.032 ≪ the 0.2 between channels.

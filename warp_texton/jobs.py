@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import glob
 import os
-import io
 import sys
 import uuid
 from typing import cast
@@ -20,7 +19,7 @@ from concurrent.futures import Executor, ThreadPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .bake import bake_outputs
+from .mesh_files import bake_outputs
 from .errors import TextonError
 from .texton import Texton
 
@@ -97,7 +96,8 @@ class SurfaceJob:
     up : {"auto", "x", "y", "z"}
         The mesh's up axis ("auto": Y for ``.glb``/``.gltf``, Y-up by
         definition; Z otherwise): the frame rule, the render's camera and
-        light.
+        light, and the axis a GLB output turns to glTF's +Y (OBJ and PLY
+        outputs keep the input's coordinates).
     orbit : (azimuth, elevation), optional
         The render's camera angles, as in :func:`warp_texton.render_mesh`.
     fov : float, optional
@@ -327,9 +327,10 @@ def run_surface_job(job: SurfaceJob, token: str | None = None) -> JobResult:
 
 
 def _run(job: SurfaceJob, outputs: list[Path], notes: list[str]) -> None:
-    from .bake import bake_mesh, write_baked
+    from .bake import bake_mesh
     from .io import atomic_path, write_image
     from .mesh import default_texel_size, texture_mesh, vertex_spacing
+    from .mesh_files import export_mesh, write_baked
     from .render import render_mesh
     from .texton import load_texton
 
@@ -358,10 +359,9 @@ def _run(job: SurfaceJob, outputs: list[Path], notes: list[str]) -> None:
         if spacing > 1.0:
             notes.append(f"{job.mesh}: vertices are {spacing:.3g} texels apart (median edge), so vertex colours "
                          "blur the texture; bake a texture (--bake RES) or subdivide (--max-edge 1)")
-        buf = io.BytesIO()
-        textured.export(buf, file_type=job.format)
+        data = export_mesh(textured, job.format, up)  # a GLB turned to +Y from the mesh's up
         with atomic_path(outputs[0]) as tmp:
-            Path(tmp).write_bytes(buf.getvalue())
+            Path(tmp).write_bytes(data)
     if img is not None:
         write_image(outputs[-1], img)
 
