@@ -579,14 +579,45 @@ class TestBakeCli:
 
 
 class TestUpAxisJobs:
-    def test_auto_up_is_y_for_gltf(self):
+    def test_auto_up_by_format(self):
         from warp_texton.jobs import resolve_up
 
         assert resolve_up("auto", "a/b.GLB") == "y" and resolve_up("auto", "x.gltf") == "y"
-        assert resolve_up("auto", "x.ply") == "z" and resolve_up("auto", "x.obj") == "z"
+        assert resolve_up("auto", "x.obj") == "y" and resolve_up("auto", "x.OBJ") == "y"  # Blender, Maya
+        assert resolve_up("auto", "x.ply") == "z" and resolve_up("auto", "x.stl") == "z"
+        assert resolve_up("auto", "x.off") == "z" and resolve_up("auto", "noext") == "z"
         assert resolve_up("x", "x.glb") == "x"
         with pytest.raises(TextonError, match="up must be one of auto, x, y, z"):
             resolve_up("w", "x.ply")
+
+    def test_the_cli_names_the_axis_of_each_mesh(self, tmp_path, mesh_dir, texton_path, capsys):
+        """A sideways render says what to change: each done mesh's note names its up axis and why."""
+        assert surface(mesh_dir, texton_path, tmp_path / "a") == 0
+        err = capsys.readouterr().err
+        for name, why in (("ball.ply", "up z, auto for .ply"), ("ring.obj", "up y, auto for .obj")):
+            lines = [ln for ln in err.splitlines() if ln.startswith("warp-texton: note: done ")]
+            assert any(ln.endswith(f"{name} ({why})") for ln in lines), err
+        assert surface(mesh_dir, texton_path, tmp_path / "b", extra=["--up", "x"]) == 0
+        err = capsys.readouterr().err
+        assert len(re.findall(r"^warp-texton: note: done \S+ \(up x, given\)$", err, re.M)) == 2, err
+        assert surface(mesh_dir, texton_path, tmp_path / "c", extra=["-q"]) == 0
+        assert "note:" not in capsys.readouterr().err  # -q: no notes
+
+    def test_an_obj_is_y_up_by_default(self, tmp_path, mesh_dir, texton_path):
+        """The OBJ's render and colours use Y up (Blender's and Maya's export): the same as --up y."""
+        from warp_texton import load_texton, render_mesh
+
+        job = SurfaceJob(str(mesh_dir / "ring.obj"), str(texton_path), str(tmp_path / "out"), render=(20, 24),
+                         device="cpu")
+        result = run_surface_job(job)
+        assert result.status == "done" and result.up == "y, auto for .obj"
+        mesh = load(mesh_dir / "ring.obj")
+        texel = float(np.linalg.norm(mesh.bounds[1] - mesh.bounds[0])) / 256
+        want = render_mesh(mesh, load_texton(texton_path), (20, 24), texel_size=texel, up="y", device="cpu")
+        got = np.asarray(Image.open(tmp_path / "out" / "ring.png"), np.float32) / 255
+        np.testing.assert_allclose(got, want, atol=0.5 / 255 + 1e-6)
+        np.testing.assert_array_equal(np.asarray(load(tmp_path / "out" / "ring.ply").visual.vertex_colors),
+                                      expected_colours(mesh_dir / "ring.obj", texton_path, up="y"))
 
     def test_the_job_renders_with_its_up_view_and_fov(self, tmp_path, mesh_dir, texton_path):
         from warp_texton import load_texton, render_mesh

@@ -24,19 +24,32 @@ from .errors import TextonError
 from .texton import Texton
 
 FORMATS = ("ply", "obj", "glb")
-#: ``up`` of a job: "auto" is Y for glTF/GLB (Y-up by definition), Z for the other formats.
+#: ``up`` of a job: "auto" takes the convention of the file's format (AUTO_UP), or a world axis.
 UP_CHOICES = ("auto", "x", "y", "z")
-#: Extensions whose format declares Y up.
-Y_UP_SUFFIXES = (".glb", ".gltf")
+#: ``up="auto"`` by extension, from the conventions of the tools that write each format
+#: (docs/cli.md, "Up axis and camera"): glTF is Y-up by definition; OBJ exporters
+#: (Blender, Maya, 3ds Max, ZBrush) write Y up; PLY (range scanners, the Stanford
+#: models as trimesh and pymeshfix ship them) and STL (CAD, 3-D printing) Z up.
+AUTO_UP = {".glb": "y", ".gltf": "y", ".obj": "y", ".ply": "z", ".stl": "z"}
+#: ``up="auto"`` for the other extensions (OFF, ...), which have no convention.
+DEFAULT_UP = "z"
 
 
 def resolve_up(up: str, mesh_path: str) -> str:
-    """The up axis of a job: "auto" → "y" for .glb/.gltf, "z" otherwise."""
+    """The up axis of a job: "auto" → the format's convention (``AUTO_UP``: Y for
+    .glb, .gltf and .obj, Z for .ply, .stl and the others); "x", "y", "z" as given."""
     if up not in UP_CHOICES:
         raise TextonError(f"up must be one of {', '.join(UP_CHOICES)}, got {up!r}")
     if up == "auto":
-        return "y" if Path(mesh_path).suffix.lower() in Y_UP_SUFFIXES else "z"
+        return AUTO_UP.get(Path(mesh_path).suffix.lower(), DEFAULT_UP)
     return up
+
+
+def describe_up(up: str, mesh_path: str) -> str:
+    """The axis a job uses and why, for its report: "y, auto for .obj" or "x, given"."""
+    axis = resolve_up(up, mesh_path)
+    return f"{axis}, auto for {Path(mesh_path).suffix.lower() or 'a file without extension'}" if up == "auto" \
+        else f"{axis}, given"
 
 
 @dataclass(frozen=True)
@@ -94,10 +107,11 @@ class SurfaceJob:
         An EXR texture holds the sRGB-decoded (linear) values instead of the
         values themselves.
     up : {"auto", "x", "y", "z"}
-        The mesh's up axis ("auto": Y for ``.glb``/``.gltf``, Y-up by
-        definition; Z otherwise): the frame rule, the render's camera and
-        light, and the axis a GLB output turns to glTF's +Y (OBJ and PLY
-        outputs keep the input's coordinates).
+        The mesh's up axis ("auto": its format's convention, ``AUTO_UP``: Y
+        for ``.glb``/``.gltf`` and ``.obj``, Z for ``.ply``, ``.stl`` and the
+        others): the frame rule, the render's camera and light, and the axis a
+        GLB output turns to glTF's +Y (OBJ and PLY outputs keep the input's
+        coordinates).
     orbit : (azimuth, elevation), optional
         The render's camera angles, as in :func:`warp_texton.render_mesh`.
     fov : float, optional
@@ -169,6 +183,8 @@ class JobResult:
     warnings : list of str
         Notes of a done job: vertices further apart than a texel, or the
         bake's texels per texton texel.
+    up : str
+        The up axis a done job used and why: "y, auto for .obj" or "x, given".
     """
 
     mesh: str
@@ -176,6 +192,7 @@ class JobResult:
     message: str = ""
     outputs: list[str] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    up: str = ""
 
 
 class JobsInterrupted(KeyboardInterrupt):
@@ -323,7 +340,7 @@ def run_surface_job(job: SurfaceJob, token: str | None = None) -> JobResult:
         return JobResult(job.mesh, "failed", f"{exc.filename or job.mesh}: {exc.strerror or exc}")
     except Exception as exc:  # a broken file must not stop the batch
         return JobResult(job.mesh, "failed", f"{job.mesh}: {type(exc).__name__}: {exc}")
-    return JobResult(job.mesh, "done", "", [str(p) for p in outputs], notes)
+    return JobResult(job.mesh, "done", "", [str(p) for p in outputs], notes, describe_up(job.up, job.mesh))
 
 
 def _run(job: SurfaceJob, outputs: list[Path], notes: list[str]) -> None:
