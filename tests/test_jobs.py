@@ -12,6 +12,7 @@ import os
 import pickle
 import re
 import sys
+import warnings
 from concurrent.futures import Executor, Future
 from pathlib import Path
 
@@ -58,10 +59,45 @@ def mesh_dir(tmp_path):
     return d
 
 
+#: A temporary file's name in a message: ``.NAME.PID-HOST.RANDOM.part`` (io.atomic_path).
+TEMP_NAME = re.compile(r"\.part\b|\.\d+-[0-9a-f]{4}\.\w{8}\b")
+
+
+class Tee:
+    """A text stream that writes to ``stream`` and keeps a copy (what the user saw)."""
+
+    def __init__(self, stream):
+        self.stream, self.seen = stream, []
+
+    def write(self, text):
+        self.seen.append(text)
+        return self.stream.write(text)
+
+    def __getattr__(self, name):
+        return getattr(self.stream, name)
+
+
 def surface(mesh_dir, texton_path, out, *meshes, extra=()):
+    """``warp-texton surface`` on the meshes; what it prints (stdout, stderr, the warnings and
+    the progress bar, from every thread) must never name a temporary file."""
     names = meshes or ("ball.ply", "ring.obj")
-    return run_cli(["surface", *(mesh_dir / m for m in names), "--texton", texton_path, "--out-dir", out,
-                "--device", "cpu", *extra])
+    tees = Tee(sys.stdout), Tee(sys.stderr)
+    sys.stdout, sys.stderr = tees
+    try:
+        # the command's warnings (pytest records them instead of letting them reach stderr)
+        with warnings.catch_warnings(record=True) as caught:
+            status = run_cli(["surface", *(mesh_dir / m for m in names), "--texton", texton_path, "--out-dir", out,
+                              "--device", "cpu", *extra])
+    finally:
+        sys.stdout, sys.stderr = tees[0].stream, tees[1].stream
+    WARNINGS[:] = [str(w.message) for w in caught]
+    printed = "".join(tees[0].seen + tees[1].seen) + "\n".join(WARNINGS)
+    assert not TEMP_NAME.search(printed), f"a temporary file name in the output: {printed}"
+    return status
+
+
+#: The warnings of the last ``surface`` run.
+WARNINGS: list[str] = []
 
 
 def summary(err: str):
@@ -576,6 +612,70 @@ class TestBakeCli:
         for line, name in zip(warns, ("ball.ply", "ring.obj")):
             assert re.search(rf"{re.escape(name)}: vertices are [\d.]+ texels apart .*--bake RES.*--max-edge 1",
                              line), line
+
+
+class TestMessagesNameTheOutputs:
+    @pytest.fixture
+    def bright_texton(self, tmp_path):
+        """A texton whose mean lies above 1 (1.1, sd 0.3): 8-bit images clip most of it."""
+        a = np.random.default_rng(3).standard_normal((8, 8, 1))
+        t = Texton(a, [1.1], 1)
+        t = Texton(a * 0.3 / np.sqrt(t.covariance()[0, 0]), [1.1], 1)
+        path = tmp_path / "bright.exr"
+        t.save(path)
+        return path
+
+    @pytest.mark.parametrize("fmt, images", [("glb", ["ball.glb", "ball_texture.png"]),
+                                             ("obj", ["ball.png", "ball_texture.png"])])
+    def test_one_clipping_warning_per_8bit_output_by_its_name(self, tmp_path, mesh_dir, bright_texton, capsys,
+                                                               fmt, images):
+        """Every 8-bit texture written (the texture alone, the one embedded in the GLB, the OBJ's PNG)
+        follows one rule and is reported once, by its final name; the render (shaded darker than 1)
+        clips nothing here."""
+        pytest.importorskip("xatlas")
+        out = tmp_path / "out"
+        status = surface(mesh_dir, bright_texton, out, "ball.ply",
+                         extra=["--bake", "32", "--format", fmt, "--texture", "png", "--render", "16x12", "-q"])
+        err = capsys.readouterr().err
+        assert status == 0, err
+        warns = [w for w in WARNINGS if "clipped for uint8" in w]
+        named = sorted(Path(w.split(": ")[0]).name for w in warns)
+        assert named == sorted(images), WARNINGS
+        assert all(w.startswith(f"{out}{os.sep}ball") for w in warns), WARNINGS
+        assert parts(out) == []
+
+    def test_a_failed_write_names_the_output(self, tmp_path, mesh_dir, texton_path, capsys):
+        """The texture file cannot be written (a folder of its name): the error names it, and nothing
+        of that mesh is written."""
+        pytest.importorskip("xatlas")
+        out = tmp_path / "out"
+        (out / "ball_texture.exr").mkdir(parents=True)
+        status = surface(mesh_dir, texton_path, out, "ball.ply", extra=["--bake", "16", "--texture", "exr", "-q"])
+        err = capsys.readouterr().err
+        assert status == 1
+        (line,) = err_lines(err)
+        assert f"{out / 'ball_texture.exr'}" in line, line
+        assert sorted(p.name for p in out.iterdir()) == ["ball_texture.exr"] and parts(out) == []
+
+    @pytest.mark.parametrize("extra", [[], ["--bake", "16"], ["--render", "8x8", "--format", "glb"]])
+    def test_a_degenerate_mesh_is_one_line_and_the_batch_continues(self, tmp_path, mesh_dir, texton_path, capsys,
+                                                                    extra):
+        """A mesh without area (all points on a line, or at one point) has no up axis to honour."""
+        trimesh.Trimesh([[0, 0, 0], [1, 1, 1], [2, 2, 2], [3, 3, 3]], [[0, 1, 2], [1, 2, 3]],
+                        process=False).export(mesh_dir / "line.ply")
+        trimesh.Trimesh(np.zeros((3, 3)), [[0, 1, 2]], process=False).export(mesh_dir / "dot.ply")
+        if extra[:1] == ["--bake"]:
+            pytest.importorskip("xatlas")
+        out = tmp_path / "out"
+        status = surface(mesh_dir, texton_path, out, "line.ply", "ball.ply", "dot.ply", extra=[*extra, "-q"])
+        err = capsys.readouterr().err
+        assert status == 1 and summary(err) == (1, 0, 2)
+        lines = err_lines(err)
+        assert len(lines) == 2, err
+        for line, name, where in zip(lines, ("line.ply", "dot.ply"), ("on a line", "at one point")):
+            assert re.match(rf"warp-texton: error: \S*{name}: degenerate mesh: its triangles have no area \(the "
+                            rf"vertices lie {where}\), so it has no normals and no up axis to honour$", line), line
+        assert all(p.name.startswith("ball") for p in out.iterdir()) and parts(out) == []
 
 
 class TestUpAxisJobs:

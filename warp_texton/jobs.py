@@ -319,8 +319,8 @@ def run_surface_job(job: SurfaceJob, token: str | None = None) -> JobResult:
         "done", "skipped", or "failed" with a message naming the mesh and the
         problem: a missing or unreadable mesh or texton, a file without
         triangles, vertices with NaN coordinates, faces that index missing
-        vertices, a mesh too far from the origin for its texel size, unusable
-        UVs, a missing xatlas, a bad option (``mni`` ≤ 0, a subdivision over
+        vertices, a mesh too far from the origin for its texel size, a mesh
+        without area (degenerate), unusable UVs, a missing xatlas, a bad option (``mni`` ≤ 0, a subdivision over
         the face limit...) and any other error, including file-system errors.
 
     Examples
@@ -347,7 +347,7 @@ def _run(job: SurfaceJob, outputs: list[Path], notes: list[str]) -> None:
     from .bake import bake_mesh
     from .io import atomic_path, write_image
     from .mesh import default_texel_size, texture_mesh, vertex_spacing
-    from .mesh_files import export_mesh, write_baked
+    from .mesh_files import check_surface, export_mesh, write_baked
     from .render import render_mesh
     from .texton import load_texton
 
@@ -355,6 +355,7 @@ def _run(job: SurfaceJob, outputs: list[Path], notes: list[str]) -> None:
     texton = job.texton if isinstance(job.texton, Texton) else load_texton(job.texton)
     up = resolve_up(job.up, job.mesh)
     mesh = _load_mesh(job.mesh)
+    check_surface(mesh, job.mesh)
     texel = default_texel_size(mesh) if job.texel_size is None else job.texel_size
     stem = Path(job.out_dir) / Path(job.mesh).stem
     img = None

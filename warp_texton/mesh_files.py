@@ -109,6 +109,20 @@ def named_as(tmp, path):
         raise TextonError(str(exc).replace(str(tmp), str(path)), exc.param, mentions=exc.mentions) from None
 
 
+def check_surface(mesh, name: str) -> None:
+    """Refuse a mesh without area (every vertex on a line or at one point): it has no
+    normals, so no surface to texture and no up axis to honour."""
+    v = np.asarray(mesh.vertices, np.float64)
+    f = np.asarray(mesh.faces, np.int64)
+    area = np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1)
+    scale = float(np.ptp(v, axis=0).max()) if len(v) else 0.0
+    if not np.any(area > 1e-12 * max(scale, 1e-300) ** 2):
+        where = "at one point" if scale == 0.0 else "on a line"
+        raise TextonError(f"{name}: degenerate mesh: its triangles have no area (the vertices lie {where}), "
+                          "so it has no normals and no up axis to honour")
+
+
+
 #: Files a bake writes for each mesh format (besides the optional texture file).
 BAKE_FORMATS = ("glb", "obj")
 #: Formats of the texture file: 8-bit PNG or float32 EXR.
