@@ -55,8 +55,9 @@ def panel(name: str, mesh, texton, resolution: int, texel: float, view, zoom: fl
     with tempfile.TemporaryDirectory() as tmp:
         (glb,) = write_baked(baked, Path(tmp) / name, fmt="glb")
         (loaded,) = trimesh.load(glb, process=False).geometry.values()
-        cam = Camera.framing(mesh, orbit=view, zoom=zoom)
-        img = render_baked(loaded, (SIDE, SIDE), camera=cam)
+        # the GLB is Y-up (glTF): the same view of the Z-up mesh, framed in the GLB's world
+        cam = Camera.framing(loaded, orbit=view, zoom=zoom, up="y")
+        img = render_baked(loaded, (SIDE, SIDE), camera=cam, up="y")
         size_mb = glb.stat().st_size / 2**20
     atlas = Image.fromarray((np.clip(baked.texture, 0, 1) * 255).round().astype(np.uint8)).resize((SIDE, SIDE),
                                                                                               Image.LANCZOS)

@@ -33,6 +33,7 @@ from warp_texton.bake import check_uvs, to_8bit
 from warp_texton.limits import set_memory_budget
 from warp_texton.frames import tangent_frames
 from warp_texton.mesh import srgb_to_linear, vertex_normals
+from warp_texton.mesh_files import gltf_rotation
 
 pytestmark = pytest.mark.filterwarnings("ignore:.*texels apart:UserWarning")
 
@@ -289,6 +290,13 @@ class TestAtlas:
         (glb,) = write_baked(baked, tmp_path / "torus", fmt="glb")
         # the scene's one geometry: force="mesh" would concatenate and recompute the normals
         (loaded,) = trimesh.load(glb, process=False).geometry.values()
+        # glTF is Y-up: the Z-up torus was turned to +Y; turned back, it is the bake's mesh
+        turn = gltf_rotation("z")
+        np.testing.assert_allclose(loaded.vertex_normals, baked.mesh.vertex_normals @ turn.T, atol=1e-6)
+        back = np.eye(4)
+        back[:3, :3] = turn.T
+        loaded.apply_transform(back)
+        np.testing.assert_allclose(loaded.vertices, baked.mesh.vertices, atol=1e-6)
         np.testing.assert_allclose(loaded.vertex_normals, baked.mesh.vertex_normals, atol=1e-6)
         cam = Camera.framing(mesh, orbit=(-40, 35), zoom=1.4)
         ref = render_mesh(mesh, TS, (96, 96), texel_size=TORUS_TEXEL, camera=cam, seed=5, device=device).astype(np.float64)
@@ -386,6 +394,59 @@ class TestFiles:
         lin.export(path)
         colours = glb_accessor(path, "COLOR_0")
         np.testing.assert_array_equal(colours[:, :3], np.asarray(lin.visual.vertex_colors)[:, :3])
+
+
+
+class TestGltfUp:
+    """glTF is Y-up by definition: a GLB's geometry is turned from the bake's up axis to +Y."""
+
+    def test_a_z_up_torus_lies_flat_in_its_glb(self, torus, tmp_path):
+        mesh, baked = torus
+        assert baked.up == (0.0, 0.0, 1.0)
+        (glb,) = write_baked(baked, tmp_path / "torus", fmt="glb")
+        (loaded,) = trimesh.load(glb, process=False).geometry.values()
+        assert np.argmin(loaded.extents) == 1  # Y, glTF's up: the ring lies flat
+        np.testing.assert_allclose(loaded.extents, np.asarray(mesh.extents)[[0, 2, 1]], atol=1e-6)
+        np.testing.assert_allclose(loaded.vertices, baked.mesh.vertices @ gltf_rotation("z").T, atol=1e-6)
+        # UVs and texture as they are; the OBJ keeps the input's axes
+        np.testing.assert_allclose(loaded.visual.uv, baked.mesh.visual.uv, atol=1e-6)
+        np.testing.assert_array_equal(np.asarray(loaded.visual.material.baseColorTexture.convert("RGB")),
+                                      to_8bit(baked.texture))
+        obj = write_baked(baked, tmp_path / "torus", fmt="obj")[0]
+        np.testing.assert_allclose(trimesh.load(obj, process=False).vertices, baked.mesh.vertices, atol=1e-6)
+
+    def test_round_trip_z_up_ply_to_glb_read_back_y_up(self, tmp_path, device):
+        """A Z-up PLY torus, baked to GLB and read back with the GLB's up (auto: Y), renders as
+        the bake in its own Z-up world: the same camera, light and frame, the same pixels."""
+        pytest.importorskip("xatlas")
+        from warp_texton import render_baked
+        from warp_texton.jobs import resolve_up
+
+        ply = tmp_path / "torus.ply"
+        trimesh.creation.torus(1.0, 0.35, major_sections=32, minor_sections=16).export(ply)
+        mesh = trimesh.load(ply, process=False)
+        up = resolve_up("auto", str(ply))
+        assert up == "z"
+        baked = bake_mesh(mesh, T, 0.05, resolution=64, supersample=1, up=up, device=device)
+        (glb,) = write_baked(baked, tmp_path / "torus", fmt="glb")
+        (loaded,) = trimesh.load(glb, process=False).geometry.values()
+        back = resolve_up("auto", str(glb))
+        assert back == "y"
+        for orbit in ((-55, 25), (30, 60)):
+            want = render_baked(baked, (48, 64), up=up, orbit=orbit, device=device)
+            got = render_baked(loaded, (48, 64), up=back, orbit=orbit, device=device)
+            # the GLB's texture is 8-bit: half a step; rays through turned triangles may differ at
+            # silhouette pixels only
+            diff = np.abs(got - want).max(axis=2)
+            assert np.mean(diff > 0.5 / 255 + 1e-6) < 0.005, (orbit, np.mean(diff > 0.5 / 255 + 1e-6))
+
+    def test_a_y_up_bake_is_written_as_it_is(self, baked, tmp_path, device):
+        """A bake whose up is already Y: the GLB holds its coordinates unchanged."""
+        plane = bake_mesh(plane_with_uvs(), T, 1 / 32, resolution=16, up="y", device=device)
+        assert plane.up == (0.0, 1.0, 0.0)
+        (glb,) = write_baked(plane, tmp_path / "p", fmt="glb")
+        (loaded,) = trimesh.load(glb, process=False).geometry.values()
+        np.testing.assert_allclose(loaded.vertices, plane.mesh.vertices, atol=1e-7)
 
 
 def glb_json(path) -> dict:

@@ -12,6 +12,7 @@ import os
 import pickle
 import re
 import sys
+import warnings
 from concurrent.futures import Executor, Future
 from pathlib import Path
 
@@ -21,7 +22,8 @@ import trimesh
 from PIL import Image
 
 from warp_texton import Texton, TextonError, texture_mesh
-from warp_texton.jobs import JobResult, SurfaceJob, expand_meshes, run_jobs, run_surface_job
+from warp_texton.jobs import JobResult, SurfaceJob, expand_meshes, resolve_up, run_jobs, run_surface_job
+from warp_texton.mesh_files import gltf_rotation
 from helpers import parts, run_cli
 
 MEAN = (0.3, 0.5, 0.7)
@@ -57,10 +59,45 @@ def mesh_dir(tmp_path):
     return d
 
 
+#: A temporary file's name in a message: ``.NAME.PID-HOST.RANDOM.part`` (io.atomic_path).
+TEMP_NAME = re.compile(r"\.part\b|\.\d+-[0-9a-f]{4}\.\w{8}\b")
+
+
+class Tee:
+    """A text stream that writes to ``stream`` and keeps a copy (what the user saw)."""
+
+    def __init__(self, stream):
+        self.stream, self.seen = stream, []
+
+    def write(self, text):
+        self.seen.append(text)
+        return self.stream.write(text)
+
+    def __getattr__(self, name):
+        return getattr(self.stream, name)
+
+
 def surface(mesh_dir, texton_path, out, *meshes, extra=()):
+    """``warp-texton surface`` on the meshes; what it prints (stdout, stderr, the warnings and
+    the progress bar, from every thread) must never name a temporary file."""
     names = meshes or ("ball.ply", "ring.obj")
-    return run_cli(["surface", *(mesh_dir / m for m in names), "--texton", texton_path, "--out-dir", out,
-                "--device", "cpu", *extra])
+    tees = Tee(sys.stdout), Tee(sys.stderr)
+    sys.stdout, sys.stderr = tees
+    try:
+        # the command's warnings (pytest records them instead of letting them reach stderr)
+        with warnings.catch_warnings(record=True) as caught:
+            status = run_cli(["surface", *(mesh_dir / m for m in names), "--texton", texton_path, "--out-dir", out,
+                              "--device", "cpu", *extra])
+    finally:
+        sys.stdout, sys.stderr = tees[0].stream, tees[1].stream
+    WARNINGS[:] = [str(w.message) for w in caught]
+    printed = "".join(tees[0].seen + tees[1].seen) + "\n".join(WARNINGS)
+    assert not TEMP_NAME.search(printed), f"a temporary file name in the output: {printed}"
+    return status
+
+
+#: The warnings of the last ``surface`` run.
+WARNINGS: list[str] = []
 
 
 def summary(err: str):
@@ -74,16 +111,18 @@ def load(path) -> trimesh.Trimesh:
     return trimesh.load(str(path), force="mesh", process=False)
 
 
-def expected_colours(mesh_path, texton_path, seed=0, mni=60.0, linear=False):
+def expected_colours(mesh_path, texton_path, seed=0, mni=60.0, linear=False, up=None):
     """What a job computes: texel = bounding-box diagonal / 256, then texture_mesh
-    (linear colours for glTF's COLOR_0)."""
+    (linear colours for glTF's COLOR_0) with the format's up axis (``--up auto``)."""
+    from warp_texton.jobs import resolve_up
+
     from warp_texton import load_texton
 
     mesh = load(mesh_path)
     lo, hi = mesh.bounds
     texel = float(np.linalg.norm(hi - lo)) / 256.0
     out = texture_mesh(mesh, load_texton(texton_path), texel, mni=mni, seed=seed, device="cpu", linear=linear,
-                       warn=False)
+                       warn=False, up=up or resolve_up("auto", str(mesh_path)))
     return np.asarray(out.visual.vertex_colors)
 
 
@@ -262,7 +301,9 @@ class TestCli:
             assert mesh.visual.kind == "vertex"
             c = np.asarray(mesh.visual.vertex_colors)
             assert c.shape == (len(source.vertices), 4)
-            np.testing.assert_allclose(mesh.vertices, source.vertices, atol=1e-6)
+            # a GLB is Y-up: the Z-up PLY turned to +Y, the Y-up OBJ as it is; PLY and OBJ keep the axes
+            turn = gltf_rotation(resolve_up("auto", src)) if fmt == "glb" else np.eye(3)
+            np.testing.assert_allclose(mesh.vertices, source.vertices @ turn.T, atol=1e-6)
             np.testing.assert_array_equal(c, expected_colours(mesh_dir / src, texton_path, linear=fmt == "glb"))
             # the texton's mean colour: 162 (ball) or 288 (ring) vertices ≥ 20 texels apart
             # (independent), sd 0.08 each: 5 sd of the mean ≤ 0.032 ≪ the 0.2 between channels.
@@ -573,15 +614,110 @@ class TestBakeCli:
                              line), line
 
 
+class TestMessagesNameTheOutputs:
+    @pytest.fixture
+    def bright_texton(self, tmp_path):
+        """A texton whose mean lies above 1 (1.1, sd 0.3): 8-bit images clip most of it."""
+        a = np.random.default_rng(3).standard_normal((8, 8, 1))
+        t = Texton(a, [1.1], 1)
+        t = Texton(a * 0.3 / np.sqrt(t.covariance()[0, 0]), [1.1], 1)
+        path = tmp_path / "bright.exr"
+        t.save(path)
+        return path
+
+    @pytest.mark.parametrize("fmt, images", [("glb", ["ball.glb", "ball_texture.png"]),
+                                             ("obj", ["ball.png", "ball_texture.png"])])
+    def test_one_clipping_warning_per_8bit_output_by_its_name(self, tmp_path, mesh_dir, bright_texton, capsys,
+                                                               fmt, images):
+        """Every 8-bit texture written (the texture alone, the one embedded in the GLB, the OBJ's PNG)
+        follows one rule and is reported once, by its final name; the render (shaded darker than 1)
+        clips nothing here."""
+        pytest.importorskip("xatlas")
+        out = tmp_path / "out"
+        status = surface(mesh_dir, bright_texton, out, "ball.ply",
+                         extra=["--bake", "32", "--format", fmt, "--texture", "png", "--render", "16x12", "-q"])
+        err = capsys.readouterr().err
+        assert status == 0, err
+        warns = [w for w in WARNINGS if "clipped for uint8" in w]
+        named = sorted(Path(w.split(": ")[0]).name for w in warns)
+        assert named == sorted(images), WARNINGS
+        assert all(w.startswith(f"{out}{os.sep}ball") for w in warns), WARNINGS
+        assert parts(out) == []
+
+    def test_a_failed_write_names_the_output(self, tmp_path, mesh_dir, texton_path, capsys):
+        """The texture file cannot be written (a folder of its name): the error names it, and nothing
+        of that mesh is written."""
+        pytest.importorskip("xatlas")
+        out = tmp_path / "out"
+        (out / "ball_texture.exr").mkdir(parents=True)
+        status = surface(mesh_dir, texton_path, out, "ball.ply", extra=["--bake", "16", "--texture", "exr", "-q"])
+        err = capsys.readouterr().err
+        assert status == 1
+        (line,) = err_lines(err)
+        assert f"{out / 'ball_texture.exr'}" in line, line
+        assert sorted(p.name for p in out.iterdir()) == ["ball_texture.exr"] and parts(out) == []
+
+    @pytest.mark.parametrize("extra", [[], ["--bake", "16"], ["--render", "8x8", "--format", "glb"]])
+    def test_a_degenerate_mesh_is_one_line_and_the_batch_continues(self, tmp_path, mesh_dir, texton_path, capsys,
+                                                                    extra):
+        """A mesh without area (all points on a line, or at one point) has no up axis to honour."""
+        trimesh.Trimesh([[0, 0, 0], [1, 1, 1], [2, 2, 2], [3, 3, 3]], [[0, 1, 2], [1, 2, 3]],
+                        process=False).export(mesh_dir / "line.ply")
+        trimesh.Trimesh(np.zeros((3, 3)), [[0, 1, 2]], process=False).export(mesh_dir / "dot.ply")
+        if extra[:1] == ["--bake"]:
+            pytest.importorskip("xatlas")
+        out = tmp_path / "out"
+        status = surface(mesh_dir, texton_path, out, "line.ply", "ball.ply", "dot.ply", extra=[*extra, "-q"])
+        err = capsys.readouterr().err
+        assert status == 1 and summary(err) == (1, 0, 2)
+        lines = err_lines(err)
+        assert len(lines) == 2, err
+        for line, name, where in zip(lines, ("line.ply", "dot.ply"), ("on a line", "at one point")):
+            assert re.match(rf"warp-texton: error: \S*{name}: degenerate mesh: its triangles have no area \(the "
+                            rf"vertices lie {where}\), so it has no normals and no up axis to honour$", line), line
+        assert all(p.name.startswith("ball") for p in out.iterdir()) and parts(out) == []
+
+
 class TestUpAxisJobs:
-    def test_auto_up_is_y_for_gltf(self):
+    def test_auto_up_by_format(self):
         from warp_texton.jobs import resolve_up
 
         assert resolve_up("auto", "a/b.GLB") == "y" and resolve_up("auto", "x.gltf") == "y"
-        assert resolve_up("auto", "x.ply") == "z" and resolve_up("auto", "x.obj") == "z"
+        assert resolve_up("auto", "x.obj") == "y" and resolve_up("auto", "x.OBJ") == "y"  # Blender, Maya
+        assert resolve_up("auto", "x.ply") == "z" and resolve_up("auto", "x.stl") == "z"
+        assert resolve_up("auto", "x.off") == "z" and resolve_up("auto", "noext") == "z"
         assert resolve_up("x", "x.glb") == "x"
         with pytest.raises(TextonError, match="up must be one of auto, x, y, z"):
             resolve_up("w", "x.ply")
+
+    def test_the_cli_names_the_axis_of_each_mesh(self, tmp_path, mesh_dir, texton_path, capsys):
+        """A sideways render says what to change: each done mesh's note names its up axis and why."""
+        assert surface(mesh_dir, texton_path, tmp_path / "a") == 0
+        err = capsys.readouterr().err
+        for name, why in (("ball.ply", "up z, auto for .ply"), ("ring.obj", "up y, auto for .obj")):
+            lines = [ln for ln in err.splitlines() if ln.startswith("warp-texton: note: done ")]
+            assert any(ln.endswith(f"{name} ({why})") for ln in lines), err
+        assert surface(mesh_dir, texton_path, tmp_path / "b", extra=["--up", "x"]) == 0
+        err = capsys.readouterr().err
+        assert len(re.findall(r"^warp-texton: note: done \S+ \(up x, given\)$", err, re.M)) == 2, err
+        assert surface(mesh_dir, texton_path, tmp_path / "c", extra=["-q"]) == 0
+        assert "note:" not in capsys.readouterr().err  # -q: no notes
+
+    def test_an_obj_is_y_up_by_default(self, tmp_path, mesh_dir, texton_path):
+        """The OBJ's render and colours use Y up (Blender's and Maya's export): the same as --up y."""
+        from warp_texton import load_texton, render_mesh
+
+        job = SurfaceJob(str(mesh_dir / "ring.obj"), str(texton_path), str(tmp_path / "out"), render=(20, 24),
+                         device="cpu")
+        result = run_surface_job(job)
+        assert result.status == "done" and result.up == "y, auto for .obj"
+        mesh = load(mesh_dir / "ring.obj")
+        texel = float(np.linalg.norm(mesh.bounds[1] - mesh.bounds[0])) / 256
+        want = render_mesh(mesh, load_texton(texton_path), (20, 24), texel_size=texel, up="y", device="cpu")
+        got = np.asarray(Image.open(tmp_path / "out" / "ring.png"), np.float32) / 255
+        np.testing.assert_allclose(got, want, atol=0.5 / 255 + 1e-6)
+        np.testing.assert_array_equal(np.asarray(load(tmp_path / "out" / "ring.ply").visual.vertex_colors),
+                                      expected_colours(mesh_dir / "ring.obj", texton_path, up="y"))
 
     def test_the_job_renders_with_its_up_view_and_fov(self, tmp_path, mesh_dir, texton_path):
         from warp_texton import load_texton, render_mesh

@@ -26,7 +26,7 @@ from .errors import TextonError
 
 if TYPE_CHECKING:  # what type checkers and documentation tools see; at run time, __getattr__
     from .analysis import analyze, model_error
-    from .bake import BakedMesh, bake_mesh, render_baked, write_baked
+    from .bake import BakedMesh, bake_mesh, render_baked
     from .dsn import dsn
     from .filter_options import FilterOptions
     from .gaussian import gaussian_texture, periodic_component
@@ -36,6 +36,7 @@ if TYPE_CHECKING:  # what type checkers and documentation tools see; at run time
     from .batches import Batch, BatchParams, synthesize_batch
     from .frames import tangent_frames
     from .mesh import texture_mesh
+    from .mesh_files import write_baked
     from .render import Camera, render_mesh
     from .surface import surface_noise
     from .synthesis import evaluate, synthesize
@@ -44,7 +45,7 @@ if TYPE_CHECKING:  # what type checkers and documentation tools see; at run time
 #: The module of each public name that is imported on first use.
 _LAZY = {
     "analyze": "analysis", "model_error": "analysis",
-    "BakedMesh": "bake", "bake_mesh": "bake", "render_baked": "bake", "write_baked": "bake",
+    "BakedMesh": "bake", "bake_mesh": "bake", "render_baked": "bake", "write_baked": "mesh_files",
     "dsn": "dsn",
     "FilterOptions": "filter_options",
     "gaussian_texture": "gaussian", "periodic_component": "gaussian",

@@ -22,10 +22,8 @@ hold them as they are unless ``linear=True`` asks for the sRGB decoding.
 
 from __future__ import annotations
 
-import contextlib
 from dataclasses import dataclass
-from pathlib import Path
-from typing import TYPE_CHECKING, cast
+from typing import TYPE_CHECKING
 
 import numpy as np
 import warp as wp
@@ -35,8 +33,9 @@ from ._runtime import resolve_device, split_launch
 from .errors import TextonError
 from .kernels import bake as KB
 from .limits import check_memory
-from .frames import UP
-from .mesh import check_mesh, srgb_to_linear, vertex_normals
+from .frames import UP, up_vector
+from .mesh import check_mesh, vertex_normals
+from .mesh_files import texture_8bit
 from .render import cast_rays, check_background
 from .surface import check_method, evaluate_points, surface_params, surface_setup, texel_positions
 from .texton import Texton
@@ -98,6 +97,9 @@ class BakedMesh:
         Mean number of noise samples per covered texel.
     uv_source : str
         "mesh" or "atlas".
+    up : (x, y, z)
+        The unit up vector of the bake's world (its ``up``): :func:`write_baked`
+        turns a GLB's geometry from it to glTF's +Y.
 
     Notes
     -----
@@ -112,6 +114,7 @@ class BakedMesh:
     texels_per_texton_texel: float
     samples: float
     uv_source: str
+    up: tuple[float, float, float] = (0.0, 0.0, 1.0)
 
     @property
     def resolution(self) -> int:
@@ -425,7 +428,9 @@ def bake_mesh(
     texture[:] = np.asarray(texton.mean, np.float32)[:c]
     texture[rows, cols] = values[:, :c]
     out = _textured(vertices, faces, uvs, vnormals, texture, trimesh)
-    return BakedMesh(out, texture, covered, per_texel, float(np.sum((nx * ny)[inner])) / n_cov, source)
+    axis = up_vector(up)
+    return BakedMesh(out, texture, covered, per_texel, float(np.sum((nx * ny)[inner])) / n_cov, source,
+                     (float(axis[0]), float(axis[1]), float(axis[2])))
 
 
 def _extend(owner: np.ndarray, covered: np.ndarray, gutter: int) -> np.ndarray:
@@ -443,11 +448,9 @@ def _extend(owner: np.ndarray, covered: np.ndarray, gutter: int) -> np.ndarray:
 
 
 def to_8bit(texture: np.ndarray) -> np.ndarray:
-    """RGB 8-bit of a texture (grey spread to RGB), values clipped to [0, 1]."""
-    t = np.clip(texture, 0.0, 1.0)
-    if t.shape[2] == 1:
-        t = np.repeat(t, 3, axis=2)
-    return np.round(t * 255.0).astype(np.uint8)
+    """RGB 8-bit of a texture (grey spread to RGB): the rule of every written 8-bit
+    texture (:func:`warp_texton.mesh_files.texture_8bit`), values clipped to [0, 1]."""
+    return texture_8bit(texture)[0]
 
 
 def _textured(vertices, faces, uvs, normals, texture, trimesh):
@@ -460,98 +463,6 @@ def _textured(vertices, faces, uvs, normals, texture, trimesh):
                                                    metallicFactor=0.0, roughnessFactor=1.0)
     visual = trimesh.visual.TextureVisuals(uv=uvs, material=material)
     return trimesh.Trimesh(vertices=vertices, faces=faces, vertex_normals=normals, visual=visual, process=False)
-
-
-#: Files a bake writes for each mesh format (besides the optional texture file).
-BAKE_FORMATS = ("glb", "obj")
-#: Formats of the texture file: 8-bit PNG or float32 EXR.
-TEXTURE_FORMATS = ("png", "exr")
-
-
-def bake_outputs(stem: Path, fmt: str, texture: str | None = None) -> list[Path]:
-    """The files :func:`write_baked` writes for ``stem`` (a path without extension)."""
-    stem = Path(stem)
-    out = [stem.with_suffix(".glb")] if fmt == "glb" else [stem.with_suffix(".obj"), stem.with_suffix(".mtl"),
-                                                            stem.with_suffix(".png")]
-    if texture is not None:
-        out.append(stem.parent / f"{stem.name}_texture.{texture}")
-    return out
-
-
-def write_baked(baked: BakedMesh, stem, *, fmt: str = "glb", texture: str | None = None,
-                linear: bool = False) -> list[Path]:
-    """Write a bake as GLB or OBJ + MTL + PNG, and optionally the texture alone.
-
-    ``STEM.glb`` holds the texture embedded as the base colour of a PBR
-    material, with the mesh's UVs and normals; ``STEM.obj`` + ``STEM.mtl`` +
-    ``STEM.png``: the MTL's ``map_Kd`` names the PNG, with a diffuse factor of
-    1. Every file is written to a temporary name first and all are renamed
-    at the end: all files appear together, or none.
-
-    Parameters
-    ----------
-    baked : BakedMesh
-        From :func:`bake_mesh`.
-    stem : str or Path
-        The output path without its extension.
-    fmt : {"glb", "obj"}
-    texture : {"png", "exr"}, optional
-        Also write the texture alone: ``STEM_texture.png`` (8-bit sRGB) or
-        ``STEM_texture.exr`` (float32: the noise's values).
-    linear : bool
-        The EXR texture holds the sRGB decoding of the values instead.
-
-    Returns
-    -------
-    list of Path
-        The paths written.
-
-    Raises
-    ------
-    TextonError
-        For a bad ``fmt`` or ``texture``, and the errors of the file system.
-
-    Examples
-    --------
-    See :func:`bake_mesh`; ``write_baked(baked, "torus_baked", fmt="obj")``
-    writes ``torus_baked.obj``, ``.mtl`` and ``.png``.
-    """
-    from .io import atomic_path, write_image
-
-    if fmt not in BAKE_FORMATS:
-        raise TextonError(f"fmt must be {' or '.join(repr(f) for f in BAKE_FORMATS)} (a baked mesh's file format), "
-                          f"got {fmt!r:.40}")
-    if texture is not None and texture not in TEXTURE_FORMATS:
-        raise TextonError(f"texture must be one of {', '.join(TEXTURE_FORMATS)}, got {texture!r}")
-    paths = bake_outputs(stem, fmt, texture)
-    blobs: dict[Path, bytes] = {}
-    if fmt == "glb":
-        blobs[paths[0]] = cast(bytes, baked.mesh.export(file_type="glb"))  # a GLB is binary
-    else:
-        from trimesh.exchange.obj import export_obj
-
-        text, files = export_obj(baked.mesh, include_normals=False, include_texture=True, return_texture=True,
-                                 mtl_name=paths[1].name)
-        png = next(v for k, v in files.items() if not k.endswith(".mtl"))
-        mtl = files[paths[1].name].decode("utf-8")
-        # the texture alone gives the colour: a diffuse factor of 1 (Kd multiplies map_Kd in viewers)
-        fixed = {"map_Kd": f"map_Kd {paths[2].name}", "Kd": "Kd 1.00000000 1.00000000 1.00000000"}
-        mtl = "\n".join(fixed.get(ln.split(" ")[0], ln) for ln in mtl.splitlines())
-        blobs[paths[0]] = text.encode("utf-8")
-        blobs[paths[1]] = (mtl + "\n").encode("utf-8")
-        blobs[paths[2]] = png
-    with contextlib.ExitStack() as stack:
-        # every temporary file is written before the first rename: all files or none
-        for path, data in blobs.items():
-            Path(stack.enter_context(atomic_path(path))).write_bytes(data)
-        if texture is not None:
-            img = baked.texture
-            if texture == "exr" and linear:
-                img = srgb_to_linear(np.clip(img, 0.0, 1.0)).astype(np.float32)
-            tmp = Path(stack.enter_context(atomic_path(paths[-1])))
-            write_image(tmp.with_name(tmp.name + f".{texture}"), img)
-            (tmp.with_name(tmp.name + f".{texture}")).replace(tmp)
-    return paths
 
 
 def lookup(texture: np.ndarray, uv: np.ndarray) -> np.ndarray:

@@ -37,7 +37,8 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--max-edge", type=float, help="subdivide until no edge is longer than this many texels")
     p.add_argument("--render", metavar="WxH", help="also write a PNG render of this size, e.g. 512x512")
     p.add_argument("--up", choices=("auto", "x", "y", "z"), default="auto",
-                   help="the meshes' up axis: auto is y for .glb/.gltf (Y-up by definition), z otherwise")
+                   help="the meshes' up axis: auto is the format's convention "
+                        "(y for .glb/.gltf/.obj, z for .ply/.stl and others)")
     p.add_argument("--orbit", metavar="AZ,EL",
                    help="render camera azimuth and elevation in degrees (default -55,25: front left, above; "
                         "a negative azimuth as --orbit=-30,20)")
@@ -190,6 +191,8 @@ def _report(results, interrupted: bool, quiet: bool) -> int:
     for r in results:
         if r.status == "failed" and (quiet or interrupted):
             print(f"warp-texton: error: {r.message}", file=sys.stderr)
+        if r.status == "done" and r.up and not quiet:  # the axis used, so a sideways render says what to change
+            print(f"warp-texton: note: done {r.mesh} (up {r.up})", file=sys.stderr)
         for note in r.warnings:
             warning = "texels apart" in note
             if warning or not quiet:

@@ -491,7 +491,7 @@ def report_clipped(name, clipped: int, total: int, dtype: str) -> None:
         keep = "use .exr, .tif or .zarr with a float type to keep them" if dtype.startswith("uint") else \
             "use float32 to keep them"
         where = "[0, 1]" if dtype.startswith("uint") else "the float16 range"
-        warnings.warn(f"{name}: {clipped} of {total} pixels ({100.0 * clipped / total:.2g} %) had values outside "
+        warnings.warn(f"{name}: {clipped} of {total} pixels ({100.0 * clipped / total:.3g} %) had values outside "
                       f"{where}, clipped for {dtype}; {keep}", stacklevel=3)
 
 

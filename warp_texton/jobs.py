@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import glob
 import os
-import io
 import sys
 import uuid
 from typing import cast
@@ -20,24 +19,37 @@ from concurrent.futures import Executor, ThreadPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .bake import bake_outputs
+from .mesh_files import bake_outputs
 from .errors import TextonError
 from .texton import Texton
 
 FORMATS = ("ply", "obj", "glb")
-#: ``up`` of a job: "auto" is Y for glTF/GLB (Y-up by definition), Z for the other formats.
+#: ``up`` of a job: "auto" takes the convention of the file's format (AUTO_UP), or a world axis.
 UP_CHOICES = ("auto", "x", "y", "z")
-#: Extensions whose format declares Y up.
-Y_UP_SUFFIXES = (".glb", ".gltf")
+#: ``up="auto"`` by extension, from the conventions of the tools that write each format
+#: (docs/cli.md, "Up axis and camera"): glTF is Y-up by definition; OBJ exporters
+#: (Blender, Maya, 3ds Max, ZBrush) write Y up; PLY (range scanners, the Stanford
+#: models as trimesh and pymeshfix ship them) and STL (CAD, 3-D printing) Z up.
+AUTO_UP = {".glb": "y", ".gltf": "y", ".obj": "y", ".ply": "z", ".stl": "z"}
+#: ``up="auto"`` for the other extensions (OFF, ...), which have no convention.
+DEFAULT_UP = "z"
 
 
 def resolve_up(up: str, mesh_path: str) -> str:
-    """The up axis of a job: "auto" → "y" for .glb/.gltf, "z" otherwise."""
+    """The up axis of a job: "auto" → the format's convention (``AUTO_UP``: Y for
+    .glb, .gltf and .obj, Z for .ply, .stl and the others); "x", "y", "z" as given."""
     if up not in UP_CHOICES:
         raise TextonError(f"up must be one of {', '.join(UP_CHOICES)}, got {up!r}")
     if up == "auto":
-        return "y" if Path(mesh_path).suffix.lower() in Y_UP_SUFFIXES else "z"
+        return AUTO_UP.get(Path(mesh_path).suffix.lower(), DEFAULT_UP)
     return up
+
+
+def describe_up(up: str, mesh_path: str) -> str:
+    """The axis a job uses and why, for its report: "y, auto for .obj" or "x, given"."""
+    axis = resolve_up(up, mesh_path)
+    return f"{axis}, auto for {Path(mesh_path).suffix.lower() or 'a file without extension'}" if up == "auto" \
+        else f"{axis}, given"
 
 
 @dataclass(frozen=True)
@@ -95,9 +107,11 @@ class SurfaceJob:
         An EXR texture holds the sRGB-decoded (linear) values instead of the
         values themselves.
     up : {"auto", "x", "y", "z"}
-        The mesh's up axis ("auto": Y for ``.glb``/``.gltf``, Y-up by
-        definition; Z otherwise): the frame rule, the render's camera and
-        light.
+        The mesh's up axis ("auto": its format's convention, ``AUTO_UP``: Y
+        for ``.glb``/``.gltf`` and ``.obj``, Z for ``.ply``, ``.stl`` and the
+        others): the frame rule, the render's camera and light, and the axis a
+        GLB output turns to glTF's +Y (OBJ and PLY outputs keep the input's
+        coordinates).
     orbit : (azimuth, elevation), optional
         The render's camera angles, as in :func:`warp_texton.render_mesh`.
     fov : float, optional
@@ -169,6 +183,8 @@ class JobResult:
     warnings : list of str
         Notes of a done job: vertices further apart than a texel, or the
         bake's texels per texton texel.
+    up : str
+        The up axis a done job used and why: "y, auto for .obj" or "x, given".
     """
 
     mesh: str
@@ -176,6 +192,7 @@ class JobResult:
     message: str = ""
     outputs: list[str] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    up: str = ""
 
 
 class JobsInterrupted(KeyboardInterrupt):
@@ -302,8 +319,8 @@ def run_surface_job(job: SurfaceJob, token: str | None = None) -> JobResult:
         "done", "skipped", or "failed" with a message naming the mesh and the
         problem: a missing or unreadable mesh or texton, a file without
         triangles, vertices with NaN coordinates, faces that index missing
-        vertices, a mesh too far from the origin for its texel size, unusable
-        UVs, a missing xatlas, a bad option (``mni`` ≤ 0, a subdivision over
+        vertices, a mesh too far from the origin for its texel size, a mesh
+        without area (degenerate), unusable UVs, a missing xatlas, a bad option (``mni`` ≤ 0, a subdivision over
         the face limit...) and any other error, including file-system errors.
 
     Examples
@@ -323,13 +340,14 @@ def run_surface_job(job: SurfaceJob, token: str | None = None) -> JobResult:
         return JobResult(job.mesh, "failed", f"{exc.filename or job.mesh}: {exc.strerror or exc}")
     except Exception as exc:  # a broken file must not stop the batch
         return JobResult(job.mesh, "failed", f"{job.mesh}: {type(exc).__name__}: {exc}")
-    return JobResult(job.mesh, "done", "", [str(p) for p in outputs], notes)
+    return JobResult(job.mesh, "done", "", [str(p) for p in outputs], notes, describe_up(job.up, job.mesh))
 
 
 def _run(job: SurfaceJob, outputs: list[Path], notes: list[str]) -> None:
-    from .bake import bake_mesh, write_baked
+    from .bake import bake_mesh
     from .io import atomic_path, write_image
     from .mesh import default_texel_size, texture_mesh, vertex_spacing
+    from .mesh_files import check_surface, export_mesh, write_baked
     from .render import render_mesh
     from .texton import load_texton
 
@@ -337,6 +355,7 @@ def _run(job: SurfaceJob, outputs: list[Path], notes: list[str]) -> None:
     texton = job.texton if isinstance(job.texton, Texton) else load_texton(job.texton)
     up = resolve_up(job.up, job.mesh)
     mesh = _load_mesh(job.mesh)
+    check_surface(mesh, job.mesh)
     texel = default_texel_size(mesh) if job.texel_size is None else job.texel_size
     stem = Path(job.out_dir) / Path(job.mesh).stem
     img = None
@@ -358,10 +377,9 @@ def _run(job: SurfaceJob, outputs: list[Path], notes: list[str]) -> None:
         if spacing > 1.0:
             notes.append(f"{job.mesh}: vertices are {spacing:.3g} texels apart (median edge), so vertex colours "
                          "blur the texture; bake a texture (--bake RES) or subdivide (--max-edge 1)")
-        buf = io.BytesIO()
-        textured.export(buf, file_type=job.format)
+        data = export_mesh(textured, job.format, up)  # a GLB turned to +Y from the mesh's up
         with atomic_path(outputs[0]) as tmp:
-            Path(tmp).write_bytes(buf.getvalue())
+            Path(tmp).write_bytes(data)
     if img is not None:
         write_image(outputs[-1], img)
 

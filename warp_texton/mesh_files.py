@@ -1,0 +1,232 @@
+"""Mesh files: glTF's +Y up on write, and the one 8-bit rule of written textures.
+
+glTF and GLB are Y-up by definition (glTF 2.0, §3.4), so every GLB the
+package writes has its geometry turned from the mesh's up axis to +Y
+(:func:`gltf_rotation`, :func:`to_gltf_axes`): positions and normals turn,
+UVs and textures stay as they are. Reading such a file back with up ``"y"``
+(``--up auto`` for ``.glb``) gives the same world: the frame rule's up and
+side directions, the render's camera and light turn with the geometry. OBJ and
+PLY declare no up axis, so they keep the input's coordinates.
+
+Texture images written in 8 bits (the texture alone as PNG, the base colour
+embedded in a GLB, an OBJ's PNG) follow one rule, :func:`texture_8bit`:
+values clipped to [0, 1], scaled by 255 and rounded, as
+:func:`warp_texton.write_image` does, and the clipped pixels are reported once
+per output file, by its final name (:func:`report_texture_clipping`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+
+from pathlib import Path
+
+import numpy as np
+
+from .errors import TextonError
+from .frames import up_rotation
+from .io import convert_pixels, report_clipped
+
+#: Mesh formats that declare their up axis: +Y (glTF 2.0).
+GLTF_FORMATS = ("glb", "gltf")
+
+
+def gltf_rotation(up) -> np.ndarray:
+    """The rotation M (glTF = M · world) that turns a world whose up is ``up`` to glTF's +Y up.
+
+    M = R_y · R_upᵀ with R from :func:`warp_texton.frames.up_rotation`: the
+    world's up goes to +Y and the frame rule's side direction to +X, so the
+    texture's frame, views and light keep their place on the surface. For Z up
+    it is Blender's glTF export, (x, y, z) → (x, z, −y).
+
+    >>> gltf_rotation("z").astype(int).tolist()
+    [[1, 0, 0], [0, 0, 1], [0, -1, 0]]
+    >>> bool((gltf_rotation("y") == np.eye(3)).all())
+    True
+    """
+    return up_rotation("y") @ up_rotation(up).T
+
+
+def to_gltf_axes(mesh, up):
+    """``mesh`` with its vertices and vertex normals turned from ``up`` to +Y
+    (:func:`gltf_rotation`); faces, UVs, colours and material unchanged. A Y-up
+    mesh is returned as it is."""
+    m = gltf_rotation(up)
+    if np.array_equal(m, np.eye(3)):
+        return mesh
+    transform = np.eye(4)
+    transform[:3, :3] = m
+    # trimesh turns the normals it holds (the bake's, given) with the vertices
+    return mesh.copy(include_cache=True).apply_transform(transform)
+
+
+def export_mesh(mesh, fmt: str, up) -> bytes:
+    """The bytes of ``mesh`` in ``fmt`` ("ply", "obj", "glb"): glTF turned to +Y from
+    ``up``, the other formats in the mesh's own coordinates."""
+    if fmt in GLTF_FORMATS:
+        mesh = to_gltf_axes(mesh, up)
+    buf = io.BytesIO()
+    mesh.export(buf, file_type=fmt)
+    return buf.getvalue()
+
+
+def texture_8bit(texture: np.ndarray, *, rgb: bool = True) -> tuple[np.ndarray, int]:
+    """(uint8 texture, pixels with a value clipped): the rule of every written 8-bit
+    texture, :func:`warp_texton.io.convert_pixels` with ``"uint8"`` (values clipped
+    to [0, 1], × 255, rounded). ``rgb`` spreads a grey texture to RGB (an embedded
+    base colour)."""
+    data, clipped = convert_pixels(np.asarray(texture, np.float32), "uint8")
+    if rgb and data.shape[2] == 1:
+        data = np.repeat(data, 3, axis=2)
+    return data, clipped
+
+
+def report_texture_clipping(path, clipped: int, texture: np.ndarray) -> None:
+    """Warn once for the output ``path`` (its final name) when more than
+    ``io.CLIP_WARN`` of the texture's pixels were clipped."""
+    report_clipped(path, clipped, texture.shape[0] * texture.shape[1], "uint8")
+
+
+def png_bytes(data: np.ndarray) -> bytes:
+    """An 8-bit texture as PNG bytes, as :func:`warp_texton.write_image` writes it
+    (grey as one channel)."""
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray(data[:, :, 0] if data.shape[2] == 1 else data).save(buf, format="PNG")
+    return buf.getvalue()
+
+
+@contextlib.contextmanager
+def named_as(tmp, path):
+    """Errors raised inside name the output ``path``, never the temporary ``tmp``."""
+    try:
+        yield
+    except OSError as exc:
+        raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None
+    except TextonError as exc:
+        raise TextonError(str(exc).replace(str(tmp), str(path)), exc.param, mentions=exc.mentions) from None
+
+
+def check_surface(mesh, name: str) -> None:
+    """Refuse a mesh without area (every vertex on a line or at one point): it has no
+    normals, so no surface to texture and no up axis to honour."""
+    v = np.asarray(mesh.vertices, np.float64)
+    f = np.asarray(mesh.faces, np.int64)
+    area = np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1)
+    scale = float(np.ptp(v, axis=0).max()) if len(v) else 0.0
+    if not np.any(area > 1e-12 * max(scale, 1e-300) ** 2):
+        where = "at one point" if scale == 0.0 else "on a line"
+        raise TextonError(f"{name}: degenerate mesh: its triangles have no area (the vertices lie {where}), "
+                          "so it has no normals and no up axis to honour")
+
+
+
+#: Files a bake writes for each mesh format (besides the optional texture file).
+BAKE_FORMATS = ("glb", "obj")
+#: Formats of the texture file: 8-bit PNG or float32 EXR.
+TEXTURE_FORMATS = ("png", "exr")
+
+
+def bake_outputs(stem: Path, fmt: str, texture: str | None = None) -> list[Path]:
+    """The files :func:`write_baked` writes for ``stem`` (a path without extension)."""
+    stem = Path(stem)
+    out = [stem.with_suffix(".glb")] if fmt == "glb" else [stem.with_suffix(".obj"), stem.with_suffix(".mtl"),
+                                                            stem.with_suffix(".png")]
+    if texture is not None:
+        out.append(stem.parent / f"{stem.name}_texture.{texture}")
+    return out
+
+
+def write_baked(baked, stem, *, fmt: str = "glb", texture: str | None = None, linear: bool = False) -> list[Path]:
+    """Write a bake as GLB or OBJ + MTL + PNG, and optionally the texture alone.
+
+    ``STEM.glb`` holds the texture embedded as the base colour of a PBR
+    material, with the mesh's UVs and normals, its geometry turned from the
+    bake's up axis (``baked.up``, the ``up`` given to
+    :func:`warp_texton.bake_mesh`) to +Y, since glTF is Y-up by definition:
+    read it back with ``up="y"`` (``--up auto``) for the same world. UVs and
+    texture are not changed. ``STEM.obj`` + ``STEM.mtl`` + ``STEM.png`` keep
+    the mesh's own coordinates (OBJ declares no up axis): the MTL's ``map_Kd``
+    names the PNG, with a diffuse factor of 1. Every file is written to a
+    temporary name first and all are renamed at the end: all files appear
+    together, or none.
+
+    Every 8-bit texture (embedded in the GLB, the OBJ's PNG, ``STEM_texture.png``)
+    holds the values clipped to [0, 1]; when more than 1 % of the texels are
+    clipped a warning names that output, once.
+
+    Parameters
+    ----------
+    baked : BakedMesh
+        From :func:`warp_texton.bake_mesh`.
+    stem : str or Path
+        The output path without its extension.
+    fmt : {"glb", "obj"}
+    texture : {"png", "exr"}, optional
+        Also write the texture alone: ``STEM_texture.png`` (8-bit sRGB) or
+        ``STEM_texture.exr`` (float32: the noise's values).
+    linear : bool
+        The EXR texture holds the sRGB decoding of the values instead.
+
+    Returns
+    -------
+    list of Path
+        The paths written.
+
+    Raises
+    ------
+    TextonError
+        For a bad ``fmt`` or ``texture``, and the errors of the file system
+        (naming the output, never a temporary file).
+
+    Examples
+    --------
+    See :func:`warp_texton.bake_mesh`; ``write_baked(baked, "torus_baked",
+    fmt="obj")`` writes ``torus_baked.obj``, ``.mtl`` and ``.png``.
+    """
+    from .io import atomic_path, write_exr
+    from .mesh import srgb_to_linear
+
+    if fmt not in BAKE_FORMATS:
+        raise TextonError(f"fmt must be {' or '.join(repr(f) for f in BAKE_FORMATS)} (a baked mesh's file format), "
+                          f"got {fmt!r:.40}")
+    if texture is not None and texture not in TEXTURE_FORMATS:
+        raise TextonError(f"texture must be one of {', '.join(TEXTURE_FORMATS)}, got {texture!r}")
+    paths = bake_outputs(stem, fmt, texture)
+    clipped = texture_8bit(baked.texture)[1]
+    blobs: dict[Path, bytes] = {}
+    if fmt == "glb":
+        blobs[paths[0]] = export_mesh(baked.mesh, "glb", baked.up)
+    else:
+        from trimesh.exchange.obj import export_obj
+
+        text, files = export_obj(baked.mesh, include_normals=False, include_texture=True, return_texture=True,
+                                 mtl_name=paths[1].name)
+        png = next(v for k, v in files.items() if not k.endswith(".mtl"))
+        mtl = files[paths[1].name].decode("utf-8")
+        # the texture alone gives the colour: a diffuse factor of 1 (Kd multiplies map_Kd in viewers)
+        fixed = {"map_Kd": f"map_Kd {paths[2].name}", "Kd": "Kd 1.00000000 1.00000000 1.00000000"}
+        mtl = "\n".join(fixed.get(ln.split(" ")[0], ln) for ln in mtl.splitlines())
+        blobs[paths[0]] = text.encode("utf-8")
+        blobs[paths[1]] = (mtl + "\n").encode("utf-8")
+        blobs[paths[2]] = png
+    if texture == "png":
+        blobs[paths[-1]] = png_bytes(texture_8bit(baked.texture, rgb=False)[0])
+    with contextlib.ExitStack() as stack:
+        # every temporary file is written before the first rename: all files or none
+        for path, data in blobs.items():
+            Path(stack.enter_context(atomic_path(path))).write_bytes(data)
+        if texture == "exr":
+            img = baked.texture
+            if linear:
+                img = srgb_to_linear(np.clip(img, 0.0, 1.0)).astype(np.float32)
+            tmp = Path(stack.enter_context(atomic_path(paths[-1])))
+            with named_as(tmp, paths[-1]):
+                write_exr(tmp.with_name(tmp.name + ".exr"), img)
+                tmp.with_name(tmp.name + ".exr").replace(tmp)
+    for path in paths:  # one report per 8-bit texture written, by its own name
+        if path.suffix == ".png" or path.suffix == ".glb":
+            report_texture_clipping(path, clipped, baked.texture)
+    return paths
