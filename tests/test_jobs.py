@@ -63,6 +63,17 @@ def mesh_dir(tmp_path):
 TEMP_NAME = re.compile(r"\.part\b|\.\d+-[0-9a-f]{4}\.\w{8}\b")
 
 
+def assert_usage_error(status: int, captured, out: Path, match: str) -> None:
+    """One ``warp-texton: error:`` line matching ``match``, exit status 2, no traceback, no output."""
+    assert status == 2
+    lines = captured.err.splitlines()
+    assert len(lines) == 1, captured.err
+    assert "Traceback" not in captured.err + captured.out
+    assert re.match(r"^warp-texton(?: surface)?: error: \S", lines[0]), lines[0]
+    assert re.search(match, lines[0]), lines[0]
+    assert not out.exists() or list(out.iterdir()) == []
+
+
 class Tee:
     """A text stream that writes to ``stream`` and keeps a copy (what the user saw)."""
 
@@ -412,14 +423,7 @@ class TestCli:
     def test_usage_errors(self, tmp_path, mesh_dir, texton_path, capsys, extra, match):
         out = tmp_path / "out"
         status = surface(mesh_dir, texton_path, out, extra=extra)
-        captured = capsys.readouterr()
-        assert status == 2
-        lines = captured.err.splitlines()
-        assert len(lines) == 1, captured.err
-        assert re.match(r"^warp-texton(?: surface)?: error: \S", lines[0]), lines[0]
-        assert re.search(match, lines[0]), lines[0]
-        assert "Traceback" not in captured.err + captured.out
-        assert not out.exists() or list(out.iterdir()) == []
+        assert_usage_error(status, capsys.readouterr(), out, match)
 
     @pytest.mark.parametrize("texton", ["missing.exr", "broken.texton", "image.png"])
     def test_bad_texton_is_one_error(self, tmp_path, mesh_dir, capsys, texton):
@@ -560,12 +564,7 @@ class TestBakeCli:
     def test_usage_errors(self, tmp_path, mesh_dir, texton_path, capsys, extra, match):
         out = tmp_path / "out"
         status = surface(mesh_dir, texton_path, out, extra=extra)
-        captured = capsys.readouterr()
-        assert status == 2
-        lines = captured.err.splitlines()
-        assert len(lines) == 1 and re.search(match, lines[0]), captured.err
-        assert "Traceback" not in captured.err
-        assert not out.exists() or list(out.iterdir()) == []
+        assert_usage_error(status, capsys.readouterr(), out, match)
 
     def test_missing_xatlas_fails_each_mesh_with_the_reason(self, tmp_path, mesh_dir, texton_path, capsys,
                                                              monkeypatch):

@@ -21,34 +21,12 @@ from ._checks import check_int, check_positive, check_seed, check_shape
 from ._runtime import progress_bar, resolve_device
 from .canvas import Canvas, check_output, group_size, result_bytes
 from .errors import TextonError
-from .filtering import (
-    COST_HINT_NAMES,
-    FILTER_BYTES_PER_PIXEL,
-    FilterOptions,
-    RasterPixels,
-    filter_pixels,
-    needs_filtering,
-)
+from .filtering import (COST_HINT_NAMES, FILTER_BYTES_PER_PIXEL, FilterOptions, RasterPixels, filter_pixels,
+                        needs_filtering)
 from .limits import check_memory
-from .noise import (
-    CELL_FACTOR,
-    NoiseSetup,
-    noise_setup,
-    params_record,
-    params_struct,
-)
-from .raster import (
-    RasterWindow,
-    TextonStack,
-    check_method,
-    check_raster_cost,
-    raster_cost,
-    raster_geometry,
-    raster_reach,
-    rasters,
-    resolve_method,
-    window_block,
-)
+from .noise import CELL_FACTOR, NoiseSetup, noise_setup, params_record, params_struct
+from .raster import (RasterWindow, TextonStack, check_method, check_raster_cost, raster_cost, raster_geometry,
+                     raster_reach, rasters, resolve_method, window_block)
 from .synthesis import filtered_work
 from .texton import Texton
 

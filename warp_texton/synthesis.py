@@ -24,41 +24,12 @@ from ._checks import as_real_array, check_seed, check_shape
 from ._runtime import progress_bar, resolve_device
 from .canvas import Canvas, check_output, result_bytes, strips
 from .errors import TextonError
-from .filtering import (
-    COST_HINT_NAMES,
-    COST_SAMPLES,
-    FILTER_BYTES_PER_PIXEL,
-    FilterOptions,
-    RasterPixels,
-    check_jacobian,
-    filter_pixels,
-    filter_work,
-    needs_filtering,
-    pixel_cost,
-)
-from .noise import (
-    CELL_FACTOR,
-    NoiseSetup,
-    check_cell_range,
-    check_points_cost,
-    noise_params,
-    noise_setup,
-    params_record,
-    params_struct,
-    point_values,
-)
-from .raster import (
-    RasterWindow,
-    TextonStack,
-    check_method,
-    check_raster_cost,
-    raster_cost,
-    raster_geometry,
-    raster_reach,
-    rasters,
-    resolve_method,
-    window_block,
-)
+from .filtering import (COST_HINT_NAMES, COST_SAMPLES, FILTER_BYTES_PER_PIXEL, FilterOptions, RasterPixels,
+                        check_jacobian, filter_pixels, filter_work, needs_filtering, pixel_cost)
+from .noise import (CELL_FACTOR, NoiseSetup, check_cell_range, check_points_cost, noise_params, noise_setup,
+                    params_record, params_struct, point_values)
+from .raster import (RasterWindow, TextonStack, check_method, check_raster_cost, raster_cost, raster_geometry,
+                     raster_reach, rasters, resolve_method, window_block)
 from .texton import Texton
 
 if TYPE_CHECKING:
