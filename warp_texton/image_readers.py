@@ -23,7 +23,10 @@ rather than guessed at.
 
 from __future__ import annotations
 
+import contextlib
+import logging
 import struct
+import threading
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -221,6 +224,42 @@ def _raise_pillow_limit() -> None:
         Image.MAX_IMAGE_PIXELS = max(Image.MAX_IMAGE_PIXELS, memory_budget() // MIN_PIXEL_BYTES)
 
 
+@contextlib.contextmanager
+def _quiet_tifffile():
+    """tifffile logs what it finds odd in a file (to stderr, where logging is not
+    configured); the reader reads or refuses the file with one message, so the
+    records of this thread are dropped while it reads."""
+    me = threading.get_ident()
+    log = logging.getLogger("tifffile")
+
+    def other_threads(record: logging.LogRecord) -> bool:
+        return record.thread != me
+
+    log.addFilter(other_threads)
+    try:
+        yield
+    finally:
+        log.removeFilter(other_threads)
+
+
+def declared(path: Path) -> Declared | None:
+    """The layout a PNG, JPEG or TIFF file declares (None for other formats, or a
+    TIFF that Pillow reads), from its header alone."""
+    if path.suffix.lower() in (".tif", ".tiff"):
+        try:
+            import tifffile
+        except ImportError:
+            return None
+        try:
+            with _quiet_tifffile(), tifffile.TiffFile(str(path)) as tif:
+                return tiff_declared(path, tif)
+        except TextonError:
+            raise
+        except Exception as exc:
+            raise TextonError(f"{path}: not a TIFF image that can be read ({exc})") from None
+    return png_declared(path, _has_codecs()) or jpeg_declared(path)
+
+
 def _has_codecs() -> bool:
     try:
         import imagecodecs  # noqa: F401
@@ -333,6 +372,11 @@ def _read_tiff(path: Path) -> np.ndarray | None:
         import tifffile
     except ImportError:
         return None
+    with _quiet_tifffile():
+        return _decode_tiff(path, tifffile)
+
+
+def _decode_tiff(path: Path, tifffile) -> np.ndarray | None:
     try:
         tif = tifffile.TiffFile(str(path))
     except Exception as exc:

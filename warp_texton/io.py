@@ -390,6 +390,22 @@ def read_image(path) -> np.ndarray:
     return as_image(read_pixels(path), str(path), limit=None)
 
 
+def image_size(path) -> tuple[int, int, int] | None:
+    """(height, width, channels) that an image file's header declares, without
+    decoding it (channels once read: 1 or 3), or None for formats whose header is
+    not read here; callers that will analyse the image price that first."""
+    from .image_readers import declared
+
+    path = check_path(path, "path")
+    if not path.is_file():
+        return None
+    if path.suffix.lower() == EXR:
+        h, w, c = exr_size(read_exr_header(path), path)
+        return h, w, 1 if c == 1 else 3
+    d = declared(path)
+    return None if d is None else (d.height, d.width, d.channels)
+
+
 def check_image_path(path, name: str = "path") -> Path:
     """``path`` as a Path if its extension is one ``write_image`` writes and its
     name fits the file system (checked before long work, so that a bad name
