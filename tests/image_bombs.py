@@ -35,8 +35,9 @@ def tiff_declaring(path: Path, width: int, height: int, *, samples: int = 3, dty
     import tifffile
 
     shape = (4, 4, samples) if samples > 1 else (4, 4)
+    extra = {"extrasamples": ["unassalpha"]} if samples in (2, 4) else {}
     tifffile.imwrite(path, np.zeros(shape, dtype), photometric="rgb" if samples >= 3 else "minisblack",
-                     compression="zlib", metadata=None)
+                     compression="zlib", metadata=None, **extra)
     with tifffile.TiffFile(path) as tif:
         tags = tif.pages.first.tags
         spots = [(tags[name].valueoffset, tags[name].dtype) for name in ("ImageWidth", "ImageLength", "RowsPerStrip")]
