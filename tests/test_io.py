@@ -2,15 +2,21 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
+import warnings
 
+import imagecodecs
+from helpers import assert_nothing_written, parts, raw_exr
+from image_bombs import png_declaring, tiff_declaring
 import numpy as np
 import OpenEXR
-from helpers import assert_nothing_written, parts, raw_exr
 import pytest
 from PIL import Image
+import tifffile
 
 from warp_texton import TextonError, read_image, write_image
+from warp_texton.limits import set_memory_budget
 
 LOSSY_EXR = {
     OpenEXR.B44_COMPRESSION,
@@ -19,6 +25,15 @@ LOSSY_EXR = {
     OpenEXR.DWAB_COMPRESSION,
     OpenEXR.PXR24_COMPRESSION,
 }
+
+
+@contextlib.contextmanager
+def limits_set(budget: str):
+    set_memory_budget(budget)
+    try:
+        yield
+    finally:
+        set_memory_budget(None)
 
 
 @pytest.fixture
@@ -465,3 +480,181 @@ class TestOutputFormats:
         with pytest.raises(TextonError, match=match):
             write_image(tmp_path / path, np.zeros((2, 2, 3)), **kw)
         assert_nothing_written(tmp_path / path)
+
+
+# ------------------------------------------------ declared sizes, priced before decoding
+class TestHeaderPricing:
+    """A file whose header declares a huge image is refused from the header: the
+    crafted files hold a 4x4 image, so a reader that decoded first would fail on the
+    truncated data instead (or allocate the declared size)."""
+
+    @pytest.mark.parametrize("mode, bits", [("L", 8), ("LA", 8), ("RGB", 8), ("RGBA", 8), ("P", 8),
+                                            ("L", 16), ("LA", 16), ("RGB", 16), ("RGBA", 16)])
+    def test_png_of_every_kind(self, tmp_path, mode, bits):
+        path = png_declaring(tmp_path / "huge.png", 20000, 20000, mode=mode, bits=bits)
+        with limits_set("256M"), pytest.raises(TextonError, match=r"huge\.png: a 20000x20000 image .*"
+                                               r"over the memory budget of 256 MiB"):
+            read_image(path)
+
+    @pytest.mark.parametrize("samples, dtype", [(1, np.uint8), (2, np.uint16), (3, np.uint16), (3, np.float32)])
+    def test_tiff(self, tmp_path, samples, dtype):
+        path = tiff_declaring(tmp_path / "huge.tif", 30000, 30000, samples=samples, dtype=dtype)
+        with limits_set("256M"), pytest.raises(TextonError, match=r"huge\.tif: a 30000x30000 image"):
+            read_image(path)
+
+    def test_jpeg(self, tmp_path):
+        path = tmp_path / "huge.jpg"
+        Image.new("RGB", (4, 4)).save(path)
+        data = bytearray(path.read_bytes())
+        sof = data.index(b"\xff\xc0")
+        data[sof + 5:sof + 9] = (20000).to_bytes(2, "big") * 2
+        path.write_bytes(bytes(data))
+        with limits_set("256M"), pytest.raises(TextonError, match=r"huge\.jpg: a 20000x20000 image of 3 8-bit"):
+            read_image(path)
+
+    def test_the_estimate_grows_with_what_the_decoder_holds(self):
+        from warp_texton.image_readers import Declared, decode_bytes
+
+        grey8, rgb16 = Declared(100, 100, 1, 1, "pillow"), Declared(100, 100, 3, 2, "png16")
+        assert decode_bytes(grey8) >= 100 * 100 * 5  # at least the float32 image and its mask
+        assert decode_bytes(rgb16) >= 100 * 100 * (6 + 12)
+        assert decode_bytes(Declared(100, 100, 3, 2, "tiff")) > decode_bytes(rgb16)  # strip buffers
+
+    def test_an_image_the_budget_holds_is_read(self, tmp_path, rng):
+        a = rng.integers(0, 65536, (30, 20, 3), dtype=np.uint16)
+        (tmp_path / "ok.png").write_bytes(imagecodecs.png_encode(a))
+        with limits_set("1M"):
+            u = read_image(tmp_path / "ok.png")
+        assert np.array_equal(u, (a / 65535.0).astype(np.float32))
+
+    def test_pillows_bomb_limit_follows_the_budget(self, tmp_path):
+        """A low Pillow limit neither warns nor refuses what the budget accepts; a
+        format whose header Pillow reads (BMP) gives one TextonError past the budget."""
+        Image.new("L", (100, 100), 7).save(tmp_path / "ok.bmp")
+        for side in (30000, 15000):  # past twice Pillow's limit (its error), past it (its warning)
+            Image.new("L", (4, 4)).save(tmp_path / f"huge{side}.bmp")
+            data = bytearray((tmp_path / f"huge{side}.bmp").read_bytes())
+            data[18:26] = side.to_bytes(4, "little") * 2
+            (tmp_path / f"huge{side}.bmp").write_bytes(bytes(data))
+        before = Image.MAX_IMAGE_PIXELS
+        try:
+            Image.MAX_IMAGE_PIXELS = 1000
+            with warnings.catch_warnings():
+                warnings.simplefilter("error")
+                assert read_image(tmp_path / "ok.bmp").shape == (100, 100, 1)
+                for side in (30000, 15000):
+                    with limits_set("1G"), pytest.raises(TextonError, match=f"huge{side}.bmp.*memory budget"):
+                        read_image(tmp_path / f"huge{side}.bmp")
+            Image.MAX_IMAGE_PIXELS = None  # unset by the user: stays unset
+            read_image(tmp_path / "ok.bmp")
+            assert Image.MAX_IMAGE_PIXELS is None
+        finally:
+            Image.MAX_IMAGE_PIXELS = before
+
+    def test_image_size_reads_the_header_only(self, tmp_path):
+        from warp_texton.io import image_size
+
+        assert image_size(png_declaring(tmp_path / "a.png", 20000, 10000, mode="RGBA")) == (10000, 20000, 3)
+        assert image_size(tiff_declaring(tmp_path / "b.tif", 300, 200, samples=2)) == (200, 300, 1)
+
+
+# ------------------------------------------------ TIFF layouts: read as declared or refused
+class TestTiffLayouts:
+    @pytest.mark.parametrize("rows", [1, 2, 3, 4])
+    def test_grey_and_alpha_with_few_rows(self, tmp_path, rng, rows):
+        a = rng.integers(0, 65536, (rows, 40, 2), dtype=np.uint16)
+        tifffile.imwrite(tmp_path / "ga.tif", a, photometric="minisblack", extrasamples=["unassalpha"])
+        with pytest.warns(UserWarning, match="alpha"):
+            u = read_image(tmp_path / "ga.tif")
+        assert np.array_equal(u, (a[:, :, :1] / 65535.0).astype(np.float32))
+
+    @pytest.mark.parametrize("width", [1, 2, 5])
+    def test_planar_rgb(self, tmp_path, rng, width):
+        a = rng.integers(0, 256, (3, 40, width), dtype=np.uint8)
+        tifffile.imwrite(tmp_path / "p.tif", a, photometric="rgb", planarconfig="separate")
+        u = read_image(tmp_path / "p.tif")
+        assert np.array_equal(u, (np.moveaxis(a, 0, -1) / 255.0).astype(np.float32))
+
+    @pytest.mark.parametrize("shape, match", [((3, 20, 20), "3 pages"), ((4, 20, 20, 3), "4 pages"),
+                                              ((2, 3, 10, 10), "6 pages")])
+    def test_stacks_are_refused(self, tmp_path, rng, shape, match):
+        a = rng.integers(0, 256, shape, dtype=np.uint8)
+        tifffile.imwrite(tmp_path / "s.tif", a, photometric="rgb" if shape[-1] == 3 else "minisblack")
+        with pytest.raises(TextonError, match=rf"s\.tif: a TIFF with {match}"):
+            read_image(tmp_path / "s.tif")
+
+    @pytest.mark.parametrize("photometric, samples", [("separated", 4), ("miniswhite", 1), ("minisblack", 3)])
+    def test_undeclared_colour_layouts_are_refused(self, tmp_path, rng, photometric, samples):
+        a = rng.integers(0, 256, (8, 8, samples) if samples > 1 else (8, 8), dtype=np.uint8)
+        kw = {"planarconfig": "contig"} if samples > 1 else {}
+        tifffile.imwrite(tmp_path / "c.tif", a, photometric=photometric, **kw)
+        with pytest.raises(TextonError, match=rf"a {photometric} TIFF with {samples} samples"):
+            read_image(tmp_path / "c.tif")
+
+    def test_palette_tiff_is_read_through_its_colour_map(self, tmp_path):
+        cmap = np.zeros((3, 256), np.uint16)
+        cmap[0, 1] = 65535  # index 1 is red
+        tifffile.imwrite(tmp_path / "pal.tif", np.array([[0, 1]], np.uint8), photometric="palette", colormap=cmap)
+        assert read_image(tmp_path / "pal.tif").tolist() == [[[0, 0, 0], [1, 0, 0]]]
+
+    def test_stack_on_the_command_line(self, tmp_path, capsys):
+        from warp_texton.cli import main
+
+        tifffile.imwrite(tmp_path / "stack3.tif", np.zeros((3, 16, 16), np.uint8), photometric="minisblack")
+        assert main(["analyze", str(tmp_path / "stack3.tif"), "-o", str(tmp_path / "t.exr")]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "3 pages" in err
+        assert not (tmp_path / "t.exr").exists()
+
+
+class TestSixteenBitPng:
+    @pytest.mark.parametrize("samples", [2, 3, 4])
+    def test_all_sixteen_bits_are_read(self, tmp_path, rng, samples):
+        a = rng.integers(0, 65536, (9, 7, samples), dtype=np.uint16)
+        (tmp_path / "a.png").write_bytes(imagecodecs.png_encode(a))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the alpha warning
+            u = read_image(tmp_path / "a.png")
+        keep = 1 if samples == 2 else 3
+        assert np.array_equal(u, (a[:, :, :keep] / 65535.0).astype(np.float32))
+
+
+class TestWriteArguments:
+    @pytest.mark.parametrize("dtype", [0, 1.5, [1], "int7", object, np.dtype("complex64")])
+    def test_bad_dtype(self, tmp_path, dtype):
+        with pytest.raises(TextonError, match=r"\.png stores uint8, uint16") as exc:
+            write_image(tmp_path / "a.png", np.zeros((2, 2)), dtype=dtype)
+        assert exc.value.param == "dtype"
+        assert not list(tmp_path.iterdir())
+
+    @pytest.mark.parametrize("compression", [np.array([4, 4]), 4, ["zip"], b"zip"])
+    def test_bad_compression(self, tmp_path, compression):
+        with pytest.raises(TextonError, match="compression must be a name") as exc:
+            write_image(tmp_path / "a.exr", np.zeros((2, 2)), compression=compression)
+        assert exc.value.param == "compression"
+
+    def test_numpy_types_still_name_a_dtype(self, tmp_path):
+        write_image(tmp_path / "a.png", np.zeros((2, 2)), dtype=np.uint16)
+        assert Image.open(tmp_path / "a.png").mode.startswith("I;16")
+
+    def test_huge_values_give_no_numpy_warning(self, tmp_path):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            with pytest.raises(TextonError, match="within"):
+                write_image(tmp_path / "a.exr", np.full((2, 2), 1e300))
+
+
+class TestInterruptibleWrite:
+    def test_a_failing_threaded_write_is_reported_and_leaves_nothing(self, tmp_path, monkeypatch):
+        from warp_texton import io
+
+        monkeypatch.setattr(io, "THREADED_WRITE_BYTES", 0)
+        write_image(tmp_path / "a.exr", np.ones((8, 8, 3)))
+        assert read_image(tmp_path / "a.exr").shape == (8, 8, 3)
+
+        def fail():
+            raise RuntimeError("No space left on device")
+
+        with pytest.raises(RuntimeError, match="No space"):
+            io._interruptible(fail, str(tmp_path / "x"), 1)
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["a.exr"]

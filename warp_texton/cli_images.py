@@ -28,12 +28,12 @@ def _analyze_arguments(p: argparse.ArgumentParser) -> None:
 
 def _analyze(args) -> None:
     from .analysis import analyze
-    from .io import read_image
+    from .cli_options import read_example
 
     out = Path(args.output)
     if out.suffix.lower() not in (".exr", ".texton"):
         raise TextonError(f"{out}: unsupported texton extension {out.suffix or '(none)'!r}; use .exr or .texton")
-    u = read_image(args.input)
+    u = read_example(args.input, args.iterations)
     t0 = time.perf_counter()
     texton = analyze(u, size=args.size, order=args.order, iterations=args.iterations, seed=args.seed,
                      periodic=args.periodic, color_correction=args.color_correction,

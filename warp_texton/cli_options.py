@@ -157,17 +157,29 @@ def dtype_of(args):
 
 
 # ------------------------------------------------------------------ inputs and timing
+def read_example(path, iterations: int):
+    """An example image, its analysis priced from the file's header before its pixels
+    are decoded (the same estimate as ``analyze``'s)."""
+    from .analysis import check_analysis_cost
+    from .io import image_size, read_image
+
+    size = image_size(path)
+    if size is not None:
+        h, w, c = size
+        check_analysis_cost((h, w), c, iterations, f"analysing a {w}x{h} image")
+    return read_image(path)
+
+
 def texton_of(args, path=None):
     """The texton file ``path`` (default: args.input), or the texton of that example
     image, analysed with the analysis options."""
     from .analysis import analyze
-    from .io import read_image
     from .texton import is_texton_path, load_texton
 
     path = args.input if path is None else path
     if is_texton_path(path):
         return load_texton(path)
-    return analyze(read_image(path), size=args.size, order=args.order, iterations=args.iterations,
+    return analyze(read_example(path, args.iterations), size=args.size, order=args.order, iterations=args.iterations,
                    seed=args.seed, periodic=args.periodic, color_correction=args.color_correction,
                    support=args.support, progress=not args.quiet)
 

@@ -14,6 +14,7 @@ import contextlib
 import errno
 import os
 import tempfile
+import threading
 import warnings
 from pathlib import Path
 
@@ -215,9 +216,51 @@ def write_exr(path, img: np.ndarray, half: bool = False, compression: str = "zip
     channels = {"Y": np.ascontiguousarray(img[:, :, 0])} if img.shape[2] == 1 else {"RGB": img}
     with atomic_path(path) as tmp:
         try:
-            exr.File(header, channels).write(str(tmp))
+            _interruptible(lambda: exr.File(header, channels).write(str(tmp)), tmp, img.nbytes)
         except RuntimeError as exc:  # how OpenEXR reports a failed write (disk full, I/O error...)
             raise _write_error(exc, path, tmp) from None
+
+
+#: Writes of more bytes than this run in a worker thread (see _interruptible).
+THREADED_WRITE_BYTES = 16 << 20
+#: Seconds between two looks at a pending signal while a worker thread writes.
+WAIT_SLICE = 0.1
+
+
+def _interruptible(write, tmp, nbytes: int) -> None:
+    """Run ``write()``, one native call that releases the GIL (OpenEXR's write of a
+    whole image: its Python binding offers no write in parts), so that Ctrl-C and
+    SIGTERM still act within WAIT_SLICE: Python runs signal handlers only in the
+    main thread between bytecodes, so a large write runs in a worker thread while
+    the caller waits in short slices. An interrupted worker cannot be stopped; it
+    finishes into the temporary file (which :func:`atomic_path` has removed) and
+    removes the file again if the write re-created it."""
+    if nbytes <= THREADED_WRITE_BYTES or threading.current_thread() is not threading.main_thread():
+        write()
+        return
+    failure: list[BaseException] = []
+    cancelled = threading.Event()
+
+    def work() -> None:
+        try:
+            write()
+        except BaseException as exc:  # handed to the caller below
+            failure.append(exc)
+        finally:
+            if cancelled.is_set():
+                with contextlib.suppress(OSError):
+                    os.unlink(tmp)
+
+    worker = threading.Thread(target=work, name="warp-texton-write", daemon=True)
+    worker.start()
+    try:
+        while worker.is_alive():
+            worker.join(WAIT_SLICE)
+    except BaseException:
+        cancelled.set()
+        raise
+    if failure:
+        raise failure[0]
 
 
 def read_exr_header(path) -> dict:
@@ -239,11 +282,12 @@ def exr_size(header: dict, path) -> tuple[int, int, int]:
     return int(y1 - y0 + 1), int(x1 - x0 + 1), channels
 
 
-def check_image_memory(h: int, w: int, c: int, path, copies: float = 3.0) -> None:
+def check_image_memory(h: int, w: int, c: int, path, copies: float = 3.0, nbytes: float | None = None) -> None:
     """Refuse to read an (h, w, c) image whose pixels would not fit the memory budget:
+    ``nbytes`` when given (:func:`~warp_texton.image_headers.decode_bytes`), else
     the decoded pixels plus the float32 image (``copies`` float32 images in all)."""
-    check_memory(float(h) * w * max(c, 1) * 4.0 * copies, f"{path}: a {w}x{h} image with {c} channels",
-                 "use a smaller image")
+    need = float(h) * w * max(c, 1) * 4.0 * copies if nbytes is None else nbytes
+    check_memory(need, f"{path}: a {w}x{h} image with {c} channels", "use a smaller image")
 
 
 def read_exr(path, max_side: int | None = None, what: str = "image") -> tuple[np.ndarray, dict]:
@@ -291,74 +335,6 @@ def read_exr(path, max_side: int | None = None, what: str = "image") -> tuple[np
 def is_texton_header(header: dict) -> bool:
     """True when EXR header attributes are those of a texton written by this package."""
     return "texton_order" in header
-
-
-def _pil_to_array(im, path) -> np.ndarray:
-    mode = im.mode
-    if mode in ("I;16", "I;16B", "I;16L", "I;16N"):
-        return np.asarray(im, dtype=np.float64) / 65535.0
-    if mode == "I":
-        a = np.asarray(im, dtype=np.float64)
-        if a.min() < 0 or a.max() > 65535:
-            raise TextonError(f"{path}: 32-bit integer pixels are not supported; use 8/16-bit or EXR")
-        return a / 65535.0
-    if mode == "F":
-        return np.asarray(im, dtype=np.float64)
-    if mode in ("LA", "PA", "RGBA") or (mode == "P" and "transparency" in im.info):
-        warnings.warn(f"{path}: dropping the alpha channel", stacklevel=4)
-        im = im.convert("RGBA").convert("RGB") if mode != "LA" else im.convert("L")
-    elif mode == "1":
-        im = im.convert("L")
-    elif mode not in ("L", "RGB"):
-        im = im.convert("RGB")
-    return np.asarray(im, dtype=np.float64) / 255.0
-
-
-def _scaled(a: np.ndarray, path) -> np.ndarray:
-    """Integer pixels scaled by their type's range; floats as they are."""
-    if a.ndim == 3 and a.shape[2] in (2, 4):
-        warnings.warn(f"{path}: dropping the alpha channel", stacklevel=4)
-        a = a[:, :, : a.shape[2] - 1]
-    if np.issubdtype(a.dtype, np.integer):
-        return a.astype(np.float64) / float(np.iinfo(a.dtype).max)
-    return a
-
-
-def _read_tiff(path):
-    """A TIFF through tifffile (float and 16-bit RGB, which Pillow cannot read), or
-    None without tifffile (Pillow reads the common cases then)."""
-    try:
-        import tifffile
-    except ImportError:
-        return None
-    try:
-        a = np.asarray(tifffile.imread(str(path)))
-    except Exception as exc:
-        raise TextonError(f"{path}: not a TIFF image that can be read ({exc})") from None
-    if a.ndim == 3 and a.shape[0] in (1, 3, 4) and a.shape[2] not in (1, 3, 4):
-        a = np.moveaxis(a, 0, -1)  # planar (C, H, W)
-    if a.dtype == bool or a.ndim not in (2, 3):
-        raise TextonError(f"{path}: a TIFF of shape {a.shape} and type {a.dtype} is not an image")
-    return as_image(_scaled(a, path), str(path))
-
-
-def _read_png48(path):
-    """A 16-bit RGB(A) PNG through imagecodecs (Pillow reads it as 8 bits), or None
-    for other PNGs."""
-    with open(path, "rb") as f:
-        head = f.read(26)
-    if len(head) < 26 or head[:8] != b"\x89PNG\r\n\x1a\n" or head[24] != 16 or head[25] not in (2, 6):
-        return None
-    try:
-        import imagecodecs
-    except ImportError:
-        warnings.warn(f"{path}: a 16-bit RGB PNG read with 8 bits; {FORMATS_EXTRA} reads all 16", stacklevel=3)
-        return None
-    try:
-        a = imagecodecs.png_decode(path.read_bytes())
-    except Exception as exc:
-        raise TextonError(f"{path}: not a PNG that can be read ({exc})") from None
-    return as_image(_scaled(np.asarray(a), path), str(path))
 
 
 def read_image(path) -> np.ndarray:
@@ -409,27 +385,25 @@ def read_image(path) -> np.ndarray:
         )
     if ext == EXR:
         return read_exr(path)[0]
-    if ext in TIFF:
-        tiff = _read_tiff(path)
-        if tiff is not None:
-            return tiff
-    if ext == ".png":
-        png = _read_png48(path)
-        if png is not None:
-            return png
-    from PIL import Image
+    from .image_readers import read_pixels
 
-    try:
-        with Image.open(path) as im:
-            w, h = im.size
-            check_image_memory(h, w, len(im.getbands()), path, copies=4.0)  # float64 decode + float32
-            im.load()
-            a = _pil_to_array(im, path)
-    except TextonError:
-        raise
-    except Exception as exc:
-        raise TextonError(f"{path}: not an image that can be read ({exc})") from None
-    return as_image(a, str(path), limit=None)
+    return as_image(read_pixels(path), str(path), limit=None)
+
+
+def image_size(path) -> tuple[int, int, int] | None:
+    """(height, width, channels) that an image file's header declares, without
+    decoding it (channels once read: 1 or 3), or None for formats whose header is
+    not read here; callers that will analyse the image price that first."""
+    from .image_readers import declared
+
+    path = check_path(path, "path")
+    if not path.is_file():
+        return None
+    if path.suffix.lower() == EXR:
+        h, w, c = exr_size(read_exr_header(path), path)
+        return h, w, 1 if c == 1 else 3
+    d = declared(path)
+    return None if d is None else (d.height, d.width, d.channels)
 
 
 def check_image_path(path, name: str = "path") -> Path:
@@ -450,9 +424,14 @@ def check_dtype(path, dtype=None) -> str:
     ext = check_image_path(path).suffix.lower()
     if dtype is None:
         return DTYPES[ext][0]
-    name = np.dtype(dtype).name if not isinstance(dtype, str) else dtype
+    name = dtype if isinstance(dtype, str) else None
+    if isinstance(dtype, (type, np.dtype)):
+        try:
+            name = np.dtype(dtype).name
+        except TypeError:
+            name = None
     if name not in DTYPES[ext]:
-        raise TextonError(f"{path}: {ext} stores {', '.join(DTYPES[ext])}, not {dtype!r}")
+        raise TextonError(f"{path}: {ext} stores {', '.join(DTYPES[ext])}, not {dtype!r:.60}", param="dtype")
     return name
 
 
@@ -566,6 +545,9 @@ def write_image(path, img, *, dtype=None, compression=None) -> int:
     ext = path.suffix.lower()
     dtype = check_dtype(path, dtype)
     img = as_image(img, "img", limit=None)
+    if compression is not None and not isinstance(compression, str):
+        raise TextonError(f"compression must be a name such as 'zip' (EXR) or 'zlib' (TIFF), got "
+                          f"{type(compression).__name__} {compression!r:.60}", param="compression")
     if compression is not None and ext not in (EXR, *TIFF):
         raise TextonError(f"{path}: compression applies to .exr and .tif/.tiff outputs, not {ext}")
     if ext == EXR:
