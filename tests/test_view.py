@@ -292,7 +292,7 @@ def test_uploads_are_checked(client):
     status, _, body = upload(client, b"\x76\x2f\x31\x01" + bytes(100))  # an EXR
     assert status == 400 and b"PNG or JPEG" in body
     status, _, body = upload(client, png(np.zeros((5000, 5000), bool)))  # a tiny file of many pixels
-    assert status == 400 and b"at most" in body
+    assert status == 413 and b"at most" in body
     status, _, body = upload(client, good)
     assert status == 200
     info = json.loads(body)

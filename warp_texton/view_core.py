@@ -34,7 +34,9 @@ from ._version import __version__
 from .analysis import analyze
 from .filter_options import FILTERS
 from .gaussian import gaussian_texture, periodic_component
+from .errors import OverBudget, TextonError
 from .io import write_image
+from .limits import Cancelled, cancellable, format_bytes, memory_budget, scoped_budget, work_budget
 from .mixing import mix_textons, synthesize_mixed
 from .plane import render_plane
 from .synthesis import synthesize
@@ -50,6 +52,17 @@ from .view_query import (ANALYSIS_SEED, ENLARGE, MAX_EXPORT_PIXELS, MAX_EXPORT_S
 
 #: Requests waiting for a computation beyond this are answered 503.
 MAX_WAITING = 512
+#: A request's memory: its share of the memory budget (what the image cache
+#: leaves, divided among the slots), and at most this.
+MAX_REQUEST_BYTES = 1 << 30
+#: A tile's, plane view's or panel's work (operations, as limits.check_work
+#: counts them): about a second of a few CPU cores. Exports have the process's
+#: work budget.
+MAX_VIEW_WORK = 2.0e9
+#: Uploaded images kept for mixing, at most (the oldest go first; the newest stays).
+MAX_KEPT_UPLOAD_BYTES = 256 << 20
+#: The smallest share of memory a slot may have.
+MIN_SLOT_BYTES = 64 << 20
 
 
 class ClientGone(Exception):
@@ -80,6 +93,14 @@ class Viewer:
         self.device = device
         self.defaults = (analysis, noise)
         self._slots = threading.BoundedSemaphore(slots)
+        share = (memory_budget() - cache_bytes - MAX_KEPT_UPLOAD_BYTES) // slots
+        if share < MIN_SLOT_BYTES:
+            raise TextonError(f"cache_mb={cache_bytes / (1 << 20):g} and slots={slots} leave "
+                              f"{format_bytes(max(share, 0))} of the memory budget of {format_bytes(memory_budget())} "
+                              f"(less {format_bytes(MAX_KEPT_UPLOAD_BYTES)} for uploads) to each computation (at least {format_bytes(MIN_SLOT_BYTES)}); use a smaller "
+                              "cache_mb or fewer slots", param="cache_mb", mentions=("slots",))
+        #: the bounds of one request's computation
+        self.request_bytes = min(MAX_REQUEST_BYTES, share)
         self._waiting = 0
         self._waiting_lock = threading.Lock()
         self._textons = Memo(16)
@@ -120,15 +141,21 @@ class Viewer:
         texton.metadata["source"] = self.source.name
         return texton
 
-    def add_upload(self, data: bytes, name: str) -> Source:
-        b = decode_upload(data, safe_name(name), self.workdir)
+    def add_upload(self, data: bytes, name: str, alive=None) -> Source:
+        """Decode an upload in a computation slot, within a request's bounds."""
+        b = self._compute(alive, lambda: decode_upload(data, safe_name(name), self.workdir), MAX_VIEW_WORK)
         with self._uploads_lock:
             self._uploads[b.digest] = b
             self._uploads.move_to_end(b.digest)
-            while len(self._uploads) > MAX_UPLOADS + (self.start_b is not None):
-                oldest = next(k for k in self._uploads if k != self.start_b)
+            while len(self._uploads) > 1 + (self.start_b is not None) and (
+                    len(self._uploads) > MAX_UPLOADS + (self.start_b is not None)
+                    or self._kept_upload_bytes() > MAX_KEPT_UPLOAD_BYTES):
+                oldest = next(k for k in self._uploads if k not in (self.start_b, b.digest))
                 del self._uploads[oldest]
         return b
+
+    def _kept_upload_bytes(self) -> int:
+        return sum(u.image.nbytes for k, u in self._uploads.items() if k != self.start_b and u.image is not None)
 
     def second(self, digest: str) -> Source:
         with self._uploads_lock:
@@ -149,8 +176,11 @@ class Viewer:
         return self._mixes.get((analysis, mix.b, mix.steps), compute)
 
     # -- work
-    def _compute(self, alive, fn):
-        """Run ``fn`` in a computation slot; give up if the client has gone meanwhile."""
+    def _compute(self, alive, fn, work: float = MAX_VIEW_WORK):
+        """Run ``fn`` in a computation slot, within a request's memory
+        (:attr:`request_bytes`) and ``work``: the library's own estimates refuse
+        it before it allocates (413, naming the bound). Give up if the client
+        has gone meanwhile, or goes while ``fn`` computes (between its strips)."""
         with self._waiting_lock:
             if self._waiting >= MAX_WAITING:
                 raise BadRequest(f"busy: {MAX_WAITING} requests are already waiting", 503)
@@ -159,7 +189,13 @@ class Viewer:
             with self._slots:
                 if alive is not None and not alive():
                     raise ClientGone()
-                return fn()
+                with scoped_budget(self.request_bytes, work), cancellable(alive):
+                    return fn()
+        except Cancelled:
+            raise ClientGone() from None
+        except OverBudget as exc:
+            raise BadRequest(f"{exc} [this server's bounds per request: memory {format_bytes(self.request_bytes)}, "
+                             f"work {work:.3g} operations]", 413) from None
         finally:
             with self._waiting_lock:
                 self._waiting -= 1
@@ -338,8 +374,9 @@ class Viewer:
 
         return Export(name, plan_noise(name, window, analysis, noise, self.source, self.device), make)
 
-    def export_bytes(self, job: Export) -> bytes:
-        """The file of an export, written by ``write_image`` as the CLI writes it."""
+    def export_bytes(self, job: Export, alive=None) -> bytes:
+        """The file of an export, written by ``write_image`` as the CLI writes it;
+        its computation stops between strips once ``alive()`` is False."""
         def work():
             img = job.make()
             d = Path(tempfile.mkdtemp(dir=self.workdir))
@@ -349,7 +386,7 @@ class Viewer:
             finally:
                 shutil.rmtree(d, ignore_errors=True)
 
-        return self._compute(None, work)
+        return self._compute(alive, work, work_budget())
 
     def info(self) -> dict:
         analysis, noise = self.defaults
