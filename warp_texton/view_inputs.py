@@ -100,8 +100,10 @@ def decode_upload(data: bytes, name: str, workdir: Path) -> Source:
     if data[:4] == b"\x76\x2f\x31\x01":  # an EXR header may declare any size: not from a request
         raise BadRequest("upload a PNG or JPEG image; give an EXR or a texton file at start (--mix)")
     try:
-        with Image.open(io.BytesIO(data)) as im:  # reads the header only
-            w, h = im.size
+        with warnings.catch_warnings():  # PIL's DecompressionBombWarning: the size is checked below
+            warnings.simplefilter("ignore")
+            with Image.open(io.BytesIO(data)) as im:  # reads the header only
+                w, h = im.size
     except Exception:
         raise BadRequest("the upload is not an image that can be read") from None
     if w * h > MAX_UPLOAD_PIXELS:
