@@ -314,6 +314,11 @@ def test_uploads_are_checked(client):
     assert status == 400 and b"PNG or JPEG" in body
     status, _, body = upload(client, png(np.zeros((5000, 5000), bool)))  # a tiny file of many pixels
     assert status == 413 and b"at most" in body
+    with warnings.catch_warnings(record=True) as seen:  # 10⁸ pixels: past PIL's bomb warning
+        warnings.simplefilter("always")
+        status, _, body = upload(client, png(np.zeros((10000, 10000), bool)))
+    assert status == 413 and b"10000x10000" in body
+    assert not [w for w in seen if "DecompressionBomb" in type(w.message).__name__], seen
     status, _, body = upload(client, good)
     assert status == 200
     info = json.loads(body)
