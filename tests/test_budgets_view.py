@@ -103,7 +103,7 @@ def test_a_tile_over_the_request_bound_is_refused_before_computing(tmp_path, tex
 
 def test_concurrent_uploads_decode_in_the_slots(tmp_path):
     # issue 22: eight 49 KB 4096² PNGs raised the server by 4.8 GB; over the
-    # request bound (about 640 MiB each to decode, 512 MiB per request) they are refused
+    # request bound (640 MiB each to decode; (1536 - 16 - 256) / 2 = 632 MiB per request) they are refused
     res = serve_bomb(tmp_path, "uploads", "4096")
     assert [s for s, _ in res["answers"]] == [413] * 8, res["answers"]
     assert all("decoding the uploaded 4096x4096 image" in b for _, b in res["answers"])
