@@ -594,10 +594,20 @@ def make_image_file(path: Path, kind: str) -> None:
         raise ValueError(kind)
 
 
-def write_image_to(folder, name, img):
+def write_image_to(folder, name, img, **options):
     from warp_texton import write_image
 
-    write_image(Path(folder) / name, img)
+    write_image(Path(folder) / name, img, **options)
+
+
+def serve_and_close(**settings):
+    """``serve`` a small texton on a free port with ``settings``, then stop it."""
+    from warp_texton import Texton
+    from warp_texton.view import serve
+
+    texton = Texton(np.full((4, 4, 1), 0.1), [0.5])
+    with serve(texton, port=0, device="cpu", **settings):
+        return None
 
 
 def atomic_write(folder, name, data):
@@ -828,6 +838,23 @@ ENTRIES: list[Entry] = [
           {"img": refused_images(writing=True),
            "name": st.sampled_from(["o.bmp", "o", "x" * 300 + ".png", "missing/o.png"])},
           names={"img": "img", "name": "o"}, files=("folder",)),
+    # the argument kinds of issue 22 (item 10): dtypes as ints, arrays where scalars go, infinities, None
+    Entry("write_image (dtype, compression)", "property_api:write_image_to",
+          st.tuples(st.sampled_from(["o.png", "o.exr"]), images(min_side=1, max_side=8)).map(
+              lambda a: dict(name=a[0], img=a[1])),
+          {"dtype": st.sampled_from([0, 16, np.array([4, 4]), INF, "uint9", np.float16(1), [np.uint8]]),
+           "compression": st.sampled_from([np.array([4, 4]), INF, -1, 1.5, "zip9", [4], NAN])},
+          files=("folder",)),
+    Entry("serve", "property_api:serve_and_close",
+          st.builds(lambda c, s, lv: dict(cache_mb=c, slots=s, png_level=lv), st.sampled_from([0, 1, 16.5]),
+                    st.integers(1, 4), st.integers(0, 9)),
+          {"cache_mb": st.sampled_from([INF, -INF, NAN, None, -1, np.array([4, 4]), "16", True, 1e300]),
+           "slots": st.one_of(refused_int(1), st.sampled_from([np.array([2, 2]), INF, 65])),
+           "png_level": st.one_of(refused_int(0), st.sampled_from([np.array([1]), INF, 10])),
+           "mni": st.sampled_from([INF, NAN, None, np.array([30.0, 30.0]), 0, 1e9]),
+           "seed": st.sampled_from([INF, None, np.array([1, 2]), -1, 2**40, 1.5]),
+           "size": st.sampled_from([INF, None, np.array([64]), 3, 10**9])},
+          may_refuse=r"memory budget|work budget|leave .* to each computation"),
     Entry("atomic_path", "property_api:atomic_write",
           st.tuples(st.text(st.characters(blacklist_categories=("Cs",), blacklist_characters="/\x00"), min_size=1,
                             max_size=260).filter(lambda s: s not in (".", "..")), st.binary(max_size=64)).map(
@@ -841,11 +868,13 @@ ENTRIES: list[Entry] = [
     Entry("set_memory_budget", "property_api:with_budget",
           st.one_of(st.integers(1, 2**60), st.sampled_from(["2G", "512M", "1.5T", "100"])).map(
               lambda v: dict(setter="set_memory_budget", value=v)),
-          {"value": st.sampled_from([0, -5, True, "x", [1], NAN, "0.5", "-1G"])}, names={"value": "budget"}),
+          {"value": st.sampled_from([0, -5, True, "x", [1], NAN, INF, -INF, np.float64("inf"), np.array([4, 4]),
+                                     "0.5", "-1G", "inf"])}, names={"value": "budget"}),
     Entry("set_work_budget", "property_api:with_budget",
           st.one_of(st.integers(1, 2**60), st.sampled_from(["1e12", "5G", "100"])).map(
               lambda v: dict(setter="set_work_budget", value=v)),
-          {"value": st.sampled_from([0, -5, True, "x", [1], NAN, INF, "-1"])}, names={"value": "budget"}),
+          {"value": st.sampled_from([0, -5, True, "x", [1], NAN, INF, -INF, np.array([4, 4]), "-1", "inf"])},
+          names={"value": "budget"}),
     Entry("is_texton_path", "warp_texton.texton:is_texton_path",
           st.sampled_from(["a.texton", "b.exr", "c.png", "d"]).map(lambda p: dict(path=p)),
           {"path": st.sampled_from([None, 5, b"x.exr", ["a"]])}),
@@ -873,6 +902,8 @@ ENTRIES: list[Entry] = [
     Entry("Camera", "property_api:camera_framing", camera_args(),
           {"fov": st.one_of(refused_number(), st.sampled_from([0.0, 180.0, -1.0])), "up": refused_directions()},
           may_refuse=r"parallel"),
+    Entry("run_jobs", "warp_texton.jobs:run_jobs", st.just(dict(jobs=[])),
+          {"jobs": st.sampled_from([None, 3, "a.ply", INF, b"x"])}),
     Entry("expand_meshes", "warp_texton.jobs:expand_meshes",
           st.lists(st.sampled_from(["a.ply", "b/*.obj", "c.glb"]), max_size=3).map(lambda a: dict(args=a)),
           {"args": st.sampled_from([[None], [5], None, [b"x"], 7])}),

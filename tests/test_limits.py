@@ -65,3 +65,54 @@ def test_check_memory_names_the_request_the_budget_and_the_way_out():
     for bad in (float("nan"), float("inf")):
         with pytest.raises(TextonError):
             limits.check_memory(bad, "x", "y")
+
+
+@pytest.mark.parametrize("value", [float("inf"), float("-inf"), float("nan"), 1e400])
+def test_infinite_budgets_are_refused(value):
+    # float('inf') used to raise OverflowError from int()
+    with pytest.raises(TextonError, match="memory budget must be a finite number"):
+        limits.set_memory_budget(value)
+    with pytest.raises(TextonError, match="work budget must be a finite number"):
+        limits.set_work_budget(value)
+
+
+def test_scoped_budget_lowers_this_thread_only():
+    import threading
+
+    limits.set_memory_budget("1G")
+    try:
+        seen = []
+        with limits.scoped_budget(memory=1 << 20, work=100):
+            assert limits.memory_budget() == 1 << 20 and limits.work_budget() == 100
+            with pytest.raises(TextonError,
+                               match="over the memory budget of 1 MiB"):
+                limits.check_memory(2 << 20, "a request", "ask for less")
+            with limits.scoped_budget(memory=8 << 30):  # never above the enclosing budget
+                assert limits.memory_budget() == 1 << 20
+            other = threading.Thread(target=lambda: seen.append(limits.memory_budget()))
+            other.start()
+            other.join()
+        assert seen == [1 << 30] and limits.memory_budget() == 1 << 30
+        with limits.scoped_budget(memory=8 << 30):  # nor above the process's
+            assert limits.memory_budget() == 1 << 30
+    finally:
+        limits.set_memory_budget(None)
+
+
+def test_over_budget_is_a_texton_error_subclass():
+    from warp_texton.errors import OverBudget
+
+    with pytest.raises(OverBudget) as info:
+        limits.check_work(float("inf"), "a request", "ask for less")
+    assert isinstance(info.value, TextonError)
+
+
+def test_checkpoint_stops_a_cancelled_computation():
+    wanted = [True]
+    limits.checkpoint()  # outside a cancellable block: nothing to stop
+    with limits.cancellable(lambda: wanted[0]):
+        limits.checkpoint()
+        wanted[0] = False
+        with pytest.raises(limits.Cancelled):
+            limits.checkpoint()
+    limits.checkpoint()

@@ -151,6 +151,25 @@ class TestExrTexton:
         with pytest.raises(TextonError, match=match):
             load_texton(path)
 
+    @pytest.mark.parametrize("raw, match", [
+        ("[" * 100_000 + "]" * 100_000, "metadata nested deeper than 64 levels"),
+        ('{"a": ' + "{" * 65 + "}" * 66, "metadata nested deeper than 64 levels"),
+        ('{"a": "' + "x" * (1 << 20) + '"}', r"metadata of \d+ characters \(at most 1048576\)"),
+    ], ids=["100k-deep", "66-deep", "1MiB"])
+    def test_metadata_bounded(self, tmp_path, raw, match):
+        # a deep nesting used to raise RecursionError from the JSON parser
+        path = tmp_path / "deep.exr"
+        texton_exr(path, np.zeros((4, 4, 1)), texton_order=1, texton_mean=[0.5], texton_metadata=raw)
+        with pytest.raises(TextonError, match=f"deep.exr: malformed texton EXR: {match}"):
+            load_texton(path)
+
+    def test_metadata_depth_limit_and_brackets_in_strings(self, tmp_path):
+        # 64 levels are read; brackets inside strings do not count
+        raw = '{"a": ' + "[" * 63 + r'"[[{{ \" ]]"' + "]" * 63 + "}"
+        path = tmp_path / "ok.exr"
+        texton_exr(path, np.zeros((4, 4, 1)), texton_order=1, texton_mean=[0.5], texton_metadata=raw)
+        assert load_texton(path).metadata == json.loads(raw)
+
     def test_nan_coefficients(self, tmp_path):
         c = np.zeros((4, 4, 1))
         c[0, 0] = np.nan

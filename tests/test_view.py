@@ -257,6 +257,27 @@ def test_other_methods_and_hosts_are_refused(client):
     assert status == 200
 
 
+@pytest.mark.parametrize("host", ["127.0.0.1:80@evil.example", "evil.example#127.0.0.1", "127.0.0.1:",
+                                  "127.0.0.1:80:80", "127.0.0.1/x", "[::1", "127.0.0.1:123456", ""])
+def test_malformed_hosts_are_bad_requests(client, host):
+    # the name before the last colon is 127.0.0.1, but the host is evil.example's
+    status, _, body = client.request("/api/info", headers={"Host": host})
+    assert status == 400 and body == b"malformed Host header\n"
+
+
+def test_requests_over_their_share_of_the_budget_are_413(client):
+    viewer = client.handle.viewer
+    saved = viewer.request_bytes
+    viewer.request_bytes = 1 << 16  # the library's own estimate of this tile is far over
+    try:
+        status, _, body = client.get("/tile", z=1, x=7, y=5, ts=256, mni=30, filter="none")
+    finally:
+        viewer.request_bytes = saved
+    assert status == 413 and body.count(b"\n") == 1, body
+    assert b"over the memory budget of 64 KiB" in body and b"bounds per request: memory 64 KiB" in body
+    assert client.get("/tile", z=1, x=7, y=5, ts=256, mni=30, filter="none")[0] == 200  # not cached as failed
+
+
 def test_bounds_on_exports_and_planes(client):
     status, _, body = client.get("/export", w=5000, h=10, scale=1, left=0, top=0)
     assert status == 400 and b"w must be an integer in [1, 4096]" in body
@@ -292,7 +313,12 @@ def test_uploads_are_checked(client):
     status, _, body = upload(client, b"\x76\x2f\x31\x01" + bytes(100))  # an EXR
     assert status == 400 and b"PNG or JPEG" in body
     status, _, body = upload(client, png(np.zeros((5000, 5000), bool)))  # a tiny file of many pixels
-    assert status == 400 and b"at most" in body
+    assert status == 413 and b"at most" in body
+    with warnings.catch_warnings(record=True) as seen:  # 10⁸ pixels: past PIL's bomb warning
+        warnings.simplefilter("always")
+        status, _, body = upload(client, png(np.zeros((10000, 10000), bool)))
+    assert status == 413 and b"10000x10000" in body
+    assert not [w for w in seen if "DecompressionBomb" in type(w.message).__name__], seen
     status, _, body = upload(client, good)
     assert status == 200
     info = json.loads(body)
@@ -432,6 +458,23 @@ def test_serve_refuses_bad_arguments(rgb_path, tmp_path):
         serve(rgb_path, port=0, size=65, device=DEVICE)  # larger than the 64 x 64 input
     with pytest.raises(TextonError, match="filter must be one of"):
         serve(rgb_path, port=0, filter="supersample")
+    for cache_mb in (float("inf"), float("nan"), -1, np.array([4, 4]), None):
+        with pytest.raises(TextonError, match="cache_mb must be a finite number >= 0"):
+            serve(rgb_path, port=0, cache_mb=cache_mb)
+
+
+def test_serve_fits_cache_and_slots_in_the_budget(rgb_path):
+    from warp_texton.limits import set_memory_budget
+
+    set_memory_budget("1G")
+    try:
+        with pytest.raises(TextonError, match=r"cache_mb=700 and slots=2 leave .* to each computation"):
+            serve(rgb_path, port=0, size=SIZE, device=DEVICE, cache_mb=700)
+        with serve(rgb_path, port=0, size=SIZE, device=DEVICE, cache_mb=256, slots=2) as h:
+            # cache + kept uploads + both slots' shares fit the budget
+            assert h.viewer.request_bytes == ((1 << 30) - (256 << 20) - (256 << 20)) // 2
+    finally:
+        set_memory_budget(None)
 
 
 def test_port_in_use(rgb_path):

@@ -16,6 +16,7 @@ import numpy as np
 import warp as wp
 
 from .errors import TextonError
+from .limits import checkpoint
 
 #: Row bands per CPU thread for raster launches: rows cost about the same, so
 #: a few bands per thread balance the pool.
@@ -170,7 +171,7 @@ class _NoBar:
     """Stands for a progress bar when none is shown."""
 
     def update(self, n=1):
-        pass
+        checkpoint()
 
     def close(self):
         pass
@@ -188,4 +189,10 @@ def progress_bar(enabled: bool, total: int, desc: str, unit: str):
         return _NoBar()
     from tqdm.auto import tqdm
 
-    return tqdm(total=total, desc=desc, unit=unit, leave=False, delay=PROGRESS_DELAY)
+    class _Bar(tqdm):
+        # every strip is a point where an abandoned computation stops
+        def update(self, n=1):
+            checkpoint()
+            return super().update(n)
+
+    return _Bar(total=total, desc=desc, unit=unit, leave=False, delay=PROGRESS_DELAY)

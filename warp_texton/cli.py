@@ -72,9 +72,12 @@ def cli_message(error: TextonError, args: argparse.Namespace) -> str:
     return in_cli_words(error, {**command.names, **command.files(args)})
 
 
+class _Terminated(SystemExit):
+    """SIGTERM, raised as SystemExit: every atomic write in progress removes its temporary file."""
+
+
 def _terminated(signum, frame):
-    # SIGTERM as SystemExit: every atomic write in progress removes its temporary file
-    raise SystemExit(128 + signum)
+    raise _Terminated(128 + signum)
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -94,6 +97,9 @@ def _run(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         print("\nwarp-texton: interrupted; nothing written", file=sys.stderr)
         return 130
+    except _Terminated as exc:
+        print("\nwarp-texton: terminated; nothing written", file=sys.stderr)
+        return exc.code if isinstance(exc.code, int) else 143
     return 2
 
 

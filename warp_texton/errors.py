@@ -35,3 +35,9 @@ class TextonError(ValueError):
         super().__init__(message)
         self.param = param
         self.mentions = tuple(mentions)
+
+
+class OverBudget(TextonError):
+    """A :class:`TextonError` refusing a request whose estimated memory or work
+    exceeds its budget (:mod:`warp_texton.limits`): the request itself is fine,
+    only too large (a server answers 413 rather than 400)."""

@@ -474,6 +474,8 @@ def run_jobs(jobs, *, executor: Executor | None = None, jobs_in_parallel: int = 
     >>> run_surface_job(SurfaceJob("meshes/sphere.ply", "grass32.exr", "textured", render=(48, 64))).status
     'skipped'
     """
+    if not hasattr(jobs, "__iter__") or isinstance(jobs, (str, bytes, SurfaceJob)):
+        raise TextonError(f"jobs must be an iterable of SurfaceJob, got {type(jobs).__name__}", param="jobs")
     jobs = list(jobs)
     own = executor is None
     if executor is None:

@@ -29,7 +29,7 @@ import re
 import threading
 from collections.abc import Iterator
 
-from .errors import TextonError
+from .errors import OverBudget, TextonError
 
 #: The environment variable that sets the budget.
 BUDGET_ENV = "WARP_TEXTON_MEMORY_BUDGET"
@@ -73,6 +73,13 @@ def physical_memory() -> int | None:
 def memory_budget() -> int:
     """The budget in bytes: :func:`set_memory_budget`'s value, else the environment
     variable, else half of the physical memory."""
+    scoped = getattr(_scope, "memory", None)
+    if scoped is not None:
+        return scoped
+    return _global_memory_budget()
+
+
+def _global_memory_budget() -> int:
     if _override is not None:
         return _override
     env = os.environ.get(BUDGET_ENV)
@@ -104,8 +111,10 @@ def set_memory_budget(nbytes) -> None:
         _override = None
     elif isinstance(nbytes, str):
         _override = parse_bytes(nbytes, "memory budget")
-    elif isinstance(nbytes, bool) or not isinstance(nbytes, (int, float)) or not nbytes >= 1:
-        raise TextonError(f"memory budget must be a number of bytes >= 1 or a size such as '2G', got {nbytes!r}")
+    elif isinstance(nbytes, bool) or not isinstance(nbytes, (int, float)) or not nbytes >= 1 \
+            or not math.isfinite(nbytes):
+        raise TextonError(f"memory budget must be a finite number of bytes >= 1 or a size such as '2G', "
+                          f"got {nbytes!r:.60}")
     else:
         _override = int(nbytes)
 
@@ -131,7 +140,7 @@ def check_memory(nbytes: float, what: str, hint: str, *, param: str | None = Non
     if not nbytes <= budget:  # NaN and inf are refused too
         size = format_bytes(nbytes) if math.isfinite(nbytes) else "an unbounded amount of memory"
         example = f"{math.ceil(nbytes / (1 << 30))}G" if math.isfinite(nbytes) else "16G"
-        raise TextonError(
+        raise OverBudget(
             f"{what} needs about {size}, over the memory budget of {format_bytes(budget)}; "
             f"{hint} (or raise the budget with {BUDGET_ENV}, e.g. {BUDGET_ENV}={example})",
             param, mentions=mentions,
@@ -158,6 +167,13 @@ def parse_count(text: str, name: str = WORK_ENV) -> float:
 def work_budget() -> float:
     """The work budget in operations: :func:`set_work_budget`'s value, else the
     environment variable, else :data:`DEFAULT_WORK_BUDGET`."""
+    scoped = getattr(_scope, "work", None)
+    if scoped is not None:
+        return scoped
+    return _global_work_budget()
+
+
+def _global_work_budget() -> float:
     if _work_override is not None:
         return _work_override
     env = os.environ.get(WORK_ENV)
@@ -181,6 +197,48 @@ def set_work_budget(operations) -> None:
 
 
 _log = threading.local()
+# per-thread budgets and cancellation (a server's requests): see scoped_budget, cancellable
+_scope = threading.local()
+
+
+@contextlib.contextmanager
+def scoped_budget(memory: float | None = None, work: float | None = None) -> Iterator[None]:
+    """Lower the budgets for the calls this thread makes inside the block (to at
+    most the process's): a server gives each request its share, so that the same
+    estimates that guard a call guard the request, and the requests of all its
+    slots together fit the process's budget."""
+    saved = getattr(_scope, "memory", None), getattr(_scope, "work", None)
+    if memory is not None:
+        _scope.memory = int(min(memory, memory_budget()))
+    if work is not None:
+        _scope.work = float(min(work, work_budget()))
+    try:
+        yield
+    finally:
+        _scope.memory, _scope.work = saved
+
+
+class Cancelled(Exception):
+    """The caller of a computation no longer wants it (see :func:`cancellable`)."""
+
+
+@contextlib.contextmanager
+def cancellable(wanted) -> Iterator[None]:
+    """Inside the block, :func:`checkpoint` (called between the strips of long
+    computations) raises :class:`Cancelled` once ``wanted()`` returns False."""
+    saved = getattr(_scope, "wanted", None)
+    _scope.wanted = wanted
+    try:
+        yield
+    finally:
+        _scope.wanted = saved
+
+
+def checkpoint() -> None:
+    """Stop this thread's computation here if its caller has gone (:func:`cancellable`)."""
+    wanted = getattr(_scope, "wanted", None)
+    if wanted is not None and not wanted():
+        raise Cancelled()
 
 
 @contextlib.contextmanager
@@ -219,7 +277,7 @@ def check_work(operations: float, what: str, hint: str, *, param: str | None = N
     if not operations <= budget:  # NaN and inf are refused too
         size = f"{operations:.3g}" if math.isfinite(operations) else "an unbounded number of"
         example = f"1e{math.ceil(math.log10(operations))}" if math.isfinite(operations) else "1e13"
-        raise TextonError(
+        raise OverBudget(
             f"{what} needs about {size} operations, over the work budget of {budget:.3g}; "
             f"{hint} (or raise the budget with {WORK_ENV}, e.g. {WORK_ENV}={example})",
             param, mentions=mentions,

@@ -389,13 +389,46 @@ def _load_exr_texton(path: Path) -> Texton:
     metadata = {}
     raw = header.get("texton_metadata")
     if isinstance(raw, str):
-        try:
-            metadata = json.loads(raw)
-        except json.JSONDecodeError:
-            raise TextonError(f"{path}: malformed texton EXR: metadata is not JSON") from None
+        metadata = _parse_metadata(path, raw)
         if not isinstance(metadata, dict):
             raise TextonError(f"{path}: malformed texton EXR: metadata is not a JSON object")
     return _checked_texton(path, coeffs, mean, order, metadata)
+
+
+#: Bounds of a texton file's metadata (JSON): characters, and nesting depth
+#: (Python's parser recurses once per level).
+MAX_METADATA_CHARS = 1 << 20
+MAX_METADATA_DEPTH = 64
+
+
+def _parse_metadata(path: Path, raw: str):
+    """The JSON of a texton EXR's metadata, its size and nesting bounded before parsing."""
+    if len(raw) > MAX_METADATA_CHARS:
+        raise TextonError(f"{path}: malformed texton EXR: metadata of {len(raw)} characters "
+                          f"(at most {MAX_METADATA_CHARS})")
+    depth = 0
+    in_string = escaped = False
+    for ch in raw:  # brackets outside strings
+        if in_string:
+            if escaped:
+                escaped = False
+            elif ch == "\\":
+                escaped = True
+            elif ch == '"':
+                in_string = False
+        elif ch == '"':
+            in_string = True
+        elif ch in "[{":
+            depth += 1
+            if depth > MAX_METADATA_DEPTH:
+                raise TextonError(f"{path}: malformed texton EXR: metadata nested deeper than "
+                                  f"{MAX_METADATA_DEPTH} levels")
+        elif ch in "]}":
+            depth -= 1
+    try:
+        return json.loads(raw)
+    except (json.JSONDecodeError, RecursionError):
+        raise TextonError(f"{path}: malformed texton EXR: metadata is not JSON") from None
 
 
 def load_texton(path) -> Texton:

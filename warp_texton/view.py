@@ -18,6 +18,7 @@ that leave mid-tile.
 from __future__ import annotations
 
 import json
+import re
 import select
 import socket
 import sys
@@ -45,6 +46,24 @@ STATIC = {"/": ("index.html", "text/html; charset=utf-8"),
 
 
 # ------------------------------------------------------------------ HTTP
+#: RFC 3986's host (a registered name, an IPv4 address, or an IPv6 address in
+#: brackets) and an optional decimal port: nothing else (no userinfo, no path).
+_HOST = re.compile(r"(?:\[(?P<v6>[0-9A-Fa-f:.]+)\]|(?P<name>[A-Za-z0-9](?:[A-Za-z0-9.-]{0,252}[A-Za-z0-9])?))"
+                   r"(?::[0-9]{1,5})?")
+
+
+def host_name(header: str) -> str | None:
+    """The lower-case host of a Host header, or None when it is malformed.
+
+    >>> host_name("127.0.0.1:8000"), host_name("[::1]:80"), host_name("127.0.0.1:80@evil.example")
+    ('127.0.0.1', '::1', None)
+    """
+    m = _HOST.fullmatch(header)
+    if m is None:
+        return None
+    return (m.group("v6") or m.group("name")).lower()
+
+
 def _page(name: str) -> bytes:
     return resources.files("warp_texton.viewer").joinpath(name).read_bytes()
 
@@ -101,12 +120,12 @@ class _Handler(BaseHTTPRequestHandler):
             return False
 
     def _host_ok(self) -> bool:
-        """Refuse Host names other than the one served (DNS rebinding)."""
-        if self.server.any_host:
-            return True
-        host = self.headers.get("Host", "")
-        name = host.rsplit(":", 1)[0] if not host.startswith("[") else host[1:].split("]", 1)[0]
-        return name.lower() in self.server.host_names
+        """Refuse Host names other than the one served (DNS rebinding); a Host that
+        is not exactly ``name[:port]`` is a bad request."""
+        name = host_name(self.headers.get("Host", ""))
+        if name is None:
+            raise BadRequest("malformed Host header")
+        return self.server.any_host or name in self.server.host_names
 
     def handle_one_request(self):
         try:
@@ -165,7 +184,7 @@ class _Handler(BaseHTTPRequestHandler):
         elif path == "/export":
             self._check_src(q)
             job = self.viewer.export_job(q)
-            body = self.viewer.export_bytes(job)
+            body = self.viewer.export_bytes(job, self._alive)
             ctype = "image/png" if job.name.endswith(".png") else "image/x-exr"
             self._send(200, body, ctype, {"Cache-Control": "no-store",
                                           "Content-Disposition": f'attachment; filename="{job.name}"'})
@@ -207,7 +226,7 @@ class _Handler(BaseHTTPRequestHandler):
         data = self.rfile.read(length)
         if len(data) != length:
             raise BadRequest("upload cut short")
-        b = self.viewer.add_upload(data, unquote(self.headers.get("X-Filename", "upload")))
+        b = self.viewer.add_upload(data, unquote(self.headers.get("X-Filename", "upload")), self._alive)
         assert b.image is not None, "uploads are images"
         self._json({"id": b.digest, "name": b.name, "width": b.image.shape[1], "height": b.image.shape[0]})
 
@@ -291,13 +310,10 @@ def _check_host(host) -> tuple[str, int]:
 
 
 def _cache_bytes(cache_mb) -> int:
-    try:
-        cache_bytes = int(float(cache_mb) * (1 << 20))
-    except (TypeError, ValueError):
-        raise TextonError(f"cache_mb must be a number >= 0, got {cache_mb!r}", param="cache_mb") from None
-    if cache_bytes < 0:
-        raise TextonError(f"cache_mb must be a number >= 0, got {cache_mb!r}", param="cache_mb")
-    return cache_bytes
+    if isinstance(cache_mb, bool) or not isinstance(cache_mb, (int, float, np.integer, np.floating)) \
+            or not 0 <= cache_mb < float(1 << 40):  # NaN and inf too
+        raise TextonError(f"cache_mb must be a finite number >= 0 (MiB), got {cache_mb!r:.60}", param="cache_mb")
+    return int(float(cache_mb) * (1 << 20))
 
 
 def _start_settings(size, order, color_correction, seed, mni, filter) -> tuple[Analysis, Noise]:

@@ -34,7 +34,9 @@ from ._version import __version__
 from .analysis import analyze
 from .filter_options import FILTERS
 from .gaussian import gaussian_texture, periodic_component
+from .errors import OverBudget, TextonError
 from .io import write_image
+from .limits import Cancelled, cancellable, format_bytes, memory_budget, scoped_budget, work_budget
 from .mixing import mix_textons, synthesize_mixed
 from .plane import render_plane
 from .synthesis import synthesize
@@ -50,6 +52,20 @@ from .view_query import (ANALYSIS_SEED, ENLARGE, MAX_EXPORT_PIXELS, MAX_EXPORT_S
 
 #: Requests waiting for a computation beyond this are answered 503.
 MAX_WAITING = 512
+#: A request's memory: its share of the memory budget (what the image cache
+#: leaves, divided among the slots), and at most this.
+MAX_REQUEST_BYTES = 1 << 30
+#: A tile's, plane view's or panel's memory: tiles that need more draw tens of
+#: millions of impacts, seconds of work for a picture of a few hundred pixels.
+MAX_VIEW_BYTES = 256 << 20
+#: A tile's, plane view's or panel's work (operations, as limits.check_work
+#: counts them): about a second of a few CPU cores. Exports have the process's
+#: work budget.
+MAX_VIEW_WORK = 2.0e9
+#: Uploaded images kept for mixing, at most (the oldest go first; the newest stays).
+MAX_KEPT_UPLOAD_BYTES = 256 << 20
+#: The smallest share of memory a slot may have.
+MIN_SLOT_BYTES = 64 << 20
 
 
 class ClientGone(Exception):
@@ -80,6 +96,14 @@ class Viewer:
         self.device = device
         self.defaults = (analysis, noise)
         self._slots = threading.BoundedSemaphore(slots)
+        share = (memory_budget() - cache_bytes - MAX_KEPT_UPLOAD_BYTES) // slots
+        if share < MIN_SLOT_BYTES:
+            raise TextonError(f"cache_mb={cache_bytes / (1 << 20):g} and slots={slots} leave "
+                              f"{format_bytes(max(share, 0))} of the memory budget of {format_bytes(memory_budget())} "
+                              f"(less {format_bytes(MAX_KEPT_UPLOAD_BYTES)} for uploads) to each computation (at least {format_bytes(MIN_SLOT_BYTES)}); use a smaller "
+                              "cache_mb or fewer slots", param="cache_mb", mentions=("slots",))
+        #: the bounds of one request's computation
+        self.request_bytes = min(MAX_REQUEST_BYTES, share)
         self._waiting = 0
         self._waiting_lock = threading.Lock()
         self._textons = Memo(16)
@@ -120,15 +144,22 @@ class Viewer:
         texton.metadata["source"] = self.source.name
         return texton
 
-    def add_upload(self, data: bytes, name: str) -> Source:
-        b = decode_upload(data, safe_name(name), self.workdir)
+    def add_upload(self, data: bytes, name: str, alive=None) -> Source:
+        """Decode an upload in a computation slot, within a request's bounds."""
+        b = self._compute(alive, lambda: decode_upload(data, safe_name(name), self.workdir), MAX_VIEW_WORK,
+                          self.request_bytes)
         with self._uploads_lock:
             self._uploads[b.digest] = b
             self._uploads.move_to_end(b.digest)
-            while len(self._uploads) > MAX_UPLOADS + (self.start_b is not None):
-                oldest = next(k for k in self._uploads if k != self.start_b)
+            while len(self._uploads) > 1 + (self.start_b is not None) and (
+                    len(self._uploads) > MAX_UPLOADS + (self.start_b is not None)
+                    or self._kept_upload_bytes() > MAX_KEPT_UPLOAD_BYTES):
+                oldest = next(k for k in self._uploads if k not in (self.start_b, b.digest))
                 del self._uploads[oldest]
         return b
+
+    def _kept_upload_bytes(self) -> int:
+        return sum(u.image.nbytes for k, u in self._uploads.items() if k != self.start_b and u.image is not None)
 
     def second(self, digest: str) -> Source:
         with self._uploads_lock:
@@ -149,17 +180,27 @@ class Viewer:
         return self._mixes.get((analysis, mix.b, mix.steps), compute)
 
     # -- work
-    def _compute(self, alive, fn):
-        """Run ``fn`` in a computation slot; give up if the client has gone meanwhile."""
+    def _compute(self, alive, fn, work: float = MAX_VIEW_WORK, memory: float | None = None):
+        """Run ``fn`` in a computation slot, within ``work`` and ``memory`` (default:
+        a view's, :data:`MAX_VIEW_BYTES` at most): the library's own estimates
+        refuse it before it allocates (413, naming the bound). Give up if the client
+        has gone meanwhile, or goes while ``fn`` computes (between its strips)."""
         with self._waiting_lock:
             if self._waiting >= MAX_WAITING:
                 raise BadRequest(f"busy: {MAX_WAITING} requests are already waiting", 503)
             self._waiting += 1
+        memory = min(MAX_VIEW_BYTES, self.request_bytes) if memory is None else memory
         try:
             with self._slots:
                 if alive is not None and not alive():
                     raise ClientGone()
-                return fn()
+                with scoped_budget(memory, work), cancellable(alive):
+                    return fn()
+        except Cancelled:
+            raise ClientGone() from None
+        except OverBudget as exc:
+            raise BadRequest(f"{exc} [this server's bounds per request: memory {format_bytes(memory)}, "
+                             f"work {work:.3g} operations]", 413) from None
         finally:
             with self._waiting_lock:
                 self._waiting -= 1
@@ -209,7 +250,7 @@ class Viewer:
             self.second(mix.b)
         key = ("tile", tile, self._analysis_key(analysis), noise, mix)
         return key, lambda alive: self._memo_image(
-            key, alive, lambda: png_bytes(self.tile(tile, analysis, noise, mix), self.png_level))
+            key, alive, lambda: png_bytes(self.tile(tile, analysis, noise, mix), self.png_level), analysis, mix)
 
     def plane_request(self, q: Query) -> tuple[tuple, Callable[..., bytes]]:
         analysis = parse_analysis(q, self.defaults[0])
@@ -218,7 +259,7 @@ class Viewer:
         q.finish()
         key = ("plane", plane, self._analysis_key(analysis), noise)
         return key, lambda alive: self._memo_image(
-            key, alive, lambda: png_bytes(self.plane(plane, analysis, noise), self.png_level))
+            key, alive, lambda: png_bytes(self.plane(plane, analysis, noise), self.png_level), analysis)
 
     def panel_request(self, q: Query) -> dict:
         analysis = parse_analysis(q, self.defaults[0])
@@ -230,7 +271,18 @@ class Viewer:
         """Analysis settings change nothing when the input is a texton file."""
         return analysis if self.source.texton is None else None
 
-    def _memo_image(self, key, alive, make) -> bytes:
+    def _analysed(self, alive, analysis: Analysis, mix: Mix | None = None) -> None:
+        """Compute the analyses a view needs first, as a request of their own: they
+        are shared by every view of their settings, and priced with a request's
+        share of the memory and the process's work budget, not a view's."""
+        if (self.source.texton is None and analysis not in self._textons) or \
+                (mix is not None and (analysis, mix.b, mix.steps) not in self._mixes):
+            self._compute(alive, lambda: (self.texton(analysis), mix and self.mixed_textons(analysis, mix)),
+                          work_budget(), self.request_bytes)
+
+    def _memo_image(self, key, alive, make, analysis: Analysis, mix: Mix | None = None) -> bytes:
+        if key not in self._images:
+            self._analysed(alive, analysis, mix)
         for _ in range(2):  # a shared computation whose first asker left is retried once
             try:
                 return self._images.get(key, lambda: self._compute(alive, make))
@@ -248,6 +300,8 @@ class Viewer:
     # -- side panel
     def panel(self, analysis: Analysis, seed: int) -> dict:
         key = (self._analysis_key(analysis), seed)
+        if key not in self._panels:
+            self._analysed(None, analysis)
         return self._panels.get(key, lambda: self._compute(None, lambda: self._panel(analysis, seed)))
 
     def _panel(self, analysis: Analysis, seed: int) -> dict:
@@ -338,8 +392,9 @@ class Viewer:
 
         return Export(name, plan_noise(name, window, analysis, noise, self.source, self.device), make)
 
-    def export_bytes(self, job: Export) -> bytes:
-        """The file of an export, written by ``write_image`` as the CLI writes it."""
+    def export_bytes(self, job: Export, alive=None) -> bytes:
+        """The file of an export, written by ``write_image`` as the CLI writes it;
+        its computation stops between strips once ``alive()`` is False."""
         def work():
             img = job.make()
             d = Path(tempfile.mkdtemp(dir=self.workdir))
@@ -349,7 +404,7 @@ class Viewer:
             finally:
                 shutil.rmtree(d, ignore_errors=True)
 
-        return self._compute(None, work)
+        return self._compute(alive, work, work_budget(), self.request_bytes)
 
     def info(self) -> dict:
         analysis, noise = self.defaults

@@ -15,6 +15,7 @@ import numpy as np
 
 from .errors import TextonError
 from .io import read_image
+from .limits import check_memory
 from .texton import Texton, load_texton
 from .view_query import BadRequest
 
@@ -22,6 +23,10 @@ from .view_query import BadRequest
 MAX_UPLOAD_BYTES = 32 << 20
 MAX_UPLOAD_PIXELS = 4096 * 4096
 MAX_UPLOADS = 4
+#: Peak bytes per pixel of decoding an upload: PIL's decoded image, NumPy's copy
+#: of it and the float32 RGBA image the reader returns, with their conversions
+#: (docs/limits.md: measured 4096² RGB PNG).
+UPLOAD_BYTES_PER_PIXEL = 40
 
 
 @dataclass(frozen=True)
@@ -85,8 +90,9 @@ def load_source(input, what: str = "input") -> Source:
 
 
 def decode_upload(data: bytes, name: str, workdir: Path) -> Source:
-    """An uploaded image, parsed defensively: size-checked before decoding, read by
-    the package's reader from a private temporary file."""
+    """An uploaded image, parsed defensively: its size read from its header and
+    priced (:func:`~warp_texton.limits.check_memory`) before decoding, then read by
+    the package's reader from a private temporary file. Run it in a computation slot."""
     from PIL import Image
 
     if len(data) > MAX_UPLOAD_BYTES:
@@ -94,12 +100,17 @@ def decode_upload(data: bytes, name: str, workdir: Path) -> Source:
     if data[:4] == b"\x76\x2f\x31\x01":  # an EXR header may declare any size: not from a request
         raise BadRequest("upload a PNG or JPEG image; give an EXR or a texton file at start (--mix)")
     try:
-        with Image.open(io.BytesIO(data)) as im:  # reads the header only
-            w, h = im.size
+        with warnings.catch_warnings():  # PIL's DecompressionBombWarning: the size is checked below
+            warnings.simplefilter("ignore")
+            with Image.open(io.BytesIO(data)) as im:  # reads the header only
+                w, h = im.size
     except Exception:
         raise BadRequest("the upload is not an image that can be read") from None
     if w * h > MAX_UPLOAD_PIXELS:
-        raise BadRequest(f"the uploaded image is {w}x{h}; at most {MAX_UPLOAD_PIXELS} pixels")
+        raise BadRequest(f"the uploaded image is {w}x{h}; at most {MAX_UPLOAD_PIXELS} pixels", 413)
+    # the size its header declares, priced before decoding (a few KB of PNG can declare 4096²)
+    check_memory(float(w) * h * UPLOAD_BYTES_PER_PIXEL, f"decoding the uploaded {w}x{h} image",
+                 "upload a smaller image")
     fd, tmp = tempfile.mkstemp(dir=workdir, suffix=".img")
     try:
         with os.fdopen(fd, "wb") as f:
