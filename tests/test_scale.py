@@ -512,7 +512,7 @@ class TestCli:
 
     @pytest.mark.parametrize("extra, match", [
         (["--chunk", "64"], "--chunk apply to .zarr outputs only"),
-        (["--dtype", "float32"], r"\.png stores uint8, uint16, not 'float32'"),
+        (["--dtype", "float32"], r"\.png stores \(uint8, uint16\), not 'float32'"),
         (["--compression", "piz"], "compression applies to .exr and .tif/.tiff outputs, not .png"),
     ])
     def test_image_errors(self, tmp_path, texton_path, capsys, extra, match):

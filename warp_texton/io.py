@@ -431,7 +431,8 @@ def check_dtype(path, dtype=None) -> str:
         except TypeError:
             name = None
     if name not in DTYPES[ext]:
-        raise TextonError(f"{path}: {ext} stores {', '.join(DTYPES[ext])}, not {dtype!r:.60}", param="dtype")
+        raise TextonError(f"{path}: dtype must be one that {ext} stores ({', '.join(DTYPES[ext])}), not {dtype!r:.60}",
+                          param="dtype")
     return name
 
 
