@@ -28,7 +28,7 @@ import warp_texton.batches
 from warp_texton.dask import synthesize_dask, write_zarr
 from helpers import assert_nothing_written, assert_same_noise, noise_sd, parts, random_texton, run_cli
 from warp_texton import FilterOptions, TextonError, evaluate, render_plane, synthesize, synthesize_batch
-from warp_texton.limits import set_memory_budget
+from warp_texton.limits import set_memory_budget, set_work_budget, work_log
 
 GEOMETRIES = [
     pytest.param(1.0, 0.0, (0.0, 0.0), id="grid"),
@@ -253,6 +253,32 @@ class TestBatch:
         refused by the budget, not by a MemoryError from drawing 10**12 parameters."""
         with pytest.raises(TextonError, match=r"a batch of 1000000000000 1x1 rasters .* over the memory budget"):
             synthesize_batch(random_texton(), 10**12, (1, 1), device="cpu")
+
+    def test_many_tiny_items_are_priced_by_their_setup(self, monkeypatch):
+        """Each item's setup is work (BATCH_ITEM_OPS), checked before any item is drawn: a
+        batch whose pixels cost almost nothing is still refused, and without drawing parameters."""
+        drawn = []
+        monkeypatch.setattr(warp_texton.batches, "draw_batch_params", lambda *a, **k: drawn.append(a))
+        set_work_budget(1e7)
+        try:
+            with pytest.raises(TextonError, match=r"a batch of 1000 1x1 rasters at MNI 30 needs about 1(\.\d+)?e\+08 "
+                                                  r"operations") as info:
+                synthesize_batch(random_texton(), 1000, (1, 1), device="cpu")
+        finally:
+            set_work_budget(None)
+        assert info.value.param == "count" and not drawn
+
+    def test_the_whole_batch_is_priced_not_a_group(self):
+        """200 items of 64² at MNI 32000 are 2.6e10 lookups: refused by a 1e10 budget although each group
+        of items fits it."""
+        with work_log() as log:
+            set_work_budget(1e10)
+            try:
+                with pytest.raises(TextonError, match=r"a batch of 200 64x64 rasters at MNI 32000 .* over the work"):
+                    synthesize_batch(random_texton(), 200, (64, 64), mni=2000 * 16, device="cpu")
+            finally:
+                set_work_budget(None)
+        assert log and log[-1][1] > 1e10
 
 
 # --------------------------------------------------------------------------- #
