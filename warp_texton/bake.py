@@ -37,7 +37,7 @@ from .frames import UP, up_vector
 from .mesh import check_mesh, vertex_normals
 from .mesh_files import texture_8bit
 from .render import cast_rays, check_background
-from .surface import check_method, evaluate_points, surface_params, surface_setup, texel_positions
+from .surface import check_method, check_surface_work, evaluate_points, surface_params, surface_setup, texel_positions
 from .texton import Texton
 
 if TYPE_CHECKING:
@@ -402,6 +402,10 @@ def bake_mesh(
     check_memory(min(total, SAMPLES_PER_ROUND) * BYTES_PER_SAMPLE + len(f) * BYTES_PER_BAKED_TEXEL,
                  f"a {res}x{res} bake with {total} samples",
                  "use a smaller resolution or supersample")
+    # every sample is one point of the surface noise
+    check_surface_work(setup, total, f"a {res}x{res} bake with {total} samples at MNI {mni:.6g}",
+                       "use a smaller resolution, a smaller supersample or a lower mni", param="supersample",
+                       mentions=("resolution", "supersample", "mni"))
     p = surface_params(texton, setup, seed, "exact", up, side)
     sums = np.zeros((len(f), 3), np.float64)
     for sx, sy in sorted(set(zip(nx.tolist(), ny.tolist()))):
