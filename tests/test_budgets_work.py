@@ -58,3 +58,22 @@ def test_bake_priced(tmp_path, res, supersample):
     assert [line for line in out.error_lines if "error:" in line] == out.error_lines[:1]
     assert "over the work budget" in out.stderr and "supersample" in out.stderr
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+
+
+_MIX = (
+    "import sys, numpy as np, warp_texton as wt\n"
+    "from warp_texton.cli import main\n"
+    "wt.write_image(sys.argv[1] + '/a.png', np.full((64, 64, 3), 0.5, np.float32))\n"
+    "sys.exit(main(['mix', sys.argv[1] + '/a.png', sys.argv[1] + '/a.png', '-o', sys.argv[1] + '/m.png', *sys.argv[2:]]))\n"
+)
+
+
+@pytest.mark.parametrize("args, match", [
+    (["--steps", "400000000", "--size", "8"], r"mixing 400000000 textons of 8x8 needs about"),
+    (["--steps", "100000000", "--size", "2"], r"mixing 100000000 textons of 2x2 needs about"),
+    (["--steps", "21", "--width", "1073741824", "--height", "1073741824"], r"too large"),
+])
+def test_mix_priced_before_analysis(tmp_path, args, match):
+    out = run_bomb(_MIX, str(tmp_path), *args)
+    assert_refused(out, match, within=10.0)
+    assert out.peak_bytes < ADDRESS_SPACE // 2 and not (tmp_path / "m.png").exists()
