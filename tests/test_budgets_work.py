@@ -77,3 +77,33 @@ def test_mix_priced_before_analysis(tmp_path, args, match):
     out = run_bomb(_MIX, str(tmp_path), *args)
     assert_refused(out, match, within=10.0)
     assert out.peak_bytes < ADDRESS_SPACE // 2 and not (tmp_path / "m.png").exists()
+
+
+_SYNTH = (
+    "import sys, numpy as np, warp_texton as wt\n"
+    "from warp_texton.cli import main\n"
+    "wt.Texton(np.full((8, 8, 1), 0.1), [0.5]).save(sys.argv[1] + '/t.exr')\n"
+    "sys.exit(main(['synthesize', sys.argv[1] + '/t.exr', '-o', sys.argv[1] + '/z.zarr', *sys.argv[2:]]))\n"
+)
+
+
+@pytest.mark.parametrize("args, match", [
+    (["--width", "1073741824", "--height", "1073741824"], r"blocks of 4096x4096 .* use larger --chunk"),
+    (["--width", "65536", "--height", "65536", "--chunk", "16"], r"blocks of 16x16 .* use larger --chunk"),
+    (["--width", "1048576", "--height", "1048576", "--chunk", "65536"], r"over the (work|memory) budget"),
+])
+def test_zarr_planning_priced(tmp_path, args, match):
+    pytest.importorskip("zarr")
+    out = run_bomb(_SYNTH, str(tmp_path), *args)
+    assert_refused(out, match, within=10.0)
+    assert out.peak_bytes < ADDRESS_SPACE // 2
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.exr"]
+
+
+def test_overwrite_keeps_a_foreign_folder(tmp_path):
+    pytest.importorskip("zarr")
+    (tmp_path / "z.zarr").mkdir()
+    (tmp_path / "z.zarr" / "notes.txt").write_text("keep me")
+    out = run_bomb(_SYNTH, str(tmp_path), "--width", "8", "--height", "8", "--overwrite")
+    assert_refused(out, r"not a Zarr store written by warp-texton", within=10.0)
+    assert (tmp_path / "z.zarr" / "notes.txt").read_text() == "keep me"

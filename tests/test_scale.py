@@ -431,6 +431,40 @@ class TestDask:
         np.testing.assert_array_equal(zarr.open_array(str(path))[:], synthesize(t, (10, 10), seed=2, device="cpu"))
         assert sorted(p.name for p in tmp_path.iterdir()) == ["a.zarr"]
 
+    @pytest.mark.parametrize("make", [
+        lambda p: (p.mkdir(), (p / "thesis.tex").write_text("x")),
+        lambda p: (p.mkdir(), (p / "zarr.json").write_text('{"attributes": {"other": 1}}')),
+        lambda p: (p.mkdir(), (p / "zarr.json").write_text("not json")),
+        lambda p: p.write_text("a file"),
+    ])
+    def test_overwrite_replaces_only_our_stores(self, zarr, tmp_path, make):
+        """--overwrite must not delete what the package did not write: a folder is replaced only
+        if its zarr.json carries the package's attributes."""
+        path = tmp_path / "a.zarr"
+        make(path)
+        before = sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*"))
+        with pytest.raises(TextonError, match=r"not a Zarr store written by warp-texton") as info:
+            write_zarr(path, random_texton(), (10, 10), chunks=5, device="cpu", overwrite=True)
+        assert info.value.param == "overwrite"
+        assert sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*")) == before
+
+    @pytest.mark.parametrize("shape, chunks, match", [
+        ((2**30, 2**30), 4096, r"cut into 68719476736 blocks of 4096x4096 needs about .* over the memory budget"),
+        ((65536, 65536), 16, r"cut into 16777216 blocks of 16x16 needs about .* over the memory budget"),
+        ((65536, 65536), 256, r"cut into 65536 blocks of 256x256 at MNI 30 needs about .* over the work budget"),
+    ])
+    def test_store_priced_before_its_chunk_list(self, zarr, tmp_path, monkeypatch, shape, chunks, match):
+        import warp_texton.dask as D
+
+        monkeypatch.setattr(D._Plan, "grid", lambda self: pytest.fail("chunk list built"))
+        set_memory_budget("4G")
+        try:
+            with pytest.raises(TextonError, match=match) as info:
+                write_zarr(tmp_path / "a.zarr", random_texton(), shape, chunks=chunks, device="cpu")
+        finally:
+            set_memory_budget(None)
+        assert info.value.param == "chunks" and not list(tmp_path.iterdir())
+
     def test_a_failing_chunk_leaves_nothing(self, tmp_path, monkeypatch):
         t = random_texton(seed=118)
         calls = []

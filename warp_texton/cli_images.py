@@ -177,7 +177,7 @@ SYNTHESIZE = Command(
     _synthesize_arguments, _synthesize,
     {**NOISE_IMAGE_NAMES, **FILTER_NAMES, **ANALYSIS_NAMES, "scale": "--scale", "rotation": "--rotation",
      "offset[0]": "--offset X", "offset[1]": "--offset Y", "offset": "--offset",
-     "period[0]": "--period PX", "period[1]": "--period PY", "period": "--period"},
+     "period[0]": "--period PX", "period[1]": "--period PY", "period": "--period", "chunks": "--chunk"},
     input_file,
     epilog="""examples:
   warp-texton synthesize wood.exr -o noise.png --width 1920 --height 1080
