@@ -107,3 +107,23 @@ def test_overwrite_keeps_a_foreign_folder(tmp_path):
     out = run_bomb(_SYNTH, str(tmp_path), "--width", "8", "--height", "8", "--overwrite")
     assert_refused(out, r"not a Zarr store written by warp-texton", within=10.0)
     assert (tmp_path / "z.zarr" / "notes.txt").read_text() == "keep me"
+
+
+@pytest.mark.parametrize("extra", [["--bake", "64", "--format", "obj", "--render", "32x32"],
+                                   ["--bake", "64", "--texture", "png", "--render", "32x32"]])
+def test_long_mesh_names_leave_nothing(tmp_path, extra):
+    """A 246-character stem: the names of its render (257 bytes with _render.png) or its texture
+    (258 with _texture.png; 255 at most) are checked before any work, and no file of the set is left."""
+    stem = "m" * 246
+    code = (
+        "import sys, trimesh, numpy as np, warp_texton as wt\n"
+        "from warp_texton.cli import main\n"
+        f"trimesh.creation.icosphere(subdivisions=2).export(sys.argv[1] + '/{stem}.ply')\n"
+        "wt.Texton(np.full((8, 8, 3), 0.1), [0.5, 0.5, 0.5]).save(sys.argv[1] + '/t.exr')\n"
+        f"sys.exit(main(['surface', sys.argv[1] + '/{stem}.ply', '--texton', sys.argv[1] + '/t.exr',"
+        " '--out-dir', sys.argv[1] + '/out', '--quiet', *sys.argv[2:]]))\n"
+    )
+    out = run_bomb(code, str(tmp_path), *extra)
+    assert out.returncode == 1 and out.seconds < 15 and "Traceback" not in out.stderr, out.stderr[-500:]
+    assert "bytes long" in out.stderr
+    assert not list((tmp_path / "out").iterdir())
