@@ -23,7 +23,7 @@ from .canvas import Canvas, check_output, group_size, result_bytes
 from .errors import TextonError
 from .filtering import (COST_HINT_NAMES, FILTER_BYTES_PER_PIXEL, FilterOptions, RasterPixels, filter_pixels,
                         needs_filtering)
-from .limits import check_memory, check_work
+from .limits import check_memory, check_work, work_budget
 from .noise import CELL_FACTOR, NoiseSetup, noise_setup, params_record, params_struct
 from .raster import (RasterWindow, TextonStack, check_method, check_raster_cost, raster_cost, raster_geometry,
                      raster_reach, rasters, resolve_method, window_block)
@@ -340,10 +340,13 @@ def synthesize_batch(
     check_memory(items_bytes, f"a batch of {count} {h}x{w} rasters with {channels} channel(s)",
                  "use a smaller count or shape, or make the batch in parts")
     # a lower bound of check_batch_cost's work (every pixel looks up at least MNI impacts on average),
-    # checked before the per-item setup, which is itself the cost of a batch of many tiny items
-    check_work(count * (BATCH_ITEM_OPS + h * w * mni), f"a batch of {count} {h}x{w} rasters at MNI {mni:.6g}",
-               "use a smaller count or shape, or a lower mni, or make the batch in parts", param="count",
-               mentions=("shape", "mni"))
+    # checked before the per-item setup, which is itself the cost of a batch of many tiny items; only
+    # a refusal reaches check_work here, so work_log keeps one estimate per call, the full one
+    bound = count * (BATCH_ITEM_OPS + h * w * mni)
+    if not bound <= work_budget():
+        check_work(bound, f"a batch of {count} {h}x{w} rasters at MNI {mni:.6g}",
+                   "use a smaller count or shape, or a lower mni, or make the batch in parts", param="count",
+                   mentions=("shape", "mni"))
     params = draw_batch_params(len(textons), count, seed, scale, rotation, offset, texton_index)
     setups = [noise_setup(t, mni, period, cell_factor) for t in textons]
     stack = TextonStack.of([s.coeffs for s in setups])
