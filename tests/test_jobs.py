@@ -889,3 +889,16 @@ class TestAllOrNone:
         with pytest.raises(TextonError, match=r"fmt must be one of") as info:
             SurfaceJob("a.ply", "t.exr", "out", **kw)
         assert info.value.param == "fmt"
+
+
+def test_names_at_the_limit_are_written(tmp_path, mesh_dir, texton_path):
+    """A 243-byte stem: its .obj, .mtl, .png, _render.png and the 255-byte _texture.exr fit, and so do the
+    temporary names they are written under."""
+    stem = "m" * 243  # 243 + len("_texture.exr") = 255
+    (mesh_dir / f"{stem}.ply").write_bytes((mesh_dir / "ball.ply").read_bytes())
+    out = tmp_path / "out"
+    job = SurfaceJob(str(mesh_dir / f"{stem}.ply"), str(texton_path), str(out), device="cpu", bake=16, fmt="obj",
+                     texture="exr", render=(8, 8))
+    res = run_surface_job(job)
+    assert res.status == "done", res.message
+    assert sorted(os.listdir(out)) == sorted(p.name for p in job.outputs())

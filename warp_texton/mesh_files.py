@@ -126,8 +126,10 @@ def write_set(writes) -> None:
                 tmp = Path(stack.enter_context(atomic_path(path)))
                 if isinstance(data, (bytes, bytearray)):
                     tmp.write_bytes(data)
-                else:  # writers that choose the format by suffix write beside the temporary file
-                    side = tmp.with_name(tmp.name + Path(path).suffix)
+                else:  # writers that choose the format by suffix write beside the temporary file,
+                    # under its name with the output's suffix for .part: no longer than it, so a name
+                    # that fits the file system has a side name that fits too
+                    side = tmp.with_suffix(Path(path).suffix)
                     try:
                         with named_as(side, path):
                             data(side)
