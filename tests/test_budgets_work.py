@@ -56,7 +56,7 @@ def test_bake_priced(tmp_path, res, supersample):
     assert out.returncode == 1 and out.seconds < 10, (out.returncode, out.stderr[-500:])
     assert "Traceback" not in out.stderr and out.peak_bytes < ADDRESS_SPACE // 2
     assert [line for line in out.error_lines if "error:" in line] == out.error_lines[:1]
-    assert "over the work budget" in out.stderr and "supersample" in out.stderr
+    assert "over the work budget" in out.stderr and "a smaller --supersample or a lower --mni" in out.stderr
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
 
 

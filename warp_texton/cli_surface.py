@@ -178,7 +178,7 @@ def _run_jobs(args, executor, device, render, orbit):
     jobs = [SurfaceJob(m, texton, str(out), args.texel_size, args.mni, args.seed, args.max_edge, render,
                        args.format, args.overwrite, device, bake=args.bake, uv=args.uv, texture=args.texture,
                        exr_linear=args.exr_linear, supersample=args.supersample, up=args.up, orbit=orbit,
-                       fov=args.fov) for m in meshes]
+                       fov=args.fov, words=tuple(SURFACE.names.items())) for m in meshes]
     check_unique_outputs(jobs)
     try:
         return run_jobs(jobs, executor=executor, jobs_in_parallel=args.jobs, progress=not args.quiet), False

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .mesh_files import bake_outputs
+from .cli_options import in_cli_words
 from .errors import TextonError
 from .texton import Texton
 
@@ -151,6 +152,9 @@ class SurfaceJob:
     up: str = "auto"  # the mesh's up axis: "auto", "x", "y" or "z"
     orbit: tuple[float, float] | None = None  # (azimuth, elevation) of the render, degrees
     fov: float | None = None  # vertical field of view of the render, degrees
+    #: (library name, command-line name) pairs: the words a failure's message uses for the
+    #: arguments it names (the surface command's options: "supersample" -> "--supersample")
+    words: tuple[tuple[str, str], ...] = ()
 
     def __post_init__(self):
         # the formats documented above, refused when the job is made rather than written in another
@@ -345,7 +349,7 @@ def run_surface_job(job: SurfaceJob, token: str | None = None) -> JobResult:
     try:
         _run(job, outputs, notes)
     except TextonError as exc:
-        message = str(exc)
+        message = in_cli_words(exc, dict(job.words))
         return JobResult(job.mesh, "failed", message if message.startswith(job.mesh) else f"{job.mesh}: {message}")
     except OSError as exc:
         return JobResult(job.mesh, "failed", f"{exc.filename or job.mesh}: {exc.strerror or exc}")
