@@ -538,3 +538,21 @@ class TestErrors:
             bake_mesh(trimesh.creation.box(), T, 0.1, resolution=16, device=device)
         # a mesh with UVs needs no atlas
         assert bake_mesh(plane_with_uvs(), T, 0.1, resolution=16, device=device).uv_source == "mesh"
+
+
+def test_bake_work_is_priced_before_sampling(monkeypatch):
+    """Every sample of a bake is a point of the surface noise: a supersample that would take
+    longer than the work budget is refused before the first sample, naming the knobs."""
+    import warp_texton.bake as B
+    from warp_texton.limits import set_work_budget
+
+    called = []
+    monkeypatch.setattr(B, "evaluate_points", lambda *a, **k: called.append(a))
+    set_work_budget(1e9)
+    try:
+        with pytest.raises(TextonError, match=r"a 64x64 bake with \d+ samples at MNI 60 .* over the work budget of 1e\+09; "
+                                              r"use a smaller resolution, a smaller supersample") as info:
+            bake_mesh(plane_with_uvs(), random_texton(), 0.01, resolution=64, supersample=64, device="cpu")
+    finally:
+        set_work_budget(None)
+    assert not called and info.value.param == "supersample" and "resolution" in info.value.mentions

@@ -826,3 +826,79 @@ def test_cli_scheduler_that_cannot_be_reached(tmp_path, mesh_dir, texton_path, c
     captured = capsys.readouterr()
     assert status == 2 and len(captured.err.splitlines()) == 1
     assert re.match(r"warp-texton: error: --scheduler tcp://127\.0\.0\.1:9: cannot connect", captured.err)
+
+
+class TestAllOrNone:
+    """A mesh's files (mesh, MTL, PNG texture, texture alone, render) appear together or not at all."""
+
+    @pytest.mark.parametrize("kw", [
+        dict(render=(8, 8)),
+        dict(render=(8, 8), bake=16, fmt="obj", texture="exr"),
+        dict(render=(8, 8), bake=16, fmt="glb"),
+    ])
+    def test_a_failing_render_write_leaves_nothing(self, tmp_path, mesh_dir, texton_path, monkeypatch, kw):
+        import errno
+
+        import warp_texton.io
+
+        def full(path, *a, **k):
+            raise OSError(errno.ENOSPC, "No space left on device", str(path))
+
+        monkeypatch.setattr(warp_texton.io, "write_image", full)
+        out = tmp_path / "out"
+        job = SurfaceJob(str(mesh_dir / "ball.ply"), str(texton_path), str(out), device="cpu", **kw)
+        res = run_surface_job(job)
+        assert res.status == "failed" and "No space left" in res.message, res
+        assert ".part" not in res.message
+        assert os.listdir(out) == []
+
+    def test_a_failing_rename_removes_the_renamed(self, tmp_path, monkeypatch):
+        """Should a rename fail after others succeeded, the renamed files go again."""
+        import warp_texton.io
+        from warp_texton.mesh_files import write_set
+
+        real, calls = os.replace, []
+
+        def flaky(src, dst):
+            calls.append(dst)
+            if len(calls) == 2:
+                raise OSError(5, "Input/output error")
+            real(src, dst)
+
+        monkeypatch.setattr(warp_texton.io.os, "replace", flaky)
+        with pytest.raises(OSError):
+            write_set({tmp_path / "a.obj": b"o", tmp_path / "a.mtl": b"m", tmp_path / "a.png": b"p"})
+        assert os.listdir(tmp_path) == []
+
+    def test_long_names_are_refused_before_any_work(self, tmp_path, mesh_dir, texton_path, monkeypatch):
+        """A 246-character stem fits its .obj but not its _render.png (257 bytes): refused before the bake."""
+        import warp_texton.bake
+
+        monkeypatch.setattr(warp_texton.bake, "bake_mesh", lambda *a, **k: pytest.fail("baked"))
+        stem = "m" * 246
+        (mesh_dir / f"{stem}.ply").write_bytes((mesh_dir / "ball.ply").read_bytes())
+        out = tmp_path / "out"
+        job = SurfaceJob(str(mesh_dir / f"{stem}.ply"), str(texton_path), str(out), device="cpu", bake=16,
+                         fmt="obj", render=(8, 8))
+        res = run_surface_job(job)
+        assert res.status == "failed" and "_render.png" in res.message and "257 bytes long" in res.message, res.message
+        assert os.listdir(out) == []
+
+    @pytest.mark.parametrize("kw", [dict(fmt="stl"), dict(fmt="ply", bake=16), dict(fmt=3), dict(fmt="GLB")])
+    def test_undocumented_formats_are_refused(self, kw):
+        with pytest.raises(TextonError, match=r"fmt must be one of") as info:
+            SurfaceJob("a.ply", "t.exr", "out", **kw)
+        assert info.value.param == "fmt"
+
+
+def test_names_at_the_limit_are_written(tmp_path, mesh_dir, texton_path):
+    """A 243-byte stem: its .obj, .mtl, .png, _render.png and the 255-byte _texture.exr fit, and so do the
+    temporary names they are written under."""
+    stem = "m" * 243  # 243 + len("_texture.exr") = 255
+    (mesh_dir / f"{stem}.ply").write_bytes((mesh_dir / "ball.ply").read_bytes())
+    out = tmp_path / "out"
+    job = SurfaceJob(str(mesh_dir / f"{stem}.ply"), str(texton_path), str(out), device="cpu", bake=16, fmt="obj",
+                     texture="exr", render=(8, 8))
+    res = run_surface_job(job)
+    assert res.status == "done", res.message
+    assert sorted(os.listdir(out)) == sorted(p.name for p in job.outputs())

@@ -941,3 +941,44 @@ class TestCli:
         assert "Traceback" not in captured.err + captured.out
         assert not Path(out).exists()
         assert not [p for p in Path(out).parent.iterdir() if p.name.endswith(".part")]
+
+
+class TestMixArgumentsFirst:
+    """`mix` checks every argument, and prices its steps, before reading or analysing a texture."""
+
+    @pytest.mark.parametrize("extra, match", [
+        (["--steps", "400000000", "--size", "8"], r"mixing 400000000 textons of 8x8 needs about .* use fewer --steps"),
+        (["--width", "0"], r"--width must be at least 1"),
+        (["--height", "-2"], r"--height must be at least 1"),
+        (["--mni", "0"], r"--mni must be a finite number > 0"),
+        (["--size", "1"], r"size must be at least 2"),
+        (["--steps", "1"], r"--steps must be at least 2"),
+    ])
+    def test_refused_before_reading(self, tmp_path, monkeypatch, capsys, extra, match):
+        import warp_texton.cli_images as C
+
+        read = []
+        monkeypatch.setattr(C, "_load_texture", lambda path: read.append(path))
+        code = run_cli(["mix", tmp_path / "a.png", tmp_path / "b.png", "-o", tmp_path / "m.png", *extra])
+        err = capsys.readouterr().err
+        assert code == 2 and re.search(match, err) and len(err.strip().splitlines()) == 1, err
+        assert not read and not list(tmp_path.iterdir())
+
+    def test_missing_output_folder_refused_first(self, tmp_path, monkeypatch, capsys):
+        import warp_texton.cli_images as C
+
+        monkeypatch.setattr(C, "_load_texture", lambda path: pytest.fail("read before the output was checked"))
+        assert run_cli(["mix", "a.png", "b.png", "-o", tmp_path / "no" / "m.png"]) == 2
+        assert "the folder" in capsys.readouterr().err
+
+    def test_rhos_priced_before_their_list(self):
+        from warp_texton.limits import set_memory_budget
+        from warp_texton.mixing import mix_bytes
+
+        set_memory_budget(mix_bytes(1000, 8) - 1)
+        try:
+            with pytest.raises(TextonError, match=r"mixing 1000 textons of 8x8 .* use fewer rhos") as info:
+                mix_textons(np.zeros((4, 4)), np.zeros((4, 4)), np.linspace(0, 1, 1000), size=8)
+        finally:
+            set_memory_budget(None)
+        assert info.value.param == "rhos"

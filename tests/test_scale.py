@@ -28,7 +28,7 @@ import warp_texton.batches
 from warp_texton.dask import synthesize_dask, write_zarr
 from helpers import assert_nothing_written, assert_same_noise, noise_sd, parts, random_texton, run_cli
 from warp_texton import FilterOptions, TextonError, evaluate, render_plane, synthesize, synthesize_batch
-from warp_texton.limits import set_memory_budget
+from warp_texton.limits import set_memory_budget, set_work_budget, work_log
 
 GEOMETRIES = [
     pytest.param(1.0, 0.0, (0.0, 0.0), id="grid"),
@@ -254,6 +254,32 @@ class TestBatch:
         with pytest.raises(TextonError, match=r"a batch of 1000000000000 1x1 rasters .* over the memory budget"):
             synthesize_batch(random_texton(), 10**12, (1, 1), device="cpu")
 
+    def test_many_tiny_items_are_priced_by_their_setup(self, monkeypatch):
+        """Each item's setup is work (BATCH_ITEM_OPS), checked before any item is drawn: a
+        batch whose pixels cost almost nothing is still refused, and without drawing parameters."""
+        drawn = []
+        monkeypatch.setattr(warp_texton.batches, "draw_batch_params", lambda *a, **k: drawn.append(a))
+        set_work_budget(1e7)
+        try:
+            with pytest.raises(TextonError, match=r"a batch of 1000 1x1 rasters at MNI 30 needs about 1(\.\d+)?e\+08 "
+                                                  r"operations") as info:
+                synthesize_batch(random_texton(), 1000, (1, 1), device="cpu")
+        finally:
+            set_work_budget(None)
+        assert info.value.param == "count" and not drawn
+
+    def test_the_whole_batch_is_priced_not_a_group(self):
+        """200 items of 64² at MNI 32000 are 2.6e10 lookups: refused by a 1e10 budget although each group
+        of items fits it."""
+        with work_log() as log:
+            set_work_budget(1e10)
+            try:
+                with pytest.raises(TextonError, match=r"a batch of 200 64x64 rasters at MNI 32000 .* over the work"):
+                    synthesize_batch(random_texton(), 200, (64, 64), mni=2000 * 16, device="cpu")
+            finally:
+                set_work_budget(None)
+        assert log and log[-1][1] > 1e10
+
 
 # --------------------------------------------------------------------------- #
 # Output on the device                                                         #
@@ -404,6 +430,40 @@ class TestDask:
         write_zarr(path, t, (10, 10), chunks=5, dtype="float32", seed=2, device="cpu", overwrite=True)
         np.testing.assert_array_equal(zarr.open_array(str(path))[:], synthesize(t, (10, 10), seed=2, device="cpu"))
         assert sorted(p.name for p in tmp_path.iterdir()) == ["a.zarr"]
+
+    @pytest.mark.parametrize("make", [
+        lambda p: (p.mkdir(), (p / "thesis.tex").write_text("x")),
+        lambda p: (p.mkdir(), (p / "zarr.json").write_text('{"attributes": {"other": 1}}')),
+        lambda p: (p.mkdir(), (p / "zarr.json").write_text("not json")),
+        lambda p: p.write_text("a file"),
+    ])
+    def test_overwrite_replaces_only_our_stores(self, zarr, tmp_path, make):
+        """--overwrite must not delete what the package did not write: a folder is replaced only
+        if its zarr.json carries the package's attributes."""
+        path = tmp_path / "a.zarr"
+        make(path)
+        before = sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*"))
+        with pytest.raises(TextonError, match=r"not a Zarr store written by warp-texton") as info:
+            write_zarr(path, random_texton(), (10, 10), chunks=5, device="cpu", overwrite=True)
+        assert info.value.param == "overwrite"
+        assert sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*")) == before
+
+    @pytest.mark.parametrize("shape, chunks, match", [
+        ((2**30, 2**30), 4096, r"cut into 68719476736 blocks of 4096x4096 needs about .* over the memory budget"),
+        ((65536, 65536), 16, r"cut into 16777216 blocks of 16x16 needs about .* over the memory budget"),
+        ((65536, 65536), 256, r"cut into 65536 blocks of 256x256 at MNI 30 needs about .* over the work budget"),
+    ])
+    def test_store_priced_before_its_chunk_list(self, zarr, tmp_path, monkeypatch, shape, chunks, match):
+        import warp_texton.dask as D
+
+        monkeypatch.setattr(D._Plan, "grid", lambda self: pytest.fail("chunk list built"))
+        set_memory_budget("4G")
+        try:
+            with pytest.raises(TextonError, match=match) as info:
+                write_zarr(tmp_path / "a.zarr", random_texton(), shape, chunks=chunks, device="cpu")
+        finally:
+            set_memory_budget(None)
+        assert info.value.param == "chunks" and not list(tmp_path.iterdir())
 
     def test_a_failing_chunk_leaves_nothing(self, tmp_path, monkeypatch):
         t = random_texton(seed=118)

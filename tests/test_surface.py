@@ -1330,3 +1330,36 @@ def test_first_call_prints_nothing(call):
     assert done.returncode == 0, done.stderr
     assert done.stdout == "done\n"
     assert done.stderr == ""
+
+
+class TestWorkBudget:
+    """Surface noise prices its points' walks (surface.surface_visits) before computing."""
+
+    def test_refused_before_any_launch(self, monkeypatch):
+        import warp_texton.surface as S
+        from warp_texton.limits import set_work_budget, work_log
+
+        t = small_texton()
+        rng = np.random.default_rng(0)
+        pts, nrm = rng.uniform(-5, 5, (2000, 3)), rng.normal(size=(2000, 3))
+        with work_log() as log:
+            surface_noise(t, pts[:10], nrm[:10], 0.1, mni=50, device="cpu")
+        per_point = log[-1][1] / 10
+        launched = []
+        monkeypatch.setattr(S, "evaluate_points", lambda *a, **k: launched.append(a))
+        assert per_point == pytest.approx(S.surface_visits(S.surface_setup(t, 50)))
+        set_work_budget(per_point * 1999)
+        try:
+            with pytest.raises(TextonError, match=r"surface noise at 2000 points at MNI 50 .* use fewer points "
+                                                  r"or a lower mni") as info:
+                surface_noise(t, pts, nrm, 0.1, mni=50, device="cpu")
+        finally:
+            set_work_budget(None)
+        assert info.value.param == "mni" and not launched
+
+    def test_work_grows_with_mni(self):
+        import warp_texton.surface as S
+
+        t = small_texton()
+        a, b = (S.surface_visits(S.surface_setup(t, m)) for m in (50, 500))
+        assert b == pytest.approx(10 * a)

@@ -37,7 +37,7 @@ from .frames import UP, up_vector
 from .mesh import check_mesh, vertex_normals
 from .mesh_files import texture_8bit
 from .render import cast_rays, check_background
-from .surface import check_method, evaluate_points, surface_params, surface_setup, texel_positions
+from .surface import check_method, check_surface_work, evaluate_points, surface_params, surface_setup, texel_positions
 from .texton import Texton
 
 if TYPE_CHECKING:
@@ -52,6 +52,11 @@ MAX_RESOLUTION = 16384
 #: many samples per side.
 SAMPLE_DENSITY = 1.0
 MAX_SAMPLES_SIDE = 8
+#: The share of a lone point's walk that a bake's sample costs: a bake's samples lie close
+#: together, so the blocks they are evaluated in (surface.evaluate_points) draw each cube's
+#: impacts once for many samples; measured, bakes of 128² and 256² at 4² samples ran at
+#: 6.0e9-6.2e9 lone-walk operations a second against the lone walk's 7.4e8-1e9 (docs/limits.md).
+BAKE_WALK_SHARE = 1.0 / 6.0
 #: Most samples per texel side that an explicit ``supersample`` may ask for: 64² =
 #: 4096 evaluations per texel, the bound the filters put on theirs (a texel's
 #: work grows with its square).
@@ -402,6 +407,10 @@ def bake_mesh(
     check_memory(min(total, SAMPLES_PER_ROUND) * BYTES_PER_SAMPLE + len(f) * BYTES_PER_BAKED_TEXEL,
                  f"a {res}x{res} bake with {total} samples",
                  "use a smaller resolution or supersample")
+    # every sample is one point of the surface noise, of a dense set (BAKE_WALK_SHARE)
+    check_surface_work(setup, total * BAKE_WALK_SHARE, f"a {res}x{res} bake with {total} samples at MNI {mni:.6g}",
+                       "use a smaller resolution, a smaller supersample or a lower mni", param="supersample",
+                       mentions=("resolution", "supersample", "mni"))
     p = surface_params(texton, setup, seed, "exact", up, side)
     sums = np.zeros((len(f), 3), np.float64)
     for sx, sy in sorted(set(zip(nx.tolist(), ny.tolist()))):

@@ -23,7 +23,7 @@ from .canvas import Canvas, check_output, group_size, result_bytes
 from .errors import TextonError
 from .filtering import (COST_HINT_NAMES, FILTER_BYTES_PER_PIXEL, FilterOptions, RasterPixels, filter_pixels,
                         needs_filtering)
-from .limits import check_memory
+from .limits import check_memory, check_work, work_budget
 from .noise import CELL_FACTOR, NoiseSetup, noise_setup, params_record, params_struct
 from .raster import (RasterWindow, TextonStack, check_method, check_raster_cost, raster_cost, raster_geometry,
                      raster_reach, rasters, resolve_method, window_block)
@@ -34,6 +34,11 @@ from .texton import Texton
 #: window (a small Python object with its geometry): 1.2 KiB measured (tracemalloc, 20 000 items
 #: of 1x1 pixels), rounded up.
 BATCH_ITEM_BYTES = 2048
+#: Work per batch item besides its pixels, in operations: drawing its window, its parameters'
+#: record and its block is Python code of about 90 us an item (100 000 items of 1x1 pixels in
+#: 9.0 s on the two-core CPU of docs/limits.md), which the raster path's 7e8 operations / s
+#: would spend on 6.5e4 operations; rounded up, so a million items are refused by the default budget.
+BATCH_ITEM_OPS = 1.0e5
 
 
 @dataclass(frozen=True)
@@ -334,6 +339,14 @@ def synthesize_batch(
     # before anything of size count is made (its parameters, its windows): what grows with count alone
     check_memory(items_bytes, f"a batch of {count} {h}x{w} rasters with {channels} channel(s)",
                  "use a smaller count or shape, or make the batch in parts")
+    # a lower bound of check_batch_cost's work (every pixel looks up at least MNI impacts on average),
+    # checked before the per-item setup, which is itself the cost of a batch of many tiny items; only
+    # a refusal reaches check_work here, so work_log keeps one estimate per call, the full one
+    bound = count * (BATCH_ITEM_OPS + h * w * mni)
+    if not bound <= work_budget():
+        check_work(bound, f"a batch of {count} {h}x{w} rasters at MNI {mni:.6g}",
+                   "use a smaller count or shape, or a lower mni, or make the batch in parts", param="count",
+                   mentions=("shape", "mni"))
     params = draw_batch_params(len(textons), count, seed, scale, rotation, offset, texton_index)
     setups = [noise_setup(t, mni, period, cell_factor) for t in textons]
     stack = TextonStack.of([s.coeffs for s in setups])
@@ -379,8 +392,8 @@ def check_batch_cost(textons: list[Texton], setups: list[NoiseSetup], h: int, w:
                      items_bytes: float) -> None:
     """The budget check of a batch: its output and items (``items_bytes``) with the
     largest group's blocks or one filtered item's pixels in memory; the work of
-    every group and every filtered item."""
-    work, nbytes = 0.0, 0.0
+    every group and every filtered item, and every item's setup (BATCH_ITEM_OPS)."""
+    work, nbytes = (len(windows) + len(filtered)) * BATCH_ITEM_OPS, 0.0
     for g0, g1 in groups:
         group = [windows[k] for k in range(g0, g1)]
         group_bytes, group_work, _ = raster_cost([win for win, _ in group], (h, w), stack,

@@ -177,7 +177,7 @@ SYNTHESIZE = Command(
     _synthesize_arguments, _synthesize,
     {**NOISE_IMAGE_NAMES, **FILTER_NAMES, **ANALYSIS_NAMES, "scale": "--scale", "rotation": "--rotation",
      "offset[0]": "--offset X", "offset[1]": "--offset Y", "offset": "--offset",
-     "period[0]": "--period PX", "period[1]": "--period PY", "period": "--period"},
+     "period[0]": "--period PX", "period[1]": "--period PY", "period": "--period", "chunks": "--chunk"},
     input_file,
     epilog="""examples:
   warp-texton synthesize wood.exr -o noise.png --width 1920 --height 1080
@@ -278,14 +278,27 @@ def _mix_weights(args):
 def _mix(args) -> None:
     import numpy as np
 
+    from ._checks import check_int, check_mni, check_shape
     from .io import check_image_path, write_image
     from .limits import check_memory
-    from .mixing import mix_textons, synthesize_mixed
+    from .mixing import mix_bytes, mix_textons, synthesize_mixed
+    from .texton import MAX_TEXTON_SIDE
 
+    # every argument before the first image is read or analysed
     out = check_image_path(args.output)
+    if not (out.parent if str(out.parent) else Path(".")).is_dir():
+        raise TextonError(f"{out}: the folder {out.parent} does not exist", param="output")
     if args.steps < 2:
         raise TextonError(f"--steps must be at least 2, got {args.steps}")
-    check_memory(16.0 * args.steps, f"--steps {args.steps}", "use fewer --steps")  # before the list of rhos
+    size = check_int(args.size, "size", minimum=2, maximum=MAX_TEXTON_SIDE)
+    for name, value in (("--width", args.width), ("--height", args.height)):
+        if value is not None:
+            check_int(value, name, minimum=1)
+    check_shape((args.height or 1, args.width or 1))
+    check_mni(args.mni)
+    # the rhos (np.linspace) and the textons, before either is made
+    check_memory(mix_bytes(args.steps, size), f"mixing {args.steps} textons of {size}x{size}",
+                 "use fewer --steps or a smaller --size", param="steps", mentions=("size",))
     weights, shape = _mix_weights(args)
     t0 = time.perf_counter()
     textons = mix_textons(_load_texture(args.a), _load_texture(args.b), np.linspace(0.0, 1.0, args.steps),

@@ -178,7 +178,7 @@ def _run_jobs(args, executor, device, render, orbit):
     jobs = [SurfaceJob(m, texton, str(out), args.texel_size, args.mni, args.seed, args.max_edge, render,
                        args.format, args.overwrite, device, bake=args.bake, uv=args.uv, texture=args.texture,
                        exr_linear=args.exr_linear, supersample=args.supersample, up=args.up, orbit=orbit,
-                       fov=args.fov) for m in meshes]
+                       fov=args.fov, words=tuple(SURFACE.names.items())) for m in meshes]
     check_unique_outputs(jobs)
     try:
         return run_jobs(jobs, executor=executor, jobs_in_parallel=args.jobs, progress=not args.quiet), False
@@ -228,7 +228,7 @@ SURFACE = Command(
     "others still finish; the exit status is 1 if any failed, 130 if interrupted.",
     _arguments, _surface,
     {**ANALYSIS_NAMES, "mni": "--mni", "texel_size": "--texel-size", "max_edge": "--max-edge", "fov": "--fov",
-     "device": "--device"},
+     "device": "--device", "supersample": "--supersample", "resolution": "--bake"},
     lambda args: {"u": args.texton},
     epilog="""examples:
   warp-texton surface scans/*.ply --texton wood.exr --out-dir textured --render 512x512

@@ -17,6 +17,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import json
+import math
 import numbers
 import os
 import shutil
@@ -34,7 +35,7 @@ from .canvas import result_bytes
 from .errors import TextonError
 from .filtering import FilterOptions, needs_filtering
 from .io import convert_pixels, report_clipped
-from .limits import check_memory
+from .limits import check_memory, check_work
 from .noise import CELL_FACTOR, noise_setup
 from .raster import raster_geometry, raster_reach
 from .synthesis import synthesize
@@ -45,6 +46,14 @@ if TYPE_CHECKING:
 
     import dask.array
 
+#: Host memory per chunk of a store while it is planned and written: its entry in the chunk list
+#: and its Dask task (key, delayed call, graph entry); measured 1.5 KiB a chunk (tracemalloc, a
+#: 4096² raster in chunks of 16), rounded up.
+CHUNK_TASK_BYTES = 2048
+#: Work per chunk besides its pixels, in operations: a task's setup, its synthesize call and its
+#: write into the store take about 6 ms (1024 chunks of 16² written in 6.3 s, one worker, on the
+#: two-core CPU of docs/limits.md), which the raster path's 7.4e8 operations / s spends on 4.5e6.
+CHUNK_TASK_OPS = 5.0e6
 #: Default chunk side, pixels: 4096² RGB float32 is 192 MiB while it is computed.
 CHUNK = 4096
 #: Pixel types of a Zarr store; float16 keeps the noise unclipped at half the
@@ -266,8 +275,7 @@ def _atomic_folder(path: Path, overwrite: bool):
     parent = path.parent if str(path.parent) else Path(".")
     if not parent.is_dir():
         raise TextonError(f"{path}: the output folder {parent} does not exist")
-    if path.exists() and not overwrite:
-        raise TextonError(f"{path}: exists; give --overwrite (overwrite=True) to replace it")
+    check_replaceable(path, overwrite)
     tmp = Path(tempfile.mkdtemp(dir=parent, prefix=f".{path.name}.", suffix=".part"))
     try:
         yield tmp
@@ -281,6 +289,39 @@ def _atomic_folder(path: Path, overwrite: bool):
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
+
+
+def check_replaceable(path: Path, overwrite: bool) -> None:
+    """An existing ``path`` may be replaced only with ``overwrite`` and only if it is a Zarr
+    store this package wrote (a folder whose zarr.json carries the ``warp_texton`` attributes):
+    --overwrite must not delete a folder of anything else."""
+    if not (path.exists() or path.is_symlink()):
+        return
+    if not overwrite:
+        raise TextonError(f"{path}: exists; give --overwrite (overwrite=True) to replace it")
+    meta = path / "zarr.json"
+    try:
+        ours = (path.is_dir() and not path.is_symlink() and meta.is_file() and meta.stat().st_size < (1 << 20)
+                and "warp_texton" in json.loads(meta.read_text(encoding="utf-8")).get("attributes", {}))
+    except (OSError, ValueError, AttributeError):
+        ours = False
+    if not ours:
+        raise TextonError(f"{path}: exists and is not a Zarr store written by warp-texton; --overwrite replaces "
+                          "only those: remove it yourself or choose another name", param="overwrite")
+
+
+def check_store_cost(plan: _Plan) -> None:
+    """Price a whole store before its chunk list is made: the chunks' tasks in memory, and
+    their work (each chunk's overhead, and every pixel's MNI impacts at least)."""
+    h, w = plan.shape
+    ch, cw = plan.chunks
+    n = math.ceil(h / ch) * math.ceil(w / cw)
+    what = f"a {w}x{h} store cut into {n} blocks of {ch}x{cw}"
+    check_memory(n * CHUNK_TASK_BYTES, what, "use larger chunks or a smaller raster", param="chunks",
+                 mentions=("chunks", "shape"))
+    mni = float(plan.options["mni"])
+    check_work(n * CHUNK_TASK_OPS + float(h) * w * mni, f"{what} at MNI {mni:.6g}",
+               "use larger chunks, a smaller raster or a lower mni", param="chunks", mentions=("chunks", "shape", "mni"))
 
 
 def check_scheduler(scheduler) -> tuple[str, str | None]:
@@ -397,8 +438,8 @@ def write_zarr(
     defaults = dict(mni=30.0, seed=0, scale=1.0, rotation=0.0, offset=(0.0, 0.0), period=None, device=None,
                     poisson="exact", cell_factor=CELL_FACTOR, method="auto", filter="none")
     plan = _Plan(texton, shape, chunks, **{**defaults, **options})
-    if path.exists() and not overwrite:
-        raise TextonError(f"{path}: exists; give --overwrite (overwrite=True) to replace it")
+    check_replaceable(path, overwrite)
+    check_store_cost(plan)
     n_workers = workers or os.cpu_count() or 1
     in_flight = n_workers if kind != "distributed" else 1
     check_memory(in_flight * plan.chunk_bytes(np.dtype(dtype).itemsize),

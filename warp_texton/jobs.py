@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .mesh_files import bake_outputs
+from .cli_options import in_cli_words
 from .errors import TextonError
 from .texton import Texton
 
@@ -50,6 +51,10 @@ def describe_up(up: str, mesh_path: str) -> str:
     axis = resolve_up(up, mesh_path)
     return f"{axis}, auto for {Path(mesh_path).suffix.lower() or 'a file without extension'}" if up == "auto" \
         else f"{axis}, given"
+
+
+#: The formats of a job's vertex-coloured mesh (``fmt`` without ``bake``).
+VERTEX_COLOUR_FORMATS = ("ply", "obj", "glb")
 
 
 @dataclass(frozen=True)
@@ -147,6 +152,16 @@ class SurfaceJob:
     up: str = "auto"  # the mesh's up axis: "auto", "x", "y" or "z"
     orbit: tuple[float, float] | None = None  # (azimuth, elevation) of the render, degrees
     fov: float | None = None  # vertical field of view of the render, degrees
+    #: (library name, command-line name) pairs: the words a failure's message uses for the
+    #: arguments it names (the surface command's options: "supersample" -> "--supersample")
+    words: tuple[tuple[str, str], ...] = ()
+
+    def __post_init__(self):
+        # the formats documented above, refused when the job is made rather than written in another
+        formats = ("glb", "obj") if self.bake is not None else VERTEX_COLOUR_FORMATS
+        if self.fmt is not None and (not isinstance(self.fmt, str) or self.fmt not in formats):
+            raise TextonError(f"fmt must be one of {', '.join(formats)}"
+                              f"{' with bake' if self.bake is not None else ''}, got {self.fmt!r:.40}", param="fmt")
 
     @property
     def format(self) -> str:
@@ -334,7 +349,7 @@ def run_surface_job(job: SurfaceJob, token: str | None = None) -> JobResult:
     try:
         _run(job, outputs, notes)
     except TextonError as exc:
-        message = str(exc)
+        message = in_cli_words(exc, dict(job.words))
         return JobResult(job.mesh, "failed", message if message.startswith(job.mesh) else f"{job.mesh}: {message}")
     except OSError as exc:
         return JobResult(job.mesh, "failed", f"{exc.filename or job.mesh}: {exc.strerror or exc}")
@@ -345,13 +360,16 @@ def run_surface_job(job: SurfaceJob, token: str | None = None) -> JobResult:
 
 def _run(job: SurfaceJob, outputs: list[Path], notes: list[str]) -> None:
     from .bake import bake_mesh
-    from .io import atomic_path, write_image
+    from .io import write_image
     from .mesh import default_texel_size, texture_mesh, vertex_spacing
-    from .mesh_files import check_surface, export_mesh, write_baked
+    from .io import check_output_name
+    from .mesh_files import check_surface, export_mesh, write_baked, write_set
     from .render import render_mesh
     from .texton import load_texton
 
     Path(job.out_dir).mkdir(parents=True, exist_ok=True)  # on a cluster worker too
+    for path in outputs:  # names that cannot be written are refused before any work
+        check_output_name(path)
     texton = job.texton if isinstance(job.texton, Texton) else load_texton(job.texton)
     up = resolve_up(job.up, job.mesh)
     mesh = _load_mesh(job.mesh)
@@ -362,10 +380,12 @@ def _run(job: SurfaceJob, outputs: list[Path], notes: list[str]) -> None:
     if job.render is not None:  # computed before anything is written: all outputs or none
         img = render_mesh(mesh, texton, job.render, texel_size=texel, mni=job.mni, seed=job.seed,
                           device=job.device, up=up, orbit=job.orbit, fov=job.fov)
+    # the render is written with the mesh's files, all renamed at the end: all files or none
+    render = {} if img is None else {outputs[-1]: lambda tmp: write_image(tmp, img)}
     if job.bake is not None:
         baked = bake_mesh(mesh, texton, texel, resolution=job.bake, mni=job.mni, seed=job.seed, uv=job.uv,
                           supersample=job.supersample, device=job.device, up=up, name=job.mesh)
-        write_baked(baked, stem, fmt=job.format, texture=job.texture, linear=job.exr_linear)
+        write_baked(baked, stem, fmt=job.format, texture=job.texture, linear=job.exr_linear, also=render)
         notes.append(f"{job.mesh}: {job.bake}x{job.bake} texture, {baked.texels_per_texton_texel:.3g} texels per "
                      f"texton texel (median), noise samples per texel: {baked.samples:.3g} (mean), UVs from the "
                      f"{baked.uv_source}")
@@ -378,10 +398,7 @@ def _run(job: SurfaceJob, outputs: list[Path], notes: list[str]) -> None:
             notes.append(f"{job.mesh}: vertices are {spacing:.3g} texels apart (median edge), so vertex colours "
                          "blur the texture; bake a texture (--bake RES) or subdivide (--max-edge 1)")
         data = export_mesh(textured, job.format, up)  # a GLB turned to +Y from the mesh's up
-        with atomic_path(outputs[0]) as tmp:
-            Path(tmp).write_bytes(data)
-    if img is not None:
-        write_image(outputs[-1], img)
+        write_set({outputs[0]: data, **render})
 
 
 def check_unique_outputs(jobs) -> None:

@@ -109,6 +109,48 @@ def named_as(tmp, path):
         raise TextonError(str(exc).replace(str(tmp), str(path)), exc.param, mentions=exc.mentions) from None
 
 
+def write_set(writes) -> None:
+    """Write a set of files all or none: ``writes`` maps each output path to its bytes or to a
+    function that writes the file it is given (a temporary path with the output's suffix).
+
+    Every name is checked first, every file is written to a temporary name before the first
+    rename, and should a rename still fail the outputs already renamed are removed again."""
+    from .io import atomic_path, check_output_name
+
+    for path in writes:
+        check_output_name(path)
+    before = {Path(p): _identity(Path(p)) for p in writes}
+    try:
+        with contextlib.ExitStack() as stack:
+            for path, data in writes.items():
+                tmp = Path(stack.enter_context(atomic_path(path)))
+                if isinstance(data, (bytes, bytearray)):
+                    tmp.write_bytes(data)
+                else:  # writers that choose the format by suffix write beside the temporary file,
+                    # under its name with the output's suffix for .part: no longer than it, so a name
+                    # that fits the file system has a side name that fits too
+                    side = tmp.with_suffix(Path(path).suffix)
+                    try:
+                        with named_as(side, path):
+                            data(side)
+                        side.replace(tmp)
+                    finally:
+                        side.unlink(missing_ok=True)
+    except BaseException:
+        for path, old in before.items():
+            if _identity(path) not in (None, old):  # renamed in by this call: not left alone
+                path.unlink(missing_ok=True)
+        raise
+
+
+def _identity(path: Path):
+    try:
+        st = path.stat()
+    except OSError:
+        return None
+    return st.st_ino, st.st_mtime_ns, st.st_size
+
+
 def check_surface(mesh, name: str) -> None:
     """Refuse a mesh without area (every vertex on a line or at one point): it has no
     normals, so no surface to texture and no up axis to honour."""
@@ -139,7 +181,8 @@ def bake_outputs(stem: Path, fmt: str, texture: str | None = None) -> list[Path]
     return out
 
 
-def write_baked(baked, stem, *, fmt: str = "glb", texture: str | None = None, linear: bool = False) -> list[Path]:
+def write_baked(baked, stem, *, fmt: str = "glb", texture: str | None = None, linear: bool = False,
+                also=None) -> list[Path]:
     """Write a bake as GLB or OBJ + MTL + PNG, and optionally the texture alone.
 
     ``STEM.glb`` holds the texture embedded as the base colour of a PBR
@@ -169,6 +212,9 @@ def write_baked(baked, stem, *, fmt: str = "glb", texture: str | None = None, li
         ``STEM_texture.exr`` (float32: the noise's values).
     linear : bool
         The EXR texture holds the sRGB decoding of the values instead.
+    also : dict, optional
+        More files of the same set (path -> bytes or a writer, as :func:`write_set`
+        takes them), written and renamed with the bake's: a render, say.
 
     Returns
     -------
@@ -186,7 +232,7 @@ def write_baked(baked, stem, *, fmt: str = "glb", texture: str | None = None, li
     See :func:`warp_texton.bake_mesh`; ``write_baked(baked, "torus_baked",
     fmt="obj")`` writes ``torus_baked.obj``, ``.mtl`` and ``.png``.
     """
-    from .io import atomic_path, write_exr
+    from .io import write_exr
     from .mesh import srgb_to_linear
 
     if fmt not in BAKE_FORMATS:
@@ -214,18 +260,14 @@ def write_baked(baked, stem, *, fmt: str = "glb", texture: str | None = None, li
         blobs[paths[2]] = png
     if texture == "png":
         blobs[paths[-1]] = png_bytes(texture_8bit(baked.texture, rgb=False)[0])
-    with contextlib.ExitStack() as stack:
-        # every temporary file is written before the first rename: all files or none
-        for path, data in blobs.items():
-            Path(stack.enter_context(atomic_path(path))).write_bytes(data)
-        if texture == "exr":
-            img = baked.texture
-            if linear:
-                img = srgb_to_linear(np.clip(img, 0.0, 1.0)).astype(np.float32)
-            tmp = Path(stack.enter_context(atomic_path(paths[-1])))
-            with named_as(tmp, paths[-1]):
-                write_exr(tmp.with_name(tmp.name + ".exr"), img)
-                tmp.with_name(tmp.name + ".exr").replace(tmp)
+    writes: dict = dict(blobs)
+    if texture == "exr":
+        img = baked.texture
+        if linear:
+            img = srgb_to_linear(np.clip(img, 0.0, 1.0)).astype(np.float32)
+        writes[paths[-1]] = lambda tmp: write_exr(tmp, img)
+    writes.update(also or {})
+    write_set(writes)
     for path in paths:  # one report per 8-bit texture written, by its own name
         if path.suffix == ".png" or path.suffix == ".glb":
             report_texture_clipping(path, clipped, baked.texture)

@@ -36,7 +36,8 @@ from .errors import TextonError
 from .frames import UP, as_points, check_lengths, frame_rule, unit_rows
 from .kernels import surface as K
 from .kernels.impacts import Cells3
-from .noise import MAX_CELL_INDEX, MAX_CELL_MEAN, POISSON_MODES, noise_setup
+from .limits import check_work
+from .noise import MAX_CELL_INDEX, MAX_CELL_MEAN, POISSON_MODES, WALK_COST, noise_setup
 from .texton import Texton
 
 #: Default cell side relative to the slab thickness r.
@@ -94,6 +95,20 @@ def surface_setup(texton: Texton, mni: float, cell_factor: float = CELL_FACTOR) 
     if lam * cell ** 3 > MAX_CELL_MEAN:
         raise TextonError(f"cell_factor {cell_factor:g} is too large: cells would hold {lam * cell ** 3:.3g} impacts")
     return SurfaceSetup(r, lam, cell, base.coeffs, base.lo, base.hi)
+
+
+def surface_visits(setup: SurfaceSetup) -> float:
+    """Operations (the unit of limits.check_work) of one point: the impacts of the cubes its
+    walk may visit, times WALK_COST, as a point of the plane counts them (noise.walk_cost).
+    Measured on a two-core CPU: 7e8 to 1e9 of them a second (docs/limits.md)."""
+    cubes = (math.ceil(setup.r * math.sqrt(3.0) / setup.cell) + 1) ** 3
+    return WALK_COST * cubes * setup.lam * setup.cell ** 3
+
+
+def check_surface_work(setup: SurfaceSetup, points: float, what: str, hint: str, *, param: str | None = None,
+                       mentions: tuple[str, ...] = ()) -> None:
+    """Refuse ``points`` evaluations of the surface noise beyond the work budget."""
+    check_work(points * surface_visits(setup), what, hint, param=param, mentions=mentions)
 
 
 def surface_params(texton: Texton, setup: SurfaceSetup, seed: int, poisson: str, up, side) -> K.SurfaceParams:
@@ -325,6 +340,8 @@ def surface_noise(
     seed = check_seed(seed)
     check_method(method)
     setup = surface_setup(texton, mni, cell_factor)
+    check_surface_work(setup, len(pts), f"surface noise at {len(pts)} points at MNI {mni:.6g}",
+                       "use fewer points or a lower mni", param="mni", mentions=("points",))
     device = resolve_device(device)  # starts Warp quietly, before the first launch
     if tangents is None:
         # positions in texels and float32 unit normals in one CPU pass (the values of
