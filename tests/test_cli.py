@@ -325,11 +325,10 @@ class TestCommandLineWords:
         ("mnis must be given", "mni", (), "mnis must be given"),
         ("cell_factor 1e-300 is too small", "cell_factor", (), "cell_factor 1e-300 is too small"),
     ])
-    def test_in_cli_words(self, message, param, mentions, expected):
+    def test_in_words(self, message, param, mentions, expected):
         from warp_texton import TextonError
-        from warp_texton.cli_options import in_cli_words
 
-        assert in_cli_words(TextonError(message, param, mentions=mentions), self.NAMES) == expected
+        assert TextonError(message, param, mentions=mentions).in_words(self.NAMES) == expected
 
     def test_every_command_names_only_its_own_options(self, capsys):
         """A command's names map library arguments to options the command has."""

@@ -18,7 +18,7 @@ import warnings
 
 from ._version import __version__
 from .cli_images import ANALYZE, DEMO, GAUSSIAN, MIX, RENDER_PLANE, SYNTHESIZE
-from .cli_options import Command, in_cli_words
+from .cli_options import Command
 from .cli_surface import SURFACE
 from .cli_view import VIEW
 from .errors import TextonError
@@ -69,7 +69,7 @@ def cli_message(error: TextonError, args: argparse.Namespace) -> str:
     """A library error in the words of the command ``args`` ran: the options and
     files that set the arguments it names."""
     command = COMMANDS[args.command]
-    return in_cli_words(error, {**command.names, **command.files(args)})
+    return error.in_words({**command.names, **command.files(args)})
 
 
 class _Terminated(SystemExit):

@@ -7,7 +7,7 @@ plus ``names``: the library arguments its options set (``"mni"`` ->
 ``"--mni"``). A :class:`~warp_texton.TextonError` says which argument it is
 about (``param``) and which others its message speaks of (``mentions``); the
 command line puts the option, or the file given for an input, in their place
-(:func:`in_cli_words`). Nothing here imports Warp: ``--help`` and usage errors
+(:meth:`~warp_texton.TextonError.in_words`). Nothing here imports Warp: ``--help`` and usage errors
 stay quick.
 """
 
@@ -189,39 +189,3 @@ def seconds_since(t0: float) -> str:
 
 
 # ------------------------------------------------------------------ errors
-def _stands_alone(text: str, start: int, end: int) -> bool:
-    """Whether text[start:end] is a whole name, not part of a longer one ("mni" in
-    "omni" or "--mni", "offset" in "offset[0]", "size" in "size_x")."""
-    before = text[start - 1] if start else " "
-    after = text[end] if end < len(text) else " "
-    return not (before.isalnum() or before in "_-.'") and not (after.isalnum() or after in "_[")
-
-
-def _replace_name(text: str, name: str, by: str) -> str:
-    parts, start = [], 0
-    while (k := text.find(name, start)) >= 0:
-        end = k + len(name)
-        parts.append(text[start:k] + (by if _stands_alone(text, k, end) else name))
-        start = end
-    return "".join(parts) + text[start:]
-
-
-def in_cli_words(error: TextonError, names: Mapping[str, str]) -> str:
-    """The message of ``error`` with the command line's ``names`` for the library's:
-    the argument it is about where the message starts with it (``"mni must be..."``),
-    and every argument it mentions wherever it stands (``"use a lower mni"``).
-
-    >>> e = TextonError("mni must be at least 0.001; use a lower mni", param="mni", mentions=("scale",))
-    >>> in_cli_words(e, {"mni": "--mni"})
-    '--mni must be at least 0.001; use a lower mni'
-    >>> in_cli_words(TextonError("use a lower mni", mentions=("mni",)), {"mni": "--mni"})
-    'use a lower --mni'
-    """
-    message = str(error)
-    param = error.param
-    if param is not None and param in names and message.startswith(param) and _stands_alone(message, 0, len(param)):
-        message = names[param] + message[len(param):]
-    for name in error.mentions:
-        if name in names:
-            message = _replace_name(message, name, names[name])
-    return message

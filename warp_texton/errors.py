@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 
 class TextonError(ValueError):
     """Bad input to a warp-texton function.
@@ -36,8 +38,46 @@ class TextonError(ValueError):
         self.param = param
         self.mentions = tuple(mentions)
 
+    def in_words(self, names: Mapping[str, str]) -> str:
+        """The message with a front end's ``names`` for the library's: the argument it
+        is about where the message starts with it (``"mni must be..."``), and every
+        argument it mentions wherever it stands (``"use a lower mni"``). The command
+        line passes its options (``{"mni": "--mni"}``) and the files it was given.
+
+        >>> e = TextonError("mni must be at least 0.001; use a lower mni", param="mni", mentions=("scale",))
+        >>> e.in_words({"mni": "--mni"})
+        '--mni must be at least 0.001; use a lower mni'
+        >>> TextonError("use a lower mni", mentions=("mni",)).in_words({"mni": "--mni"})
+        'use a lower --mni'
+        """
+        message = str(self)
+        param = self.param
+        if param is not None and param in names and message.startswith(param) and _stands_alone(message, 0, len(param)):
+            message = names[param] + message[len(param):]
+        for name in self.mentions:
+            if name in names:
+                message = _replace_name(message, name, names[name])
+        return message
+
 
 class OverBudget(TextonError):
     """A :class:`TextonError` refusing a request whose estimated memory or work
     exceeds its budget (:mod:`warp_texton.limits`): the request itself is fine,
     only too large (a server answers 413 rather than 400)."""
+
+
+def _stands_alone(text: str, start: int, end: int) -> bool:
+    """Whether text[start:end] is a whole name, not part of a longer one ("mni" in
+    "omni" or "--mni", "offset" in "offset[0]", "size" in "size_x")."""
+    before = text[start - 1] if start else " "
+    after = text[end] if end < len(text) else " "
+    return not (before.isalnum() or before in "_-.'") and not (after.isalnum() or after in "_[")
+
+
+def _replace_name(text: str, name: str, by: str) -> str:
+    parts, start = [], 0
+    while (k := text.find(name, start)) >= 0:
+        end = k + len(name)
+        parts.append(text[start:k] + (by if _stands_alone(text, k, end) else name))
+        start = end
+    return "".join(parts) + text[start:]

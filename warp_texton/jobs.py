@@ -20,7 +20,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .mesh_files import bake_outputs
-from .cli_options import in_cli_words
 from .errors import TextonError
 from .texton import Texton
 
@@ -349,7 +348,7 @@ def run_surface_job(job: SurfaceJob, token: str | None = None) -> JobResult:
     try:
         _run(job, outputs, notes)
     except TextonError as exc:
-        message = in_cli_words(exc, dict(job.words))
+        message = exc.in_words(dict(job.words))
         return JobResult(job.mesh, "failed", message if message.startswith(job.mesh) else f"{job.mesh}: {message}")
     except OSError as exc:
         return JobResult(job.mesh, "failed", f"{exc.filename or job.mesh}: {exc.strerror or exc}")
