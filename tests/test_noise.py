@@ -746,6 +746,8 @@ class TestParamsAndBudgets:
                                                         filter="anisotropic", device="cpu"),
             "mixed": lambda: synthesize_mixed([t, t], "strips", (40, 16), device="cpu"),
             "points": lambda: evaluate(t, np.zeros((7, 2)), device="cpu"),
+            "plane in strips": lambda: warp_texton.render_plane(t, (40, 16), tilt=60.0, texel_size=0.05,
+                                                                filter="anisotropic", device="cpu"),
         }
         for name, call in calls.items():
             with work_log() as log:

@@ -315,13 +315,14 @@ def render_plane(
     check_plane_cost(texton, setup, camera, None, options)
     check_memory(result_bytes(1, h, w, texton.channels, device, output) + h * w * 16,
                  f"a {h}x{w} plane view", "use a smaller shape", mentions=("shape",))
+    p = noise_params(texton, setup, seed)
     canvas = Canvas((h, w), device)
     parts = strips(h, w, pixel_cost(options, True))
     bar = progress_bar(progress and len(parts) > 1, h, "render-plane", "row")
     try:
         for r0, r1 in parts:
-            plane_pixels(texton, camera, np.arange(r0 * w, r1 * w), mni=mni, seed=seed, filter=options, device=device,
-                         progress=progress and len(parts) == 1, out=canvas.pixels(r0 * w, r1 * w))
+            _fill_plane_pixels(p, texton, setup, camera, np.arange(r0 * w, r1 * w), options, device, seed,
+                               progress and len(parts) == 1, canvas.pixels(r0 * w, r1 * w))
             bar.update(r1 - r0)
     finally:
         bar.close()
@@ -405,21 +406,32 @@ def plane_pixels(texton: Texton, camera: PlaneCamera, pixels, *, mni: float = 30
     count = h * w if keys is None else keys.size
     check_plane_cost(texton, setup, camera, keys, options)  # the budgets, before the per-pixel arrays
     keys = np.arange(count) if keys is None else keys
-    ii, jj = np.divmod(keys, w)
+    if out is not None:
+        _fill_plane_pixels(p, texton, setup, camera, keys, options, device, seed, progress, out)
+        return None
+    values = np.empty((keys.size, 3), np.float32)
+    _fill_plane_pixels(p, texton, setup, camera, keys, options, device, seed, progress, values)
+    return values[:, : texton.channels]
+
+
+def _fill_plane_pixels(p, texton: Texton, setup, camera: PlaneCamera, keys: np.ndarray, options: FilterOptions,
+                       device, seed: int, progress: bool, out) -> None:
+    """Write the values of the flat pixel indices ``keys`` of ``camera``'s view into ``out``
+    (an (N, 3) float32 NumPy array or wp.array of vec3), every argument checked and the
+    budgets priced by the caller: render_plane once for the whole view, plane_pixels per call."""
+    ii, jj = np.divmod(keys, camera.shape[1])
     centre = camera.texels(ii + 0.5, jj + 0.5)
     # positions whose cells the kernels could not index see the mean
     limit = cell_limit(setup)
     hit = np.isfinite(centre).all(axis=1) & (np.abs(centre) < limit).all(axis=1)
     idx = np.flatnonzero(hit)
     seen = PlanePixels(camera, keys[idx], np.ascontiguousarray(centre[idx]), options.spec.footprint)
-    if out is not None:
+    if isinstance(out, np.ndarray):
+        out[:] = params_mean(p)
+        out[idx] = filter_pixels(p, texton, setup, seen, options, device, seed, progress)
+    else:
         fill_pixels(out, idx, params_mean(p), device,
                     lambda target: filter_pixels(p, texton, setup, seen, options, device, seed, progress, target))
-        return None
-    out = np.empty((ii.size, 3), np.float32)
-    out[:] = params_mean(p)
-    out[idx] = filter_pixels(p, texton, setup, seen, options, device, seed, progress)
-    return out[:, : texton.channels]
 
 
 def check_plane_cost(texton: Texton, setup, camera: PlaneCamera, keys, options: FilterOptions) -> None:
