@@ -1,0 +1,84 @@
+"""The real clients the tests open outputs with: headless Chromium and Blender.
+
+What a user opens, a client opens in the tests. Both clients install on the CI
+machine (`.ci/run`: Debian's ``chromium`` and the ``bpy`` wheel from the
+``[blender]`` extra), so there their tests must run: :func:`require` skips only
+outside CI (``CI`` unset), and fails in CI when the client is missing.
+
+- :func:`chromium_browser` launches Debian's Chromium through Playwright
+  (WebGL2 works headless through SwiftShader);
+- :func:`run_blender` runs a Python script in a fresh interpreter that imports
+  ``bpy`` (Blender 5 as a module; Cycles renders on the CPU), so Blender's
+  process state never mixes with the test process's Warp runtime.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import importlib.util
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+def require(available: bool, what: str) -> None:
+    """Skip (outside CI) or fail (in CI) when a client is missing."""
+    if available:
+        return
+    if os.environ.get("CI"):
+        pytest.fail(f"{what} is missing on the CI machine; .ci/run installs it")
+    pytest.skip(f"{what} is not installed")
+
+
+def has_bpy() -> bool:
+    return importlib.util.find_spec("bpy") is not None
+
+
+def has_playwright() -> bool:
+    return importlib.util.find_spec("playwright") is not None
+
+
+@contextlib.contextmanager
+def chromium_browser():
+    """A headless Chromium (Playwright's sync API) for the duration of the block."""
+    require(CHROMIUM is not None, "Chromium (Debian: apt-get install chromium)")
+    require(has_playwright(), "Playwright (pip install playwright)")
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, args=["--no-sandbox"])
+        try:
+            yield browser
+        finally:
+            browser.close()
+
+
+def run_blender(script: str | Path, *args: str, timeout: float = 300.0,
+                cwd: str | Path | None = None) -> subprocess.CompletedProcess:
+    """Run ``script`` (a path, or Python source) with ``bpy`` importable, in its own process.
+
+    The script reads its arguments from ``sys.argv[1:]``. Blender's bundled
+    site-packages (which holds ``oslquery``, needed to compile OSL Script nodes
+    in background mode) is put on ``sys.path`` before the script runs. Raises
+    ``AssertionError`` with Blender's output when the script fails.
+    """
+    require(has_bpy(), "Blender's bpy module (pip install bpy, or the [blender] extra)")
+    source = Path(script).read_text() if isinstance(script, Path) else script
+    prologue = (
+        "import sys, pathlib, bpy\n"
+        "_res = pathlib.Path(bpy.utils.resource_path('LOCAL'))\n"
+        "for _p in sorted(_res.glob('python/lib/python3*/site-packages')):\n"
+        "    sys.path.append(str(_p))\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", prologue + source, *map(str, args)], capture_output=True,
+                          text=True, timeout=timeout, cwd=cwd)
+    if proc.returncode != 0:
+        raise AssertionError(f"Blender script failed (exit {proc.returncode}):\n{proc.stdout[-4000:]}\n"
+                             f"{proc.stderr[-4000:]}")
+    return proc
