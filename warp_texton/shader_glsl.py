@@ -61,7 +61,7 @@ _FILTER_MODES = {"none": 0, "mip": 1, "anisotropic": 2}
 
 
 def _source(name: str) -> str:
-    return resources.files("warp_texton").joinpath("shaders", name).read_text(encoding="utf-8")
+    return resources.files("warp_texton").joinpath("shaders").joinpath(name).read_text(encoding="utf-8")
 
 
 def _f(v) -> str:

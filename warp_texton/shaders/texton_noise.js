@@ -67,8 +67,10 @@ void main() {
     return new Float32Array(bytes.buffer);
   }
 
-  // An RGBA32F texture read with texelFetch: no filtering, no mipmaps.
+  // An RGBA32F texture read with texelFetch: no filtering, no mipmaps. The texture bound to the
+  // active unit stays bound.
   function floatTexture(gl, width, height, data) {
+    const bound = gl.getParameter(gl.TEXTURE_BINDING_2D);
     const t = gl.createTexture();
     gl.bindTexture(gl.TEXTURE_2D, t);
     gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
@@ -77,6 +79,7 @@ void main() {
     gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
     gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_WRAP_S, gl.CLAMP_TO_EDGE);
     gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_WRAP_T, gl.CLAMP_TO_EDGE);
+    gl.bindTexture(gl.TEXTURE_2D, bound);
     return t;
   }
 
