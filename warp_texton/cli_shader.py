@@ -6,8 +6,8 @@ import argparse
 import time
 from pathlib import Path
 
-from .cli_options import (ANALYSIS_NAMES, FILTER_NAMES, SHAPE_NAMES, Command, add_analysis_options, input_file,
-                          seconds_since, texton_of)
+from .cli_options import (ANALYSIS_NAMES, FILTER_NAMES, SHAPE_NAMES, Command, add_analysis_options,
+                          add_placement_options, input_file, seconds_since, texton_of)
 from .errors import TextonError
 
 LANGS = ("glsl", "osl")
@@ -23,12 +23,7 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--height", type=int, default=512, help="preview height in pixels (--html)")
     p.add_argument("--mni", type=float, default=30.0, help="mean number of impacts per point")
     p.add_argument("--seed", type=int, default=0, help="random seed (analysis and noise)")
-    p.add_argument("--scale", type=float, default=1.0, help="preview pixels per texel (--html)")
-    p.add_argument("--rotation", type=float, default=0.0, help="preview rotation of the noise, degrees (--html)")
-    p.add_argument("--offset", type=float, nargs=2, default=(0.0, 0.0), metavar=("X", "Y"),
-                   help="noise position of the preview's top-left corner, texels (--html)")
-    p.add_argument("--period", type=float, nargs=2, metavar=("PX", "PY"),
-                   help="make the noise periodic (texels): a seamless tile")
+    add_placement_options(p)  # the preview's window (--html) and the noise's period
     p.add_argument("--filter", choices=("none", "mip", "anisotropic"), default="anisotropic",
                    help="the filter of the shader's filtered variant")
     p.add_argument("-q", "--quiet", action="store_true", help="no summary")
