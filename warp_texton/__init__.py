@@ -41,6 +41,7 @@ if TYPE_CHECKING:  # what type checkers and documentation tools see; at run time
     from .surface import surface_noise
     from .synthesis import evaluate, synthesize
     from .texton import Texton, load_texton
+    from .shader import export_shader
 
 #: The module of each public name that is imported on first use.
 _LAZY = {
@@ -57,6 +58,7 @@ _LAZY = {
     "Batch": "batches", "BatchParams": "batches", "synthesize_batch": "batches",
     "evaluate": "synthesis", "synthesize": "synthesis",
     "Texton": "texton", "load_texton": "texton",
+    "export_shader": "shader",
 }
 
 __all__ = [
@@ -89,6 +91,7 @@ __all__ = [
     "texture_mesh",
     "write_baked",
     "write_image",
+    "export_shader",
 ]
 
 

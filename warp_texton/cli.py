@@ -19,13 +19,14 @@ import warnings
 from ._version import __version__
 from .cli_images import ANALYZE, DEMO, GAUSSIAN, MIX, RENDER_PLANE, SYNTHESIZE
 from .cli_options import Command
+from .cli_shader import SHADER
 from .cli_surface import SURFACE
 from .cli_view import VIEW
 from .errors import TextonError
 
 #: The commands, in the order ``--help`` lists them.
 COMMANDS: dict[str, Command] = {c.name: c for c in (ANALYZE, GAUSSIAN, SYNTHESIZE, RENDER_PLANE, MIX, SURFACE,
-                                                     VIEW, DEMO)}
+                                                     VIEW, DEMO, SHADER)}
 
 
 class _Formatter(argparse.RawDescriptionHelpFormatter, argparse.ArgumentDefaultsHelpFormatter):

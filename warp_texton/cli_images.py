@@ -14,7 +14,8 @@ from pathlib import Path
 
 from .cli_options import (ANALYSIS_NAMES, FILTER_NAMES, NOISE_IMAGE_NAMES, SHAPE_NAMES, Command,
                           add_analysis_options, add_filter_options, add_format_options, add_noise_image_options,
-                          add_run_options, dtype_of, filter_options, input_file, seconds_since, texton_of)
+                          add_placement_options, add_run_options, dtype_of, filter_options, input_file,
+                          seconds_since, texton_of)
 from .errors import TextonError
 
 
@@ -91,12 +92,7 @@ GAUSSIAN = Command(
 # ------------------------------------------------------------------ synthesize
 def _synthesize_arguments(p: argparse.ArgumentParser) -> None:
     add_noise_image_options(p, "raster", zarr=True)
-    p.add_argument("--scale", type=float, default=1.0, help="pixels per texel")
-    p.add_argument("--rotation", type=float, default=0.0, help="rotation of the noise, degrees")
-    p.add_argument("--offset", type=float, nargs=2, default=(0.0, 0.0), metavar=("X", "Y"),
-                   help="noise position of the raster's top-left corner, texels")
-    p.add_argument("--period", type=float, nargs=2, metavar=("PX", "PY"),
-                   help="make the noise periodic (texels): a seamless tile")
+    add_placement_options(p)
     add_filter_options(p, default="none")
     add_run_options(p)
     add_format_options(p, zarr=True)

@@ -90,6 +90,16 @@ def add_noise_image_options(p: argparse.ArgumentParser, what: str, zarr: bool = 
     p.add_argument("--seed", type=int, default=0, help="random seed (analysis and noise)")
 
 
+def add_placement_options(p: argparse.ArgumentParser) -> None:
+    """--scale, --rotation, --offset and --period: where a raster samples the noise, as ``synthesize`` takes them."""
+    p.add_argument("--scale", type=float, default=1.0, help="pixels per texel")
+    p.add_argument("--rotation", type=float, default=0.0, help="rotation of the noise, degrees")
+    p.add_argument("--offset", type=float, nargs=2, default=(0.0, 0.0), metavar=("X", "Y"),
+                   help="noise position of the raster's top-left corner, texels")
+    p.add_argument("--period", type=float, nargs=2, metavar=("PX", "PY"),
+                   help="make the noise periodic (texels): a seamless tile")
+
+
 def add_run_options(p: argparse.ArgumentParser, quiet: str = "no progress or summary") -> None:
     """--device and -q."""
     p.add_argument("--device", help="cpu, cuda or cuda:N (default: CUDA when available)")

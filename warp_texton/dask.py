@@ -14,14 +14,11 @@ Needs the ``dask`` extra: ``pip install "warp-texton[dask]"`` (Dask,
 
 from __future__ import annotations
 
-import contextlib
 import functools
 import json
 import math
 import numbers
 import os
-import shutil
-import tempfile
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING, cast
@@ -33,6 +30,8 @@ from ._runtime import progress_bar, resolve_device
 from ._version import __version__
 from .canvas import result_bytes
 from .errors import TextonError
+from .folders import atomic_folder
+from .folders import check_replaceable as replaceable
 from .filtering import FilterOptions, needs_filtering
 from .io import convert_pixels, report_clipped
 from .limits import check_memory, check_work
@@ -268,46 +267,17 @@ def _store_chunk(plan: _Plan, store: str, dtype: str, r0: int, r1: int, c0: int,
     return clipped
 
 
-@contextlib.contextmanager
-def _atomic_folder(path: Path, overwrite: bool):
-    """Yield a temporary folder beside ``path``; on success it replaces ``path``
-    (an existing store is removed only then), on failure it is removed."""
-    parent = path.parent if str(path.parent) else Path(".")
-    if not parent.is_dir():
-        raise TextonError(f"{path}: the output folder {parent} does not exist")
-    check_replaceable(path, overwrite)
-    tmp = Path(tempfile.mkdtemp(dir=parent, prefix=f".{path.name}.", suffix=".part"))
-    try:
-        yield tmp
-        old = None
-        if path.exists():
-            old = Path(tempfile.mkdtemp(dir=parent, prefix=f".{path.name}.", suffix=".old"))
-            os.replace(path, old / "store")
-        os.replace(tmp, path)
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
+def _is_our_store(path: Path) -> bool:
+    meta = path / "zarr.json"
+    return (meta.is_file() and meta.stat().st_size < (1 << 20)
+            and "warp_texton" in json.loads(meta.read_text(encoding="utf-8")).get("attributes", {}))
 
 
 def check_replaceable(path: Path, overwrite: bool) -> None:
     """An existing ``path`` may be replaced only with ``overwrite`` and only if it is a Zarr
     store this package wrote (a folder whose zarr.json carries the ``warp_texton`` attributes):
     --overwrite must not delete a folder of anything else."""
-    if not (path.exists() or path.is_symlink()):
-        return
-    if not overwrite:
-        raise TextonError(f"{path}: exists; give --overwrite (overwrite=True) to replace it")
-    meta = path / "zarr.json"
-    try:
-        ours = (path.is_dir() and not path.is_symlink() and meta.is_file() and meta.stat().st_size < (1 << 20)
-                and "warp_texton" in json.loads(meta.read_text(encoding="utf-8")).get("attributes", {}))
-    except (OSError, ValueError, AttributeError):
-        ours = False
-    if not ours:
-        raise TextonError(f"{path}: exists and is not a Zarr store written by warp-texton; --overwrite replaces "
-                          "only those: remove it yourself or choose another name", param="overwrite")
+    replaceable(path, overwrite, _is_our_store, "a Zarr store")
 
 
 def check_store_cost(plan: _Plan) -> None:
@@ -450,7 +420,7 @@ def write_zarr(
     c = texton.channels
     t0 = time.perf_counter()
     grid = plan.grid()
-    with _atomic_folder(path, overwrite) as tmp:
+    with atomic_folder(path, lambda p: check_replaceable(p, overwrite)) as tmp:
         zarr.create_array(store=str(tmp), shape=(h, w, c), chunks=(*plan.chunks, c), dtype=dtype, fill_value=0,
                           dimension_names=("y", "x", "channel"), attributes=_attributes(plan, dtype))
         task = functools.partial(_store_chunk, plan, str(tmp), dtype)

@@ -22,6 +22,7 @@ from a :class:`FilterOptions` to the kernels.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from dataclasses import dataclass
 
 import numpy as np
 import warp as wp
@@ -197,8 +198,25 @@ def kept_levels(texton: Texton, levels=None, fade_energy: float = FADE_ENERGY) -
     return int(below[0]) + 1 if below.size else len(e)
 
 
-def pyramid_struct(texton: Texton, fade_energy: float = FADE_ENERGY) -> F.Pyramid:
-    """The kernels' ``Pyramid`` of ``texton`` (arrays on the current device)."""
+@dataclass(frozen=True)
+class PyramidStack:
+    """The MIP levels of a texton as the filters read them: the padded levels stacked in
+    rows of one array, and where each level lies and what it covers (kernels/filter2d.py,
+    ``Pyramid``; the GLSL export reads the same values)."""
+
+    coeffs: np.ndarray  # (Σ rows, s + 2 PAD, 3) float32
+    row0: np.ndarray  # int32 (L,): first row of each level
+    rows: np.ndarray  # int32 (L,)
+    step: np.ndarray  # float32 (L,): texel side 2^ℓ
+    origin: np.ndarray  # float32 (L,): position of coefficient (0, 0)
+    lo: np.ndarray  # float32 (L, 2): h_ℓ vanishes outside [lo, hi] relative to the impact
+    hi: np.ndarray
+    levels: int  # the kept levels (kept_levels)
+    order: int
+
+
+def pyramid_stack(texton: Texton, fade_energy: float = FADE_ENERGY) -> PyramidStack:
+    """The texton's MIP levels stacked as the filters read them (:class:`PyramidStack`)."""
     levels = texton_pyramid(texton)
     reach = support_reach(texton.order)
     width = levels[0].shape[1] + 2 * PAD
@@ -215,16 +233,24 @@ def pyramid_struct(texton: Texton, fade_energy: float = FADE_ENERGY) -> F.Pyrami
         origin.append(o)
         lo.append((o - sz * reach, o - sz * reach))
         hi.append((o + sz * (s - 1 + reach), o + sz * (r - 1 + reach)))
+    return PyramidStack(stack, row0, np.array(rows, np.int32), np.array(step, np.float32),
+                        np.array(origin, np.float32), np.array(lo, np.float32), np.array(hi, np.float32),
+                        kept_levels(texton, levels, fade_energy), texton.order)
+
+
+def pyramid_struct(texton: Texton, fade_energy: float = FADE_ENERGY) -> F.Pyramid:
+    """The kernels' ``Pyramid`` of ``texton`` (arrays on the current device)."""
+    st = pyramid_stack(texton, fade_energy)
     pyr = F.Pyramid()
-    pyr.coeffs = wp.array(stack, dtype=wp.vec3)
-    pyr.row0 = wp.array(row0, dtype=wp.int32)
-    pyr.rows = wp.array(np.array(rows, np.int32), dtype=wp.int32)
-    pyr.step = wp.array(np.array(step, np.float32), dtype=float)
-    pyr.origin = wp.array(np.array(origin, np.float32), dtype=float)
-    pyr.lo = wp.array(np.array(lo, np.float32), dtype=wp.vec2)
-    pyr.hi = wp.array(np.array(hi, np.float32), dtype=wp.vec2)
-    pyr.levels = kept_levels(texton, levels, fade_energy)
-    pyr.order = texton.order
+    pyr.coeffs = wp.array(st.coeffs, dtype=wp.vec3)
+    pyr.row0 = wp.array(st.row0, dtype=wp.int32)
+    pyr.rows = wp.array(st.rows, dtype=wp.int32)
+    pyr.step = wp.array(st.step, dtype=float)
+    pyr.origin = wp.array(st.origin, dtype=float)
+    pyr.lo = wp.array(st.lo, dtype=wp.vec2)
+    pyr.hi = wp.array(st.hi, dtype=wp.vec2)
+    pyr.levels = st.levels
+    pyr.order = st.order
     return pyr
 
 

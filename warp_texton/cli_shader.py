@@ -1,0 +1,77 @@
+"""``warp-texton shader``: texton noise as shader code (:mod:`warp_texton.shader`), and its HTML preview."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from .cli_options import (ANALYSIS_NAMES, FILTER_NAMES, SHAPE_NAMES, Command, add_analysis_options,
+                          add_placement_options, input_file, seconds_since, texton_of)
+from .errors import TextonError
+
+LANGS = ("glsl", "osl")
+
+
+def _arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("input", help="texton file or example image")
+    p.add_argument("--lang", required=True, choices=LANGS, help="shader language")
+    p.add_argument("-o", "--output", help="export folder to create (the shader, its textures, a description)")
+    p.add_argument("--html", help="self-contained HTML page drawing a window of the noise with WebGL2 (glsl)")
+    p.add_argument("--overwrite", action="store_true", help="replace an export folder an earlier run wrote")
+    p.add_argument("--width", type=int, default=512, help="preview width in pixels (--html)")
+    p.add_argument("--height", type=int, default=512, help="preview height in pixels (--html)")
+    p.add_argument("--mni", type=float, default=30.0, help="mean number of impacts per point")
+    p.add_argument("--seed", type=int, default=0, help="random seed (analysis and noise)")
+    add_placement_options(p)  # the preview's window (--html) and the noise's period
+    p.add_argument("--filter", choices=("none", "mip", "anisotropic"), default="anisotropic",
+                   help="the filter of the shader's filtered variant")
+    p.add_argument("-q", "--quiet", action="store_true", help="no summary")
+    add_analysis_options(p, seed=False)
+
+
+def _shader(args) -> None:
+    from .io import atomic_path
+    from .shader import export_shader
+    from .shader_glsl import preview_html
+
+    if args.output is None and args.html is None:
+        raise TextonError("give -o DIR (the export folder), --html PAGE (the preview), or both")
+    if args.html is not None and args.lang != "glsl":
+        raise TextonError(f"--html previews the glsl export (WebGL2); it is not available with --lang {args.lang}")
+    t0 = time.perf_counter()
+    texton = texton_of(args)
+    noise = dict(mni=args.mni, seed=args.seed, period=args.period)
+    # the page is made (and its options checked) before the folder is written: all outputs or none
+    html = None if args.html is None else preview_html(
+        texton, (args.height, args.width), scale=args.scale, rotation=args.rotation, offset=tuple(args.offset),
+        **noise)
+    if args.output is not None:
+        out = export_shader(texton, args.lang, args.output, filter=args.filter, overwrite=args.overwrite, **noise)
+        if not args.quiet:
+            print(f"{out}: {args.lang} export of texton noise, MNI {args.mni:g} ({seconds_since(t0)})")
+    if html is not None:
+        with atomic_path(args.html) as tmp:
+            Path(tmp).write_text(html, encoding="utf-8")
+        if not args.quiet:
+            print(f"{args.html}: {args.width}x{args.height} WebGL2 preview of texton noise, MNI {args.mni:g}")
+
+
+SHADER = Command(
+    "shader", "texton noise as GLSL or OSL shader code, and a WebGL2 preview page",
+    "Export the texton noise of INPUT (a texton file, or an example image analysed first with the analysis "
+    "options) as shader code that draws the same impacts as the Warp kernels: -o DIR writes the shader, the "
+    "texton as textures and a description; --html PAGE writes one self-contained page that draws the window "
+    "'synthesize' gives with the same --width, --height, --scale, --rotation, --offset, --period, --mni and "
+    "--seed, with WebGL2.",
+    _arguments, _shader,
+    {**SHAPE_NAMES, **ANALYSIS_NAMES, "mni": "--mni", "seed": "--seed", "lang": "--lang", "out_dir": "-o",
+     "overwrite": "--overwrite", "filter": FILTER_NAMES["filter"], "scale": "--scale", "rotation": "--rotation",
+     "offset[0]": "--offset X", "offset[1]": "--offset Y", "offset": "--offset",
+     "period[0]": "--period PX", "period[1]": "--period PY", "period": "--period"},
+    input_file,
+    epilog="""examples:
+  warp-texton shader wood.texton --lang glsl -o wood_glsl
+  warp-texton shader wood.png --lang glsl --html wood.html --width 640 --height 480 --seed 3
+  warp-texton shader wood.texton --lang glsl --html far.html --scale 0.5 --rotation 30 --offset 1e6 0
+""")

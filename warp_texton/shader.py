@@ -1,0 +1,171 @@
+"""Texton noise for other runtimes: shader exports that draw the same impacts as the kernels.
+
+:func:`export_shader` writes a folder with the noise as shader code for a
+language (``"glsl"``: WebGL2 and desktop OpenGL; ``"osl"``: Open Shading
+Language, for Cycles, Arnold, RenderMan, V-Ray) plus the texton as textures;
+:func:`write_shader_preview` writes one self-contained HTML page that draws a
+window of the noise with WebGL2. Each language's files come from its module
+(:mod:`warp_texton.shader_glsl`, ``warp_texton.shader_osl``), whose constants
+come from the same host code as the Warp kernels' parameters.
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+from pathlib import Path
+
+from .errors import TextonError
+from .folders import atomic_folder, check_replaceable
+from .io import atomic_path
+from .noise import CELL_FACTOR
+from .texton import Texton
+
+#: The shader languages, each with the module and function that make its files.
+LANGUAGES = {"glsl": ("shader_glsl", "glsl_files"), "osl": ("shader_osl", "osl_files")}
+#: The file every export holds, whose "warp_texton" key marks a folder --overwrite may replace.
+META_FILES = ("texton_noise.json", "texton_noise_osl.json")
+
+
+def _files_of(lang: str):
+    if not isinstance(lang, str) or lang not in LANGUAGES:
+        raise TextonError(f"lang must be one of {', '.join(LANGUAGES)}, got {lang!r:.60}", param="lang")
+    module, func = LANGUAGES[lang]
+    try:
+        mod = importlib.import_module(f"{__package__}.{module}")
+    except ModuleNotFoundError as exc:
+        if exc.name != f"{__package__}.{module}":
+            raise
+        raise TextonError(f"the {lang} export is not part of this installation of warp-texton "
+                          f"({__package__}.{module} is missing)", param="lang") from None
+    return getattr(mod, func)
+
+
+def _is_export(path: Path) -> bool:
+    for name in META_FILES:
+        meta = path / name
+        if meta.is_file() and meta.stat().st_size < (1 << 20):
+            return "warp_texton" in json.loads(meta.read_text(encoding="utf-8"))
+    return False
+
+
+def export_shader(texton: Texton, lang: str, out_dir, *, mni: float = 30.0, seed: int = 0, period=None,
+                  poisson: str = "exact", cell_factor: float = CELL_FACTOR, filter="anisotropic",
+                  overwrite: bool = False) -> Path:
+    """Write texton noise as shader code for ``lang`` into the folder ``out_dir``.
+
+    The shader evaluates the noise where it is used, with no stored image: the
+    same impacts as :func:`~warp_texton.evaluate` (plane),
+    :func:`~warp_texton.synthesize` (rasters) and
+    :func:`~warp_texton.surface_noise` (surfaces), because the cell hash, the
+    random stream and the Poisson sampler are reproduced in 32-bit integer
+    arithmetic and the constants are the kernels' own values. Float steps may
+    differ by rounding (docs/renderers.md gives the measured agreement).
+
+    Parameters
+    ----------
+    texton : Texton
+    lang : {"glsl", "osl"}
+        ``"glsl"``: a library valid as GLSL ES 3.00 (WebGL2) and, with its
+        version line changed, GLSL 3.30+, with ``texton_noise(x)``, a
+        filtered variant taking the footprint, and ``texton_surface_noise(y,
+        n)``; the files are listed in Notes. ``"osl"``: an OSL shader.
+    out_dir : str or Path
+        The folder to create; its parent must exist.
+    mni, seed, period, poisson, cell_factor
+        The noise, as in :func:`~warp_texton.synthesize`. The surface variant
+        uses the same ``mni`` (:func:`~warp_texton.surface_noise` defaults
+        to 60).
+    filter : str or FilterOptions
+        The filter of the filtered variant: "none", "mip" or "anisotropic"
+        with their settings (:class:`~warp_texton.FilterOptions`);
+        "supersample" is not offered.
+    overwrite : bool
+        Replace ``out_dir`` if it is a folder an earlier export wrote; any
+        other existing path is refused.
+
+    Returns
+    -------
+    Path
+        ``out_dir``, complete: the files are written into a temporary folder
+        beside it that is renamed when all are written.
+
+    Raises
+    ------
+    TextonError
+        For a ``lang`` other than "glsl" or "osl" (or a language module this
+        installation lacks); a texton too large for the target (GLSL: a
+        texture side over 2048 texels, the size WebGL2 guarantees); an order
+        or a filter the target does not offer; an ``out_dir`` that exists
+        without ``overwrite``, or that no export wrote; a missing parent
+        folder; and the noise errors of :func:`~warp_texton.synthesize`.
+
+    Notes
+    -----
+    A GLSL export holds ``texton_noise.glsl`` (the library),
+    ``texton_noise.js`` (builds programs and uploads the textures in
+    WebGL2), ``texton_coeffs.f32`` and ``texton_pyramid.f32`` (RGBA32F
+    textures, raw little-endian float32, top row first),
+    ``texton_noise.json`` (their sizes and the settings) and
+    ``preview.html`` (a 512 × 512 window at scale 1).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from warp_texton import analyze, read_image, export_shader
+    >>> from warp_texton.demo import demo_texture_path
+    >>> texton = analyze(read_image(demo_texture_path()), size=32, seed=0)
+    >>> out = export_shader(texton, "glsl", pathlib.Path(tempfile.mkdtemp()) / "wood", mni=30, seed=1)
+    >>> sorted(p.name for p in out.iterdir())  # doctest: +NORMALIZE_WHITESPACE
+    ['preview.html', 'texton_coeffs.f32', 'texton_noise.glsl', 'texton_noise.js', 'texton_noise.json',
+     'texton_pyramid.f32']
+    """
+    make = _files_of(lang)
+    path = Path(out_dir)
+    check_replaceable(path, overwrite, _is_export, "a shader export")  # before any work
+    files = make(texton, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor, filter=filter)
+    with atomic_folder(path, lambda p: check_replaceable(p, overwrite, _is_export, "a shader export")) as tmp:
+        for name, content in files.items():
+            (tmp / name).write_bytes(content)
+    return path
+
+
+def write_shader_preview(texton: Texton, path, shape=(512, 512), *, mni: float = 30.0, seed: int = 0,
+                         scale: float = 1.0, rotation: float = 0.0, offset=(0.0, 0.0), period=None,
+                         poisson: str = "exact", cell_factor: float = CELL_FACTOR) -> Path:
+    """Write one self-contained HTML page that draws a window of the noise with WebGL2.
+
+    The page (no network: the GLSL, its JavaScript and the texton are inlined)
+    draws on a canvas with id ``noise`` the window that
+    ``synthesize(texton, shape, ...)`` gives with the same arguments, and
+    offers ``window.textonNoise.readFloat()`` (the float32 values, RGBA per
+    pixel, top row first) and ``readImpacts()`` (per pixel: the impacts in
+    the texton's support and the sum of their offsets).
+
+    Parameters
+    ----------
+    texton : Texton
+    path : str or Path
+        The HTML file, written atomically.
+    shape : (height, width)
+        At most 2048 pixels a side.
+    mni, seed, scale, rotation, offset, period, poisson, cell_factor
+        As in :func:`~warp_texton.synthesize`.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    TextonError
+        For a side over 2048 pixels, a texton too large for WebGL2, and the
+        errors of :func:`~warp_texton.synthesize` for these arguments.
+    """
+    from .shader_glsl import preview_html
+
+    html = preview_html(texton, shape, mni=mni, seed=seed, scale=scale, rotation=rotation, offset=offset,
+                        period=period, poisson=poisson, cell_factor=cell_factor)
+    with atomic_path(path) as tmp:
+        Path(tmp).write_text(html, encoding="utf-8")
+    return Path(path)
