@@ -1,25 +1,32 @@
 """The real clients the tests open outputs with: headless Chromium and Blender.
 
 What a user opens, a client opens in the tests. Both clients install on the CI
-machine (`.ci/run`: Debian's ``chromium`` and the ``bpy`` wheel from the
-``[blender]`` extra), so there their tests must run: :func:`require` skips only
+machine (`.ci/run`: Debian's ``chromium``, and the ``bpy`` wheel in a virtual
+environment of its own, ``.blender-venv``), so there their tests must run: :func:`require` skips only
 outside CI (``CI`` unset), and fails in CI when the client is missing.
 
 - :func:`chromium_browser` launches Debian's Chromium through Playwright
   (WebGL2 works headless through SwiftShader);
 - :func:`run_blender` runs a Python script in a fresh interpreter that imports
-  ``bpy`` (Blender 5 as a module; Cycles renders on the CPU), so Blender's
-  process state never mixes with the test process's Warp runtime.
+  ``bpy`` (Blender 5 as a module; Cycles renders on the CPU).
+
+Blender's interpreter is not the package's: the ``bpy`` wheel pins NumPy 1.26
+while the package's dependencies (Zarr 3) need NumPy 2, so ``bpy`` lives in its
+own virtual environment and the scripts it runs exchange files (meshes, EXR
+renders, JSON) with the tests, never import ``warp_texton``. Its interpreter is
+``$WARP_TEXTON_BLENDER_PYTHON``, else ``.blender-venv/bin/python`` at the
+repository root (``python3 -m venv .blender-venv && .blender-venv/bin/pip
+install bpy``, as `.ci/run` does).
 """
 
 from __future__ import annotations
 
 import contextlib
+import functools
 import importlib.util
 import os
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -36,8 +43,27 @@ def require(available: bool, what: str) -> None:
     pytest.skip(f"{what} is not installed")
 
 
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def blender_python() -> str | None:
+    """The interpreter that imports ``bpy``, or None."""
+    env = os.environ.get("WARP_TEXTON_BLENDER_PYTHON")
+    if env:
+        return env
+    local = ROOT / ".blender-venv" / "bin" / "python"
+    return str(local) if local.exists() else None
+
+
+@functools.cache
 def has_bpy() -> bool:
-    return importlib.util.find_spec("bpy") is not None
+    exe = blender_python()
+    if exe is None:
+        return False
+    try:
+        return subprocess.run([exe, "-c", "import bpy"], capture_output=True, timeout=120).returncode == 0
+    except (OSError, subprocess.TimeoutExpired):
+        return False
 
 
 def has_playwright() -> bool:
@@ -68,7 +94,7 @@ def run_blender(script: str | Path, *args: str, timeout: float = 300.0,
     in background mode) is put on ``sys.path`` before the script runs. Raises
     ``AssertionError`` with Blender's output when the script fails.
     """
-    require(has_bpy(), "Blender's bpy module (pip install bpy, or the [blender] extra)")
+    require(has_bpy(), "Blender's bpy module (python3 -m venv .blender-venv && .blender-venv/bin/pip install bpy)")
     source = Path(script).read_text() if isinstance(script, Path) else script
     prologue = (
         "import sys, pathlib, bpy\n"
@@ -76,7 +102,7 @@ def run_blender(script: str | Path, *args: str, timeout: float = 300.0,
         "for _p in sorted(_res.glob('python/lib/python3*/site-packages')):\n"
         "    sys.path.append(str(_p))\n"
     )
-    proc = subprocess.run([sys.executable, "-c", prologue + source, *map(str, args)], capture_output=True,
+    proc = subprocess.run([str(blender_python()), "-c", prologue + source, *map(str, args)], capture_output=True,
                           text=True, timeout=timeout, cwd=cwd)
     if proc.returncode != 0:
         raise AssertionError(f"Blender script failed (exit {proc.returncode}):\n{proc.stdout[-4000:]}\n"
