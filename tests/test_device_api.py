@@ -10,6 +10,7 @@ exactly (``np.array_equal``) what ``evaluate``, the filtered ``synthesize`` and
 from __future__ import annotations
 
 import importlib.util
+import re
 import subprocess
 import sys
 import tempfile
@@ -94,6 +95,14 @@ def test_heightfield_example_is_evaluate(order, seed, period, device):
     expect = np.stack([1.0e6 + 0.25 + (np.cos(th) * j - np.sin(th) * i) / 0.7,
                        -3.5 + (np.sin(th) * j + np.cos(th) * i) / 0.7], -1)
     assert np.allclose(texels, expect, rtol=0, atol=1e-6)
+
+
+def test_renderers_page_shows_the_example_as_it_is():
+    """The code docs/renderers.md shows of the example is the example's, verbatim."""
+    section = (ROOT / "docs" / "renderers.md").read_text().split("## Warp kernels")[1].split("\n## ")[0]
+    shown = re.findall(r"```python\n(.*?)```", section, re.S)
+    source = EXAMPLE.read_text()
+    assert shown and all(block in source for block in shown)
 
 
 @pytest.mark.slow
