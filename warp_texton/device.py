@@ -80,6 +80,13 @@ __all__ = ["pack_plane", "pack_filtered", "pack_surface", "PlaneNoise", "Filtere
            "plane_value", "filtered_value", "surface_value", "surface_frame_value"]
 
 
+def _plane_settings(texton, mni, seed, period, poisson, cell_factor):
+    """(setup, NoiseParams) of the plane noise, checked as ``evaluate`` checks them."""
+    seed = check_seed(seed)
+    setup = noise_setup(texton, mni, period, cell_factor)
+    return setup, noise_params(texton, setup, seed, poisson)
+
+
 def pack_plane(
     texton: Texton,
     *,
@@ -124,9 +131,7 @@ def pack_plane(
     >>> int(noise.params.cells.seed), noise.coeffs.shape
     (1, (18, 18))
     """
-    seed = check_seed(seed)
-    setup = noise_setup(texton, mni, period, cell_factor)
-    params = noise_params(texton, setup, seed, poisson)
+    setup, params = _plane_settings(texton, mni, seed, period, poisson, cell_factor)
     device = resolve_device(device)
     noise = PlaneNoise()
     noise.params = params
@@ -177,17 +182,16 @@ def pack_filtered(
     >>> from warp_texton import Texton, FilterOptions
     >>> texton = Texton(np.random.default_rng(0).standard_normal((8, 8, 1)) / 8, [0.5])
     >>> noise = pack_filtered(texton, seed=1, filter=FilterOptions("anisotropic", max_aniso=4), device="cpu")
-    >>> int(noise.filter.max_aniso), noise.pyramid.levels
-    (4, 4)
+    >>> from warp_texton.filtering import kept_levels
+    >>> int(noise.filter.max_aniso), noise.pyramid.levels == kept_levels(texton)
+    (4, True)
     """
     options = FilterOptions.of(filter)
     if not options.spec.footprint:
         raise TextonError(f"filter must be a footprint filter, mip or anisotropic, for filtered_value; got "
                           f"{options.kind!r} (use pack_plane and plane_value for the unfiltered noise)",
                           param="filter")
-    seed = check_seed(seed)
-    setup = noise_setup(texton, mni, period, cell_factor)
-    params = noise_params(texton, setup, seed, poisson)
+    _, params = _plane_settings(texton, mni, seed, period, poisson, cell_factor)
     device = resolve_device(device)
     noise = FilteredNoise()
     noise.params = params
