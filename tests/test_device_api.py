@@ -9,6 +9,7 @@ exactly (``np.array_equal``) what ``evaluate``, the filtered ``synthesize`` and
 
 from __future__ import annotations
 
+import functools
 import importlib.util
 import re
 import subprocess
@@ -42,6 +43,7 @@ def launch(kernel, n, inputs, device):
     return out.numpy()
 
 
+@functools.cache
 def example_module():
     spec = importlib.util.spec_from_file_location("warp_heightfield", EXAMPLE)
     module = importlib.util.module_from_spec(spec)
