@@ -6,14 +6,11 @@ host function packs a texton and its noise settings into a ``@wp.struct``
 once, and ``@wp.func`` functions evaluate the noise at a point inside the
 kernel.
 
-======================  =====================  ==================================================
-host packer             struct                 device functions
-======================  =====================  ==================================================
-:func:`pack_plane`      ``PlaneNoise``         ``plane_value(noise, x: wp.vec2d) -> wp.vec3``
-:func:`pack_filtered`   ``FilteredNoise``      ``filtered_value(noise, x: wp.vec2d, J: wp.mat22) -> wp.vec3``
-:func:`pack_surface`    ``SurfaceNoise``       ``surface_value(noise, x: wp.vec3d, normal: wp.vec3d) -> wp.vec3``,
-                                               ``surface_frame_value(noise, y: wp.vec3d, n: wp.vec3, u1: wp.vec3) -> wp.vec3``
-======================  =====================  ==================================================
+| host packer | struct | device functions |
+| --- | --- | --- |
+| :func:`pack_plane` | ``PlaneNoise`` | ``plane_value(noise, x: wp.vec2d) -> wp.vec3`` |
+| :func:`pack_filtered` | ``FilteredNoise`` | ``filtered_value(noise, x: wp.vec2d, J: wp.mat22) -> wp.vec3`` |
+| :func:`pack_surface` | ``SurfaceNoise`` | ``surface_value(noise, x: wp.vec3d, normal: wp.vec3d) -> wp.vec3``, ``surface_frame_value(noise, y: wp.vec3d, n: wp.vec3, u1: wp.vec3) -> wp.vec3`` |
 
 The structs and functions are those of the package's own kernels
 (``warp_texton.kernels``, re-exported here): :func:`~warp_texton.evaluate`,
