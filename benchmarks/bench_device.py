@@ -15,14 +15,13 @@ the CPU gives up unless it splits its own launches.
 
 from __future__ import annotations
 
-import statistics
 import sys
-import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
+from bench_surface import interleaved  # noqa: E402
 from common import machine_line, make_texture, report_header, run_main  # noqa: E402
 
 import numpy as np  # noqa: E402
@@ -63,18 +62,6 @@ def user_launch(kernel, noise, inputs, n, device):
         wp.launch(kernel, dim=n, inputs=[noise, *(f() for f in inputs)], outputs=[out], device=device)
         return out.numpy()
     return call
-
-
-def interleaved(methods: dict, repeat: int) -> dict:
-    for fn in methods.values():
-        fn()
-    times: dict = {name: [] for name in methods}
-    for _ in range(repeat):
-        for name, fn in methods.items():
-            t0 = time.perf_counter()
-            fn()
-            times[name].append(time.perf_counter() - t0)
-    return {name: {"best_s": min(t), "median_s": statistics.median(t)} for name, t in times.items()}
 
 
 def run(args) -> dict:
