@@ -165,28 +165,47 @@ def add_lookups(c: PyramidLookup, d: wp.vec2, acc: wp.vec3):
 sum_lookups = cell_walk(add_lookups, "sum_lookups")
 
 
-@wp.kernel
-def filtered_points(
-    p: NoiseParams,
-    pyr: Pyramid,
-    f: Filter,
-    points: wp.array(dtype=wp.vec2d),
-    jac: wp.array(dtype=wp.mat22),
-    jac_stride: int,
-    out: wp.array(dtype=wp.vec3),
-):
-    """Filtered noise at points (texel units) with footprints ``jac[t * jac_stride]``.
+@wp.struct
+class FilteredNoise:
+    """Texton noise filtered for a footprint, as a kernel evaluates it (the device API).
 
-    Columns of a footprint are the texel-space steps of one pixel along its
-    two axes. The lookup width w is the footprint's major length ("mip"), or
-    max(minor, major / N) with N = min(⌈major / minor⌉, max_aniso) lookups
-    spaced along the major axis ("anisotropic"); the level is log2(w) + bias,
-    blended linearly between two levels. Past the last level the noise fades
-    to its mean.
+    Filled on the host by :func:`warp_texton.device.pack_filtered`; its arrays
+    live on the device it was packed for.
+
+    Attributes
+    ----------
+    params : NoiseParams
+        The noise settings, as in ``PlaneNoise``.
+    pyramid : Pyramid
+        The texton's MIP levels (block means of the coefficients, padded and
+        stacked) with their boxes, steps and origins, and the number of levels
+        the filter keeps (:func:`warp_texton.filtering.kept_levels`).
+    filter : Filter
+        The filter's mode (``MIP`` or ``ANISOTROPIC``), ``max_aniso`` and level bias.
     """
-    t = wp.tid()
-    x = points[t]
-    J = jac[t * jac_stride]
+
+    params: NoiseParams
+    pyramid: Pyramid
+    filter: Filter
+
+
+@wp.func
+def filtered_value(noise: FilteredNoise, x: wp.vec2d, J: wp.mat22) -> wp.vec3:
+    """Texton noise at the texel-space point ``x`` averaged over the footprint ``J`` (CGF §5).
+
+    The columns of ``J`` are the texel-space steps of one pixel along its two
+    axes (the pixel covers x + J [−½, ½]²), as ``synthesize(...,
+    jacobian=...)`` takes them, in float32. The lookup width w is the
+    footprint's major length ("mip"), or max(minor, major / N) with N =
+    min(⌈major / minor⌉, max_aniso) lookups spaced along the major axis
+    ("anisotropic"); the level is log2(w) + bias, blended linearly between
+    two levels. Past the last kept level the noise fades to its mean. The
+    value of ``synthesize`` with a "mip" or "anisotropic" filter at a pixel
+    whose centre is ``x`` and footprint ``J``, bit for bit on the same device.
+    """
+    p = noise.params
+    pyr = noise.pyramid
+    f = noise.filter
     major, minor, axis = footprint_axes(J)
     n = int(1)
     width = major
@@ -203,8 +222,7 @@ def filtered_points(
     # past the kept levels (or not finite): the mean; compared as floats before
     # any int conversion
     if lod >= float(pyr.levels) or wp.isnan(lod):
-        out[t] = p.mean
-        return
+        return p.mean
     l0 = int(wp.floor(lod))
     frac = lod - float(l0)
     l1 = wp.min(l0 + 1, pyr.levels - 1)
@@ -244,4 +262,24 @@ def filtered_points(
     look.box_hi = box_hi
     acc = sum_lookups(x, lo, hi, p.cells, look)
     acc = acc / float(n)
-    out[t] = p.mean + (acc - p.integral * (p.lam * real)) / wp.sqrt(p.lam)
+    return p.mean + (acc - p.integral * (p.lam * real)) / wp.sqrt(p.lam)
+
+
+@wp.kernel
+def filtered_points(
+    p: NoiseParams,
+    pyr: Pyramid,
+    f: Filter,
+    points: wp.array(dtype=wp.vec2d),
+    jac: wp.array(dtype=wp.mat22),
+    jac_stride: int,
+    out: wp.array(dtype=wp.vec3),
+):
+    """Filtered noise at points (texel units) with footprints ``jac[t * jac_stride]``:
+    ``filtered_value``, the device API's function, at each point."""
+    t = wp.tid()
+    noise = FilteredNoise()
+    noise.params = p
+    noise.pyramid = pyr
+    noise.filter = f
+    out[t] = filtered_value(noise, points[t], jac[t * jac_stride])

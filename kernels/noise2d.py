@@ -480,6 +480,47 @@ def add_texton(t: TextonLookup, d: wp.vec2, acc: wp.vec3):
 sum_textons = cell_walk(add_texton, "sum_textons")
 
 
+@wp.struct
+class PlaneNoise:
+    """Texton noise in the plane, as a kernel evaluates it (the device API).
+
+    Filled on the host by :func:`warp_texton.device.pack_plane`; its arrays
+    live on the device it was packed for, and a kernel that takes it runs there.
+
+    Attributes
+    ----------
+    params : NoiseParams
+        The noise settings: the cells of the Poisson process (size, period,
+        mean count, seed, Poisson mode), the texton's order, support box,
+        intensity λ, mean and integral.
+    coeffs : wp.array2d(dtype=wp.vec3)
+        The texton's coefficients with a zero margin of ``PAD`` texels,
+        unused channels zero.
+    """
+
+    params: NoiseParams
+    coeffs: wp.array2d(dtype=wp.vec3)
+
+
+@wp.func
+def plane_value(noise: PlaneNoise, x: wp.vec2d) -> wp.vec3:
+    """Texton noise at the texel-space point ``x`` (CGF eq. (2)).
+
+    The value :func:`warp_texton.evaluate` gives at the point ``x`` (texel
+    units, x to the right, y down), bit for bit on the same device: each call
+    walks the cells around ``x`` and draws their impacts. Components past the
+    texton's channels are zero. ``x`` must lie within the noise's cell range
+    (±2³⁰ cells; ``evaluate`` refuses points beyond it, a kernel cannot).
+    """
+    p = noise.params
+    look = TextonLookup()
+    look.coeffs = noise.coeffs
+    look.row0 = 0
+    look.rows = noise.coeffs.shape[0]
+    look.order = p.order
+    return normalize(sum_textons(x, p.lo, p.hi, p.cells, look), p)
+
+
 @wp.kernel
 def evaluate_points(
     p: NoiseParams,
@@ -487,11 +528,10 @@ def evaluate_points(
     points: wp.array(dtype=wp.vec2d),
     out: wp.array(dtype=wp.vec3),
 ):
-    """Noise at arbitrary points (texel units), drawing each nearby cell's impacts."""
+    """Noise at arbitrary points (texel units), drawing each nearby cell's impacts:
+    ``plane_value``, the device API's function, at each point."""
     t = wp.tid()
-    look = TextonLookup()
-    look.coeffs = coeffs
-    look.row0 = 0
-    look.rows = coeffs.shape[0]
-    look.order = p.order
-    out[t] = normalize(sum_textons(points[t], p.lo, p.hi, p.cells, look), p)
+    noise = PlaneNoise()
+    noise.params = p
+    noise.coeffs = coeffs
+    out[t] = plane_value(noise, points[t])

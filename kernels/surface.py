@@ -158,11 +158,85 @@ def normalize_surface(p: SurfaceParams, acc: wp.vec3):
 
 
 @wp.func
-def surface_value(p: SurfaceParams, coeffs: wp.array2d(dtype=wp.vec3), y: wp.vec3d, u1: wp.vec3, u2: wp.vec3,
-                  n: wp.vec3):
+def frame_value(p: SurfaceParams, coeffs: wp.array2d(dtype=wp.vec3), y: wp.vec3d, u1: wp.vec3, u2: wp.vec3,
+                n: wp.vec3):
+    # the noise at texel-space y with the frame (u1, u2, n): each point walking its cubes
     look = slab_lookup(p, coeffs, u1, u2, n)
     acc = sum_slab(y, frame_extent(p.half, u1, u2, n), p.cells, look)
     return normalize_surface(p, acc)
+
+
+@wp.func
+def normal_length(n: wp.vec3d):
+    # |n| in float64, summed in NumPy's order (x² + y²) + z²
+    xx = n[0] * n[0]
+    yy = n[1] * n[1]
+    zz = n[2] * n[2]
+    s = xx + yy
+    s = s + zz
+    return wp.sqrt(s)
+
+
+@wp.func
+def unit_normal(n: wp.vec3d, length: wp.float64):
+    # n / |n| in float64, rounded to float32: NumPy's unit_rows, then the float32 copy
+    return wp.vec3(wp.float32(n[0] / length), wp.float32(n[1] / length), wp.float32(n[2] / length))
+
+
+@wp.struct
+class SurfaceNoise:
+    """Surface texton noise, as a kernel evaluates it (the device API).
+
+    Filled on the host by :func:`warp_texton.device.pack_surface`; its array
+    lives on the device it was packed for.
+
+    Attributes
+    ----------
+    params : SurfaceParams
+        The 3-D Poisson process of impacts (cube side, mean count, seed,
+        Poisson mode), the slab half-thickness r/2, the texton's support box
+        and order, the normalisation of CGF Prop. 3 and the frame rule's
+        directions ``up`` and ``side``.
+    coeffs : wp.array2d(dtype=wp.vec3)
+        The texton's coefficients with a zero margin of ``PAD`` texels.
+    texel_size : wp.float64
+        World units per texel.
+    """
+
+    params: SurfaceParams
+    coeffs: wp.array2d(dtype=wp.vec3)
+    texel_size: wp.float64
+
+
+@wp.func
+def surface_frame_value(noise: SurfaceNoise, y: wp.vec3d, n: wp.vec3, u1: wp.vec3) -> wp.vec3:
+    """Surface texton noise at the texel-space point ``y`` with the frame (``u1``, n × ``u1``, ``n``).
+
+    ``y`` is in texels (world / ``texel_size``), ``n`` a unit normal and
+    ``u1`` a unit tangent orthogonal to it: the direction of the texton's x
+    axis. The value of :func:`warp_texton.surface_noise` with ``tangents``
+    for the same point, normal and tangent after its own normalisation
+    (float64, then float32), bit for bit on the same device.
+    """
+    return frame_value(noise.params, noise.coeffs, y, u1, wp.cross(n, u1), n)
+
+
+@wp.func
+def surface_value(noise: SurfaceNoise, x: wp.vec3d, normal: wp.vec3d) -> wp.vec3:
+    """Surface texton noise at the world point ``x`` with the normal ``normal`` (CGF §6).
+
+    ``normal`` may have any non-zero length (a zero normal gives NaN). The
+    tangent frame follows the rule of :func:`warp_texton.tangent_frames`
+    with the packed ``up`` and ``side``. The value of
+    :func:`warp_texton.surface_noise` at the same float64 point and normal
+    without ``tangents``, bit for bit on the same device: the point is
+    divided by the texel size in float64 and the normal normalised in
+    float64, then rounded to float32, as ``surface_noise`` does.
+    """
+    length = normal_length(normal)
+    n = unit_normal(normal, length)
+    u1, u2 = tangent_frame(n, noise.params.up, noise.params.side)
+    return surface_frame_value(noise, x / noise.texel_size, n, u1)
 
 
 @wp.kernel
@@ -177,11 +251,16 @@ def evaluate_surface(
 ):
     """Surface noise at points (texel units, float64) with unit normals, each point
     walking its own cubes; frames from the rule, or from given tangents (already
-    orthogonal to the normals, unit). The reference for the block path."""
+    orthogonal to the normals, unit): ``surface_frame_value``, the device API's
+    function, at each point. The reference for the block path."""
     k = wp.tid()
+    noise = SurfaceNoise()
+    noise.params = p
+    noise.coeffs = coeffs
+    noise.texel_size = wp.float64(1.0)
     n = normals[k]
     u1, u2 = point_frame(p, n, tangents, k, use_tangents)
-    out[k] = surface_value(p, coeffs, points[k], u1, u2, n)
+    out[k] = surface_frame_value(noise, points[k], n, u1)
 
 
 @wp.kernel
@@ -189,18 +268,14 @@ def prepare_points(points: wp.array(dtype=wp.vec3d), normals: wp.array(dtype=wp.
                    pos: wp.array(dtype=wp.vec3d), unit: wp.array(dtype=wp.vec3), length: wp.array(dtype=wp.float64)):
     """Positions in texel units (y / texel) and unit normals n / |n| rounded to
     float32, in float64 with the operations (and so the values) of NumPy's
-    ``points / texel`` and ``n / sqrt(x·x + y·y + z·z)``; |n| for the host's check."""
+    ``points / texel`` and ``n / sqrt(x·x + y·y + z·z)``; |n| for the host's check.
+    ``surface_value`` makes the same two steps."""
     k = wp.tid()
     pos[k] = points[k] / texel
     n = normals[k]
-    xx = n[0] * n[0]
-    yy = n[1] * n[1]
-    zz = n[2] * n[2]
-    s = xx + yy
-    s = s + zz
-    r = wp.sqrt(s)
+    r = normal_length(n)
     length[k] = r
-    unit[k] = wp.vec3(wp.float32(n[0] / r), wp.float32(n[1] / r), wp.float32(n[2] / r))
+    unit[k] = unit_normal(n, r)
 
 
 # ------------------------------------------------------- blocks of points
@@ -550,4 +625,5 @@ def simd_probe(out: wp.array(dtype=wp.int32)):
 
 
 __all__ = ["PAD", "SurfaceParams", "PointFrames", "Clusters", "evaluate_surface", "prepare_points", "frame_points",
-           "list_cluster_impacts", "gather_clustered", "gather_cluster_lists", "simd_probe", "tangent_frame"]
+           "list_cluster_impacts", "gather_clustered", "gather_cluster_lists", "simd_probe", "tangent_frame",
+           "SurfaceNoise", "surface_value", "surface_frame_value"]

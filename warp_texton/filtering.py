@@ -495,13 +495,19 @@ def filter_pixels(p, texton: Texton, setup: NoiseSetup, pixels: PixelSet, option
     return filtered_points(p, texton, pixels, options, device, out)
 
 
-def filtered_points(p, texton: Texton, pixels: PixelSet, options: FilterOptions, device, out=None) -> np.ndarray | None:
-    """(N, 3) "mip" or "anisotropic" values at the pixels' centres and footprints
-    (written into ``out`` when given)."""
+def filter_struct(options: FilterOptions) -> F.Filter:
+    """The kernels' ``Filter`` of a footprint kind ("mip" or "anisotropic")."""
     f = F.Filter()
     f.mode = F.ANISOTROPIC if options.spec.axis_lookups else F.MIP
     f.max_aniso = options.max_aniso
     f.lod_bias = options.bias
+    return f
+
+
+def filtered_points(p, texton: Texton, pixels: PixelSet, options: FilterOptions, device, out=None) -> np.ndarray | None:
+    """(N, 3) "mip" or "anisotropic" values at the pixels' centres and footprints
+    (written into ``out`` when given)."""
+    f = filter_struct(options)
     with wp.ScopedDevice(device):
         pyr = pyramid_struct(texton, options.fade_energy)
 

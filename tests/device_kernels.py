@@ -1,0 +1,36 @@
+"""A user's Warp kernels, written only from the public device API (warp_texton.device).
+
+They live in a module of their own, as a user's kernels do: Warp compiles the
+device API's functions into this module. tests/test_device_api.py launches them.
+"""
+
+import warp as wp
+
+from warp_texton import device as td
+
+
+@wp.kernel
+def plane_at(noise: td.PlaneNoise, points: wp.array(dtype=wp.vec2d), out: wp.array(dtype=wp.vec3)):
+    t = wp.tid()
+    out[t] = td.plane_value(noise, points[t])
+
+
+@wp.kernel
+def filtered_at(noise: td.FilteredNoise, points: wp.array(dtype=wp.vec2d), footprints: wp.array(dtype=wp.mat22),
+                out: wp.array(dtype=wp.vec3)):
+    t = wp.tid()
+    out[t] = td.filtered_value(noise, points[t], footprints[t])
+
+
+@wp.kernel
+def surface_at(noise: td.SurfaceNoise, points: wp.array(dtype=wp.vec3d), normals: wp.array(dtype=wp.vec3d),
+               out: wp.array(dtype=wp.vec3)):
+    t = wp.tid()
+    out[t] = td.surface_value(noise, points[t], normals[t])
+
+
+@wp.kernel
+def surface_frame_at(noise: td.SurfaceNoise, points: wp.array(dtype=wp.vec3d), normals: wp.array(dtype=wp.vec3),
+                     tangents: wp.array(dtype=wp.vec3), out: wp.array(dtype=wp.vec3)):
+    t = wp.tid()
+    out[t] = td.surface_frame_value(noise, points[t], normals[t], tangents[t])

@@ -1,0 +1,260 @@
+"""Texton noise inside your own Warp kernels: the device API.
+
+Texton noise is procedural: it is evaluated where it is used. This module
+hands a user's ``@wp.kernel`` what it needs, in the manner of ``wp.noise``: a
+host function packs a texton and its noise settings into a ``@wp.struct``
+once, and ``@wp.func`` functions evaluate the noise at a point inside the
+kernel.
+
+| host packer | struct | device functions |
+| --- | --- | --- |
+| :func:`pack_plane` | ``PlaneNoise`` | ``plane_value(noise, x: wp.vec2d) -> wp.vec3`` |
+| :func:`pack_filtered` | ``FilteredNoise`` | ``filtered_value(noise, x: wp.vec2d, J: wp.mat22) -> wp.vec3`` |
+| :func:`pack_surface` | ``SurfaceNoise`` | ``surface_value(noise, x: wp.vec3d, normal: wp.vec3d) -> wp.vec3``, ``surface_frame_value(noise, y: wp.vec3d, n: wp.vec3, u1: wp.vec3) -> wp.vec3`` |
+
+The structs and functions are those of the package's own kernels
+(``warp_texton.kernels``, re-exported here): :func:`~warp_texton.evaluate`,
+the filtered :func:`~warp_texton.synthesize` and
+:func:`~warp_texton.surface_noise` launch kernels that call the same
+functions, so a user's kernel gives their values bit for bit on the same
+device, from the same inputs:
+
+* ``plane_value(noise, x)`` is ``evaluate(texton, [x], ...)``: ``x`` is a
+  float64 point in texel units, x to the right, y down. ``evaluate`` applies
+  no placement; :func:`~warp_texton.synthesize` places pixel (i, j) at
+  ``offset + R(rotation) · ((j + ½) / scale, (i + ½) / scale)``, so a kernel
+  that wants a window of ``synthesize`` computes that point itself (its
+  raster paths round differently: values agree with ``evaluate`` at those
+  points to float32 rounding, not bit for bit).
+* ``filtered_value(noise, x, J)`` is the pixel of ``synthesize(...,
+  filter=..., jacobian=J)`` whose centre is ``x``: ``J`` (float32) has the
+  texel-space steps of one pixel to the right and one pixel down as its
+  columns.
+* ``surface_value(noise, x, normal)`` is ``surface_noise(texton, [x],
+  [normal], texel_size, ...)`` without tangents: ``x`` in world units,
+  ``normal`` of any non-zero length, both float64.
+  ``surface_frame_value(noise, y, n, u1)`` takes the point in texels, a unit
+  normal and a unit tangent orthogonal to it (``surface_noise`` with
+  ``tangents``).
+
+The values are ``wp.vec3``; the first ``texton.channels`` components are the
+noise, the others zero. A struct's arrays live on the device it was packed
+for: launch the kernels that take it there. A kernel cannot raise, so the
+packers check everything they can (the ``TextonError`` of the functions they
+mirror); a point beyond the noise's cell range (±2³⁰ cells, the range
+``evaluate`` accepts) gives meaningless values, and a zero normal NaN.
+
+Warp compiles the functions into the module of the kernel that calls them,
+so a user's kernel in their own file needs nothing more than an import;
+Warp's module hash includes the functions it calls, so a new version of this
+package recompiles it. The example ``docs/examples/warp_heightfield.py``
+displaces a heightfield this way; docs/renderers.md says what is guaranteed.
+
+References
+----------
+CGF eq. (1)-(2), §5, §6, §8.
+"""
+
+from __future__ import annotations
+
+import warp as wp
+
+from ._checks import check_positive, check_seed
+from ._runtime import resolve_device
+from .errors import TextonError
+from .filter_options import FilterOptions
+from .filtering import filter_struct, pyramid_struct
+from .frames import UP
+from .kernels.filter2d import FilteredNoise, filtered_value
+from .kernels.noise2d import PlaneNoise, plane_value
+from .kernels.surface import SurfaceNoise, surface_frame_value, surface_value
+from .noise import CELL_FACTOR, noise_params, noise_setup
+from .surface import CELL_FACTOR as SURFACE_CELL_FACTOR
+from .surface import surface_params, surface_setup
+from .texton import Texton
+
+__all__ = ["pack_plane", "pack_filtered", "pack_surface", "PlaneNoise", "FilteredNoise", "SurfaceNoise",
+           "plane_value", "filtered_value", "surface_value", "surface_frame_value"]
+
+
+def _plane_settings(texton, mni, seed, period, poisson, cell_factor):
+    """(setup, NoiseParams) of the plane noise, checked as ``evaluate`` checks them."""
+    seed = check_seed(seed)
+    setup = noise_setup(texton, mni, period, cell_factor)
+    return setup, noise_params(texton, setup, seed, poisson)
+
+
+def pack_plane(
+    texton: Texton,
+    *,
+    mni: float = 30.0,
+    seed: int = 0,
+    period=None,
+    device=None,
+    poisson: str = "exact",
+    cell_factor: float = CELL_FACTOR,
+) -> PlaneNoise:
+    """The plane noise of ``texton`` packed for ``plane_value`` in a user's kernel.
+
+    Parameters
+    ----------
+    texton : Texton
+    mni, seed, period, poisson, cell_factor
+        The noise, as in :func:`~warp_texton.evaluate`: the same values give
+        the same noise.
+    device : str, optional
+        Where the struct's coefficient array lives and its kernels run: "cpu",
+        "cuda", "cuda:N"; default CUDA when available, else the CPU.
+
+    Returns
+    -------
+    PlaneNoise
+        A ``@wp.struct`` to pass to a kernel: ``plane_value(noise, x)`` is
+        ``evaluate(texton, [x], ...)[0]`` (padded to three components) bit
+        for bit on ``device``.
+
+    Raises
+    ------
+    TextonError
+        For the ``texton``, ``mni``, ``seed``, ``period``, ``device``,
+        ``poisson`` and ``cell_factor`` errors of :func:`~warp_texton.evaluate`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from warp_texton import Texton
+    >>> texton = Texton(np.random.default_rng(0).standard_normal((8, 8, 1)) / 8, [0.5])
+    >>> noise = pack_plane(texton, mni=30, seed=1, period=(64, 64), device="cpu")
+    >>> int(noise.params.cells.seed), noise.coeffs.shape
+    (1, (18, 18))
+    """
+    setup, params = _plane_settings(texton, mni, seed, period, poisson, cell_factor)
+    device = resolve_device(device)
+    noise = PlaneNoise()
+    noise.params = params
+    noise.coeffs = wp.array(setup.coeffs, dtype=wp.vec3, device=device)
+    return noise
+
+
+def pack_filtered(
+    texton: Texton,
+    *,
+    mni: float = 30.0,
+    seed: int = 0,
+    period=None,
+    device=None,
+    poisson: str = "exact",
+    cell_factor: float = CELL_FACTOR,
+    filter="anisotropic",
+) -> FilteredNoise:
+    """The noise of ``texton`` and a footprint filter, packed for ``filtered_value`` in a user's kernel.
+
+    Parameters
+    ----------
+    texton : Texton
+    mni, seed, period, device, poisson, cell_factor
+        As in :func:`pack_plane`.
+    filter : {"mip", "anisotropic"} or FilterOptions
+        A filter that looks the texton up in its MIP pyramid at each
+        footprint (CGF §5), with its settings (``max_aniso``, ``lod_bias``,
+        ``fade_energy``), as :func:`~warp_texton.synthesize` takes it.
+
+    Returns
+    -------
+    FilteredNoise
+        A ``@wp.struct``: ``filtered_value(noise, x, J)`` is the pixel of
+        ``synthesize(..., filter=filter, jacobian=J)`` centred on ``x``, bit
+        for bit on ``device``.
+
+    Raises
+    ------
+    TextonError
+        As :func:`pack_plane`, and for a ``filter`` that is not a footprint
+        filter: "none" (use :func:`pack_plane`) and "supersample" (an average
+        of many evaluations on the host, not one lookup).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from warp_texton import Texton, FilterOptions
+    >>> texton = Texton(np.random.default_rng(0).standard_normal((8, 8, 1)) / 8, [0.5])
+    >>> noise = pack_filtered(texton, seed=1, filter=FilterOptions("anisotropic", max_aniso=4), device="cpu")
+    >>> from warp_texton.filtering import kept_levels
+    >>> int(noise.filter.max_aniso), noise.pyramid.levels == kept_levels(texton)
+    (4, True)
+    """
+    options = FilterOptions.of(filter)
+    if not options.spec.footprint:
+        raise TextonError(f"filter must be a footprint filter, mip or anisotropic, for filtered_value; got "
+                          f"{options.kind!r} (use pack_plane and plane_value for the unfiltered noise)",
+                          param="filter")
+    _, params = _plane_settings(texton, mni, seed, period, poisson, cell_factor)
+    device = resolve_device(device)
+    noise = FilteredNoise()
+    noise.params = params
+    with wp.ScopedDevice(device):
+        noise.pyramid = pyramid_struct(texton, options.fade_energy)
+    noise.filter = filter_struct(options)
+    return noise
+
+
+def pack_surface(
+    texton: Texton,
+    texel_size: float,
+    *,
+    mni: float = 60.0,
+    seed: int = 0,
+    device=None,
+    up=UP,
+    side=None,
+    poisson: str = "exact",
+    cell_factor: float = SURFACE_CELL_FACTOR,
+) -> SurfaceNoise:
+    """The surface noise of ``texton`` (CGF §6) packed for ``surface_value`` in a user's kernel.
+
+    Parameters
+    ----------
+    texton : Texton
+    texel_size : float
+        World units per texel, > 0, as in :func:`~warp_texton.surface_noise`.
+    mni, seed, up, side, poisson, cell_factor
+        As in :func:`~warp_texton.surface_noise`: ``up`` and ``side`` set the
+        frame rule ``surface_value`` applies.
+    device : str, optional
+        As in :func:`pack_plane`.
+
+    Returns
+    -------
+    SurfaceNoise
+        A ``@wp.struct``: ``surface_value(noise, x, normal)`` is
+        ``surface_noise(texton, [x], [normal], texel_size, ...)[0]`` (padded
+        to three components) bit for bit on ``device``.
+
+    Raises
+    ------
+    TextonError
+        For the ``texton``, ``texel_size``, ``mni``, ``seed``, ``device``,
+        ``up``, ``side``, ``poisson`` and ``cell_factor`` errors of
+        :func:`~warp_texton.surface_noise`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from warp_texton import Texton
+    >>> texton = Texton(np.random.default_rng(0).standard_normal((8, 8, 1)) / 8, [0.5])
+    >>> noise = pack_surface(texton, 0.01, seed=1, up="y", device="cpu")
+    >>> noise.texel_size, [float(v) for v in noise.params.up]
+    (0.01, [0.0, 1.0, 0.0])
+    """
+    if not isinstance(texton, Texton):
+        raise TextonError(f"texton must be a Texton, got {type(texton).__name__}", param="texton")
+    texel = check_positive(texel_size, "texel_size")
+    seed = check_seed(seed)
+    setup = surface_setup(texton, mni, cell_factor)
+    params = surface_params(texton, setup, seed, poisson, up, side)
+    device = resolve_device(device)
+    noise = SurfaceNoise()
+    noise.params = params
+    noise.coeffs = wp.array(setup.coeffs, dtype=wp.vec3, device=device)
+    noise.texel_size = texel
+    return noise
