@@ -2,7 +2,8 @@
 
 Argument: a JSON file listing renders. Each render: an .osl file ("osl") loaded
 as an internal text block or as an external file ("mode"), the node's inputs to
-set ("inputs") and the one to link the UVs to ("uv_input"), a mesh from .npy files ("vertices", "faces", optional per-vertex
+set ("inputs"), the one to link the UVs to ("uv_input") and the output to show
+("output", default "Color"), a mesh from .npy files ("vertices", "faces", optional per-vertex
 "uvs"; flat shaded, or smooth with "smooth") at the origin; Blender's vertex
 normals are saved beside the render, seen by an orthographic camera looking down
 −z ("ortho_scale"), "width" × "height" pixels, written as a float32 EXR ("out").
@@ -104,7 +105,7 @@ def render(job):
     compiled = time.perf_counter() - t0
     emission = nt.nodes.new("ShaderNodeEmission")
     output = nt.nodes.new("ShaderNodeOutputMaterial")
-    nt.links.new(node.outputs["Color"], emission.inputs["Color"])
+    nt.links.new(node.outputs[job.get("output", "Color")], emission.inputs["Color"])
     nt.links.new(emission.outputs["Emission"], output.inputs["Surface"])
     ob.data.materials.append(mat)
     cam = bpy.data.cameras.new("cam")

@@ -14,6 +14,7 @@ import trimesh
 
 from clients import run_blender
 from warp_texton import Texton, TextonError, evaluate, surface_noise
+from warp_texton.mesh import srgb_to_linear
 from warp_texton.shader_osl import MAX_EMBEDDED_FLOATS, PLANE_FILE, SURFACE_FILE, i32, osl_files
 
 RENDER_SCRIPT = Path(__file__).with_name("blender_osl_render.py")
@@ -96,15 +97,15 @@ def plane_mesh(half: float) -> dict:
             "uvs": (v[:, :2] + half) / (2 * half)}
 
 
-#: (channels, order, exported mni, seed, period, poisson, coordinates, the node's mni or None):
-#: the Poisson sampler's two branches (cell means about 11 and 3) and the Gaussian counts,
-#: orders 0, 1, 3 and 5, a seed above 2**31, a period, both coordinate modes, and an mni set
-#: on the node (the sampler's constants then come from OSL's exp and log)
+#: (channels, order, exported mni, seed, period, poisson, coordinates, the node's mni or None,
+#: output): the Poisson sampler's two branches (cell means about 11 and 3) and the Gaussian
+#: counts, orders 0, 1, 3 and 5, a seed above 2**31, a period, both coordinate modes, an mni
+#: set on the node (the sampler's constants then come from OSL's exp and log), the sRGB-decoded output
 PLANE_CASES = [
-    (3, 1, 30.0, 7, None, "exact", "object", None),
-    (1, 3, 8.0, 2**31 + 5, (24.0, 40.0), "exact", "input", None),
-    (3, 0, 30.0, 11, None, "gaussian", "object", None),
-    (3, 5, 30.0, 5, None, "exact", "object", 40.0),
+    (3, 1, 30.0, 7, None, "exact", "object", None, "Color"),
+    (1, 3, 8.0, 2**31 + 5, (24.0, 40.0), "exact", "input", None, "Color"),
+    (3, 0, 30.0, 11, None, "gaussian", "object", None, "Color"),
+    (3, 5, 30.0, 5, None, "exact", "object", 40.0, "Linear"),
 ]
 #: world (object) units per texel in the object mode, UV units per texel in the UV mode
 PLANE_TEXEL = 0.04
@@ -115,23 +116,23 @@ UV_TEXEL = 0.02
 def test_plane_shader_renders_evaluate(tmp_path):
     scale = 1.8  # the view; the plane (2 x 2, one UV square) covers it: about 4 pixels per texel
     jobs, cases = [], []
-    for n, (channels, order, mni, seed, period, poisson, coordinates, node_mni) in enumerate(PLANE_CASES):
+    for n, (channels, order, mni, seed, period, poisson, coordinates, node_mni, output) in enumerate(PLANE_CASES):
         texton = random_texton(channels, order, seed=n)
         osl = tmp_path / f"{n}_{PLANE_FILE}"
         osl.write_bytes(osl_files(texton, mni=mni, seed=seed, period=period, poisson=poisson,
                                   texel_size=PLANE_TEXEL)[PLANE_FILE])
         job = {"osl": str(osl), "mode": "internal", "inputs": {"coordinates": coordinates}, "ortho_scale": scale,
-               **plane_mesh(1.0)}
+               "output": output, **plane_mesh(1.0)}
         if coordinates == "input":
             job["inputs"]["texel_size"] = UV_TEXEL
             job["uv_input"] = "Vector"
         if node_mni is not None:
             job["inputs"]["mni"] = node_mni
         jobs.append(job)
-        cases.append((texton, node_mni or mni, seed, period, poisson, coordinates))
+        cases.append((texton, node_mni or mni, seed, period, poisson, coordinates, output))
     reports = render(tmp_path, jobs)
     x, y = pixel_centres(scale)
-    for (texton, mni, seed, period, poisson, coordinates), rep in zip(cases, reports):
+    for (texton, mni, seed, period, poisson, coordinates, output), rep in zip(cases, reports):
         def values(dx, dy):
             if coordinates == "input":
                 u, v = (x + dx + 1.0) / 2.0, (y + dy + 1.0) / 2.0
@@ -140,12 +141,17 @@ def test_plane_shader_renders_evaluate(tmp_path):
                 pts = np.stack([(x + dx) / PLANE_TEXEL, -(y + dy) / PLANE_TEXEL], -1)
             out = evaluate(texton, pts.reshape(-1, 2), mni=mni, seed=seed, period=period, poisson=poisson,
                            device="cpu")
-            return out.reshape(SIZE, SIZE, texton.channels)
+            out = out.reshape(SIZE, SIZE, texton.channels)
+            if output == "Linear":
+                with np.errstate(invalid="ignore"):  # the power branch of negative values, not taken
+                    return srgb_to_linear(out)
+            return out
 
         covered = rep["rgba"][..., 3] == 1.0
         assert covered.all()
         a = agreement(rep["rgba"], *jitter_box(values, scale), covered, texton.channels)
-        print(f"plane, {texton.channels} channel(s), order {texton.order}, {poisson}, mni {mni:g}, {coordinates}: "
+        print(f"plane, {texton.channels} channel(s), order {texton.order}, {poisson}, mni {mni:g}, {coordinates}, "
+              f"{output}: "
               f"{a}; compile {rep['compile_s']:.2f} s, render {rep['render_s']:.2f} s")
         if texton.order == 0:
             # a jump can pass between the corners of the jitter square: judge the pixels without one
@@ -285,8 +291,8 @@ def test_files_and_constants():
 
 
 def test_errors():
-    big = Texton(np.zeros((70, 70, 3)) + 0.1, [0.5, 0.5, 0.5])
-    assert 76 * 76 * 3 > MAX_EMBEDDED_FLOATS
+    big = Texton(np.full((257, 256, 3), 0.1), [0.5, 0.5, 0.5])
+    assert 267 * 266 * 3 > MAX_EMBEDDED_FLOATS >= 266 * 266 * 3
     with pytest.raises(TextonError, match="too large for an OSL shader"):
         osl_files(big)
     with pytest.raises(TextonError, match="texton must be a Texton"):

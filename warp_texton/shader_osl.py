@@ -47,10 +47,10 @@ from .noise import CELL_FACTOR, noise_setup, params_record
 from .surface import surface_params, surface_setup
 from .texton import Texton
 
-#: Floats of padded coefficients a shader embeds at most: a 64 × 64 RGB texton
-#: (the default of ``analyze``) with its margin is 74 · 74 · 3 = 16 428; Blender
-#: compiles such a shader in about a second (docs/renderers.md).
-MAX_EMBEDDED_FLOATS = 74 * 74 * 3
+#: Floats of padded coefficients a shader embeds at most: a 256 × 256 RGB texton
+#: with its margin (a 4.7 MB source, which Blender compiles in about 2 s; the
+#: default 64 × 64 of ``analyze`` takes 0.25 s: docs/renderers.md).
+MAX_EMBEDDED_FLOATS = (256 + 2 * PAD) ** 2 * 3
 #: The files :func:`osl_files` returns.
 SURFACE_FILE = "texton_surface.osl"
 PLANE_FILE = "texton_plane.osl"
@@ -138,7 +138,7 @@ def osl_files(
     ----------
     texton : Texton
         Its padded coefficients are embedded in both shaders (at most
-        ``MAX_EMBEDDED_FLOATS`` floats: a 64 × 64 RGB texton).
+        ``MAX_EMBEDDED_FLOATS`` floats: a 256 × 256 RGB texton).
     mni : float
         The default of both shaders' ``mni`` parameter (as in
         :func:`~warp_texton.evaluate`; surfaces want about 60,
@@ -203,7 +203,7 @@ def osl_files(
         r, s = texton.size
         raise TextonError(
             f"texton of {r} x {s} texels with {channels} channels is too large for an OSL shader: "
-            f"{rows * cols * channels} floats with its margin, at most {MAX_EMBEDDED_FLOATS} (a 64 x 64 RGB texton); "
+            f"{rows * cols * channels} floats with its margin, at most {MAX_EMBEDDED_FLOATS} (a 256 x 256 RGB texton); "
             "analyze with a smaller size", param="texton")
     rec = params_record(texton, setup, seed, poisson)
     surf = surface_setup(texton, mni, cell_factor)
@@ -399,6 +399,15 @@ Counts exported_counts(int exact)
     return c;
 }
 
+// the sRGB decoding (IEC 61966-2-1): the model's values are those an image stores
+color srgb_to_linear(color c)
+{
+    color l;
+    for (int i = 0; i < 3; i++)
+        l[i] = c[i] <= 0.04045 ? c[i] / 12.92 : pow((c[i] + 0.055) / 1.055, 2.4);
+    return l;
+}
+
 int clampi(int i, int lo, int hi)
 {
     return min(max(i, lo), hi);
@@ -511,8 +520,9 @@ shader texton_surface(
     int seed = $SEED,
     float mni = $MNI,  // mean number of impacts per point
     int exact_poisson = $EXACT,  // 1: Poisson counts; 0: rounded Gaussian
-    output color Color = 0,
-    output float Value = 0)
+    output color Color = 0,  // the noise, in the values the example image stores (sRGB-coded)
+    output color Linear = 0,  // Color decoded from sRGB: for a renderer's linear colour (emission, base colour)
+    output float Value = 0)  // the first channel
 {
     float T[$N] = {
 $COEFFS
@@ -566,6 +576,7 @@ $COEFFS
     }
     color g = $MEAN + (acc - shift) * inv_scale;
     Color = $COLOUR;
+    Linear = srgb_to_linear(Color);
     Value = $VALUE;
 }
 """
@@ -579,8 +590,9 @@ shader texton_plane(
     int seed = $SEED,
     float mni = $MNI,  // mean number of impacts per point
     int exact_poisson = $EXACT,  // 1: Poisson counts; 0: rounded Gaussian
-    output color Color = 0,
-    output float Value = 0)
+    output color Color = 0,  // the noise, in the values the example image stores (sRGB-coded)
+    output color Linear = 0,  // Color decoded from sRGB: for a renderer's linear colour (emission, base colour)
+    output float Value = 0)  // the first channel
 {
     float T[$N] = {
 $COEFFS
@@ -624,6 +636,7 @@ $COEFFS
     }
     color g = $MEAN + (acc - $INTEGRAL * lam) / sqrt(lam);
     Color = $COLOUR;
+    Linear = srgb_to_linear(Color);
     Value = $VALUE;
 }
 """
