@@ -6,7 +6,7 @@ set ("inputs"), the one to link the UVs to ("uv_input") and the output to show
 ("output", default "Color"), a mesh from .npy files ("vertices", "faces", optional per-vertex
 "uvs"; flat shaded, or smooth with "smooth") at the origin; Blender's vertex
 normals are saved beside the render, seen by an orthographic camera looking down
-−z ("ortho_scale"), "width" × "height" pixels, written as a float32 EXR ("out").
+−z at ("centre", default the origin) with a view "ortho_scale" wide, "width" × "height" pixels, written as a float32 EXR ("out").
 Emission only, one sample, a box pixel filter of the smallest width, the
 Standard view transform with no look: the pixels hold the shader's values.
 This script runs in Blender's interpreter and imports nothing of warp_texton.
@@ -112,7 +112,8 @@ def render(job):
     cam.type = "ORTHO"
     cam.ortho_scale = job["ortho_scale"]
     cam_ob = bpy.data.objects.new("cam", cam)
-    cam_ob.location = (0.0, 0.0, 10.0)
+    cx, cy = job.get("centre", (0.0, 0.0))
+    cam_ob.location = (cx, cy, 10.0)
     sc.collection.objects.link(cam_ob)
     sc.camera = cam_ob
     sc.render.filepath = job["out"]
