@@ -9,7 +9,9 @@ normals are saved beside the render, seen by an orthographic camera looking down
 −z at ("centre", default the origin) with a view "ortho_scale" wide, "width" × "height" pixels, written as a float32 EXR ("out").
 Emission only, one sample, a box pixel filter of the smallest width, the
 Standard view transform with no look: the pixels hold the shader's values.
-This script runs in Blender's interpreter and imports nothing of warp_texton.
+This script runs in Blender's interpreter and imports nothing of warp_texton;
+``bpy`` is imported inside the functions, so that the suite's collection can
+import the file without Blender.
 """
 
 import json
@@ -17,8 +19,6 @@ import sys
 import time
 from pathlib import Path
 
-import bpy
-import cycles.osl
 import numpy as np
 
 
@@ -46,6 +46,9 @@ def scene_settings(sc, width, height):
 
 
 def script_node(nt, job, messages):
+    import bpy
+    import cycles.osl
+
     node = nt.nodes.new("ShaderNodeScript")
     path = Path(job["osl"])
     if job.get("mode", "internal") == "internal":
@@ -68,6 +71,8 @@ def script_node(nt, job, messages):
 
 
 def mesh_object(job):
+    import bpy
+
     verts = np.load(job["vertices"])
     faces = np.load(job["faces"])
     me = bpy.data.meshes.new("m")
@@ -91,6 +96,8 @@ def mesh_object(job):
 
 
 def render(job):
+    import bpy
+
     bpy.ops.wm.read_factory_settings(use_empty=True)
     sc = bpy.context.scene
     scene_settings(sc, job["width"], job["height"])
@@ -128,4 +135,5 @@ def main():
     Path(spec["report"]).write_text(json.dumps(report))
 
 
-main()
+if __name__ == "__main__":  # Blender runs it; pytest's doctest collection only imports it
+    main()
