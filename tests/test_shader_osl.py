@@ -280,6 +280,72 @@ def test_integer_arithmetic_in_cycles(tmp_path):
     assert np.array_equal(rgb[..., 2], p >> 8)
 
 
+#: The exact-point renders: 64 pixels per world unit and 16 texels per world unit (powers of
+#: two), so a pixel centre and its texel coordinates are float32 numbers in the shader and here.
+EXACT_PIXELS = 64.0
+EXACT_TEXEL = 1.0 / 16.0
+SNAP = """
+    point p_hit = transform("object", P);
+    // the pixel's centre, whatever point of the pixel the camera's jittered ray hit
+    float sx = (floor(p_hit[0] * 64.0) + 0.5) / 64.0;
+    float sy = (floor(p_hit[1] * 64.0) + 0.5) / 64.0;
+"""
+
+
+def exact_point_source(source: str, kind: str) -> str:
+    """The exported shader evaluated at its pixel's centre instead of the ray's hit:
+    the plane at (x, -y) / texel, the surface at the unit sphere's point above it."""
+    if kind == "plane":
+        old = "        point q = transform(coordinates, P);\n"
+        new = SNAP + "        point q = point(sx, sy, 0.0);\n"
+    else:
+        old = "    point y = transform(space, P) / texel_size;\n    normal n = normalize(transform(space, N));\n"
+        new = SNAP + ("    float sz = sqrt(1.0 - sx * sx - sy * sy);\n"
+                      "    point y = point(sx, sy, sz) / texel_size;\n"
+                      "    normal n = normalize(normal(sx, sy, sz));\n")
+    assert source.count(old) == 1
+    return source.replace(old, new)
+
+
+@pytest.mark.slow
+def test_shaders_draw_the_kernels_impacts(tmp_path):
+    # Without the camera's jitter (each shader snaps its point to the pixel centre) the
+    # renders differ from the kernels by float rounding only: a cell whose count or
+    # impacts differed would change its pixels by about a texton's weight / sqrt(lambda),
+    # percents of the range. Plane: RGB order 1 (PTRS counts); sphere: RGB order 1, MNI 60.
+    texton = random_texton(3, 1, seed=4)
+    files = osl_files(texton, mni=30.0, seed=9, texel_size=EXACT_TEXEL)
+    sphere = osl_files(texton, mni=60.0, seed=9, texel_size=EXACT_TEXEL)[SURFACE_FILE]
+    jobs = []
+    for kind, source, size, mesh in (("plane", files[PLANE_FILE], 96, plane_mesh(1.0)),
+                                      ("surface", sphere, 80, None)):
+        osl = tmp_path / f"exact_{kind}.osl"
+        osl.write_text(exact_point_source(source.decode(), kind))
+        if mesh is None:
+            ico = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
+            mesh = {"vertices": ico.vertices, "faces": ico.faces}
+        jobs.append({"osl": str(osl), "ortho_scale": size / EXACT_PIXELS, "width": size, "height": size, **mesh})
+    plane_rep, sphere_rep = render(tmp_path, jobs)
+    for kind, rep, size in (("plane", plane_rep, 96), ("surface", sphere_rep, 80)):
+        # the pixel centres as the shaders compute them, in float32
+        c = ((np.arange(size) - size // 2 + 0.5) / EXACT_PIXELS).astype(np.float32)
+        sx, sy = np.meshgrid(c, c[::-1])
+        if kind == "plane":
+            pts = np.stack([sx / np.float32(EXACT_TEXEL), -sy / np.float32(EXACT_TEXEL)], -1).reshape(-1, 2)
+            want = evaluate(texton, pts.astype(np.float64), mni=30.0, seed=9, device="cpu")
+        else:
+            sz = np.sqrt(np.float32(1.0) - sx * sx - sy * sy)
+            p = np.stack([sx, sy, sz], -1).reshape(-1, 3).astype(np.float64)
+            want = surface_noise(texton, p, p, EXACT_TEXEL, mni=60.0, seed=9, device="cpu")
+        want = want.reshape(size, size, 3)
+        got = rep["rgba"][..., :3]
+        assert (rep["rgba"][..., 3] == 1.0).all()
+        err = np.abs(got - want).max(axis=-1) / (want.max() - want.min())
+        print(f"{kind} at exact points: max error {err.max():.2e} of the range, "
+              f"{int((err > 1e-4).sum())} of {err.size} pixels beyond 1e-4, {int((err == 0).sum())} equal")
+        assert err.max() < 1e-4
+
+
 def test_files_and_constants():
     t = random_texton(3, 1)
     files = osl_files(t, mni=30, seed=2**32 - 1, texel_size=0.5)
