@@ -24,8 +24,12 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--mni", type=float, default=30.0, help="mean number of impacts per point")
     p.add_argument("--seed", type=int, default=0, help="random seed (analysis and noise)")
     add_placement_options(p)  # the preview's window (--html) and the noise's period
-    p.add_argument("--filter", choices=("none", "mip", "anisotropic"), default="anisotropic",
-                   help="the filter of the shader's filtered variant")
+    p.add_argument("--filter", choices=("none", "mip", "anisotropic"),
+                   help="glsl: the filter of the shader's filtered variant (default anisotropic)")
+    p.add_argument("--texel-size", type=float,
+                   help="osl: the default of the shaders' texel_size, shading-space units per texel (default 0.01)")
+    p.add_argument("--up", choices=("x", "y", "z"), default="z",
+                   help="the surface variant's up axis, for its frame rule (default z; glTF scenes are y up)")
     p.add_argument("-q", "--quiet", action="store_true", help="no summary")
     add_analysis_options(p, seed=False)
 
@@ -47,7 +51,8 @@ def _shader(args) -> None:
         texton, (args.height, args.width), scale=args.scale, rotation=args.rotation, offset=tuple(args.offset),
         **noise)
     if args.output is not None:
-        out = export_shader(texton, args.lang, args.output, filter=args.filter, overwrite=args.overwrite, **noise)
+        out = export_shader(texton, args.lang, args.output, up=args.up, overwrite=args.overwrite,
+                            filter=args.filter, texel_size=args.texel_size, **noise)
         if not args.quiet:
             print(f"{out}: {args.lang} export of texton noise, MNI {args.mni:g} ({seconds_since(t0)})")
     if html is not None:
@@ -66,12 +71,13 @@ SHADER = Command(
     "--seed, with WebGL2.",
     _arguments, _shader,
     {**SHAPE_NAMES, **ANALYSIS_NAMES, "mni": "--mni", "seed": "--seed", "lang": "--lang", "out_dir": "-o",
-     "overwrite": "--overwrite", "filter": FILTER_NAMES["filter"], "scale": "--scale", "rotation": "--rotation",
+     "overwrite": "--overwrite", "texel_size": "--texel-size", "up": "--up", "filter": FILTER_NAMES["filter"], "scale": "--scale", "rotation": "--rotation",
      "offset[0]": "--offset X", "offset[1]": "--offset Y", "offset": "--offset",
      "period[0]": "--period PX", "period[1]": "--period PY", "period": "--period"},
     input_file,
     epilog="""examples:
   warp-texton shader wood.texton --lang glsl -o wood_glsl
+  warp-texton shader wood.texton --lang osl -o wood_osl --texel-size 0.02 --mni 60
   warp-texton shader wood.png --lang glsl --html wood.html --width 640 --height 480 --seed 3
   warp-texton shader wood.texton --lang glsl --html far.html --scale 0.5 --rotation 30 --offset 1e6 0
 """)

@@ -17,6 +17,7 @@ from pathlib import Path
 
 from .errors import TextonError
 from .folders import atomic_folder, check_replaceable
+from .frames import UP
 from .io import atomic_path
 from .noise import CELL_FACTOR
 from .texton import Texton
@@ -49,9 +50,21 @@ def _is_export(path: Path) -> bool:
     return False
 
 
+def _osl_meta(texton: Texton, files: dict, noise: dict, texel_size) -> bytes:
+    """The description of an OSL export: its files and settings, marked as the package's."""
+    from ._version import __version__
+
+    settings = {k: (None if v is None else (v if isinstance(v, (int, float, str)) else [float(x) for x in v]))
+                for k, v in noise.items()}
+    settings["texel_size"] = 0.01 if texel_size is None else float(texel_size)
+    meta = {"warp_texton": __version__, "language": "osl", "shaders": sorted(files), "order": texton.order,
+            "channels": texton.channels, "settings": settings}
+    return (json.dumps(meta, indent=2) + "\n").encode()
+
+
 def export_shader(texton: Texton, lang: str, out_dir, *, mni: float = 30.0, seed: int = 0, period=None,
-                  poisson: str = "exact", cell_factor: float = CELL_FACTOR, filter="anisotropic",
-                  overwrite: bool = False) -> Path:
+                  poisson: str = "exact", cell_factor: float = CELL_FACTOR, filter=None, texel_size=None,
+                  up=UP, side=None, overwrite: bool = False) -> Path:
     """Write texton noise as shader code for ``lang`` into the folder ``out_dir``.
 
     The shader evaluates the noise where it is used, with no stored image: the
@@ -69,17 +82,30 @@ def export_shader(texton: Texton, lang: str, out_dir, *, mni: float = 30.0, seed
         ``"glsl"``: a library valid as GLSL ES 3.00 (WebGL2) and, with its
         version line changed, GLSL 3.30+, with ``texton_noise(x)``, a
         filtered variant taking the footprint, and ``texton_surface_noise(y,
-        n)``; the files are listed in Notes. ``"osl"``: an OSL shader.
+        n)``; the files are listed in Notes. ``"osl"``: Open Shading
+        Language shaders (Cycles, Arnold, RenderMan, V-Ray) with a colour
+        output: surface noise on ``P`` and ``N`` (no UVs) and plane noise on
+        object coordinates or UVs, the texton embedded in the source.
     out_dir : str or Path
         The folder to create; its parent must exist.
     mni, seed, period, poisson, cell_factor
         The noise, as in :func:`~warp_texton.synthesize`. The surface variant
         uses the same ``mni`` (:func:`~warp_texton.surface_noise` defaults
         to 60).
-    filter : str or FilterOptions
-        The filter of the filtered variant: "none", "mip" or "anisotropic"
-        with their settings (:class:`~warp_texton.FilterOptions`);
-        "supersample" is not offered.
+    filter : str or FilterOptions, optional
+        GLSL only: the filter of the filtered variant, "none", "mip" or
+        "anisotropic" (the default) with their settings
+        (:class:`~warp_texton.FilterOptions`); "supersample" is not offered.
+        The OSL shaders have no filtered variant (a renderer antialiases by
+        its own samples).
+    texel_size : float, optional
+        OSL only: the default of the shaders' ``texel_size`` parameter,
+        shading-space units per texel (default 0.01). GLSL's functions take
+        positions in texels.
+    up, side
+        The surface frame rule's directions
+        (:func:`~warp_texton.tangent_frames`), as in
+        :func:`~warp_texton.surface_noise`.
     overwrite : bool
         Replace ``out_dir`` if it is a folder an earlier export wrote; any
         other existing path is refused.
@@ -107,7 +133,9 @@ def export_shader(texton: Texton, lang: str, out_dir, *, mni: float = 30.0, seed
     WebGL2), ``texton_coeffs.f32`` and ``texton_pyramid.f32`` (RGBA32F
     textures, raw little-endian float32, top row first),
     ``texton_noise.json`` (their sizes and the settings) and
-    ``preview.html`` (a 512 × 512 window at scale 1).
+    ``preview.html`` (a 512 × 512 window at scale 1). An OSL export holds
+    ``texton_surface.osl``, ``texton_plane.osl`` and
+    ``texton_noise_osl.json`` (the settings).
 
     Examples
     --------
@@ -123,7 +151,18 @@ def export_shader(texton: Texton, lang: str, out_dir, *, mni: float = 30.0, seed
     make = _files_of(lang)
     path = Path(out_dir)
     check_replaceable(path, overwrite, _is_export, "a shader export")  # before any work
-    files = make(texton, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor, filter=filter)
+    noise = dict(mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor, up=up, side=side)
+    if lang == "glsl":
+        if texel_size is not None:
+            raise TextonError("texel_size is an option of the osl export; the glsl functions take positions in "
+                              "texels", param="texel_size")
+        files = make(texton, filter="anisotropic" if filter is None else filter, **noise)
+    else:
+        if filter is not None:
+            raise TextonError(f"filter is an option of the glsl export; the {lang} shaders have no filtered "
+                              "variant (a renderer antialiases by its samples)", param="filter")
+        files = make(texton, texel_size=0.01 if texel_size is None else texel_size, **noise)
+        files[META_FILES[1]] = _osl_meta(texton, files, noise, texel_size)
     with atomic_folder(path, lambda p: check_replaceable(p, overwrite, _is_export, "a shader export")) as tmp:
         for name, content in files.items():
             (tmp / name).write_bytes(content)
