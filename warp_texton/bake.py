@@ -29,7 +29,8 @@ import numpy as np
 import warp as wp
 
 from ._checks import check_int, check_positive, check_seed
-from ._runtime import resolve_device, split_launch
+from ._runtime import progress_bar, resolve_device, split_launch
+from .atlas import CHART_METHODS, make_atlas
 from .errors import TextonError
 from .kernels import bake as KB
 from .limits import check_memory
@@ -126,6 +127,11 @@ class BakedMesh:
         """The texture's side in texels."""
         return int(self.texture.shape[0])
 
+    @property
+    def covered(self) -> float:
+        """The share of the texture's texels that lie on a triangle (``coverage``'s mean)."""
+        return float(np.mean(self.coverage))
+
 
 def mesh_uvs(mesh) -> np.ndarray | None:
     """The mesh's per-vertex UVs as float64 (V, 2), or None when it has none."""
@@ -153,26 +159,8 @@ def check_uvs(uv: np.ndarray, vertices: int) -> np.ndarray:
     return np.clip(uv, 0.0, 1.0)
 
 
-def make_atlas(vertices: np.ndarray, faces: np.ndarray, resolution: int, padding: int):
-    """A UV atlas by xatlas: (vertex map into the input vertices, faces, UVs in [0, 1]²)."""
-    try:
-        import xatlas
-    except ImportError:
-        raise TextonError("making a UV atlas needs the xatlas package: pip install 'warp-texton[mesh]' "
-                          "(or give a mesh with UVs)") from None
-    atlas = xatlas.Atlas()
-    atlas.add_mesh(np.ascontiguousarray(vertices, np.float32), np.ascontiguousarray(faces, np.uint32))
-    pack = xatlas.PackOptions()
-    pack.resolution = int(resolution)
-    pack.padding = int(padding)
-    pack.bilinear = True
-    atlas.generate(xatlas.ChartOptions(), pack)
-    vmap, new_faces, uv = atlas[0]
-    return np.asarray(vmap, np.int64), np.asarray(new_faces, np.int64), np.asarray(uv, np.float64)
-
-
 #: Most texels of gutter: a renderer's mip chain needs a few; a gutter of a sizeable share
-#: of the texture only wastes it (and xatlas pads charts by twice the gutter).
+#: of the texture only wastes it (and xatlas keeps charts two gutters apart).
 MAX_GUTTER = 64
 
 
@@ -195,6 +183,18 @@ def _claim(corners: np.ndarray, resolution: int, device) -> tuple[np.ndarray, np
         # atomics make the parts safe to run side by side on the CPU's threads
         split_launch(device, KB, n_faces, launch)
         return owner.numpy(), cover.numpy()
+
+
+def _claimed(uvs: np.ndarray, faces: np.ndarray, res: int, device, name: str):
+    """(texel corners of the faces, owner of each texel, share of the covered texels on two faces or more)."""
+    # texel coordinates: x = u W, y = (1 − v) H (row 0 at the top)
+    corners = np.ascontiguousarray(np.stack([uvs[:, 0] * res, (1.0 - uvs[:, 1]) * res], axis=1)[faces].reshape(-1, 2))
+    owner, cover = _claim(corners, res, device)
+    n_cov = int(np.count_nonzero(owner >= 0))
+    if n_cov == 0:
+        raise TextonError(f"{name}: no texel centre lies on a triangle of its UVs at {res}x{res}; use a larger "
+                          "resolution")
+    return corners, owner, float(np.count_nonzero(cover > 1)) / n_cov
 
 
 def _normals_at(bary: np.ndarray, tri: np.ndarray, vnormals: np.ndarray, fnormals: np.ndarray) -> np.ndarray:
@@ -226,6 +226,8 @@ def bake_mesh(
     side=None,
     name: str = "mesh",
     method: str = "auto",
+    charts: str = "normals",
+    progress: bool = False,
 ) -> BakedMesh:
     """Bake surface texton noise into a ``resolution``² texture on the mesh's UVs.
 
@@ -262,6 +264,15 @@ def bake_mesh(
     uv : "auto", "mesh" or "atlas"
         "auto": the mesh's UVs when it has them, else an xatlas atlas; "mesh":
         its UVs or an error; "atlas": a new atlas, ignoring any UVs.
+    charts : {"normals", "xatlas"}
+        How an atlas is charted (:func:`warp_texton.atlas.make_atlas`):
+        "normals" (default) by clusters of the faces' normals, packed by
+        xatlas, in about a second for 100k faces (xatlas's own charting when
+        a chart would overlap itself); "xatlas": xatlas's own charts, fewer
+        seams, about 40× slower (docs/benchmarks.md, "Atlases").
+    progress : bool
+        A progress bar over the atlas's charting and packing and the rounds of
+        samples (shown after 2 s).
     supersample : int, optional
         Samples per side of each texel (1: the texel centre only). Default:
         per texel, ``ceil(SAMPLE_DENSITY ×`` texton texels along each side of
@@ -281,13 +292,15 @@ def bake_mesh(
     TextonError
         For the ``mesh`` and ``texton`` errors of
         :func:`warp_texton.texture_mesh`; a ``resolution`` that is not an
-        integer in [1, 16384]; a bad ``uv``, ``supersample`` (≥ 1, ≤ 64) or
+        integer in [1, 16384]; a bad ``uv``, ``charts``, ``supersample`` (≥ 1, ≤ 64) or
         ``gutter`` (≥ 0); UVs that cannot hold a bake, naming the mesh and the
         problem with the hint ``uv='atlas'``: not one (u, v) per vertex, NaN
         or infinite, outside [0, 1] (a repeated texture), or overlapping (more
         than 2 % of the covered texels on two triangles); no UVs with
         ``uv="mesh"``; a missing xatlas when an atlas is needed ("making a UV
-        atlas needs the xatlas package: pip install 'warp-texton[mesh]'"); a
+        atlas needs the xatlas package: pip install 'warp-texton[mesh]'"); xatlas
+        crashing, running past its time limit or over its memory cap (it runs
+        in a process of its own: :func:`warp_texton.atlas.run_worker`); a
         bake over the memory budget (about 360 bytes per texel at the peak:
         1.5 GB at 2048², 6 GB at 4096²); vertices too far from the origin.
 
@@ -342,6 +355,8 @@ def bake_mesh(
                                                                    maximum=min(MAX_GUTTER, max(2, res // 4)))
     seed = check_seed(seed)
     check_method(method)
+    if charts not in CHART_METHODS:
+        raise TextonError(f"charts must be one of {', '.join(CHART_METHODS)}, got {charts!r:.40}")
     # the owners, the distance transform of the gutter and each texel's face, map, footprint
     # and sums: about BYTES_PER_TEXEL at the peak (measured: 1.7 GB for 2048²)
     check_memory(res * res * BYTES_PER_TEXEL, f"a {res}x{res} bake", "use a smaller resolution")
@@ -353,31 +368,33 @@ def bake_mesh(
     own_uv = mesh_uvs(mesh) if uv != "atlas" else None
     if own_uv is None and uv == "mesh":
         raise TextonError(f"{name}: has no UVs (uv='mesh'); use uv='auto' or 'atlas' to make an atlas")
+    device = resolve_device(device)
+    bar = progress_bar(progress, 0 if own_uv is not None else 2, "bake", "step")
     if own_uv is not None:
         try:
             uvs = check_uvs(own_uv, len(vertices))
         except TextonError as exc:
             raise TextonError(f"{name}: {exc}; use uv='atlas' (--uv atlas) to ignore them") from None
-        source = "mesh"
+        source, (corners, owner, overlap) = "mesh", _claimed(uvs, faces, res, device, name)
+        if overlap > MAX_OVERLAP:
+            raise TextonError(f"{name}: its UVs overlap ({100 * overlap:.1f} % of the covered texels lie on two or "
+                              "more triangles), so one texel would stand for several surface points; use "
+                              "uv='atlas' (--uv atlas) to ignore them")
     else:
-        # charts 2 gutters apart: each gutter texel is nearer its own chart than any other
-        vmap, faces, uvs = make_atlas(vertices, faces, res, 2 * max(gutter, 1))
-        vertices, vnormals = vertices[vmap], vnormals[vmap]
         source = "atlas"
-    device = resolve_device(device)
-    # texel coordinates: x = u W, y = (1 − v) H (row 0 at the top)
-    corners = np.stack([uvs[:, 0] * res, (1.0 - uvs[:, 1]) * res], axis=1)[faces].reshape(-1, 2)
-    owner, cover = _claim(np.ascontiguousarray(corners), res, device)
+        # xatlas keeps charts 2 paddings apart (measured: 9 texels or more on the bunny at 1024² with a
+        # padding of 4), so each gutter texel is nearer its own chart than any other
+        vmap, faces, uvs, _ = make_atlas(vertices, faces, res, max(gutter, 1), charts=charts, name=name,
+                                         step=bar.update)
+        corners, owner, overlap = _claimed(uvs, faces, res, device, name)
+        if overlap > MAX_OVERLAP and charts != "xatlas":
+            # a chart of normal clusters that overlaps itself (a helix seen along its axis): xatlas's own charts
+            vmap, faces, uvs, _ = make_atlas(vertices, np.asarray(mesh.faces, np.int64), res, max(gutter, 1),
+                                             charts="xatlas", name=name)
+            corners, owner, overlap = _claimed(uvs, faces, res, device, name)
+        vertices, vnormals = vertices[vmap], vnormals[vmap]
     covered = owner >= 0
     n_cov = int(covered.sum())
-    if n_cov == 0:
-        raise TextonError(f"{name}: no texel centre lies on a triangle of its UVs at {res}x{res}; use a larger "
-                          "resolution")
-    overlap = float(np.count_nonzero(cover > 1)) / n_cov
-    if source == "mesh" and overlap > MAX_OVERLAP:
-        raise TextonError(f"{name}: its UVs overlap ({100 * overlap:.1f} % of the covered texels lie on two or more "
-                          "triangles), so one texel would stand for several surface points; use uv='atlas' "
-                          "(--uv atlas) to ignore them")
     owner = _extend(owner, covered, gutter)
     rows, cols = np.nonzero(owner >= 0)
     inner = covered[rows, cols]
@@ -413,11 +430,13 @@ def bake_mesh(
                        mentions=("resolution", "supersample", "mni"))
     p = surface_params(texton, setup, seed, "exact", up, side)
     sums = np.zeros((len(f), 3), np.float64)
-    for sx, sy in sorted(set(zip(nx.tolist(), ny.tolist()))):
+    kinds = sorted(set(zip(nx.tolist(), ny.tolist())))
+    per_kind = [max(1, SAMPLES_PER_ROUND // (sx * sy)) for sx, sy in kinds]
+    bar.total += sum(-(-int(np.count_nonzero((nx == sx) & (ny == sy))) // n) for (sx, sy), n in zip(kinds, per_kind))
+    for (sx, sy), per_round in zip(kinds, per_kind):
         group = np.flatnonzero((nx == sx) & (ny == sy))
         ox, oy = np.meshgrid((np.arange(sx) + 0.5) / sx - 0.5, (np.arange(sy) + 0.5) / sy - 0.5)
         offsets = np.stack([ox.ravel(), oy.ravel()], axis=1)  # sample offsets from the texel centre
-        per_round = max(1, SAMPLES_PER_ROUND // len(offsets))
         for g0 in range(0, len(group), per_round):
             g = group[g0:g0 + per_round]
             centre = np.stack([cols[g] + 0.5, rows[g] + 0.5], axis=1)
@@ -431,6 +450,8 @@ def bake_mesh(
             nrm = _normals_at(bary, tri[k], vnormals, fn[k])
             vals = evaluate_points(p, setup, pts / texel, nrm, None, device, method)
             sums[g] += vals.reshape(len(g), len(offsets), 3).sum(axis=1)  # g holds distinct texels
+            bar.update()
+    bar.close()
     values = (sums / (nx * ny)[:, None]).astype(np.float32)
     c = texton.channels
     texture = np.empty((res, res, c), np.float32)

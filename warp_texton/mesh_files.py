@@ -66,6 +66,10 @@ def export_mesh(mesh, fmt: str, up) -> bytes:
     ``up``, the other formats in the mesh's own coordinates."""
     if fmt in GLTF_FORMATS:
         mesh = to_gltf_axes(mesh, up)
+        reach = float(np.max(np.abs(mesh.vertices))) if len(mesh.vertices) else 0.0
+        if not reach < float(np.finfo(np.float32).max):  # glTF stores float32 positions: beyond, infinities
+            raise TextonError(f"its coordinates reach {reach:.3g}, more than the float32 positions of glTF hold "
+                              f"({float(np.finfo(np.float32).max):.3g}); scale the mesh down, or write OBJ or PLY")
     buf = io.BytesIO()
     mesh.export(buf, file_type=fmt)
     return buf.getvalue()
