@@ -30,7 +30,6 @@ sys.path.insert(0, str(HERE))
 
 from common import machine_line, make_texture, report_header, run_main  # noqa: E402
 
-import numpy as np  # noqa: E402
 import trimesh  # noqa: E402
 
 from warp_texton import analyze, bake_mesh  # noqa: E402
