@@ -300,8 +300,11 @@ def _load_mesh(path: str):
     p = Path(path)
     if not p.is_file():
         raise TextonError(f"{path}: no such file")
+    from .mesh_files import scene_mesh
+
     try:
-        mesh = trimesh.load(str(p), force="mesh", process=False)
+        # a glTF scene's nodes joined by hand: trimesh's force="mesh" drops the file's normals
+        mesh = scene_mesh(trimesh.load(str(p), process=False))
     except Exception as exc:
         raise TextonError(f"{path}: not a mesh that trimesh can read ({exc})") from None
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+from typing import Any
 
 from pathlib import Path
 
@@ -72,7 +73,79 @@ def export_mesh(mesh, fmt: str, up) -> bytes:
                               f"({float(np.finfo(np.float32).max):.3g}); scale the mesh down, or write OBJ or PLY")
     buf = io.BytesIO()
     mesh.export(buf, file_type=fmt)
+    if fmt == "glb" and getattr(mesh.visual, "kind", None) == "vertex":
+        return with_colour_material(buf.getvalue())
     return buf.getvalue()
+
+
+#: The material of a vertex-coloured GLB: white, not metallic, fully rough. glTF multiplies
+#: the base colour by ``COLOR_0`` (glTF 2.0, §3.9.2), so the vertex colours are what shows;
+#: without a material viewers such as Blender import the colours but show grey.
+COLOUR_MATERIAL = {"name": "warp_texton_vertex_colours",
+                   "pbrMetallicRoughness": {"baseColorFactor": [1.0, 1.0, 1.0, 1.0], "metallicFactor": 0.0,
+                                            "roughnessFactor": 1.0}}
+
+
+def with_colour_material(glb: bytes) -> bytes:
+    """A GLB (as trimesh writes it: JSON chunk, then binary chunk) with :data:`COLOUR_MATERIAL`
+    given to every primitive that has ``COLOR_0`` and no material."""
+    import json
+    import struct
+
+    magic, version, _ = struct.unpack_from("<4sII", glb, 0)
+    json_len, json_type = struct.unpack_from("<I4s", glb, 12)
+    if magic != b"glTF" or json_type != b"JSON":
+        return glb
+    doc = json.loads(glb[20:20 + json_len])
+    bare = [prim for mesh in doc.get("meshes", []) for prim in mesh.get("primitives", [])
+            if "COLOR_0" in prim.get("attributes", {}) and "material" not in prim]
+    if not bare:
+        return glb
+    materials = doc.setdefault("materials", [])
+    for prim in bare:
+        prim["material"] = len(materials)
+    materials.append(COLOUR_MATERIAL)
+    text = json.dumps(doc, separators=(",", ":")).encode("utf-8")
+    text += b" " * (-len(text) % 4)  # chunks are 4-byte aligned, JSON padded with spaces
+    rest = glb[20 + json_len:]
+    head = struct.pack("<4sII", magic, version, 12 + 8 + len(text) + len(rest)) + struct.pack("<I4s", len(text),
+                                                                                               b"JSON")
+    return head + text + rest
+
+
+def scene_mesh(scene):
+    """One mesh of a trimesh Scene (a glTF file), with each node's transform applied and
+    the normals the file holds kept (trimesh's own concatenation recomputes them, which
+    would lose a GLB's smooth normals across UV seams). A Trimesh is returned as it is."""
+    import trimesh
+
+    if not isinstance(scene, trimesh.Scene):
+        return scene
+    parts = []
+    for node in scene.graph.nodes_geometry:
+        transform, name = scene.graph[node]
+        geom = scene.geometry[name]
+        if not isinstance(geom, trimesh.Trimesh):
+            continue
+        held = "vertex_normals" in geom._cache.cache  # read from the file, not computed
+        m = np.asarray(transform, np.float64)
+        vertices = np.asarray(geom.vertices, np.float64) @ m[:3, :3].T + m[:3, 3]
+        normals = None
+        if held:  # normals turn by the inverse transpose of the node's linear part
+            n = np.asarray(geom.vertex_normals, np.float64) @ np.linalg.inv(m[:3, :3])
+            normals = n / np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+        visual = geom.visual.copy() if geom.visual is not None else None
+        parts.append((trimesh.Trimesh(vertices=vertices, faces=geom.faces, vertex_normals=normals, visual=visual,
+                                      process=False), normals))
+    if len(parts) == 1:
+        return parts[0][0]
+    if not parts:
+        return trimesh.Trimesh()
+    merged: Any = trimesh.util.concatenate([mesh for mesh, _ in parts])
+    if any(n is None for _, n in parts):
+        return merged
+    return trimesh.Trimesh(vertices=merged.vertices, faces=merged.faces, visual=merged.visual, process=False,
+                           vertex_normals=np.concatenate([n for _, n in parts]))
 
 
 def texture_8bit(texture: np.ndarray, *, rgb: bool = True) -> tuple[np.ndarray, int]:
