@@ -88,10 +88,9 @@ def markdown(report: dict) -> str:
              machine_line(report) + f" {report['date']}.", "",
              "| charts | bake with atlas (s) | re-bake from its UVs (s) | ratio | coverage | vertices (in → out) |",
              "|---|---:|---:|---:|---:|---|"]
-    for r in report["rows"]:
-        lines.append(f"| {r['charts']} | {r['bake_s']:.2f} | {r['rebake_s']:.2f} | {r['ratio']:.2f} | "
-                     f"{100 * r['coverage']:.1f} % | {r['vertices_in']} → {r['vertices_out']} |")
-    return "\n".join(lines) + "\n"
+    rows = [f"| {r['charts']} | {r['bake_s']:.2f} | {r['rebake_s']:.2f} | {r['ratio']:.2f} | "
+            f"{100 * r['coverage']:.1f} % | {r['vertices_in']} → {r['vertices_out']} |" for r in report["rows"]]
+    return "\n".join(lines + rows) + "\n"
 
 
 def main(argv=None) -> int:

@@ -62,6 +62,7 @@ def test_the_validator_finds_no_error_nor_warning_in_the_glbs_the_package_writes
         "baked_y_up": ("torus_y.obj", {"bake": 128}),
         "baked_xatlas": ("torus_z.ply", {"bake": 64, "charts": "xatlas"}),
         "vertex_colours": ("torus_z.ply", {"fmt": "glb"}),
+        "baked_16_bits": ("torus_z.ply", {"bake": 64, "dtype": "uint16"}),
     }
     jobs = [SurfaceJob(str(meshes / mesh), texton, str(tmp_path / out), 0.02, device="cpu", **options)
             for out, (mesh, options) in kinds.items()]
@@ -72,7 +73,7 @@ def test_the_validator_finds_no_error_nor_warning_in_the_glbs_the_package_writes
     rebaked = run_jobs([again])[0]
     assert rebaked.status == "done"
     glbs = [r.outputs[0] for r in (*results, rebaked)]
-    assert all(g.endswith(".glb") for g in glbs) and len(glbs) == 5
+    assert all(g.endswith(".glb") for g in glbs) and len(glbs) == 6
     for path, report in validate(glbs).items():
         assert (report["errors"], report["warnings"]) == (0, 0), (path, report["messages"])
 

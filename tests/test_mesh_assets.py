@@ -102,3 +102,70 @@ class TestVertexColourGlb:
     def test_a_glb_without_colours_is_left_alone(self):
         data = trimesh.creation.box().export(file_type="glb")
         assert with_colour_material(data) == data
+
+
+class TestSixteenBitTextures:
+    def _baked(self, dtype="uint16", channels=3):
+        from warp_texton import bake_mesh
+
+        t = Texton(np.random.default_rng(0).standard_normal((8, 8, channels)) / 16, [0.5, 0.4, 0.3][:channels])
+        return bake_mesh(trimesh.creation.torus(1.0, 0.35), t, 0.05, resolution=64, device="cpu", dtype=dtype)
+
+    @staticmethod
+    def _decode(png: bytes) -> np.ndarray:
+        import imagecodecs
+
+        return np.asarray(imagecodecs.png_decode(png))
+
+    def test_every_png_of_a_uint16_bake_holds_16_bits(self, tmp_path):
+        from warp_texton import write_baked
+
+        pytest.importorskip("imagecodecs")
+        baked = self._baked()
+        expected = np.rint(np.clip(baked.texture, 0, 1) * 65535).astype(np.uint16)
+        write_baked(baked, tmp_path / "t", fmt="glb", texture="png")
+        write_baked(baked, tmp_path / "t", fmt="obj")
+        data = (tmp_path / "t.glb").read_bytes()
+        doc = _glb_json(data)
+        view = doc["bufferViews"][doc["images"][0]["bufferView"]]
+        start = 20 + struct.unpack_from("<I", data, 12)[0] + 8 + view.get("byteOffset", 0)
+        for png in (data[start:start + view["byteLength"]], (tmp_path / "t.png").read_bytes(),
+                    (tmp_path / "t_texture.png").read_bytes()):
+            assert np.array_equal(self._decode(png), expected)
+        assert struct.unpack_from("<I", data, 8)[0] == len(data)
+        # the geometry and UVs around the swapped image are intact
+        (back,) = trimesh.load(tmp_path / "t.glb", process=False).geometry.values()
+        assert len(back.faces) == len(baked.mesh.faces)
+        assert np.allclose(back.visual.uv, baked.mesh.visual.uv, atol=1e-6)
+
+    def test_a_grey_uint16_texture_alone_is_one_channel(self, tmp_path):
+        from PIL import Image
+
+        from warp_texton import write_baked
+
+        baked = self._baked(channels=1)
+        write_baked(baked, tmp_path / "g", fmt="glb", texture="png")
+        with Image.open(tmp_path / "g_texture.png") as img:
+            assert img.mode.startswith("I;16") or img.mode == "I"
+            assert np.array_equal(np.asarray(img).astype(np.uint16),
+                                  np.rint(np.clip(baked.texture[:, :, 0], 0, 1) * 65535).astype(np.uint16))
+
+    def test_a_type_png_cannot_hold_is_refused(self):
+        from warp_texton import TextonError
+
+        with pytest.raises(TextonError, match=r"dtype must be 'uint8' or 'uint16' .* got 'float32'; for float "
+                                              r"values write the texture as EXR"):
+            self._baked(dtype="float32")
+
+    def test_a_job_with_uint16_writes_16_bit_pngs(self, tmp_path):
+        pytest.importorskip("imagecodecs")
+        trimesh.creation.torus(1.0, 0.35).export(tmp_path / "t.ply")
+        job = SurfaceJob(str(tmp_path / "t.ply"), _texton(), str(tmp_path / "out"), 0.05, bake=32, fmt="obj",
+                         texture="png", dtype="uint16", device="cpu")
+        (result,) = run_jobs([job])
+        assert result.status == "done"
+        assert self._decode((tmp_path / "out" / "t.png").read_bytes()).dtype == np.uint16
+        bad = run_jobs([SurfaceJob(str(tmp_path / "t.ply"), _texton(), str(tmp_path / "bad"), 0.05, bake=32,
+                                   dtype="float16", device="cpu")])[0]
+        assert bad.status == "failed" and bad.message.startswith(f"{tmp_path / 't.ply'}: dtype must be")
+        assert not (tmp_path / "bad").exists() or list((tmp_path / "bad").iterdir()) == []

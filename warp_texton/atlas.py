@@ -1,4 +1,5 @@
-"""UV atlases for baked textures: charts from normal clusters, packed by xatlas in a worker process.
+"""UV atlases for baked textures: charts from normal clusters, packed by xatlas in a worker process;
+and the checks of a mesh's own UVs (:func:`mesh_uvs`, :func:`check_uvs`).
 
 A bake needs every triangle laid once in the unit square, without overlap,
 with little stretch. xatlas (the ``mesh`` extra) charts and packs, but its
@@ -143,6 +144,32 @@ def project_charts(vertices: np.ndarray, faces: np.ndarray, chart: np.ndarray, d
     p = vertices[vmap]
     uv = np.stack([np.sum(p * U_AXES[d], axis=1), np.sum(p * V_AXES[d], axis=1)], axis=1)
     return vmap, inverse.reshape(-1, 3), uv
+
+
+def mesh_uvs(mesh) -> np.ndarray | None:
+    """The mesh's per-vertex UVs as float64 (V, 2), or None when it has none."""
+    visual = getattr(mesh, "visual", None)
+    uv = getattr(visual, "uv", None) if getattr(visual, "kind", None) == "texture" else None
+    if uv is None:
+        return None
+    try:
+        uv = np.asarray(uv, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise TextonError("its UVs are not numbers") from None
+    return uv
+
+
+def check_uvs(uv: np.ndarray, vertices: int) -> np.ndarray:
+    """UVs a bake can use: (V, 2), finite, inside [0, 1]² (a texture is not repeated)."""
+    if uv.ndim != 2 or uv.shape != (vertices, 2):
+        raise TextonError(f"its UVs have shape {uv.shape}, not one (u, v) per vertex ({vertices}, 2)")
+    if not np.isfinite(uv).all():
+        raise TextonError(f"its UVs hold {int((~np.isfinite(uv)).sum())} NaN or infinite values")
+    lo, hi = uv.min(), uv.max()
+    if lo < -1e-6 or hi > 1 + 1e-6:
+        raise TextonError(f"its UVs reach [{lo:.3g}, {hi:.3g}], outside [0, 1]: a repeated texture cannot hold "
+                          "a bake")
+    return np.clip(uv, 0.0, 1.0)
 
 
 def worker_limits(n_faces: int, resolution: int) -> tuple[float, float]:

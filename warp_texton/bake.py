@@ -30,13 +30,13 @@ import warp as wp
 
 from ._checks import check_int, check_positive, check_seed
 from ._runtime import progress_bar, resolve_device, split_launch
-from .atlas import CHART_METHODS, make_atlas
+from .atlas import CHART_METHODS, check_uvs, make_atlas, mesh_uvs
 from .errors import TextonError
 from .kernels import bake as KB
 from .limits import check_memory
 from .frames import UP, up_vector
 from .mesh import check_mesh, vertex_normals
-from .mesh_files import texture_8bit
+from .mesh_files import PNG_DTYPES, texture_8bit
 from .render import cast_rays, check_background
 from .surface import check_method, check_surface_work, evaluate_points, surface_params, surface_setup, texel_positions
 from .texton import Texton
@@ -106,6 +106,9 @@ class BakedMesh:
     up : (x, y, z)
         The unit up vector of the bake's world (its ``up``): :func:`write_baked`
         turns a GLB's geometry from it to glTF's +Y.
+    dtype : str
+        The sample type of the PNG textures :func:`write_baked` writes:
+        "uint8" or "uint16" (the mesh's material holds the 8-bit image).
 
     Notes
     -----
@@ -121,6 +124,7 @@ class BakedMesh:
     samples: float
     uv_source: str
     up: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    dtype: str = "uint8"
 
     @property
     def resolution(self) -> int:
@@ -131,32 +135,6 @@ class BakedMesh:
     def covered(self) -> float:
         """The share of the texture's texels that lie on a triangle (``coverage``'s mean)."""
         return float(np.mean(self.coverage))
-
-
-def mesh_uvs(mesh) -> np.ndarray | None:
-    """The mesh's per-vertex UVs as float64 (V, 2), or None when it has none."""
-    visual = getattr(mesh, "visual", None)
-    uv = getattr(visual, "uv", None) if getattr(visual, "kind", None) == "texture" else None
-    if uv is None:
-        return None
-    try:
-        uv = np.asarray(uv, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise TextonError("its UVs are not numbers") from None
-    return uv
-
-
-def check_uvs(uv: np.ndarray, vertices: int) -> np.ndarray:
-    """UVs a bake can use: (V, 2), finite, inside [0, 1]² (a texture is not repeated)."""
-    if uv.ndim != 2 or uv.shape != (vertices, 2):
-        raise TextonError(f"its UVs have shape {uv.shape}, not one (u, v) per vertex ({vertices}, 2)")
-    if not np.isfinite(uv).all():
-        raise TextonError(f"its UVs hold {int((~np.isfinite(uv)).sum())} NaN or infinite values")
-    lo, hi = uv.min(), uv.max()
-    if lo < -1e-6 or hi > 1 + 1e-6:
-        raise TextonError(f"its UVs reach [{lo:.3g}, {hi:.3g}], outside [0, 1]: a repeated texture cannot hold "
-                          "a bake")
-    return np.clip(uv, 0.0, 1.0)
 
 
 #: Most texels of gutter: a renderer's mip chain needs a few; a gutter of a sizeable share
@@ -228,6 +206,7 @@ def bake_mesh(
     method: str = "auto",
     charts: str = "normals",
     progress: bool = False,
+    dtype: str = "uint8",
 ) -> BakedMesh:
     """Bake surface texton noise into a ``resolution``² texture on the mesh's UVs.
 
@@ -273,6 +252,10 @@ def bake_mesh(
     progress : bool
         A progress bar over the atlas's charting and packing and the rounds of
         samples (shown after 2 s).
+    dtype : {"uint8", "uint16"}
+        The PNG sample type :func:`write_baked` writes the texture with (GLB,
+        OBJ and the texture alone; 16 bits keep 256 times finer steps, for
+        textures that are graded or displaced later).
     supersample : int, optional
         Samples per side of each texel (1: the texel centre only). Default:
         per texel, ``ceil(SAMPLE_DENSITY ×`` texton texels along each side of
@@ -292,7 +275,8 @@ def bake_mesh(
     TextonError
         For the ``mesh`` and ``texton`` errors of
         :func:`warp_texton.texture_mesh`; a ``resolution`` that is not an
-        integer in [1, 16384]; a bad ``uv``, ``charts``, ``supersample`` (≥ 1, ≤ 64) or
+        integer in [1, 16384]; a bad ``uv``, ``charts``, ``dtype`` (a type PNG
+        cannot hold, such as "float32"), ``supersample`` (≥ 1, ≤ 64) or
         ``gutter`` (≥ 0); UVs that cannot hold a bake, naming the mesh and the
         problem with the hint ``uv='atlas'``: not one (u, v) per vertex, NaN
         or infinite, outside [0, 1] (a repeated texture), or overlapping (more
@@ -345,18 +329,9 @@ def bake_mesh(
     res = check_int(resolution, "resolution", minimum=1)
     if res > MAX_RESOLUTION:
         raise TextonError(f"resolution must be at most {MAX_RESOLUTION}, got {res}")
-    if uv not in UV_MODES:
-        raise TextonError(f"uv must be one of {', '.join(UV_MODES)}, got {uv!r}")
-    if supersample is not None:
-        supersample = check_int(supersample, "supersample", minimum=1)
-        if supersample > MAX_SUPERSAMPLE:
-            raise TextonError(f"supersample must be at most {MAX_SUPERSAMPLE} samples per side, got {supersample}")
-    gutter = default_gutter(res) if gutter is None else check_int(gutter, "gutter", minimum=0,
-                                                                   maximum=min(MAX_GUTTER, max(2, res // 4)))
+    supersample, gutter = _check_choices(res, uv, supersample, gutter, charts, dtype)
     seed = check_seed(seed)
     check_method(method)
-    if charts not in CHART_METHODS:
-        raise TextonError(f"charts must be one of {', '.join(CHART_METHODS)}, got {charts!r:.40}")
     # the owners, the distance transform of the gutter and each texel's face, map, footprint
     # and sums: about BYTES_PER_TEXEL at the peak (measured: 1.7 GB for 2048²)
     check_memory(res * res * BYTES_PER_TEXEL, f"a {res}x{res} bake", "use a smaller resolution")
@@ -460,7 +435,27 @@ def bake_mesh(
     out = _textured(vertices, faces, uvs, vnormals, texture, trimesh)
     axis = up_vector(up)
     return BakedMesh(out, texture, covered, per_texel, float(np.sum((nx * ny)[inner])) / n_cov, source,
-                     (float(axis[0]), float(axis[1]), float(axis[2])))
+                     (float(axis[0]), float(axis[1]), float(axis[2])), dtype)
+
+
+def _check_choices(res: int, uv, supersample, gutter, charts, dtype) -> tuple[int | None, int]:
+    """The checked ``supersample`` and ``gutter`` of a bake (its default for None), after
+    ``uv``, ``charts`` and ``dtype``."""
+    if uv not in UV_MODES:
+        raise TextonError(f"uv must be one of {', '.join(UV_MODES)}, got {uv!r}")
+    if supersample is not None:
+        supersample = check_int(supersample, "supersample", minimum=1)
+        if supersample > MAX_SUPERSAMPLE:
+            raise TextonError(f"supersample must be at most {MAX_SUPERSAMPLE} samples per side, got {supersample}")
+    gutter = default_gutter(res) if gutter is None else check_int(gutter, "gutter", minimum=0,
+                                                                   maximum=min(MAX_GUTTER, max(2, res // 4)))
+    if charts not in CHART_METHODS:
+        raise TextonError(f"charts must be one of {', '.join(CHART_METHODS)}, got {charts!r:.40}")
+    if dtype not in PNG_DTYPES:
+        raise TextonError(f"dtype must be 'uint8' or 'uint16' (the PNG sample types a baked texture is written "
+                          f"with), got {dtype!r:.40}; for float values write the texture as EXR (texture='exr')",
+                          "dtype")
+    return supersample, gutter
 
 
 def _extend(owner: np.ndarray, covered: np.ndarray, gutter: int) -> np.ndarray:

@@ -31,8 +31,9 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--charts", choices=("normals", "xatlas"), default="normals",
                    help="with --bake, for a new atlas: charts of clustered normals packed by xatlas (seconds), or "
                         "xatlas's own charts (fewer seams, minutes for 100k faces)")
-    p.add_argument("--texture", choices=("png", "exr"),
-                   help="with --bake: also write the texture alone as NAME_texture.png (8-bit sRGB) or .exr")
+    p.add_argument("--texture", choices=("png", "png16", "exr"),
+                   help="with --bake: also write the texture alone as NAME_texture.png (8-bit sRGB) or .exr; "
+                        "png16: every PNG texture in 16 bits (the GLB's, the OBJ's and NAME_texture.png)")
     p.add_argument("--exr-linear", action="store_true",
                    help="an EXR texture holds linear values (the sRGB decoding) instead of the noise's own values")
     p.add_argument("--supersample", type=int, metavar="N",
@@ -180,7 +181,9 @@ def _run_jobs(args, executor, device, render, orbit):
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
     jobs = [SurfaceJob(m, texton, str(out), args.texel_size, args.mni, args.seed, args.max_edge, render,
-                       args.format, args.overwrite, device, bake=args.bake, uv=args.uv, texture=args.texture,
+                       args.format, args.overwrite, device, bake=args.bake, uv=args.uv,
+                       texture="png" if args.texture == "png16" else args.texture,
+                       dtype="uint16" if args.texture == "png16" else "uint8",
                        exr_linear=args.exr_linear, supersample=args.supersample, up=args.up, orbit=orbit,
                        fov=args.fov, words=tuple(SURFACE.names.items()), charts=args.charts,
                        progress=not args.quiet and args.jobs == 1 and args.scheduler is None) for m in meshes]

@@ -105,6 +105,9 @@ class SurfaceJob:
         As in :func:`warp_texton.bake_mesh`.
     charts : {"normals", "xatlas"}
         As in :func:`warp_texton.bake_mesh`.
+    dtype : {"uint8", "uint16"}
+        With ``bake``: the sample type of the PNG textures written, as in
+        :func:`warp_texton.bake_mesh`.
     progress : bool
         A progress bar over a bake's atlas and rounds, as in
         :func:`warp_texton.bake_mesh` (for one job at a time: bars of jobs
@@ -162,6 +165,7 @@ class SurfaceJob:
     words: tuple[tuple[str, str], ...] = ()
     charts: str = "normals"  # how a bake's new atlas is charted (see bake_mesh)
     progress: bool = False  # a progress bar over a bake's steps (one job at a time)
+    dtype: str = "uint8"  # PNG sample type of a bake's textures: "uint8" or "uint16"
 
     def __post_init__(self):
         # the formats documented above, refused when the job is made rather than written in another
@@ -395,7 +399,7 @@ def _run(job: SurfaceJob, outputs: list[Path], notes: list[str]) -> None:
     if job.bake is not None:
         baked = bake_mesh(mesh, texton, texel, resolution=job.bake, mni=job.mni, seed=job.seed, uv=job.uv,
                           supersample=job.supersample, device=job.device, up=up, name=job.mesh, charts=job.charts,
-                          progress=job.progress)
+                          progress=job.progress, dtype=job.dtype)
         write_baked(baked, stem, fmt=job.format, texture=job.texture, linear=job.exr_linear, also=render)
         notes.append(f"{job.mesh}: {job.bake}x{job.bake} texture, {baked.texels_per_texton_texel:.3g} texels per "
                      f"texton texel (median), noise samples per texel: {baked.samples:.3g} (mean), UVs from the "
