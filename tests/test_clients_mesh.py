@@ -153,3 +153,19 @@ def test_blender_imports_the_torus_flat_with_its_srgb_texture_and_renders_it_as_
     # one pixel of shift between the two renders would give a median of 20/255.
     assert np.median(diff) <= 1.0 / 255.0
     assert diff.max() <= 3.0 / 255.0
+
+
+@pytest.mark.slow
+def test_blender_shows_a_vertex_colour_glb_through_its_material(meshes, tmp_path):
+    job = SurfaceJob(str(meshes / "torus_z.ply"), _texton(), str(tmp_path), 0.05, fmt="glb", device="cpu")
+    (result,) = run_jobs([job])
+    assert result.status == "done"
+    script = Path(__file__).resolve().parent / "blender_mesh.py"
+    run_blender(script, "glb", result.outputs[0], tmp_path / "info.json", tmp_path / "render.png",
+                ",".join(map(str, CAMERA.position)), ",".join(map(str, CAMERA.target)), str(CAMERA.fov), "16", "12",
+                timeout=600)
+    info = json.loads((tmp_path / "info.json").read_text())
+    assert np.allclose(np.array(info["max"]) - np.array(info["min"]), [2.7, 2.7, 0.7], atol=0.02)
+    (material,) = info["materials"]
+    # Blender's importer feeds COLOR_0 to the Base Color when the primitive has a material
+    assert material["base_color_from"] == "VERTEX_COLOR"
