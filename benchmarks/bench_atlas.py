@@ -46,38 +46,49 @@ def bunny():
     return trimesh.load(path, process=False) if path.is_file() else None
 
 
-def run(args) -> dict:
-    device = resolve_device(args.device)
-    texton = analyze(make_texture(256), size=args.size, seed=0)
-    mesh = bunny() if not args.quick else None
-    name = "Stanford bunny (pymeshfix)"
-    if mesh is None:
-        mesh, name = trimesh.creation.torus(1.0, 0.35, major_sections=64, minor_sections=40), "torus"
-    res = 256 if args.quick else 1024
+def measure(texton, mesh, res: int, device, *, repeat: int, mni: float, chartings=("normals", "xatlas")) -> list:
+    """Per charting: the best of ``repeat`` whole bakes (atlas included) and re-bakes from the UVs
+    made, taking turns, with the coverage and the vertices split along the seams."""
     texel = default_texel_size(mesh)
-    chartings = ("normals",) if args.quick else ("normals", "xatlas")
     bake_mesh(trimesh.creation.icosphere(1), texton, 0.1, resolution=32, device=device)  # load the kernels
     rows = []
     for charts in chartings:
         whole, again = [], []
-        for _ in range(args.repeat if charts == "normals" else 1):
+        for _ in range(repeat if charts == "normals" else 1):
             t0 = time.perf_counter()
-            baked = bake_mesh(mesh, texton, texel, resolution=res, mni=args.mni, device=device, charts=charts,
-                              up="z")
+            baked = bake_mesh(mesh, texton, texel, resolution=res, mni=mni, device=device, charts=charts, up="z")
             whole.append(time.perf_counter() - t0)
             t0 = time.perf_counter()
-            bake_mesh(baked.mesh, texton, texel, resolution=res, mni=args.mni, device=device, uv="mesh", up="z")
+            bake_mesh(baked.mesh, texton, texel, resolution=res, mni=mni, device=device, uv="mesh", up="z")
             again.append(time.perf_counter() - t0)
-        row = {"charts": charts, "bake_s": min(whole), "rebake_s": min(again), "ratio": min(whole) / min(again),
-               "coverage": baked.covered, "vertices_out": len(baked.mesh.vertices),
-               "vertices_in": len(mesh.vertices)}
-        rows.append(row)
-        print(f"  {charts}: bake {row['bake_s']:.2f} s, re-bake {row['rebake_s']:.2f} s (x{row['ratio']:.2f}), "
-              f"coverage {100 * row['coverage']:.1f} %", flush=True)
+        rows.append({"charts": charts, "bake_s": min(whole), "rebake_s": min(again),
+                     "ratio": min(whole) / min(again), "coverage": baked.covered,
+                     "vertices_out": len(baked.mesh.vertices), "vertices_in": len(mesh.vertices)})
+    return rows
+
+
+def subject(quick: bool):
+    """(mesh, name, resolution): the bunny at 1024², or (quick, or without pymeshfix) a torus at 256²."""
+    mesh = None if quick else bunny()
+    if mesh is None:
+        return trimesh.creation.torus(1.0, 0.35, major_sections=64, minor_sections=40), "torus", 256
+    return mesh, "Stanford bunny (pymeshfix)", 1024
+
+
+def run(args) -> dict:
+    device = resolve_device(args.device)
+    texton = analyze(make_texture(256), size=args.size, seed=0)
+    mesh, name, res = subject(args.quick)
+    chartings = ("normals",) if args.quick else ("normals", "xatlas")
+    rows = measure(texton, mesh, res, device, repeat=args.repeat, mni=args.mni, chartings=chartings)
+    for row in rows:
+        print(f"  {row['charts']}: bake {row['bake_s']:.2f} s, re-bake {row['rebake_s']:.2f} s "
+              f"(x{row['ratio']:.2f}), coverage {100 * row['coverage']:.1f} %", flush=True)
     return {
         **report_header("atlas", device),
-        "parameters": {"mesh": name, "faces": len(mesh.faces), "resolution": res, "texel_size": texel,
-                       "texton": list(texton.size), "mni": args.mni, "repeat": args.repeat, "quick": args.quick},
+        "parameters": {"mesh": name, "faces": len(mesh.faces), "resolution": res,
+                       "texel_size": default_texel_size(mesh), "texton": list(texton.size), "mni": args.mni,
+                       "repeat": args.repeat, "quick": args.quick},
         "rows": rows,
     }
 
