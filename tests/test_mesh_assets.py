@@ -108,7 +108,7 @@ class TestSixteenBitTextures:
     def _baked(self, dtype="uint16", channels=3):
         from warp_texton import bake_mesh
 
-        t = Texton(np.random.default_rng(0).standard_normal((8, 8, channels)) / 16, [0.5, 0.4, 0.3][:channels])
+        t = Texton(np.random.default_rng(0).standard_normal((8, 8, channels)) / 48, [0.5, 0.4, 0.3][:channels])
         return bake_mesh(trimesh.creation.torus(1.0, 0.35), t, 0.05, resolution=64, device="cpu", dtype=dtype)
 
     @staticmethod
@@ -160,7 +160,8 @@ class TestSixteenBitTextures:
     def test_a_job_with_uint16_writes_16_bit_pngs(self, tmp_path):
         pytest.importorskip("imagecodecs")
         trimesh.creation.torus(1.0, 0.35).export(tmp_path / "t.ply")
-        job = SurfaceJob(str(tmp_path / "t.ply"), _texton(), str(tmp_path / "out"), 0.05, bake=32, fmt="obj",
+        soft = Texton(np.random.default_rng(0).standard_normal((8, 8, 1)) / 48, [0.5])  # nothing clipped
+        job = SurfaceJob(str(tmp_path / "t.ply"), soft, str(tmp_path / "out"), 0.05, bake=32, fmt="obj",
                          texture="png", dtype="uint16", device="cpu")
         (result,) = run_jobs([job])
         assert result.status == "done"
