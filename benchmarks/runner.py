@@ -12,6 +12,10 @@ machine load (see ``peers.py``):
 * a naive per-pixel texton noise (``evaluate`` at every pixel centre, no
   shared impacts), to show what drawing the impacts once per raster gains.
 
+A bake with its UV atlas is timed against a re-bake from the UVs it made
+(``bench_atlas.py``: a torus at 256² in the quick suite, the Stanford bunny at
+1024² in the full one).
+
 Then, once (on the first device), the quality of texton noise against the FFT
 sample and tiling and blending on real textures (``bench_quality.py``:
 spectrum, marginal histograms, clipped pixels, repetition, time per megapixel;
@@ -344,6 +348,26 @@ def surface_case(suite: Suite, textons: dict, device: str, report: Report) -> No
           flush=True)
 
 
+def atlas_case(suite: Suite, textons: dict, device: str, report: Report) -> None:
+    """A bake with its UV atlas (normal charts packed by xatlas) against a re-bake from the UVs it
+    made, measured in turns (``bench_atlas.py``; its full run adds xatlas's own charting)."""
+    import importlib.util
+
+    if importlib.util.find_spec("xatlas") is None:
+        report.skip("atlas", "xatlas is not installed (pip install 'warp-texton[mesh]')")
+        return
+    from . import bench_atlas
+
+    mesh, name, res = bench_atlas.subject(suite.name == "quick")
+    print(f"atlas on {device}: {name}, {len(mesh.faces)} faces at {res}²", flush=True)
+    (row,) = bench_atlas.measure(textons[suite.ref_texton], mesh, res, device, repeat=suite.repeat,
+                                 mni=SURFACE_MNI, chartings=("normals",))
+    report.add(case="atlas", method="bake_mesh", device=device, mesh=name, faces=len(mesh.faces), resolution=res,
+               **row)
+    print(f"  bake {row['bake_s']:.2f} s, re-bake {row['rebake_s']:.2f} s (x{row['ratio']:.2f}), coverage "
+          f"{100 * row['coverage']:.1f} %", flush=True)
+
+
 def quality_case(suite: Suite, device: str, report: Report) -> None:
     """Which method for which texture: ``bench_quality.compare`` of texton noise and its
     peers on real textures (spectrum, marginals, clipping, repetition, time)."""
@@ -377,6 +401,7 @@ def run(suite: Suite, devices: list[str]) -> dict:
         filtering_case(suite, textons, device, report)
         surface_case(suite, textons, device, report)
         mixing_case(suite, u, device, cache, report)
+        atlas_case(suite, textons, device, report)
     quality_case(suite, devices[0], report)  # the measures do not depend on the device
     machine = machine_info()
     machine["threads"] = os.cpu_count()
@@ -532,6 +557,18 @@ def _surface_lines(report: dict) -> list[str]:
     return lines
 
 
+def _atlas_lines(report: dict) -> list[str]:
+    """The table of bakes with their atlas against re-bakes from its UVs."""
+    rows = [r for r in report["results"] if r["case"] == "atlas"]
+    if not rows:
+        return []
+    return ["", "## Bakes with a UV atlas (bench_atlas.py; goal: within 3× the re-bake from its UVs)", "",
+            "| device | mesh | bake with atlas (s) | re-bake from its UVs (s) | ratio | coverage |",
+            "|---|---|---:|---:|---:|---:|"] + [
+        f"| `{r['device']}` | {r['mesh']}, {r['faces']} faces at {r['resolution']}² | {r['bake_s']:.2f} | "
+        f"{r['rebake_s']:.2f} | {r['ratio']:.2f} | {100 * r['coverage']:.1f} % |" for r in rows]
+
+
 def _quality_lines(report: dict) -> list[str]:
     """The quality table (bench_quality.py)."""
     from .bench_quality import table_lines
@@ -568,7 +605,7 @@ def markdown(report: dict) -> str:
         "run on the host (NumPy) whatever the device. Every method returns the finished raster in host memory.",
     ]
     for section in (_synthesis_lines, _analysis_lines, _mixing_lines, _filtering_lines, _surface_lines,
-                    _quality_lines):
+                    _atlas_lines, _quality_lines):
         lines += section(report)
     if report["skipped"]:
         lines += ["", "## Not measured", ""]

@@ -26,9 +26,9 @@ KERNELS = ROOT / "kernels"
 
 #: The layers of docs/architecture.md: a module may import modules of lower layers only.
 LAYERS = {
-    "errors": 0, "_version": 0, "bspline": 0,
+    "errors": 0, "_version": 0, "bspline": 0, "atlas_worker": 0,
     "limits": 1,
-    "_checks": 2, "image_readers": 2,
+    "_checks": 2, "image_readers": 2, "atlas": 2,
     "io": 3, "filter_options": 3, "folders": 3,
     "texton": 4,
     "gaussian": 5, "dsn": 5, "view_query": 5, "view_cache": 5, "view_images": 5,

@@ -1127,6 +1127,7 @@ class TestBlocks:
         surface_noise(t, p, p, 0.05, device=device)
         assert used == []
         monkeypatch.setattr(S, "AUTO_MIN_POINTS", 100)
+        monkeypatch.setattr(S, "AUTO_MIN_DENSITY", 0.0)  # the density rule: tests/test_mesh_assets.py
         surface_noise(t, p, p, 0.05, device=device)
         assert used == ["blocks"]
 

@@ -170,6 +170,8 @@ def map_points(device, module, n: int, values) -> np.ndarray:
 class _NoBar:
     """Stands for a progress bar when none is shown."""
 
+    total = 0
+
     def update(self, n=1):
         checkpoint()
 

@@ -29,13 +29,14 @@ import numpy as np
 import warp as wp
 
 from ._checks import check_int, check_positive, check_seed
-from ._runtime import resolve_device, split_launch
+from ._runtime import progress_bar, resolve_device, split_launch
+from .atlas import CHART_METHODS, check_uvs, make_atlas, mesh_uvs
 from .errors import TextonError
 from .kernels import bake as KB
 from .limits import check_memory
 from .frames import UP, up_vector
 from .mesh import check_mesh, vertex_normals
-from .mesh_files import texture_8bit
+from .mesh_files import PNG_DTYPES, texture_8bit
 from .render import cast_rays, check_background
 from .surface import check_method, check_surface_work, evaluate_points, surface_params, surface_setup, texel_positions
 from .texton import Texton
@@ -105,6 +106,9 @@ class BakedMesh:
     up : (x, y, z)
         The unit up vector of the bake's world (its ``up``): :func:`write_baked`
         turns a GLB's geometry from it to glTF's +Y.
+    dtype : str
+        The sample type of the PNG textures :func:`write_baked` writes:
+        "uint8" or "uint16" (the mesh's material holds the 8-bit image).
 
     Notes
     -----
@@ -120,59 +124,21 @@ class BakedMesh:
     samples: float
     uv_source: str
     up: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    dtype: str = "uint8"
 
     @property
     def resolution(self) -> int:
         """The texture's side in texels."""
         return int(self.texture.shape[0])
 
-
-def mesh_uvs(mesh) -> np.ndarray | None:
-    """The mesh's per-vertex UVs as float64 (V, 2), or None when it has none."""
-    visual = getattr(mesh, "visual", None)
-    uv = getattr(visual, "uv", None) if getattr(visual, "kind", None) == "texture" else None
-    if uv is None:
-        return None
-    try:
-        uv = np.asarray(uv, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise TextonError("its UVs are not numbers") from None
-    return uv
-
-
-def check_uvs(uv: np.ndarray, vertices: int) -> np.ndarray:
-    """UVs a bake can use: (V, 2), finite, inside [0, 1]² (a texture is not repeated)."""
-    if uv.ndim != 2 or uv.shape != (vertices, 2):
-        raise TextonError(f"its UVs have shape {uv.shape}, not one (u, v) per vertex ({vertices}, 2)")
-    if not np.isfinite(uv).all():
-        raise TextonError(f"its UVs hold {int((~np.isfinite(uv)).sum())} NaN or infinite values")
-    lo, hi = uv.min(), uv.max()
-    if lo < -1e-6 or hi > 1 + 1e-6:
-        raise TextonError(f"its UVs reach [{lo:.3g}, {hi:.3g}], outside [0, 1]: a repeated texture cannot hold "
-                          "a bake")
-    return np.clip(uv, 0.0, 1.0)
-
-
-def make_atlas(vertices: np.ndarray, faces: np.ndarray, resolution: int, padding: int):
-    """A UV atlas by xatlas: (vertex map into the input vertices, faces, UVs in [0, 1]²)."""
-    try:
-        import xatlas
-    except ImportError:
-        raise TextonError("making a UV atlas needs the xatlas package: pip install 'warp-texton[mesh]' "
-                          "(or give a mesh with UVs)") from None
-    atlas = xatlas.Atlas()
-    atlas.add_mesh(np.ascontiguousarray(vertices, np.float32), np.ascontiguousarray(faces, np.uint32))
-    pack = xatlas.PackOptions()
-    pack.resolution = int(resolution)
-    pack.padding = int(padding)
-    pack.bilinear = True
-    atlas.generate(xatlas.ChartOptions(), pack)
-    vmap, new_faces, uv = atlas[0]
-    return np.asarray(vmap, np.int64), np.asarray(new_faces, np.int64), np.asarray(uv, np.float64)
+    @property
+    def covered(self) -> float:
+        """The share of the texture's texels that lie on a triangle (``coverage``'s mean)."""
+        return float(np.mean(self.coverage))
 
 
 #: Most texels of gutter: a renderer's mip chain needs a few; a gutter of a sizeable share
-#: of the texture only wastes it (and xatlas pads charts by twice the gutter).
+#: of the texture only wastes it (and xatlas keeps charts two gutters apart).
 MAX_GUTTER = 64
 
 
@@ -195,6 +161,18 @@ def _claim(corners: np.ndarray, resolution: int, device) -> tuple[np.ndarray, np
         # atomics make the parts safe to run side by side on the CPU's threads
         split_launch(device, KB, n_faces, launch)
         return owner.numpy(), cover.numpy()
+
+
+def _claimed(uvs: np.ndarray, faces: np.ndarray, res: int, device, name: str):
+    """(texel corners of the faces, owner of each texel, share of the covered texels on two faces or more)."""
+    # texel coordinates: x = u W, y = (1 − v) H (row 0 at the top)
+    corners = np.ascontiguousarray(np.stack([uvs[:, 0] * res, (1.0 - uvs[:, 1]) * res], axis=1)[faces].reshape(-1, 2))
+    owner, cover = _claim(corners, res, device)
+    n_cov = int(np.count_nonzero(owner >= 0))
+    if n_cov == 0:
+        raise TextonError(f"{name}: no texel centre lies on a triangle of its UVs at {res}x{res}; use a larger "
+                          "resolution")
+    return corners, owner, float(np.count_nonzero(cover > 1)) / n_cov
 
 
 def _normals_at(bary: np.ndarray, tri: np.ndarray, vnormals: np.ndarray, fnormals: np.ndarray) -> np.ndarray:
@@ -226,6 +204,9 @@ def bake_mesh(
     side=None,
     name: str = "mesh",
     method: str = "auto",
+    charts: str = "normals",
+    progress: bool = False,
+    dtype: str = "uint8",
 ) -> BakedMesh:
     """Bake surface texton noise into a ``resolution``² texture on the mesh's UVs.
 
@@ -262,6 +243,19 @@ def bake_mesh(
     uv : "auto", "mesh" or "atlas"
         "auto": the mesh's UVs when it has them, else an xatlas atlas; "mesh":
         its UVs or an error; "atlas": a new atlas, ignoring any UVs.
+    charts : {"normals", "xatlas"}
+        How an atlas is charted (:func:`warp_texton.atlas.make_atlas`):
+        "normals" (default) by clusters of the faces' normals, packed by
+        xatlas, in about a second for 100k faces (xatlas's own charting when
+        a chart would overlap itself); "xatlas": xatlas's own charts, fewer
+        seams, about 40× slower (docs/benchmarks.md, "Atlases").
+    progress : bool
+        A progress bar over the atlas's charting and packing and the rounds of
+        samples (shown after 2 s).
+    dtype : {"uint8", "uint16"}
+        The PNG sample type :func:`write_baked` writes the texture with (GLB,
+        OBJ and the texture alone; 16 bits keep 256 times finer steps, for
+        textures that are graded or displaced later).
     supersample : int, optional
         Samples per side of each texel (1: the texel centre only). Default:
         per texel, ``ceil(SAMPLE_DENSITY ×`` texton texels along each side of
@@ -281,13 +275,16 @@ def bake_mesh(
     TextonError
         For the ``mesh`` and ``texton`` errors of
         :func:`warp_texton.texture_mesh`; a ``resolution`` that is not an
-        integer in [1, 16384]; a bad ``uv``, ``supersample`` (≥ 1, ≤ 64) or
+        integer in [1, 16384]; a bad ``uv``, ``charts``, ``dtype`` (a type PNG
+        cannot hold, such as "float32"), ``supersample`` (≥ 1, ≤ 64) or
         ``gutter`` (≥ 0); UVs that cannot hold a bake, naming the mesh and the
         problem with the hint ``uv='atlas'``: not one (u, v) per vertex, NaN
         or infinite, outside [0, 1] (a repeated texture), or overlapping (more
         than 2 % of the covered texels on two triangles); no UVs with
         ``uv="mesh"``; a missing xatlas when an atlas is needed ("making a UV
-        atlas needs the xatlas package: pip install 'warp-texton[mesh]'"); a
+        atlas needs the xatlas package: pip install 'warp-texton[mesh]'"); xatlas
+        crashing, running past its time limit or over its memory cap (it runs
+        in a process of its own: :func:`warp_texton.atlas.run_worker`); a
         bake over the memory budget (about 360 bytes per texel at the peak:
         1.5 GB at 2048², 6 GB at 4096²); vertices too far from the origin.
 
@@ -332,14 +329,7 @@ def bake_mesh(
     res = check_int(resolution, "resolution", minimum=1)
     if res > MAX_RESOLUTION:
         raise TextonError(f"resolution must be at most {MAX_RESOLUTION}, got {res}")
-    if uv not in UV_MODES:
-        raise TextonError(f"uv must be one of {', '.join(UV_MODES)}, got {uv!r}")
-    if supersample is not None:
-        supersample = check_int(supersample, "supersample", minimum=1)
-        if supersample > MAX_SUPERSAMPLE:
-            raise TextonError(f"supersample must be at most {MAX_SUPERSAMPLE} samples per side, got {supersample}")
-    gutter = default_gutter(res) if gutter is None else check_int(gutter, "gutter", minimum=0,
-                                                                   maximum=min(MAX_GUTTER, max(2, res // 4)))
+    supersample, gutter = _check_choices(res, uv, supersample, gutter, charts, dtype)
     seed = check_seed(seed)
     check_method(method)
     # the owners, the distance transform of the gutter and each texel's face, map, footprint
@@ -353,31 +343,33 @@ def bake_mesh(
     own_uv = mesh_uvs(mesh) if uv != "atlas" else None
     if own_uv is None and uv == "mesh":
         raise TextonError(f"{name}: has no UVs (uv='mesh'); use uv='auto' or 'atlas' to make an atlas")
+    device = resolve_device(device)
+    bar = progress_bar(progress, 0 if own_uv is not None else 2, "bake", "step")
     if own_uv is not None:
         try:
             uvs = check_uvs(own_uv, len(vertices))
         except TextonError as exc:
             raise TextonError(f"{name}: {exc}; use uv='atlas' (--uv atlas) to ignore them") from None
-        source = "mesh"
+        source, (corners, owner, overlap) = "mesh", _claimed(uvs, faces, res, device, name)
+        if overlap > MAX_OVERLAP:
+            raise TextonError(f"{name}: its UVs overlap ({100 * overlap:.1f} % of the covered texels lie on two or "
+                              "more triangles), so one texel would stand for several surface points; use "
+                              "uv='atlas' (--uv atlas) to ignore them")
     else:
-        # charts 2 gutters apart: each gutter texel is nearer its own chart than any other
-        vmap, faces, uvs = make_atlas(vertices, faces, res, 2 * max(gutter, 1))
-        vertices, vnormals = vertices[vmap], vnormals[vmap]
         source = "atlas"
-    device = resolve_device(device)
-    # texel coordinates: x = u W, y = (1 − v) H (row 0 at the top)
-    corners = np.stack([uvs[:, 0] * res, (1.0 - uvs[:, 1]) * res], axis=1)[faces].reshape(-1, 2)
-    owner, cover = _claim(np.ascontiguousarray(corners), res, device)
+        # xatlas keeps charts 2 paddings apart (measured: 9 texels or more on the bunny at 1024² with a
+        # padding of 4), so each gutter texel is nearer its own chart than any other
+        vmap, faces, uvs, _ = make_atlas(vertices, faces, res, max(gutter, 1), charts=charts, name=name,
+                                         step=bar.update)
+        corners, owner, overlap = _claimed(uvs, faces, res, device, name)
+        if overlap > MAX_OVERLAP and charts != "xatlas":
+            # a chart of normal clusters that overlaps itself (a helix seen along its axis): xatlas's own charts
+            vmap, faces, uvs, _ = make_atlas(vertices, np.asarray(mesh.faces, np.int64), res, max(gutter, 1),
+                                             charts="xatlas", name=name)
+            corners, owner, overlap = _claimed(uvs, faces, res, device, name)
+        vertices, vnormals = vertices[vmap], vnormals[vmap]
     covered = owner >= 0
     n_cov = int(covered.sum())
-    if n_cov == 0:
-        raise TextonError(f"{name}: no texel centre lies on a triangle of its UVs at {res}x{res}; use a larger "
-                          "resolution")
-    overlap = float(np.count_nonzero(cover > 1)) / n_cov
-    if source == "mesh" and overlap > MAX_OVERLAP:
-        raise TextonError(f"{name}: its UVs overlap ({100 * overlap:.1f} % of the covered texels lie on two or more "
-                          "triangles), so one texel would stand for several surface points; use uv='atlas' "
-                          "(--uv atlas) to ignore them")
     owner = _extend(owner, covered, gutter)
     rows, cols = np.nonzero(owner >= 0)
     inner = covered[rows, cols]
@@ -413,11 +405,13 @@ def bake_mesh(
                        mentions=("resolution", "supersample", "mni"))
     p = surface_params(texton, setup, seed, "exact", up, side)
     sums = np.zeros((len(f), 3), np.float64)
-    for sx, sy in sorted(set(zip(nx.tolist(), ny.tolist()))):
+    kinds = sorted(set(zip(nx.tolist(), ny.tolist())))
+    per_kind = [max(1, SAMPLES_PER_ROUND // (sx * sy)) for sx, sy in kinds]
+    bar.total += sum(-(-int(np.count_nonzero((nx == sx) & (ny == sy))) // n) for (sx, sy), n in zip(kinds, per_kind))
+    for (sx, sy), per_round in zip(kinds, per_kind):
         group = np.flatnonzero((nx == sx) & (ny == sy))
         ox, oy = np.meshgrid((np.arange(sx) + 0.5) / sx - 0.5, (np.arange(sy) + 0.5) / sy - 0.5)
         offsets = np.stack([ox.ravel(), oy.ravel()], axis=1)  # sample offsets from the texel centre
-        per_round = max(1, SAMPLES_PER_ROUND // len(offsets))
         for g0 in range(0, len(group), per_round):
             g = group[g0:g0 + per_round]
             centre = np.stack([cols[g] + 0.5, rows[g] + 0.5], axis=1)
@@ -431,6 +425,8 @@ def bake_mesh(
             nrm = _normals_at(bary, tri[k], vnormals, fn[k])
             vals = evaluate_points(p, setup, pts / texel, nrm, None, device, method)
             sums[g] += vals.reshape(len(g), len(offsets), 3).sum(axis=1)  # g holds distinct texels
+            bar.update()
+    bar.close()
     values = (sums / (nx * ny)[:, None]).astype(np.float32)
     c = texton.channels
     texture = np.empty((res, res, c), np.float32)
@@ -439,7 +435,27 @@ def bake_mesh(
     out = _textured(vertices, faces, uvs, vnormals, texture, trimesh)
     axis = up_vector(up)
     return BakedMesh(out, texture, covered, per_texel, float(np.sum((nx * ny)[inner])) / n_cov, source,
-                     (float(axis[0]), float(axis[1]), float(axis[2])))
+                     (float(axis[0]), float(axis[1]), float(axis[2])), dtype)
+
+
+def _check_choices(res: int, uv, supersample, gutter, charts, dtype) -> tuple[int | None, int]:
+    """The checked ``supersample`` and ``gutter`` of a bake (its default for None), after
+    ``uv``, ``charts`` and ``dtype``."""
+    if uv not in UV_MODES:
+        raise TextonError(f"uv must be one of {', '.join(UV_MODES)}, got {uv!r}")
+    if supersample is not None:
+        supersample = check_int(supersample, "supersample", minimum=1)
+        if supersample > MAX_SUPERSAMPLE:
+            raise TextonError(f"supersample must be at most {MAX_SUPERSAMPLE} samples per side, got {supersample}")
+    gutter = default_gutter(res) if gutter is None else check_int(gutter, "gutter", minimum=0,
+                                                                   maximum=min(MAX_GUTTER, max(2, res // 4)))
+    if charts not in CHART_METHODS:
+        raise TextonError(f"charts must be one of {', '.join(CHART_METHODS)}, got {charts!r:.40}")
+    if dtype not in PNG_DTYPES:
+        raise TextonError(f"dtype must be 'uint8' or 'uint16' (the PNG sample types a baked texture is written "
+                          f"with), got {dtype!r:.40}; for float values write the texture as EXR (texture='exr')",
+                          "dtype")
+    return supersample, gutter
 
 
 def _extend(owner: np.ndarray, covered: np.ndarray, gutter: int) -> np.ndarray:

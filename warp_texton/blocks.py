@@ -203,15 +203,16 @@ def draw_cubes(cells: Cells3, lo: np.ndarray, dims: np.ndarray, device) -> KB.Cu
 
 
 def gather_blocks(p: K.SurfaceParams, coeffs, pos: np.ndarray, nrm: np.ndarray, tan, device, *, reach: float,
-                  mean_count: float) -> np.ndarray:
+                  mean_count: float, sorted_points: BlockedPoints | None = None) -> np.ndarray:
     """Surface noise at (N ≥ 1) checked float64 texel positions with unit normals (and
     unit tangents, or None for the frame rule) through the block path: sort, draw each
     block's cubes once, list each cluster's impacts, gather (docs/model.md, "Blocks of
     points"). ``reach`` bounds how far a point's walk goes per axis; ``mean_count`` is
     the cubes' mean impact count (for the memory estimate). The values of
-    ``kernels/surface.py:evaluate_surface``, bit for bit on the CPU."""
+    ``kernels/surface.py:evaluate_surface``, bit for bit on the CPU. ``sorted_points``:
+    the points already sorted (:func:`sort_into_blocks` with the same cell and reach)."""
     n = pos.shape[0]
-    pts = sort_into_blocks(pos, nrm, p.cells.size, reach)
+    pts = sort_into_blocks(pos, nrm, p.cells.size, reach) if sorted_points is None else sorted_points
     dims = pts.hi - pts.lo + 1
     cubes = np.prod(dims, axis=1)
     # the peak: the sorted copies of the points and their frames, one round's cubes and

@@ -28,8 +28,12 @@ def _arguments(p: argparse.ArgumentParser) -> None:
                    help="bake the noise into a RES x RES texture on UVs (GLB or OBJ+MTL+PNG)")
     p.add_argument("--uv", choices=("auto", "mesh", "atlas"), default="auto",
                    help="with --bake: the mesh's UVs when it has them (auto), only them (mesh), or a new atlas")
-    p.add_argument("--texture", choices=("png", "exr"),
-                   help="with --bake: also write the texture alone as NAME_texture.png (8-bit sRGB) or .exr")
+    p.add_argument("--charts", choices=("normals", "xatlas"), default="normals",
+                   help="with --bake, for a new atlas: charts of clustered normals packed by xatlas (seconds), or "
+                        "xatlas's own charts (fewer seams, minutes for 100k faces)")
+    p.add_argument("--texture", choices=("png", "png16", "exr"),
+                   help="with --bake: also write the texture alone as NAME_texture.png (8-bit sRGB) or .exr; "
+                        "png16: every PNG texture in 16 bits (the GLB's, the OBJ's and NAME_texture.png)")
     p.add_argument("--exr-linear", action="store_true",
                    help="an EXR texture holds linear values (the sRGB decoding) instead of the noise's own values")
     p.add_argument("--supersample", type=int, metavar="N",
@@ -72,7 +76,8 @@ def _check_bake_options(args) -> None:
 
     if args.bake is None:
         for name, value in (("--texture", args.texture), ("--supersample", args.supersample),
-                            ("--exr-linear", args.exr_linear or None), ("--uv", None if args.uv == "auto" else 1)):
+                            ("--exr-linear", args.exr_linear or None), ("--uv", None if args.uv == "auto" else 1),
+                            ("--charts", None if args.charts == "normals" else 1)):
             if value is not None:
                 raise TextonError(f"{name} applies to baked textures: add --bake RES")
         return
@@ -176,9 +181,12 @@ def _run_jobs(args, executor, device, render, orbit):
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
     jobs = [SurfaceJob(m, texton, str(out), args.texel_size, args.mni, args.seed, args.max_edge, render,
-                       args.format, args.overwrite, device, bake=args.bake, uv=args.uv, texture=args.texture,
+                       args.format, args.overwrite, device, bake=args.bake, uv=args.uv,
+                       texture="png" if args.texture == "png16" else args.texture,
+                       dtype="uint16" if args.texture == "png16" else "uint8",
                        exr_linear=args.exr_linear, supersample=args.supersample, up=args.up, orbit=orbit,
-                       fov=args.fov, words=tuple(SURFACE.names.items())) for m in meshes]
+                       fov=args.fov, words=tuple(SURFACE.names.items()), charts=args.charts,
+                       progress=not args.quiet and args.jobs == 1 and args.scheduler is None) for m in meshes]
     check_unique_outputs(jobs)
     try:
         return run_jobs(jobs, executor=executor, jobs_in_parallel=args.jobs, progress=not args.quiet), False

@@ -103,6 +103,15 @@ class SurfaceJob:
         instead of vertex colours.
     uv : {"auto", "mesh", "atlas"}
         As in :func:`warp_texton.bake_mesh`.
+    charts : {"normals", "xatlas"}
+        As in :func:`warp_texton.bake_mesh`.
+    dtype : {"uint8", "uint16"}
+        With ``bake``: the sample type of the PNG textures written, as in
+        :func:`warp_texton.bake_mesh`.
+    progress : bool
+        A progress bar over a bake's atlas and rounds, as in
+        :func:`warp_texton.bake_mesh` (for one job at a time: bars of jobs
+        side by side would mix).
     supersample : int, optional
         As in :func:`warp_texton.bake_mesh`.
     texture : {"png", "exr"}, optional
@@ -154,6 +163,9 @@ class SurfaceJob:
     #: (library name, command-line name) pairs: the words a failure's message uses for the
     #: arguments it names (the surface command's options: "supersample" -> "--supersample")
     words: tuple[tuple[str, str], ...] = ()
+    charts: str = "normals"  # how a bake's new atlas is charted (see bake_mesh)
+    progress: bool = False  # a progress bar over a bake's steps (one job at a time)
+    dtype: str = "uint8"  # PNG sample type of a bake's textures: "uint8" or "uint16"
 
     def __post_init__(self):
         # the formats documented above, refused when the job is made rather than written in another
@@ -292,8 +304,11 @@ def _load_mesh(path: str):
     p = Path(path)
     if not p.is_file():
         raise TextonError(f"{path}: no such file")
+    from .mesh_files import scene_mesh
+
     try:
-        mesh = trimesh.load(str(p), force="mesh", process=False)
+        # a glTF scene's nodes joined by hand: trimesh's force="mesh" drops the file's normals
+        mesh = scene_mesh(trimesh.load(str(p), process=False))
     except Exception as exc:
         raise TextonError(f"{path}: not a mesh that trimesh can read ({exc})") from None
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
@@ -383,11 +398,12 @@ def _run(job: SurfaceJob, outputs: list[Path], notes: list[str]) -> None:
     render = {} if img is None else {outputs[-1]: lambda tmp: write_image(tmp, img)}
     if job.bake is not None:
         baked = bake_mesh(mesh, texton, texel, resolution=job.bake, mni=job.mni, seed=job.seed, uv=job.uv,
-                          supersample=job.supersample, device=job.device, up=up, name=job.mesh)
+                          supersample=job.supersample, device=job.device, up=up, name=job.mesh, charts=job.charts,
+                          progress=job.progress, dtype=job.dtype)
         write_baked(baked, stem, fmt=job.format, texture=job.texture, linear=job.exr_linear, also=render)
         notes.append(f"{job.mesh}: {job.bake}x{job.bake} texture, {baked.texels_per_texton_texel:.3g} texels per "
                      f"texton texel (median), noise samples per texel: {baked.samples:.3g} (mean), UVs from the "
-                     f"{baked.uv_source}")
+                     f"{baked.uv_source}, covering {100 * baked.covered:.0f} % of the texture")
     else:
         # glTF's COLOR_0 is linear by definition; PLY and OBJ keep the noise's sRGB-coded values
         textured = texture_mesh(mesh, texton, texel, mni=job.mni, seed=job.seed, max_edge=job.max_edge,

@@ -8,9 +8,9 @@ UVs and textures stay as they are. Reading such a file back with up ``"y"``
 side directions, the render's camera and light turn with the geometry. OBJ and
 PLY declare no up axis, so they keep the input's coordinates.
 
-Texture images written in 8 bits (the texture alone as PNG, the base colour
-embedded in a GLB, an OBJ's PNG) follow one rule, :func:`texture_8bit`:
-values clipped to [0, 1], scaled by 255 and rounded, as
+Texture images written as PNG (the texture alone, the base colour embedded in
+a GLB, an OBJ's PNG; 8 bits, or 16) follow one rule, :func:`texture_pixels`:
+values clipped to [0, 1], scaled to the type's range and rounded, as
 :func:`warp_texton.write_image` does, and the clipped pixels are reported once
 per output file, by its final name (:func:`report_texture_clipping`).
 """
@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+from typing import Any
 
 from pathlib import Path
 
@@ -66,36 +67,156 @@ def export_mesh(mesh, fmt: str, up) -> bytes:
     ``up``, the other formats in the mesh's own coordinates."""
     if fmt in GLTF_FORMATS:
         mesh = to_gltf_axes(mesh, up)
+        reach = float(np.max(np.abs(mesh.vertices))) if len(mesh.vertices) else 0.0
+        if not reach < float(np.finfo(np.float32).max):  # glTF stores float32 positions: beyond, infinities
+            raise TextonError(f"its coordinates reach {reach:.3g}, more than the float32 positions of glTF hold "
+                              f"({float(np.finfo(np.float32).max):.3g}); scale the mesh down, or write OBJ or PLY")
     buf = io.BytesIO()
     mesh.export(buf, file_type=fmt)
+    if fmt == "glb" and getattr(mesh.visual, "kind", None) == "vertex":
+        return with_colour_material(buf.getvalue())
     return buf.getvalue()
 
 
-def texture_8bit(texture: np.ndarray, *, rgb: bool = True) -> tuple[np.ndarray, int]:
-    """(uint8 texture, pixels with a value clipped): the rule of every written 8-bit
-    texture, :func:`warp_texton.io.convert_pixels` with ``"uint8"`` (values clipped
-    to [0, 1], × 255, rounded). ``rgb`` spreads a grey texture to RGB (an embedded
+#: The material of a vertex-coloured GLB: white, not metallic, fully rough. glTF multiplies
+#: the base colour by ``COLOR_0`` (glTF 2.0, §3.9.2), so the vertex colours are what shows;
+#: without a material viewers such as Blender import the colours but show grey.
+COLOUR_MATERIAL = {"name": "warp_texton_vertex_colours",
+                   "pbrMetallicRoughness": {"baseColorFactor": [1.0, 1.0, 1.0, 1.0], "metallicFactor": 0.0,
+                                            "roughnessFactor": 1.0}}
+
+
+def with_colour_material(glb: bytes) -> bytes:
+    """A GLB (as trimesh writes it: JSON chunk, then binary chunk) with :data:`COLOUR_MATERIAL`
+    given to every primitive that has ``COLOR_0`` and no material."""
+    import json
+    import struct
+
+    magic, version, _ = struct.unpack_from("<4sII", glb, 0)
+    json_len, json_type = struct.unpack_from("<I4s", glb, 12)
+    if magic != b"glTF" or json_type != b"JSON":
+        return glb
+    doc = json.loads(glb[20:20 + json_len])
+    bare = [prim for mesh in doc.get("meshes", []) for prim in mesh.get("primitives", [])
+            if "COLOR_0" in prim.get("attributes", {}) and "material" not in prim]
+    if not bare:
+        return glb
+    materials = doc.setdefault("materials", [])
+    for prim in bare:
+        prim["material"] = len(materials)
+    materials.append(COLOUR_MATERIAL)
+    text = json.dumps(doc, separators=(",", ":")).encode("utf-8")
+    text += b" " * (-len(text) % 4)  # chunks are 4-byte aligned, JSON padded with spaces
+    rest = glb[20 + json_len:]
+    head = struct.pack("<4sII", magic, version, 12 + 8 + len(text) + len(rest)) + struct.pack("<I4s", len(text),
+                                                                                               b"JSON")
+    return head + text + rest
+
+
+def scene_mesh(scene):
+    """One mesh of a trimesh Scene (a glTF file), with each node's transform applied and
+    the normals the file holds kept (trimesh's own concatenation recomputes them, which
+    would lose a GLB's smooth normals across UV seams). A Trimesh is returned as it is."""
+    import trimesh
+
+    if not isinstance(scene, trimesh.Scene):
+        return scene
+    parts = []
+    for node in scene.graph.nodes_geometry:
+        transform, name = scene.graph[node]
+        geom = scene.geometry[name]
+        if not isinstance(geom, trimesh.Trimesh):
+            continue
+        held = "vertex_normals" in geom._cache.cache  # read from the file, not computed
+        m = np.asarray(transform, np.float64)
+        vertices = np.asarray(geom.vertices, np.float64) @ m[:3, :3].T + m[:3, 3]
+        normals = None
+        if held:  # normals turn by the inverse transpose of the node's linear part
+            n = np.asarray(geom.vertex_normals, np.float64) @ np.linalg.inv(m[:3, :3])
+            normals = n / np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+        visual = geom.visual.copy() if geom.visual is not None else None
+        parts.append((trimesh.Trimesh(vertices=vertices, faces=geom.faces, vertex_normals=normals, visual=visual,
+                                      process=False), normals))
+    if len(parts) == 1:
+        return parts[0][0]
+    if not parts:
+        return trimesh.Trimesh()
+    merged: Any = trimesh.util.concatenate([mesh for mesh, _ in parts])
+    if any(n is None for _, n in parts):
+        return merged
+    return trimesh.Trimesh(vertices=merged.vertices, faces=merged.faces, visual=merged.visual, process=False,
+                           vertex_normals=np.concatenate([n for _, n in parts]))
+
+
+#: Sample types of written PNG textures: 8 bits (default) or 16 (``bake_mesh(dtype="uint16")``).
+PNG_DTYPES = ("uint8", "uint16")
+
+
+def texture_pixels(texture: np.ndarray, dtype: str = "uint8", *, rgb: bool = True) -> tuple[np.ndarray, int]:
+    """(texture as ``dtype``, pixels with a value clipped): the rule of every written PNG
+    texture, :func:`warp_texton.io.convert_pixels` (values clipped to [0, 1], scaled
+    to the type's range, rounded). ``rgb`` spreads a grey texture to RGB (an embedded
     base colour)."""
-    data, clipped = convert_pixels(np.asarray(texture, np.float32), "uint8")
+    data, clipped = convert_pixels(np.asarray(texture, np.float32), dtype)
     if rgb and data.shape[2] == 1:
         data = np.repeat(data, 3, axis=2)
     return data, clipped
 
 
-def report_texture_clipping(path, clipped: int, texture: np.ndarray) -> None:
+def texture_8bit(texture: np.ndarray, *, rgb: bool = True) -> tuple[np.ndarray, int]:
+    """:func:`texture_pixels` in 8 bits: the texture a bake's mesh carries in memory."""
+    return texture_pixels(texture, "uint8", rgb=rgb)
+
+
+def report_texture_clipping(path, clipped: int, texture: np.ndarray, dtype: str = "uint8") -> None:
     """Warn once for the output ``path`` (its final name) when more than
     ``io.CLIP_WARN`` of the texture's pixels were clipped."""
-    report_clipped(path, clipped, texture.shape[0] * texture.shape[1], "uint8")
+    report_clipped(path, clipped, texture.shape[0] * texture.shape[1], dtype)
 
 
 def png_bytes(data: np.ndarray) -> bytes:
-    """An 8-bit texture as PNG bytes, as :func:`warp_texton.write_image` writes it
-    (grey as one channel)."""
+    """A uint8 or uint16 texture (H, W, 1 or 3) as PNG bytes, as :func:`warp_texton.write_image`
+    writes it: grey as one channel; 16-bit RGB through imagecodecs (Pillow writes no 48-bit PNG)."""
     from PIL import Image
 
+    if data.dtype == np.uint16 and data.shape[2] == 3:
+        try:
+            import imagecodecs
+        except ImportError:
+            raise TextonError("a 16-bit RGB PNG texture needs the imagecodecs package: "
+                              "pip install 'warp-texton[formats]'") from None
+        return bytes(imagecodecs.png_encode(np.ascontiguousarray(data)))
     buf = io.BytesIO()
-    Image.fromarray(data[:, :, 0] if data.shape[2] == 1 else data).save(buf, format="PNG")
+    Image.fromarray(np.ascontiguousarray(data[:, :, 0] if data.shape[2] == 1 else data)).save(buf, format="PNG")
     return buf.getvalue()
+
+
+def with_image(glb: bytes, png: bytes) -> bytes:
+    """A GLB (one buffer, in its binary chunk) with its first image's bytes replaced by
+    ``png``: the buffer views after it move, the lengths follow."""
+    import json
+    import struct
+
+    json_len = struct.unpack_from("<I", glb, 12)[0]
+    doc = json.loads(glb[20:20 + json_len])
+    bin_start = 20 + json_len + 8
+    binary = glb[bin_start:bin_start + struct.unpack_from("<I", glb, 20 + json_len)[0]]
+    view = doc["bufferViews"][doc["images"][0]["bufferView"]]
+    start, old_len = view.get("byteOffset", 0), view["byteLength"]
+    padded = png + b"\0" * (-len(png) % 4)  # keep the views after it 4-byte aligned
+    shift = len(padded) - (old_len + (-old_len % 4))
+    for other in doc["bufferViews"]:
+        if other.get("byteOffset", 0) > start:
+            other["byteOffset"] += shift
+    view["byteLength"] = len(png)
+    binary = binary[:start] + padded + binary[start + old_len + (-old_len % 4):]
+    binary += b"\0" * (-len(binary) % 4)
+    doc["buffers"][0]["byteLength"] = len(binary)
+    text = json.dumps(doc, separators=(",", ":")).encode("utf-8")
+    text += b" " * (-len(text) % 4)
+    total = 12 + 8 + len(text) + 8 + len(binary)
+    return (struct.pack("<4sII", b"glTF", 2, total) + struct.pack("<I4s", len(text), b"JSON") + text
+            + struct.pack("<I4s", len(binary), b"BIN\0") + binary)
 
 
 @contextlib.contextmanager
@@ -196,8 +317,9 @@ def write_baked(baked, stem, *, fmt: str = "glb", texture: str | None = None, li
     temporary name first and all are renamed at the end: all files appear
     together, or none.
 
-    Every 8-bit texture (embedded in the GLB, the OBJ's PNG, ``STEM_texture.png``)
-    holds the values clipped to [0, 1]; when more than 1 % of the texels are
+    Every PNG texture (embedded in the GLB, the OBJ's PNG, ``STEM_texture.png``)
+    holds the values clipped to [0, 1], in 8 bits, or 16 for a bake made with
+    ``dtype="uint16"`` (``baked.dtype``); when more than 1 % of the texels are
     clipped a warning names that output, once.
 
     Parameters
@@ -208,7 +330,7 @@ def write_baked(baked, stem, *, fmt: str = "glb", texture: str | None = None, li
         The output path without its extension.
     fmt : {"glb", "obj"}
     texture : {"png", "exr"}, optional
-        Also write the texture alone: ``STEM_texture.png`` (8-bit sRGB) or
+        Also write the texture alone: ``STEM_texture.png`` (sRGB, 8 or 16 bits as ``baked.dtype``) or
         ``STEM_texture.exr`` (float32: the noise's values).
     linear : bool
         The EXR texture holds the sRGB decoding of the values instead.
@@ -241,10 +363,13 @@ def write_baked(baked, stem, *, fmt: str = "glb", texture: str | None = None, li
     if texture is not None and texture not in TEXTURE_FORMATS:
         raise TextonError(f"texture must be one of {', '.join(TEXTURE_FORMATS)}, got {texture!r}")
     paths = bake_outputs(stem, fmt, texture)
-    clipped = texture_8bit(baked.texture)[1]
+    depth = getattr(baked, "dtype", "uint8")
+    pixels, clipped = texture_pixels(baked.texture, depth)
     blobs: dict[Path, bytes] = {}
     if fmt == "glb":
         blobs[paths[0]] = export_mesh(baked.mesh, "glb", baked.up)
+        if depth != "uint8":  # the mesh carries the 8-bit image; the file gets the deeper one
+            blobs[paths[0]] = with_image(blobs[paths[0]], png_bytes(pixels))
     else:
         from trimesh.exchange.obj import export_obj
 
@@ -257,9 +382,9 @@ def write_baked(baked, stem, *, fmt: str = "glb", texture: str | None = None, li
         mtl = "\n".join(fixed.get(ln.split(" ")[0], ln) for ln in mtl.splitlines())
         blobs[paths[0]] = text.encode("utf-8")
         blobs[paths[1]] = (mtl + "\n").encode("utf-8")
-        blobs[paths[2]] = png
+        blobs[paths[2]] = png if depth == "uint8" else png_bytes(pixels)
     if texture == "png":
-        blobs[paths[-1]] = png_bytes(texture_8bit(baked.texture, rgb=False)[0])
+        blobs[paths[-1]] = png_bytes(texture_pixels(baked.texture, depth, rgb=False)[0])
     writes: dict = dict(blobs)
     if texture == "exr":
         img = baked.texture
@@ -270,5 +395,5 @@ def write_baked(baked, stem, *, fmt: str = "glb", texture: str | None = None, li
     write_set(writes)
     for path in paths:  # one report per 8-bit texture written, by its own name
         if path.suffix == ".png" or path.suffix == ".glb":
-            report_texture_clipping(path, clipped, baked.texture)
+            report_texture_clipping(path, clipped, baked.texture, depth)
     return paths

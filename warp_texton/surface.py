@@ -31,7 +31,7 @@ import warp as wp
 
 from ._checks import check_positive, check_seed
 from ._runtime import map_points, resolve_device, split_launch
-from .blocks import gather_blocks
+from .blocks import gather_blocks, sort_into_blocks
 from .errors import TextonError
 from .frames import UP, as_points, check_lengths, frame_rule, unit_rows
 from .kernels import surface as K
@@ -48,9 +48,16 @@ MAX_CUBES_PER_POINT = 8192
 #: (each point draws the impacts of its cubes itself: the reference) and "auto"
 #: (the walk below AUTO_MIN_POINTS points, where sorting and the extra launches
 #: cost more than they save — measured: 642 points, walk 14 ms, blocks 20 ms;
-#: 10 000 sparse points, blocks 1.4× faster — else blocks). All give the same values.
+#: 10 000 sparse points, blocks 1.4× faster — else the points are sorted into blocks
+#: and the blocks gather them when a block holds AUTO_MIN_DENSITY points or more on
+#: average, the walk takes them otherwise). All give the same values.
 METHODS = ("auto", "blocks", "points")
 AUTO_MIN_POINTS = 4096
+#: Points per block from which blocks beat the walk (measured on 200k points on spheres,
+#: RGB textons of 32² and 64², MNI 60, 2 cores: blocks/walk time 0.13 at 25,000 points per
+#: block, 0.66-0.73 at 31-68, 1.1 at 31 (64²), 1.6 at 12, 2.4 at 3.4-8.5, 5.4 at 1.2;
+#: docs/benchmarks.md, "Surface noise").
+AUTO_MIN_DENSITY = 24.0
 #: Room for float32 rounding in :func:`walk_reach` (relative).
 REACH_ROUNDING = 1.0 + 1e-5
 
@@ -241,8 +248,10 @@ def surface_noise(
         cubes; ``"points"``: each point draws its cubes' impacts itself (the
         reference: the same values, slower on many points); ``"auto"``
         (default): the walk below 4096 points (``AUTO_MIN_POINTS``), where
-        sorting and the extra launches cost more than they save, blocks
-        above.
+        sorting and the extra launches cost more than they save; above, the
+        points are sorted into blocks and the blocks gather them where a block
+        holds 24 points or more on average (``AUTO_MIN_DENSITY``), the walk
+        takes sparser sets (200k points a few cubes apart: 5× faster).
 
     Returns
     -------
@@ -375,8 +384,13 @@ def evaluate_points(p: K.SurfaceParams, setup: SurfaceSetup, pos: np.ndarray, nr
     n = pos.shape[0]
     if n == 0:
         return np.zeros((0, 3), np.float32)
-    if method == "auto":
-        method = "points" if n < AUTO_MIN_POINTS else "blocks"
+    blocked = None
+    if method == "auto" and n < AUTO_MIN_POINTS:
+        method = "points"
+    elif method == "auto":
+        # by density: a sparse set's blocks draw many cubes for few points each
+        blocked = sort_into_blocks(pos, nrm, p.cells.size, walk_reach(setup.r))
+        method = "blocks" if n / len(blocked.starts) >= AUTO_MIN_DENSITY else "points"
     with wp.ScopedDevice(device):
         coeffs: wp.array = wp.array(setup.coeffs, dtype=wp.vec3)
         if method == "points":
@@ -392,4 +406,4 @@ def evaluate_points(p: K.SurfaceParams, setup: SurfaceSetup, pos: np.ndarray, nr
 
             return map_points(device, K, n, values)
         return gather_blocks(p, coeffs, pos, nrm, tan, device, reach=walk_reach(setup.r),
-                             mean_count=setup.lam * setup.cell ** 3)
+                             mean_count=setup.lam * setup.cell ** 3, sorted_points=blocked)
