@@ -12,6 +12,7 @@ into a canvas.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Literal, overload
 
 import numpy as np
@@ -74,14 +75,14 @@ class Canvas:
 
     @overload
     def result(self, channels: int, output: Literal["numpy"], *,
-               textons: list[Texton] | list[Texton | None]) -> np.ndarray: ...
+               textons: Sequence[Texton | None]) -> np.ndarray: ...
 
     @overload
     def result(self, channels: int, output: str, *,
-               textons: list[Texton] | list[Texton | None]) -> np.ndarray | wp.array: ...
+               textons: Sequence[Texton | None]) -> np.ndarray | wp.array: ...
 
     def result(self, channels: int, output: str, *,
-               textons: list[Texton] | list[Texton | None]) -> np.ndarray | wp.array:
+               textons: Sequence[Texton | None]) -> np.ndarray | wp.array:
         if any(t is not None and t.histogram is not None for t in textons):
             self._to_colours(textons)
         if output == "warp":

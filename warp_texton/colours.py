@@ -56,6 +56,15 @@ def to_colours(values: np.ndarray, texton: Texton | None, share=None) -> None:
     values[:, :c] = texton.histogram.to_colours(g, share)
 
 
+def mean_colour(texton: Texton) -> np.ndarray:
+    """(C,) float32: the colour of the noise's mean, the limit of far views (its
+    mean, mapped with the table prefiltered for a share 0 of the variance)."""
+    value = np.zeros((1, 3), np.float32)
+    value[0, :texton.channels] = texton.mean
+    to_colours(value, texton, 0.0)
+    return value[0, :texton.channels]
+
+
 @functools.lru_cache(maxsize=16)
 def share_table(texton: Texton) -> np.ndarray:
     """(E, E, ANGLES) shares of the variance kept by Gaussian footprints of extents

@@ -15,6 +15,7 @@ import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import scipy.ndimage as ndi
@@ -211,16 +212,15 @@ class Texton:
         path = check_output_name(path, "path")
         ext = path.suffix.lower()
         if ext == EXR:
-            extra = {} if self.histogram is None else {"texton_histogram": self.histogram.to_json()}
-            write_exr(
-                path,
-                self.coeffs,
+            attributes: dict[str, Any] = dict(
                 texton_version=EXR_TEXTON_VERSION,
                 texton_order=self.order,
                 texton_mean=[float(v) for v in self.mean],
                 texton_metadata=metadata_json({**self.metadata, "warp_texton": __version__}),
-                **extra,
             )
+            if self.histogram is not None:  # JSON: float64 values round-trip exactly
+                attributes["texton_histogram"] = self.histogram.to_json()
+            write_exr(path, self.coeffs, **attributes)
         elif ext == TEXTON_EXT:
             if self.histogram is not None:
                 # the reference viewer would read the file and show Gaussian noise: a wrong texture
