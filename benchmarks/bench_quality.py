@@ -21,7 +21,8 @@ measured against it:
   one-off set-up (analysis, or the histogram transform) in seconds.
 
 Methods (a row of ``METHODS`` each; a new method is one more row): texton
-noise (``analyze`` then ``synthesize``), the FFT sample of the same Gaussian
+noise (``analyze`` then ``synthesize``), histogram-preserving texton noise
+(``analyze(..., histogram="preserve")``), the FFT sample of the same Gaussian
 model (``gaussian_texture``, the ADSN) and tiling and blending with the
 histogram-preserving operator (``peers.TilingBlending``).
 
@@ -31,6 +32,7 @@ histogram-preserving operator (``peers.TilingBlending``).
 
 from __future__ import annotations
 
+import functools
 import sys
 import time
 from dataclasses import dataclass
@@ -246,11 +248,10 @@ class Method:
     host: bool  # NumPy on the host whatever the device
 
 
-#: The methods compared, in table order. Histogram-preserving texton noise (issue 23,
-#: item 1) is one more row: Method("texton noise (preserve)",
-#: functools.partial(texton_noise, histogram="preserve"), host=False).
+#: The methods compared, in table order.
 METHODS = (
     Method("texton noise", texton_noise, host=False),
+    Method("texton noise (preserve)", functools.partial(texton_noise, histogram="preserve"), host=False),
     Method("FFT sample", fft_sample, host=True),
     Method("tiling and blending", tiling_blending, host=True),
 )
