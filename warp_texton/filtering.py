@@ -473,8 +473,15 @@ def filter_pixels(p, texton: Texton, setup: NoiseSetup, pixels: PixelSet, option
 def pixel_shares(texton: Texton, pixels: PixelSet, options: FilterOptions) -> np.ndarray:
     """(pixels.count,) shares of the noise's variance that the pixels keep filtered as
     ``options`` say (:func:`~warp_texton.colours.footprint_shares`), for the texton's
-    histogram transform."""
-    return np.broadcast_to(footprint_shares(texton, pixels.footprints(0, pixels.count), options), (pixels.count,))
+    histogram transform. Within the last kept MIP level the filters fade the noise to
+    its mean, and past it they return the mean: the shares fade with them."""
+    J = pixels.footprints(0, pixels.count)
+    shares = footprint_shares(texton, J, options)
+    if options.spec.footprint:
+        lod = np.maximum(footprint_levels(J, options)[1], 0.0)
+        with np.errstate(invalid="ignore"):
+            shares = shares * np.clip(kept_levels(texton, fade_energy=options.fade_energy) - lod, 0.0, 1.0) ** 2
+    return np.broadcast_to(shares, (pixels.count,))
 
 
 def filtered_points(p, texton: Texton, pixels: PixelSet, options: FilterOptions, device, out=None) -> np.ndarray | None:

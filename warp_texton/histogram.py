@@ -25,6 +25,7 @@ import json
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.ndimage import gaussian_filter1d
 from scipy.special import ndtr, ndtri
 from scipy.stats import rankdata
 
@@ -34,17 +35,15 @@ from .errors import TextonError
 #: Φ(−5) ≈ 3·10⁻⁷: past the grid every example of fewer than 3 million pixels
 #: holds its extreme values.
 GAUSS_RANGE = 5.0
-LUT_SIZE = 256
+LUT_SIZE = 1024
 #: Shares of the variance at which prefiltered tables are kept (linear in between).
 SHARE_STEPS = 33
-#: Gauss–Hermite nodes of the prefiltering convolution.
-QUADRATURE_NODES = 48
 #: Quadrature nodes and correlation steps of :meth:`HistogramTransform.correlation_map`.
 CORRELATION_NODES = 96
 CORRELATION_STEPS = 401
 #: Accepted values of ``analyze(..., histogram=...)``.
 HISTOGRAMS = ("gaussian", "preserve")
-#: Bound of a stored transform's JSON (3 channels of LUT_SIZE numbers take about 20 kB).
+#: Bound of a stored transform's JSON (3 channels of LUT_SIZE numbers take about 70 kB).
 MAX_HISTOGRAM_CHARS = 1 << 20
 
 
@@ -204,14 +203,12 @@ class HistogramTransform:
     def prefiltered(self) -> np.ndarray:
         """(SHARE_STEPS, C, K) tables: row i is :attr:`lut` convolved with a Gaussian of
         variance 1 − v_i, v_i = i / (SHARE_STEPS − 1); the last row is :attr:`lut`."""
-        grid = gauss_grid(self.lut.shape[1])
-        nodes, weights = np.polynomial.hermite_e.hermegauss(QUADRATURE_NODES)
-        weights = weights / weights.sum()
+        step = 2.0 * GAUSS_RANGE / (self.lut.shape[1] - 1)
         out = np.empty((SHARE_STEPS,) + self.lut.shape)
         for i, v in enumerate(np.linspace(0.0, 1.0, SHARE_STEPS)):
-            x = grid[:, None] + np.sqrt(max(1.0 - v, 0.0)) * nodes[None, :]
-            for c in range(self.channels):
-                out[i, c] = np.interp(x, grid, self.lut[c]) @ weights
+            sigma = np.sqrt(max(1.0 - v, 0.0)) / step
+            # "nearest" extends each table by its end values: the clamp that to_colours applies
+            out[i] = gaussian_filter1d(self.lut, sigma, axis=1, mode="nearest", truncate=6.0) if sigma > 0 else self.lut
         out[-1] = self.lut
         out.setflags(write=False)
         return out
@@ -267,10 +264,10 @@ class HistogramTransform:
         try:
             return cls(np.array(d["matrix"], np.float64), np.array(d["centre"], np.float64),
                        np.array(d["lut"], np.float64))
+        except TextonError as exc:  # a ValueError too: first
+            raise bad(str(exc).removeprefix("histogram transform: ")) from None
         except (KeyError, TypeError, ValueError):
             raise bad("matrix, centre and lut must be arrays of numbers") from None
-        except TextonError as exc:
-            raise bad(str(exc).removeprefix("histogram transform: ")) from None
 
 
 def _finite(a, name: str) -> np.ndarray:
