@@ -1,7 +1,7 @@
 """Benchmark: which method for which texture — the quality of texton noise against its peers.
 
 Over real textures of two kinds, Gaussian-like (scikit-image's grass and
-gravel, GIMP's walnut) and structured (scikit-image's brick, GIMP's burlap weave
+gravel, GIMP's walnut, marble and Moonfoot) and structured (scikit-image's brick, GIMP's burlap weave
 and leaves; the GIMP patterns when Debian's ``gimp-data`` is installed), each
 method of ``METHODS`` makes one output from the example, and the output is
 measured against it:
@@ -198,6 +198,8 @@ TEXTURES = (
     Texture("grass", "Gaussian-like", "scikit-image, 512² grey, CC0", _skimage("grass")),
     Texture("gravel", "Gaussian-like", "scikit-image, 512² grey, CC0", _skimage("gravel")),
     Texture("walnut", "Gaussian-like", "GIMP Wood/walnut, 128² RGB, GPL-3+", _gimp("Wood/walnut.pat"), True),
+    Texture("marble", "Gaussian-like", "GIMP Stone/marble1, grey, GPL-3+", _gimp("Stone/marble1.pat"), True),
+    Texture("moonfoot", "Gaussian-like", "GIMP Stone/Moonfoot, grey, GPL-3+", _gimp("Stone/Moonfoot.pat"), True),
     Texture("brick", "structured", "scikit-image, 512² grey, CC0", _skimage("brick")),
     Texture("burlap", "structured", "GIMP Fabric/burlap (a weave), 96² RGB, GPL-3+", _gimp("Fabric/burlap.pat"), True),
     Texture("leaves", "structured", "GIMP Plant/leaves, 50² RGB, GPL-3+", _gimp("Plant/leaves.pat"), True),

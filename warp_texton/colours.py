@@ -30,6 +30,8 @@ from .texton import Texton
 #: J Jᵀ, and ANGLES directions of its major axis over [0, π).
 LOG_EXTENTS = np.arange(-3.0, 13.01, 0.5)
 ANGLES = 16
+#: Values mapped at a time: the float64 temporaries of a lookup stay near 100 MB.
+CHUNK = 1 << 20
 #: The spectrum's grid side, at least (and at least the texton's size).
 SPECTRUM_SIDE = 64
 
@@ -52,8 +54,11 @@ def to_colours(values: np.ndarray, texton: Texton | None, share=None) -> None:
         return
     c = texton.channels
     mean, std = noise_moments(texton)
-    g = (values[:, :c].astype(np.float64) - mean) / std
-    values[:, :c] = texton.histogram.to_colours(g, share)
+    shares = None if share is None else np.broadcast_to(np.asarray(share, np.float64), (len(values),))
+    for start in range(0, len(values), CHUNK):  # float64 temporaries of a bounded size
+        part = values[start:start + CHUNK]
+        g = (part[:, :c].astype(np.float64) - mean) / std
+        part[:, :c] = texton.histogram.to_colours(g, None if shares is None else shares[start:start + CHUNK])
 
 
 def mean_colour(texton: Texton) -> np.ndarray:
