@@ -1,7 +1,7 @@
 """Benchmark: which method for which texture — the quality of texton noise against its peers.
 
 Over real textures of two kinds, Gaussian-like (scikit-image's grass and
-gravel, GIMP's walnut) and structured (scikit-image's brick, GIMP's burlap weave
+gravel, GIMP's walnut, marble and Moonfoot) and structured (scikit-image's brick, GIMP's burlap weave
 and leaves; the GIMP patterns when Debian's ``gimp-data`` is installed), each
 method of ``METHODS`` makes one output from the example, and the output is
 measured against it:
@@ -21,7 +21,8 @@ measured against it:
   one-off set-up (analysis, or the histogram transform) in seconds.
 
 Methods (a row of ``METHODS`` each; a new method is one more row): texton
-noise (``analyze`` then ``synthesize``), the FFT sample of the same Gaussian
+noise (``analyze`` then ``synthesize``), histogram-preserving texton noise
+(``analyze(..., histogram="preserve")``), the FFT sample of the same Gaussian
 model (``gaussian_texture``, the ADSN) and tiling and blending with the
 histogram-preserving operator (``peers.TilingBlending``).
 
@@ -31,6 +32,7 @@ histogram-preserving operator (``peers.TilingBlending``).
 
 from __future__ import annotations
 
+import functools
 import sys
 import time
 from dataclasses import dataclass
@@ -196,6 +198,8 @@ TEXTURES = (
     Texture("grass", "Gaussian-like", "scikit-image, 512² grey, CC0", _skimage("grass")),
     Texture("gravel", "Gaussian-like", "scikit-image, 512² grey, CC0", _skimage("gravel")),
     Texture("walnut", "Gaussian-like", "GIMP Wood/walnut, 128² RGB, GPL-3+", _gimp("Wood/walnut.pat"), True),
+    Texture("marble", "Gaussian-like", "GIMP Stone/marble1, grey, GPL-3+", _gimp("Stone/marble1.pat"), True),
+    Texture("moonfoot", "Gaussian-like", "GIMP Stone/Moonfoot, grey, GPL-3+", _gimp("Stone/Moonfoot.pat"), True),
     Texture("brick", "structured", "scikit-image, 512² grey, CC0", _skimage("brick")),
     Texture("burlap", "structured", "GIMP Fabric/burlap (a weave), 96² RGB, GPL-3+", _gimp("Fabric/burlap.pat"), True),
     Texture("leaves", "structured", "GIMP Plant/leaves, 50² RGB, GPL-3+", _gimp("Plant/leaves.pat"), True),
@@ -246,11 +250,10 @@ class Method:
     host: bool  # NumPy on the host whatever the device
 
 
-#: The methods compared, in table order. Histogram-preserving texton noise (issue 23,
-#: item 1) is one more row: Method("texton noise (preserve)",
-#: functools.partial(texton_noise, histogram="preserve"), host=False).
+#: The methods compared, in table order.
 METHODS = (
     Method("texton noise", texton_noise, host=False),
+    Method("texton noise (preserve)", functools.partial(texton_noise, histogram="preserve"), host=False),
     Method("FFT sample", fft_sample, host=True),
     Method("tiling and blending", tiling_blending, host=True),
 )

@@ -23,14 +23,13 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import warp as wp
-from scipy import special
-
 from warp_texton import dsn, evaluate, synthesize
+from warp_texton.histogram import HistogramTransform
 
 from .bench_synthesis import FFTSample
 
 __all__ = ["FFTSample", "DSNSample", "PerlinRaster", "NaivePerPixel", "TextonNoise", "TilingBlending",
-           "HistogramTransform", "variance_preserving_blend", "triangle_grid", "cpu_threads"]
+           "variance_preserving_blend", "triangle_grid", "cpu_threads"]
 
 #: Perlin lattice cells per pixel: one feature every 16 pixels, about a 64² texton's grain.
 PERLIN_FEATURE = 16.0
@@ -130,44 +129,7 @@ class NaivePerPixel:
 # By-Example Noise using a Histogram-Preserving Blending Operator", HPG 2018, and Deliot &
 # Heitz, "Procedural Stochastic Textures by Tiling and Blending", GPU Zen 2, 2019.
 
-#: Entries of the inverse lookup table (Gaussian → decorrelated value), per channel.
-LUT_SIZE = 4096
 _SQRT3 = np.sqrt(3.0)
-
-
-class HistogramTransform:
-    """The histogram-preserving transform of an example (HPG 2018 §3, GPU Zen 2 §1.3).
-
-    Colours are decorrelated by PCA (the eigenvectors of their covariance); each
-    decorrelated channel is mapped to a standard Gaussian through its empirical
-    CDF (pixel rank r of N → Φ⁻¹((r + ½) / N)), and back through a lookup table of
-    its quantiles at ``lut_size`` evenly spaced probabilities.
-    """
-
-    def __init__(self, u: np.ndarray, lut_size: int = LUT_SIZE):
-        u = np.asarray(u, np.float64)
-        u = u[:, :, None] if u.ndim == 2 else u
-        h, w, c = u.shape
-        flat = u.reshape(-1, c)
-        self.mean = flat.mean(axis=0)
-        _, self.basis = np.linalg.eigh(np.atleast_2d(np.cov(flat, rowvar=False)))  # columns: axes
-        d = (flat - self.mean) @ self.basis
-        n = d.shape[0]
-        order = np.argsort(d, axis=0, kind="stable")  # ties broken by position: deterministic
-        ranks = np.empty_like(order)
-        np.put_along_axis(ranks, order, np.arange(n)[:, None], axis=0)
-        #: the example in the Gaussian space, (H, W, C): every channel N(0, 1) exactly
-        self.gaussian = special.ndtri((ranks + 0.5) / n).reshape(h, w, c)
-        sorted_d = np.take_along_axis(d, order, axis=0)
-        picks = np.minimum(((np.arange(lut_size) + 0.5) / lut_size * n).astype(int), n - 1)
-        self.lut = sorted_d[picks]  # (lut_size, C): the quantile function of each channel
-
-    def inverse(self, g: np.ndarray) -> np.ndarray:
-        """Gaussian values (..., C) back to the example's colours: LUT, then undo the PCA."""
-        size = self.lut.shape[0]
-        pos = special.ndtr(g) * size - 0.5
-        d = np.stack([np.interp(pos[..., k], np.arange(size), self.lut[:, k]) for k in range(g.shape[-1])], -1)
-        return (d @ self.basis.T + self.mean).astype(np.float32)
 
 
 def variance_preserving_blend(values: np.ndarray, weights: np.ndarray, mean: float = 0.0) -> np.ndarray:
@@ -217,7 +179,8 @@ class TilingBlending:
     grid shows the example translated by a random offset (a hash of the vertex and
     the seed); the three patches are blended with the pixel's barycentric weights by
     the variance-preserving operator in the example's Gaussianised space, then mapped
-    back (:class:`HistogramTransform`). Nearest-pixel lookups: a pixel whose weight
+    back (the package's :class:`warp_texton.histogram.HistogramTransform`, which
+    histogram-preserving texton noise uses too). Nearest-pixel lookups: a pixel whose weight
     is 1 for one vertex is that patch's pixel.
 
     ``side`` is the triangles' side in pixels; a vertex's patch is seen up to
@@ -234,10 +197,13 @@ class TilingBlending:
     GPU Zen 2, 2019.
     """
 
-    def __init__(self, u: np.ndarray, *, side: float | None = None, periodic: bool = False,
-                 lut_size: int = LUT_SIZE):
-        self.transform = HistogramTransform(u, lut_size)
-        self.height, self.width = self.transform.gaussian.shape[:2]
+    def __init__(self, u: np.ndarray, *, side: float | None = None, periodic: bool = False):
+        u = np.asarray(u, np.float64)
+        u = u[:, :, None] if u.ndim == 2 else u
+        self.transform = HistogramTransform.fit(u)
+        #: the example in the Gaussian space, (H, W, C)
+        self.gaussian = self.transform.to_gaussian(u)
+        self.height, self.width = self.gaussian.shape[:2]
         small = min(self.height, self.width)
         self.side = float(side if side is not None else small / (2 if periodic else 4))
         # a patch reaches `side` around its centre: non-periodic examples keep it inside
@@ -266,5 +232,6 @@ class TilingBlending:
         rows, cols = np.floor(yy + 0.5 + dy).astype(np.int64), np.floor(xx + 0.5 + dx).astype(np.int64)
         if self.periodic:
             rows, cols = rows % self.height, cols % self.width
-        patches = self.transform.gaussian[rows, cols]  # (3, h, w, C)
-        return self.transform.inverse(variance_preserving_blend(patches, weights))
+        patches = self.gaussian[rows, cols]  # (3, h, w, C)
+        g = variance_preserving_blend(patches, weights)
+        return self.transform.to_colours(g.reshape(-1, g.shape[-1])).reshape(g.shape).astype(np.float32)

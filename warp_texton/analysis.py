@@ -18,6 +18,7 @@ complex128 full-grid version.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import scipy.fft as sfft
@@ -26,6 +27,7 @@ from ._checks import as_image, check_bool, check_int, check_seed
 from .bspline import ORDERS, bhat
 from .errors import TextonError
 from .limits import check_memory, check_work
+from .histogram import HistogramTransform, check_histogram
 from .gaussian import FFT_WORKERS, normalized_kernel, relative_model_error_half
 from .texton import MAX_TEXTON_SIDE, Texton, lag0_covariance
 
@@ -151,6 +153,7 @@ def analyze(
     periodic: bool = True,
     color_correction: bool = True,
     support: str = "square",
+    histogram: str = "gaussian",
     progress: bool = False,
 ) -> Texton:
     """Compute the texton of a Gaussian texture example.
@@ -185,6 +188,14 @@ def analyze(
         covariance equal to the input's (for grey: its variance).
     support : {"square", "disk"}
         Shape of the support S.
+    histogram : {"gaussian", "preserve"}
+        ``"gaussian"``: the noise's values are Gaussian (the papers' model).
+        ``"preserve"``: the example's colours are decorrelated and each
+        channel mapped through its CDF to a Gaussian, that Gaussianised
+        example is analysed, and the texton keeps the inverse map
+        (:class:`~warp_texton.histogram.HistogramTransform`), which every
+        output applies after the noise, so that outputs have the example's
+        colour histogram (docs/histogram.md).
     progress : bool
         Show a progress bar over the iterations.
 
@@ -202,8 +213,8 @@ def analyze(
         {1, 3, 4} (an alpha channel is dropped with a warning), holds NaN or
         infinite values or is constant; a ``size`` outside [2, min(H, W)] or
         above 4096; an ``order`` other than 0, 1, 3, 5; ``iterations`` < 1; a
-        ``seed`` outside [0, 2**32); an unknown ``support``; and an analysis
-        over the memory or work budget (docs/limits.md).
+        ``seed`` outside [0, 2**32); an unknown ``support`` or ``histogram``;
+        and an analysis over the memory or work budget (docs/limits.md).
 
     Notes
     -----
@@ -234,10 +245,18 @@ def analyze(
     color_correction = check_bool(color_correction, "color_correction")
     progress = check_bool(progress, "progress")
     check_support(support)
+    histogram = check_histogram(histogram)
     m, n, c = u.shape
     check_size_fits(size, (m, n), "u")
     check_analysis_cost((m, n), c, iterations, f"analysing a {n}x{m} image")
-    mean, t = normalized_kernel(u, periodic=periodic)
+    transform = None
+    if histogram == "preserve":
+        transform = HistogramTransform.fit(u)
+        z = transform.decorrelate(u).astype(np.float32)
+        mean, t = normalized_kernel(transform.to_gaussian(u).astype(np.float32), periodic=periodic)
+        t = transform.gaussian_kernel(t, normalized_kernel(z, periodic=periodic)[1])
+    else:
+        mean, t = normalized_kernel(u, periodic=periodic)
     t_hat = sfft.rfft2(t, axes=(0, 1), workers=FFT_WORKERS)
     flat = t.reshape(-1, c)
     texton = texton_from_spectrum(
@@ -245,7 +264,10 @@ def analyze(
         covariance=flat.T @ flat if color_correction else None, support=support, progress=progress,
     )
     texton.metadata.update(periodic=bool(periodic))
-    return texton
+    if transform is None:
+        return texton
+    texton.metadata.update(histogram=histogram)
+    return replace(texton, histogram=transform)
 
 
 def texton_from_spectrum(

@@ -31,6 +31,7 @@ import warp as wp
 from ._checks import check_int, check_positive, check_seed
 from ._runtime import progress_bar, resolve_device, split_launch
 from .atlas import CHART_METHODS, check_uvs, make_atlas, mesh_uvs
+from .colours import mean_colour
 from .errors import TextonError
 from .kernels import bake as KB
 from .limits import check_memory
@@ -430,7 +431,7 @@ def bake_mesh(
     values = (sums / (nx * ny)[:, None]).astype(np.float32)
     c = texton.channels
     texture = np.empty((res, res, c), np.float32)
-    texture[:] = np.asarray(texton.mean, np.float32)[:c]
+    texture[:] = mean_colour(texton)
     texture[rows, cols] = values[:, :c]
     out = _textured(vertices, faces, uvs, vnormals, texture, trimesh)
     axis = up_vector(up)

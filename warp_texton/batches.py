@@ -22,7 +22,7 @@ from ._runtime import progress_bar, resolve_device
 from .canvas import Canvas, check_output, group_size, result_bytes
 from .errors import TextonError
 from .filtering import (COST_HINT_NAMES, FILTER_BYTES_PER_PIXEL, FilterOptions, RasterPixels, filter_pixels,
-                        needs_filtering)
+                        needs_filtering, pixel_shares)
 from .limits import check_memory, check_work, work_budget
 from .noise import CELL_FACTOR, NoiseSetup, noise_setup, params_record, params_struct
 from .raster import (RasterWindow, TextonStack, check_method, check_raster_cost, raster_cost, raster_geometry,
@@ -381,10 +381,12 @@ def synthesize_batch(
             pixels = RasterPixels((h, w), win.origin, win.step, win.step)
             filter_pixels(params_struct(win.p), t, win.setup, pixels, options, device, params.item(k)["seed"],
                           out=canvas.pixels(k * h * w, (k + 1) * h * w))
+            if t.histogram is not None:
+                canvas.keep_shares(k * h * w, (k + 1) * h * w, pixel_shares(t, pixels, options))
             bar.update(1)
     finally:
         bar.close()
-    return Batch(canvas.result(channels, output), params)
+    return Batch(canvas.result(channels, output, textons=[textons[int(i)] for i in params.texton]), params)
 
 
 def check_batch_cost(textons: list[Texton], setups: list[NoiseSetup], h: int, w: int, windows: dict, groups: list,

@@ -4,19 +4,25 @@ A :class:`Canvas` is float32 memory of some shape + (3,) that the kernels of
 every path (rasters, filtered pixels, plane views, points) fill through vec3
 views; the front ends cut large outputs into strips of bounded work
 (:func:`strips`) and hand the result over as NumPy or as a ``wp.array``
-(:func:`check_output`, :func:`result_bytes`).
+(:func:`check_output`, :func:`result_bytes`). The hand-over is where the
+textons' histogram transforms map the noise to the examples' colours
+(:func:`~warp_texton.colours.to_colours`), once for every path that writes
+into a canvas.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Literal, overload
 
 import numpy as np
 import warp as wp
 
 from ._runtime import is_cpu
+from .colours import to_colours
 from .errors import TextonError
 from .kernels import noise2d as K
+from .texton import Texton
 
 #: Work of one strip of a large raster (or one group of a batch), in raster
 #: pixels: a few tenths of a second on two cores, so that a progress bar moves
@@ -32,8 +38,12 @@ class Canvas:
     views: NumPy on the CPU (zero pages, touched first by the threads that fill
     them), a ``wp.array`` on a CUDA device.
 
-    ``result(channels, output)`` hands it over as NumPy (``output="numpy"``; a
-    copy from a GPU) or as a ``wp.array`` on the device (``output="warp"``).
+    ``result(channels, output, textons=...)`` hands it over as NumPy
+    (``output="numpy"``; a copy from a GPU) or as a ``wp.array`` on the device
+    (``output="warp"``), after mapping the values of item k (the first axis cut
+    into ``len(textons)`` equal items) through ``textons[k]``'s histogram
+    transform, if it has one; filtered pixels first record the share of the
+    variance they kept (:meth:`keep_shares`).
     """
 
     def __init__(self, shape, device):
@@ -46,6 +56,13 @@ class Canvas:
             self.host = None
             self.data = wp.zeros(self.shape + (3,), dtype=wp.float32, device=device)
         self.size = int(np.prod(self.shape))
+        self.shares: np.ndarray | None = None
+
+    def keep_shares(self, start: int, stop: int, shares) -> None:
+        """Values start…stop kept ``shares`` of the noise's variance (filtered pixels)."""
+        if self.shares is None:
+            self.shares = np.ones(self.size)
+        self.shares[start:stop] = shares
 
     def pixels(self, start: int, stop: int) -> wp.array:
         """Values start…stop (row-major order) as a 1-D vec3 view."""
@@ -57,17 +74,32 @@ class Canvas:
         return wp.array(ptr=self.data.ptr, dtype=wp.vec3, shape=(self.size // width, width), device=self.device)
 
     @overload
-    def result(self, channels: int, output: Literal["numpy"]) -> np.ndarray: ...
+    def result(self, channels: int, output: Literal["numpy"], *,
+               textons: Sequence[Texton | None]) -> np.ndarray: ...
 
     @overload
-    def result(self, channels: int, output: str) -> np.ndarray | wp.array: ...
+    def result(self, channels: int, output: str, *,
+               textons: Sequence[Texton | None]) -> np.ndarray | wp.array: ...
 
-    def result(self, channels: int, output: str) -> np.ndarray | wp.array:
+    def result(self, channels: int, output: str, *,
+               textons: Sequence[Texton | None]) -> np.ndarray | wp.array:
+        if any(t is not None and t.histogram is not None for t in textons):
+            self._to_colours(textons)
         if output == "warp":
             return self.data if channels == 3 else \
                 self.data[(slice(None),) * len(self.shape) + (slice(0, channels),)].contiguous()
         a = self.host if self.host is not None else self.data.numpy()
         return a if channels == 3 else np.ascontiguousarray(a[..., :channels])
+
+    def _to_colours(self, textons) -> None:
+        a = self.host if self.host is not None else self.data.numpy()
+        flat = a.reshape(len(textons), -1, 3)
+        per = flat.shape[1]
+        for k, t in enumerate(textons):
+            share = None if self.shares is None else self.shares[k * per:(k + 1) * per]
+            to_colours(flat[k], t, share)
+        if self.host is None:
+            self.data.assign(a)  # mapped on the host: one upload
 
 
 def fill_pixels(out, index: np.ndarray, mean, device, compute) -> None:

@@ -34,11 +34,14 @@ def _analyze(args) -> None:
     out = Path(args.output)
     if out.suffix.lower() not in (".exr", ".texton"):
         raise TextonError(f"{out}: unsupported texton extension {out.suffix or '(none)'!r}; use .exr or .texton")
+    if args.histogram == "preserve" and out.suffix.lower() == ".texton":
+        raise TextonError(f"{out}: the .texton format cannot hold a histogram transform; save it as .exr",
+                          param="histogram")
     u = read_example(args.input, args.iterations)
     t0 = time.perf_counter()
     texton = analyze(u, size=args.size, order=args.order, iterations=args.iterations, seed=args.seed,
                      periodic=args.periodic, color_correction=args.color_correction,
-                     support=args.support, progress=not args.quiet)
+                     support=args.support, histogram=args.histogram, progress=not args.quiet)
     texton.metadata["source"] = Path(args.input).name
     texton.save(out)
     if not args.quiet:
@@ -54,6 +57,7 @@ ANALYZE = Command(
     epilog="""examples:
   warp-texton analyze wood.png -o wood.exr
   warp-texton analyze wood.png -o wood.texton --size 32 --order 1
+  warp-texton analyze grass.png -o grass.exr --histogram preserve
 """)
 
 
@@ -256,6 +260,20 @@ def _load_texture(path):
     return load_texton(path) if is_texton_path(path) else read_image(path)
 
 
+def _mix_input(args, path):
+    """A texture of ``mix``: an image, or with --histogram preserve its histogram-preserving texton."""
+    import numpy as np
+
+    x = _load_texture(path)
+    if args.histogram == "gaussian" or not isinstance(x, np.ndarray):
+        return x
+    from .analysis import analyze
+
+    return analyze(x, size=args.size, order=args.order, iterations=args.iterations, seed=args.seed,
+                   periodic=args.periodic, color_correction=args.color_correction, support=args.support,
+                   histogram="preserve")
+
+
 def _mix_weights(args):
     """(weights, shape): the --map's grey values and its shape, or strips."""
     from .io import read_image
@@ -297,7 +315,7 @@ def _mix(args) -> None:
                  "use fewer --steps or a smaller --size", param="steps", mentions=("size",))
     weights, shape = _mix_weights(args)
     t0 = time.perf_counter()
-    textons = mix_textons(_load_texture(args.a), _load_texture(args.b), np.linspace(0.0, 1.0, args.steps),
+    textons = mix_textons(_mix_input(args, args.a), _mix_input(args, args.b), np.linspace(0.0, 1.0, args.steps),
                           size=args.size, order=args.order, seed=args.seed, iterations=args.iterations,
                           periodic=args.periodic, color_correction=args.color_correction,
                           support=args.support, progress=not args.quiet)

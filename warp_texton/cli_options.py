@@ -55,7 +55,7 @@ class Command:
 # ------------------------------------------------------------------ option groups
 #: The options of the analysis of an example image, by the argument they set.
 ANALYSIS_NAMES = {"size": "--size", "order": "--order", "iterations": "--iterations", "seed": "--seed",
-                  "support": "--support"}
+                  "support": "--support", "histogram": "--histogram"}
 
 
 def add_analysis_options(p: argparse.ArgumentParser, seed: bool = True) -> None:
@@ -71,6 +71,8 @@ def add_analysis_options(p: argparse.ArgumentParser, seed: bool = True) -> None:
                    help="analyse the image itself, not its periodic component")
     g.add_argument("--no-color-correction", dest="color_correction", action="store_false",
                    help="skip the colour-covariance correction")
+    g.add_argument("--histogram", choices=("gaussian", "preserve"), default="gaussian",
+                   help="preserve: keep the example's colour histogram (a transform the texton carries; EXR only)")
 
 
 #: The size of an output raster, by the argument it sets.
@@ -191,7 +193,7 @@ def texton_of(args, path=None):
         return load_texton(path)
     return analyze(read_example(path, args.iterations), size=args.size, order=args.order, iterations=args.iterations,
                    seed=args.seed, periodic=args.periodic, color_correction=args.color_correction,
-                   support=args.support, progress=not args.quiet)
+                   support=args.support, histogram=args.histogram, progress=not args.quiet)
 
 
 def seconds_since(t0: float) -> str:

@@ -252,7 +252,8 @@ def _token(plan: _Plan) -> str:
     from dask.base import tokenize
 
     t = plan.texton
-    return tokenize(t.coeffs, t.mean, t.order, plan.shape, plan.chunks, repr(sorted(plan.options.items())))
+    colours = () if t.histogram is None else (t.histogram.matrix, t.histogram.centre, t.histogram.lut)
+    return tokenize(t.coeffs, t.mean, t.order, *colours, plan.shape, plan.chunks, repr(sorted(plan.options.items())))
 
 
 # --------------------------------------------------------------------- Zarr

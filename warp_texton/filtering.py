@@ -36,6 +36,7 @@ from .filter_options import (FADE_ENERGY, FILTERS, LOD_BIAS, MAX_ANISO, MAX_LOD_
 from .kernels import filter2d as F
 from .kernels.noise2d import PAD
 from .limits import check_memory, check_work
+from .colours import footprint_shares
 from .noise import NoiseSetup, cell_limit, params_mean, point_values, support_reach, visits_per_point, walk_cost
 from .texton import Texton, lag0_covariance
 
@@ -493,6 +494,21 @@ def filter_pixels(p, texton: Texton, setup: NoiseSetup, pixels: PixelSet, option
     if not options.spec.footprint:
         return point_values(p, setup.coeffs, pixels.centres(0, pixels.count), device, out)
     return filtered_points(p, texton, pixels, options, device, out)
+
+
+def pixel_shares(texton: Texton, pixels: PixelSet, options: FilterOptions) -> np.ndarray:
+    """(pixels.count,) shares of the noise's variance that the pixels keep filtered as
+    ``options`` say (:func:`~warp_texton.colours.footprint_shares`), for the texton's
+    histogram transform. Within the last kept MIP level the filters fade the noise to
+    its mean, and past it they return the mean: the shares fade with them."""
+    J = pixels.footprints(0, pixels.count)
+    shares = footprint_shares(texton, J, options)
+    if options.spec.footprint:
+        lod = np.maximum(footprint_levels(J, options)[1], 0.0)
+        with np.errstate(invalid="ignore"):
+            shares = shares * np.clip(kept_levels(texton, fade_energy=options.fade_energy) - lod, 0.0, 1.0) ** 2
+    return np.broadcast_to(shares, (pixels.count,))
+
 
 
 def filter_struct(options: FilterOptions) -> F.Filter:

@@ -9,9 +9,19 @@ neighbouring textons. Spatially varying noise then lets each impact take the
 texton of the region it falls in, with a random sign ε = ±1 so that textons of
 non-zero sum add no mean (a marked Poisson process); the mean colour is
 interpolated per pixel.
+
+Histogram-preserving textons (docs/histogram.md, "Mixing") mix in their
+Gaussian space: the Gaussian models mix as above, and the colour map of ρ is
+the displacement interpolation of the two examples' marginals, the lookup
+tables (quantile functions) and centres interpolated linearly, which needs the
+two transforms to share their colour axes (grey textures always do). Mixed
+noise maps each pixel through the colour maps of its neighbouring textons,
+weighted as its mean is.
 """
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 import scipy.fft as sfft
@@ -24,6 +34,8 @@ from .bspline import ORDERS
 from .errors import TextonError
 from .limits import check_memory
 from .gaussian import FFT_WORKERS, normalized_kernel
+from .histogram import HistogramTransform
+from .colours import noise_moments
 from .noise import noise_setup, padded_coeffs, params_record
 from .raster import Regions, raster, raster_geometry
 from .texton import MAX_TEXTON_SIDE, Texton
@@ -196,7 +208,10 @@ def mix_textons(
         texton larger than the other image; an image that is not a numeric
         (H, W[, C]) array with C in {1, 3, 4} (an alpha channel is dropped
         with a warning), holds NaN or infinite values, or is constant. The
-        message names ``u`` or ``v``.
+        message names ``u`` or ``v``. Also, when one input is a texton with a
+        histogram transform, an other input that is not one, and two
+        transforms whose colour axes differ (their lookup tables cannot be
+        interpolated channel by channel).
 
     Notes
     -----
@@ -236,8 +251,17 @@ def mix_textons(
     >>> half = mix_textons(textons[0], rgb, 0.5, size=32, iterations=30)[0]
     >>> half.channels, half.metadata["rho"]
     (3, 0.5)
+
+    Two histogram-preserving textons mix their colour maps too (the lookup
+    tables interpolated: ρ = ½ has the quantiles halfway between):
+
+    >>> a, b = analyze(u, size=32, histogram="preserve"), analyze(v, size=32, histogram="preserve")
+    >>> mid = mix_textons(a, b, [0.5], size=32, iterations=30)[0]
+    >>> bool(np.allclose(mid.histogram.lut, (a.histogram.lut + b.histogram.lut) / 2))
+    True
     """
     size = check_int(size, "size", minimum=2, maximum=MAX_TEXTON_SIDE)
+    transforms = _mixed_transforms(u, v)
     rhos = _check_rhos(rhos, size)
     order = check_int(order, "order", choices=ORDERS)
     iterations = check_int(iterations, "iterations", minimum=1)
@@ -280,8 +304,31 @@ def mix_textons(
         texton = texton_from_spectrum(tau_hat, grid[1], (1.0 - rho) * mu + rho * mv, size, order,
                                       iterations, seed, covariance=cov, support=support)
         texton.metadata.update(rho=rho, periodic=bool(periodic))
+        if transforms is not None:
+            tu, tv = transforms
+            texton = replace(texton, histogram=HistogramTransform(
+                tu.matrix, (1.0 - rho) * tu.centre + rho * tv.centre, (1.0 - rho) * tu.lut + rho * tv.lut))
         out.append(texton)
     return out
+
+
+def _mixed_transforms(u, v) -> tuple[HistogramTransform, HistogramTransform] | None:
+    """The histogram transforms of u and v, which mix when both have one on the same colour axes."""
+    tr = [x.histogram if isinstance(x, Texton) else None for x in (u, v)]
+    if tr[0] is None and tr[1] is None:
+        return None
+    if tr[0] is None or tr[1] is None:
+        name = "u" if tr[0] is None else "v"
+        raise TextonError(f"{name}: mixing a histogram-preserving texton needs another one: give {name} as a texton "
+                          "from analyze(..., histogram='preserve'), or mix textons without histogram transforms",
+                          param=name)
+    a, b = tr[0], tr[1]
+    assert a is not None and b is not None
+    if a.channels != b.channels or a.lut.shape != b.lut.shape or not np.allclose(a.matrix, b.matrix, atol=1e-6):
+        raise TextonError("u, v: their histogram transforms have different colour axes (PCA), so their lookup "
+                          "tables cannot be interpolated channel by channel; mix grey textures, textures of the "
+                          "same colour axes, or textons without histogram transforms", param="u")
+    return a, b
 
 
 def _check_textons(textons) -> list[Texton]:
@@ -293,6 +340,9 @@ def _check_textons(textons) -> list[Texton]:
         raise TextonError("textons must be a sequence of Texton") from None
     if not textons or not all(isinstance(t, Texton) for t in textons):
         raise TextonError("textons must be a non-empty sequence of Texton")
+    if len({t.histogram is None for t in textons}) > 1:
+        raise TextonError("textons: some have a histogram transform and some do not; mixed noise needs all or "
+                          "none of them histogram-preserving", param="textons")
     first = textons[0]
     for k, t in enumerate(textons[1:], 1):
         if (t.size, t.order, t.channels) != (first.size, first.order, first.channels):
@@ -383,8 +433,8 @@ def synthesize_mixed(
     ------
     TextonError
         For ``textons`` that is empty, holds something other than
-        Textons, or mixes sizes, orders or channel counts (one
-        texton alone is accepted; one whose coefficients are all zero gives
+        Textons, or mixes sizes, orders or channel counts, or textons
+        with and without histogram transforms (one texton alone is accepted; one whose coefficients are all zero gives
         its regions the mean alone); ``weights`` that is neither "strips" nor
         a map of the raster's shape ((H, W) or (H, W, 1)) with finite values
         in [0, 1]; and the ``shape``, ``mni``, ``seed``, ``scale``,
@@ -441,9 +491,30 @@ def synthesize_mixed(
     means = np.stack([t.mean for t in textons]).astype(np.float64)  # (R, C)
     knots = np.linspace(0.0, 1.0, len(textons)) if len(textons) > 1 else np.zeros(1)
     out = out[:, :, :c]
+    if textons[0].histogram is not None:
+        return _mixed_colours(out, textons, knots, (np.arange(w) + 0.5) / w if rho is None else rho)
     for ch in range(c):
         if rho is None:  # strips: the mean depends on the column only
             out[:, :, ch] += np.interp((np.arange(w) + 0.5) / w, knots, means[:, ch]).astype(np.float32)[None, :]
         else:
             out[:, :, ch] += np.interp(rho, knots, means[:, ch]).astype(np.float32)
     return np.ascontiguousarray(out)
+
+
+def _mixed_colours(noise: np.ndarray, textons: list[Texton], knots: np.ndarray, rho: np.ndarray) -> np.ndarray:
+    """Colours of mean-free mixed noise (H, W, C): each pixel standardised by the
+    interpolated standard deviation and mapped through its neighbouring textons'
+    colour maps, with the weights that interpolate the mean at its ρ (an (H, W)
+    map, or the (W,) columns of strips)."""
+    h, w, c = noise.shape
+    rho = np.broadcast_to(rho, (h, w)).ravel()
+    weights = np.stack([np.interp(rho, knots, np.eye(len(textons))[k]) for k in range(len(textons))])
+    stds = np.stack([noise_moments(t)[1] for t in textons])  # (R, C)
+    g = noise.reshape(-1, c) / (weights.T @ stds)
+    out = np.zeros((h * w, c))
+    for k, t in enumerate(textons):
+        near = np.flatnonzero(weights[k] > 0)
+        if near.size:
+            assert t.histogram is not None
+            out[near] += weights[k, near, None] * t.histogram.to_colours(g[near])
+    return out.reshape(h, w, c).astype(np.float32)

@@ -15,8 +15,10 @@ import numpy as np
 from ._checks import check_positive, check_real, check_seed, check_shape
 from ._runtime import progress_bar, resolve_device
 from .canvas import Canvas, check_output, fill_pixels, result_bytes, strips
+from .colours import to_colours
 from .errors import TextonError
-from .filtering import COST_SAMPLES, FilterOptions, PixelSet, check_filter_cost, filter_pixels, pixel_cost
+from .filtering import (COST_SAMPLES, FilterOptions, PixelSet, check_filter_cost, filter_pixels, pixel_cost,
+                        pixel_shares)
 from .limits import check_memory
 from .noise import cell_limit, noise_params, noise_setup, params_mean
 from .texton import Texton
@@ -321,12 +323,14 @@ def render_plane(
     bar = progress_bar(progress and len(parts) > 1, h, "render-plane", "row")
     try:
         for r0, r1 in parts:
-            _fill_plane_pixels(p, texton, setup, camera, np.arange(r0 * w, r1 * w), options, device, seed,
-                               progress and len(parts) == 1, canvas.pixels(r0 * w, r1 * w))
+            shares = _fill_plane_pixels(p, texton, setup, camera, np.arange(r0 * w, r1 * w), options, device, seed,
+                                        progress and len(parts) == 1, canvas.pixels(r0 * w, r1 * w))
+            if shares is not None:
+                canvas.keep_shares(r0 * w, r1 * w, shares)
             bar.update(r1 - r0)
     finally:
         bar.close()
-    return canvas.result(texton.channels, output)
+    return canvas.result(texton.channels, output, textons=[texton])
 
 
 def plane_pixels(texton: Texton, camera: PlaneCamera, pixels, *, mni: float = 30.0, seed: int = 0, device=None,
@@ -406,32 +410,43 @@ def plane_pixels(texton: Texton, camera: PlaneCamera, pixels, *, mni: float = 30
     count = h * w if keys is None else keys.size
     check_plane_cost(texton, setup, camera, keys, options)  # the budgets, before the per-pixel arrays
     keys = np.arange(count) if keys is None else keys
-    if out is not None:
-        _fill_plane_pixels(p, texton, setup, camera, keys, options, device, seed, progress, out)
-        return None
-    values = np.empty((keys.size, 3), np.float32)
-    _fill_plane_pixels(p, texton, setup, camera, keys, options, device, seed, progress, values)
-    return values[:, : texton.channels]
+    values = np.empty((keys.size, 3), np.float32) if out is None else out
+    shares = _fill_plane_pixels(p, texton, setup, camera, keys, options, device, seed, progress, values)
+    if shares is not None:  # the pixels' colours, as render_plane hands them over
+        host = values if isinstance(values, np.ndarray) else values.numpy()
+        to_colours(host, texton, shares)
+        if not isinstance(values, np.ndarray):
+            values.assign(host)
+    return None if out is not None else values[:, : texton.channels]
 
 
 def _fill_plane_pixels(p, texton: Texton, setup, camera: PlaneCamera, keys: np.ndarray, options: FilterOptions,
-                       device, seed: int, progress: bool, out) -> None:
+                       device, seed: int, progress: bool, out) -> np.ndarray | None:
     """Write the values of the flat pixel indices ``keys`` of ``camera``'s view into ``out``
     (an (N, 3) float32 NumPy array or wp.array of vec3), every argument checked and the
-    budgets priced by the caller: render_plane once for the whole view, plane_pixels per call."""
+    budgets priced by the caller: render_plane once for the whole view, plane_pixels per call.
+
+    Returns the shares of the variance the pixels kept (0 where they see the mean)
+    for a texton with a histogram transform, else None."""
     ii, jj = np.divmod(keys, camera.shape[1])
     centre = camera.texels(ii + 0.5, jj + 0.5)
     # positions whose cells the kernels could not index see the mean
     limit = cell_limit(setup)
     hit = np.isfinite(centre).all(axis=1) & (np.abs(centre) < limit).all(axis=1)
     idx = np.flatnonzero(hit)
-    seen = PlanePixels(camera, keys[idx], np.ascontiguousarray(centre[idx]), options.spec.footprint)
+    preserve = texton.histogram is not None
+    seen = PlanePixels(camera, keys[idx], np.ascontiguousarray(centre[idx]), options.spec.footprint or preserve)
     if isinstance(out, np.ndarray):
         out[:] = params_mean(p)
         out[idx] = filter_pixels(p, texton, setup, seen, options, device, seed, progress)
     else:
         fill_pixels(out, idx, params_mean(p), device,
                     lambda target: filter_pixels(p, texton, setup, seen, options, device, seed, progress, target))
+    if not preserve:
+        return None
+    shares = np.zeros(keys.size)
+    shares[idx] = pixel_shares(texton, seen, options)
+    return shares
 
 
 def check_plane_cost(texton: Texton, setup, camera: PlaneCamera, keys, options: FilterOptions) -> None:

@@ -370,4 +370,4 @@ def raster(p: np.ndarray, setup: NoiseSetup, coeffs: np.ndarray, order: int, sha
     check_raster_cost(nbytes + 2 * VEC3_BYTES * h * w, work, what)
     canvas = Canvas(shape, device)
     rasters([win], stack, shape, device, method, canvas.rows(w), regions, blocks)
-    return canvas.result(3, "numpy")
+    return canvas.result(3, "numpy", textons=[None])  # mixed values: the caller adds the means

@@ -32,6 +32,7 @@ import warp as wp
 from ._checks import check_positive, check_seed
 from ._runtime import map_points, resolve_device, split_launch
 from .blocks import gather_blocks, sort_into_blocks
+from .colours import to_colours
 from .errors import TextonError
 from .frames import UP, as_points, check_lengths, frame_rule, unit_rows
 from .kernels import surface as K
@@ -88,6 +89,7 @@ class SurfaceSetup:
     coeffs: np.ndarray
     lo: tuple[float, float]  # texton support box, texton coordinates
     hi: tuple[float, float]
+    texton: Texton | None = None  # whose histogram transform maps the values (evaluate_points)
 
 
 def surface_setup(texton: Texton, mni: float, cell_factor: float = CELL_FACTOR) -> SurfaceSetup:
@@ -101,7 +103,7 @@ def surface_setup(texton: Texton, mni: float, cell_factor: float = CELL_FACTOR) 
                           f"(at most {MAX_CUBES_PER_POINT})")
     if lam * cell ** 3 > MAX_CELL_MEAN:
         raise TextonError(f"cell_factor {cell_factor:g} is too large: cells would hold {lam * cell ** 3:.3g} impacts")
-    return SurfaceSetup(r, lam, cell, base.coeffs, base.lo, base.hi)
+    return SurfaceSetup(r, lam, cell, base.coeffs, base.lo, base.hi, texton)
 
 
 def surface_visits(setup: SurfaceSetup) -> float:
@@ -380,7 +382,16 @@ def surface_noise(
 def evaluate_points(p: K.SurfaceParams, setup: SurfaceSetup, pos: np.ndarray, nrm: np.ndarray, tan, device,
                     method: str = "auto") -> np.ndarray:
     """(N, 3) float32 surface noise at checked float64 texel positions with unit
-    normals (and unit tangents, or None for the frame rule)."""
+    normals (and unit tangents, or None for the frame rule), mapped through the
+    texton's histogram transform when it has one: every surface output (points,
+    meshes, bakes, renders) gets its values here."""
+    values = _surface_values(p, setup, pos, nrm, tan, device, method)
+    to_colours(values, setup.texton)
+    return values
+
+
+def _surface_values(p: K.SurfaceParams, setup: SurfaceSetup, pos: np.ndarray, nrm: np.ndarray, tan, device,
+                    method: str) -> np.ndarray:
     n = pos.shape[0]
     if n == 0:
         return np.zeros((0, 3), np.float32)

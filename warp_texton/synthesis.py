@@ -25,7 +25,7 @@ from ._runtime import progress_bar, resolve_device
 from .canvas import Canvas, check_output, result_bytes, strips
 from .errors import TextonError
 from .filtering import (COST_HINT_NAMES, COST_SAMPLES, FILTER_BYTES_PER_PIXEL, FilterOptions, RasterPixels,
-                        check_jacobian, filter_pixels, filter_work, needs_filtering, pixel_cost)
+                        check_jacobian, filter_pixels, filter_work, needs_filtering, pixel_cost, pixel_shares)
 from .noise import (CELL_FACTOR, NoiseSetup, check_cell_range, check_points_cost, noise_params, noise_setup,
                     params_record, params_struct, point_values)
 from .raster import (RasterWindow, TextonStack, check_method, check_raster_cost, raster_cost, raster_geometry,
@@ -352,13 +352,15 @@ def synthesize(
                 fp = J if J.ndim == 2 else J[r0:r1]
                 pixels = RasterPixels((r1 - r0, w), origin, step, fp, first=at)
                 filter_pixels(p, texton, setup, pixels, options, device, seed, out=canvas.pixels(r0 * w, r1 * w))
+                if texton.histogram is not None:
+                    canvas.keep_shares(r0 * w, r1 * w, pixel_shares(texton, pixels, options))
             else:
                 win = RasterWindow(p, setup, 0, texton.order, origin, step, at, float(scale))
                 rasters([win], stack, (r1 - r0, w), device, method, rows[r0:r1], blocks=blocks)
             bar.update(r1 - r0)
     finally:
         bar.close()
-    return canvas.result(texton.channels, output)
+    return canvas.result(texton.channels, output, textons=[texton])
 
 
 def evaluate(
@@ -463,7 +465,7 @@ def evaluate(
     canvas = Canvas((n,), device)
     if n:
         point_values(p, setup.coeffs, np.ascontiguousarray(pts), device, canvas.pixels(0, n))
-    return canvas.result(texton.channels, output)
+    return canvas.result(texton.channels, output, textons=[texton])
 
 
 def filtered_work(texton: Texton, setup: NoiseSetup, J: np.ndarray, options: FilterOptions, count: int) -> float:

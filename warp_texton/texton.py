@@ -15,6 +15,7 @@ import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import scipy.ndimage as ndi
@@ -23,6 +24,7 @@ from ._version import __version__
 from ._checks import CHANNELS, MAX_VALUE, as_real_array, check_path, check_range, check_shape
 from .bspline import ORDERS, kernel_width, sampled_autocorrelation
 from .errors import TextonError
+from .histogram import HistogramTransform
 from .limits import check_memory
 from .io import EXR, atomic_path, check_output_name, is_texton_header, read_exr, read_exr_header, write_exr
 
@@ -51,6 +53,11 @@ class Texton:
     metadata : dict
         Provenance (source image, analysis parameters, model error...); any
         JSON-serialisable values, with string keys.
+    histogram : HistogramTransform, optional
+        The map from the noise's Gaussian values to the example's colours
+        (``analyze(..., histogram="preserve")``); every output applies it
+        after the noise (docs/histogram.md). None: the noise's values are
+        the output.
 
     Raises
     ------
@@ -58,7 +65,9 @@ class Texton:
         For coefficients or means that are not numbers, not finite or beyond
         ±10¹⁰; coefficient shapes other than (r, s) or (r, s, 1|3); sides
         above 4096; a mean of another channel count; an order other than 0,
-        1, 3, 5; and metadata that is not a dict with string keys.
+        1, 3, 5; metadata that is not a dict with string keys; and a
+        ``histogram`` that is not a HistogramTransform of the texton's
+        channel count.
 
     See Also
     --------
@@ -87,6 +96,7 @@ class Texton:
     mean: np.ndarray
     order: int = 1
     metadata: dict = field(default_factory=dict)
+    histogram: HistogramTransform | None = None
 
     def __post_init__(self):
         a = as_real_array(self.coeffs, "texton coefficients", "an array (r, s) or (r, s, C) of numbers")
@@ -113,6 +123,10 @@ class Texton:
             raise TextonError(f"texton order must be one of {', '.join(map(str, ORDERS))}, got {self.order!r:.60}")
         if not isinstance(self.metadata, Mapping) or not all(isinstance(k, str) for k in self.metadata):
             raise TextonError(f"texton metadata must be a dict with string keys, got {self.metadata!r:.80}")
+        if self.histogram is not None and (not isinstance(self.histogram, HistogramTransform)
+                                           or self.histogram.channels != a.shape[2]):
+            raise TextonError(f"texton histogram must be a HistogramTransform of {a.shape[2]} channels or None, "
+                              f"got {self.histogram!r:.60}", param="histogram")
         a.setflags(write=False)
         m.setflags(write=False)
         object.__setattr__(self, "coeffs", a)
@@ -182,29 +196,36 @@ class Texton:
     def save(self, path) -> None:
         """Write the texton to ``.exr`` or ``.texton`` (by extension), atomically.
 
-        The EXR holds the coefficients as float32 with the order, mean and
-        metadata in its header, exactly; ``.texton`` is the text format of the
-        authors' viewer (9 significant digits). NumPy values in ``metadata``
-        are stored as Python ones.
+        The EXR holds the coefficients as float32 with the order, mean,
+        metadata and histogram transform in its header, exactly; ``.texton``
+        is the text format of the authors' viewer (9 significant digits),
+        which has no place for a histogram transform. NumPy values in
+        ``metadata`` are stored as Python ones.
 
         Raises
         ------
         TextonError
-            For another extension, a path that cannot be written, and metadata
-            values JSON cannot hold (naming their key).
+            For another extension, a path that cannot be written, metadata
+            values JSON cannot hold (naming their key), and a texton with a
+            histogram transform saved as ``.texton``.
         """
         path = check_output_name(path, "path")
         ext = path.suffix.lower()
         if ext == EXR:
-            write_exr(
-                path,
-                self.coeffs,
+            attributes: dict[str, Any] = dict(
                 texton_version=EXR_TEXTON_VERSION,
                 texton_order=self.order,
                 texton_mean=[float(v) for v in self.mean],
                 texton_metadata=metadata_json({**self.metadata, "warp_texton": __version__}),
             )
+            if self.histogram is not None:  # JSON: float64 values round-trip exactly
+                attributes["texton_histogram"] = self.histogram.to_json()
+            write_exr(path, self.coeffs, **attributes)
         elif ext == TEXTON_EXT:
+            if self.histogram is not None:
+                # the reference viewer would read the file and show Gaussian noise: a wrong texture
+                raise TextonError(f"{path}: the .texton format cannot hold a histogram transform (the authors' "
+                                  "viewer would show the Gaussian noise); save it as .exr", param="path")
             text = _format_texton_text(self)
             with atomic_path(path) as tmp:
                 Path(tmp).write_text(text, encoding="ascii")
@@ -213,7 +234,9 @@ class Texton:
 
     def __repr__(self) -> str:
         r, s = self.size
-        return f"Texton({r}x{s}, channels={self.channels}, order={self.order}, mean={[round(float(v), 4) for v in self.mean]})"
+        extra = "" if self.histogram is None else ", histogram=preserve"
+        return (f"Texton({r}x{s}, channels={self.channels}, order={self.order}, "
+                f"mean={[round(float(v), 4) for v in self.mean]}{extra})")
 
 
 def _json_value(value):
@@ -354,10 +377,10 @@ def _parse_texton_text(path: Path) -> Texton:
     return _checked_texton(path, a, mean, order, metadata)
 
 
-def _checked_texton(path: Path, coeffs, mean, order, metadata) -> Texton:
+def _checked_texton(path: Path, coeffs, mean, order, metadata, histogram=None) -> Texton:
     # values a Texton refuses (beyond MAX_VALUE, say) are a malformed file, named as such
     try:
-        return Texton(coeffs, mean, order, metadata)
+        return Texton(coeffs, mean, order, metadata, histogram)
     except TextonError as exc:
         raise TextonError(f"{path}: malformed texton file: {exc}") from None
 
@@ -392,7 +415,10 @@ def _load_exr_texton(path: Path) -> Texton:
         metadata = _parse_metadata(path, raw)
         if not isinstance(metadata, dict):
             raise TextonError(f"{path}: malformed texton EXR: metadata is not a JSON object")
-    return _checked_texton(path, coeffs, mean, order, metadata)
+    histogram = None
+    if "texton_histogram" in header:
+        histogram = HistogramTransform.from_json(header["texton_histogram"], f"{path}")
+    return _checked_texton(path, coeffs, mean, order, metadata, histogram)
 
 
 #: Bounds of a texton file's metadata (JSON): characters, and nesting depth

@@ -74,7 +74,9 @@ def _is_texton_file(path: Path) -> bool:
 def load_source(input, what: str = "input") -> Source:
     """A Source from a path (texton file or image) or a Texton."""
     if isinstance(input, Texton):
-        return Source("texton", None, None, input, digest(input.coeffs.tobytes(), input.mean.tobytes(), input.order))
+        colours = () if input.histogram is None else (input.histogram.to_json().encode(),)
+        return Source("texton", None, None, input,
+                      digest(input.coeffs.tobytes(), input.mean.tobytes(), input.order, *colours))
     if not isinstance(input, (str, os.PathLike)):
         raise TextonError(f"{what} must be the path of an image or texton file, or a Texton, "
                           f"got {type(input).__name__}", param=what)
