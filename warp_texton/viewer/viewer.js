@@ -1,4 +1,5 @@
-// warp-texton view: an infinite canvas of texton noise, cut into tiles the server computes.
+// warp-texton view: an infinite canvas of texton noise, cut into tiles the server computes, or
+// drawn by the page itself with WebGL2 (viewer_webgl.js) where the browser offers it.
 //
 // View coordinates u are texels before the rotation; the noise shown at u is the
 // noise at R(rotation) u. At tile level z (2**z pixels per texel) tile (x, y) holds
@@ -13,10 +14,17 @@
   const ctx = canvas.getContext("2d", { alpha: false });
   const TILE = 256;
   const MAX_BITMAPS = 600;
+  const glCanvas = $("canvas-gl");
+  // ?render=webgl|tiles forces a mode; auto (the default): WebGL2 where the browser has it on a
+  // GPU. A software rasterizer draws the per-pixel shader far slower than the server's kernels,
+  // which draw each impact once per tile (docs/viewer.md has the measured frame times).
+  const RENDER = new URLSearchParams(location.search).get("render") || "auto";
+  const SOFTWARE = /SwiftShader|llvmpipe|softpipe|software|Basic Render/i;
 
   const state = {
     info: null,
     mode: "noise",
+    render: "tiles",  // "webgl": the page draws the noise mode itself; "tiles": the server does
     seed: 0, mni: 30, rot: 0, filter: "anisotropic",
     size: 64, order: 1, cc: true,
     zoom: 0,          // log2 of CSS pixels per texel
@@ -151,6 +159,70 @@
   let pending = 0, frameRequested = false, previousBase = null, planeURL = null;
   const idleWaiters = [];
 
+  // ------------------------------------------------------------- WebGL2
+  let gl = null;              // the overlay canvas's context {gl, renderer, floatTargets}, where WebGL2 is
+  let glr = null;             // the renderer of one analysis: ViewerGL.create(...) plus its key
+  let glLoading = null;       // the analysis whose texton is being fetched
+  const glFailed = new Map(); // analysis -> why WebGL does not draw it (tiles do)
+
+  const analysisKey = () => query({ src: state.info.src, ...analysisParams() });
+  const glView = () => ({ width: canvas.width, height: canvas.height, scale: scale(), rot: state.rot,
+                          left: state.left, top: state.top });
+  const glUniforms = () => (glr ? ViewerGL.noiseUniforms(glr.payload, state.mni, state.seed, state.filter) : null);
+  // WebGL draws the noise mode; the ground plane, mixing and settings the shader refuses are tiles
+  function usingGL() {
+    if (state.render !== "webgl" || gl === null || state.mode !== "noise") return false;
+    const key = analysisKey();
+    return !glFailed.has(key) && (glr === null || glr.key !== key || glUniforms() !== null);
+  }
+  function initGL() {
+    const select = $("render");
+    if (RENDER !== "tiles") {
+      try { gl = ViewerGL.context(glCanvas); } catch (e) { gl = null; }
+    }
+    select.querySelector("option[value=webgl]").disabled = gl === null;
+    const software = gl !== null && SOFTWARE.test(gl.renderer);
+    state.render = gl !== null && (RENDER === "webgl" || (RENDER === "auto" && !software)) ? "webgl" : "tiles";
+    select.value = state.render;
+    $("render-note").textContent = gl ? `WebGL2: ${gl.renderer}` + (software ? " (software: slower than tiles)" : "") :
+      RENDER === "tiles" ? "" : "WebGL2 is not available here: the server draws tiles.";
+  }
+  // Fetch the texton of an analysis once; the next frames draw it.
+  function loadShader(key) {
+    if (glLoading === key) return;
+    glLoading = key;
+    fetch(`/api/shader?${key}`)
+      .then(async (r) => {
+        if (!r.ok) throw new Error((await r.text()).trim() || `HTTP ${r.status}`);
+        return r.json();
+      })
+      .then((payload) => {
+        if (glLoading !== key) return;
+        const made = ViewerGL.create(gl.gl, payload);
+        if (glr) glr.dispose();
+        glr = Object.assign(made, { key });
+      })
+      .catch((e) => { if (glLoading === key) glFailed.set(key, e.message); })
+      .finally(() => { if (glLoading === key) glLoading = null; requestFrame(); });
+  }
+  function drawGL() {
+    message(null);
+    dropStale(new Set());
+    const key = analysisKey();
+    if (!glr || glr.key !== key) {  // the last frame stays on the canvas meanwhile
+      pending = 1;
+      loadShader(key);
+      return;
+    }
+    pending = 0;
+    if (glCanvas.width !== canvas.width || glCanvas.height !== canvas.height) {
+      glCanvas.width = canvas.width;
+      glCanvas.height = canvas.height;
+    }
+    glr.draw(glUniforms(), glView());
+    glCanvas.hidden = false;
+  }
+
   function changed() { requestFrame(); }
   function requestFrame() {
     if (!frameRequested) { frameRequested = true; requestAnimationFrame(draw); }
@@ -158,9 +230,14 @@
   function draw() {
     frameRequested = false;
     if (!state.info) return;
-    ctx.fillStyle = "#202225";
-    ctx.fillRect(0, 0, canvas.width, canvas.height);
-    if (state.mode === "plane") drawPlane(); else drawTiles();
+    if (usingGL()) {
+      drawGL();
+    } else {
+      glCanvas.hidden = true;
+      ctx.fillStyle = "#202225";
+      ctx.fillRect(0, 0, canvas.width, canvas.height);
+      if (state.mode === "plane") drawPlane(); else drawTiles();
+    }
     hud();
     if (pending === 0) while (idleWaiters.length) idleWaiters.shift()();
   }
@@ -270,10 +347,15 @@
     } else {
       const [cx, cy] = rotate(state.mode === "mix" ? 0 : state.rot, centre());
       const s = scale() / dpr();
-      text = `${s >= 1 ? s.toFixed(2) + " px/texel" : (1 / s).toFixed(2) + " texels/px"} · level ${level()}` +
-             ` · centre (${cx.toFixed(1)}, ${cy.toFixed(1)})` + (pending ? ` · ${pending} tiles to load` : "");
+      const glNow = usingGL();
+      text = `${s >= 1 ? s.toFixed(2) + " px/texel" : (1 / s).toFixed(2) + " texels/px"} · ` +
+             (glNow ? "WebGL2" : `level ${level()}`) + ` · centre (${cx.toFixed(1)}, ${cy.toFixed(1)})` +
+             (pending ? (glNow ? " · loading the texton…" : ` · ${pending} tiles to load`) : "");
+      if (!glNow && state.render === "webgl" && state.mode === "noise") {
+        text += ` · tiles: ${glFailed.get(analysisKey()) || "the MNI is too high for this texton's cells"}`;
+      }
     }
-    if (lastTileMs !== null) text += ` · last ${lastTileMs.toFixed(0)} ms`;
+    if (lastTileMs !== null && !(state.mode === "noise" && usingGL())) text += ` · last ${lastTileMs.toFixed(0)} ms`;
     $("hud").textContent = text;
   }
   function message(text) {
@@ -443,6 +525,7 @@
     if (info.mix_b) addSecond(info.mix_b.id, info.mix_b.name);
     outputs();
 
+    bind("render", (t) => { state.render = t.value; }, "change");
     document.querySelectorAll("input[name=mode]").forEach((r) => r.addEventListener("change", (e) => setMode(e.target.value)));
     bind("seed", (t) => {
       const v = Number(t.value);
@@ -571,12 +654,32 @@
                    rot: state.rot, width: canvas.width, height: canvas.height, tile: TILE }),
     idle: () => new Promise((resolve) => { idleWaiters.push(resolve); requestFrame(); }),
     setView: (v) => { Object.assign(state, v); snap(); changed(); },
+    // the WebGL2 mode: what draws now, the float32 pixels of the view (RGBA, top row first),
+    // the uniforms of noise settings, and the time of n frames (ms each, drawn and finished)
+    render: () => ({ requested: RENDER, render: state.render, drawing: state.info && usingGL() ? "webgl" : "tiles",
+                     renderer: gl && gl.renderer, floatTargets: gl !== null && gl.floatTargets,
+                     failed: Object.fromEntries(glFailed) }),
+    setRender: (mode) => { state.render = mode; $("render").value = mode; changed(); },
+    readFloat: () => Array.from(glr.readFloat(glUniforms(), glView())),
+    noiseUniforms: (mni, seed, filter) => ViewerGL.noiseUniforms(glr.payload, mni, seed, filter),
+    glFrames: (n) => {
+      const u = glUniforms(), v = glView();
+      glr.draw(u, v);
+      ViewerGL.finish(gl.gl);
+      const t0 = performance.now();
+      for (let k = 0; k < n; k++) {
+        glr.draw(u, Object.assign(v, { left: v.left + 1 / v.scale }));  // a new view each frame
+        ViewerGL.finish(gl.gl);
+      }
+      return (performance.now() - t0) / n;
+    },
   };
 
   fetch("/api/info")
     .then((r) => r.json())
     .then((info) => {
       state.info = info;
+      initGL();
       setupControls();
       resize();
       setCentre(canvas.width / (2 * scale()), canvas.height / (2 * scale()));  // the origin at the top-left
