@@ -50,15 +50,15 @@ def rgb_path(tmp_path_factory) -> Path:
 
 
 @pytest.fixture(scope="module")
-def server(rgb_path):
-    with serve(rgb_path, port=0, size=SIZE, device=DEVICE, filter="anisotropic") as handle:
-        yield handle
-
-
-@pytest.fixture(scope="module")
 def browser():
     with chromium_browser() as b:
         yield b
+
+
+@pytest.fixture(scope="module")
+def server(rgb_path, browser):  # the browser first: without one, nothing is served
+    with serve(rgb_path, port=0, size=SIZE, device=DEVICE) as handle:
+        yield handle
 
 
 class Page:
@@ -303,3 +303,16 @@ def test_shader_endpoint_refuses_bad_requests(gl_page, server, query, status, te
 def test_shader_endpoint_names_its_input(gl_page):
     got = gl_page.eval("fetch('/api/shader?src=0000&size=16').then((r) => r.status)")
     assert got == 409
+    got = gl_page.eval("fetch('/?render=gpu').then(async (r) => [r.status, await r.text()])")
+    assert got == [400, "render must be one of auto, webgl, tiles, got 'gpu'\n"]
+
+
+def test_lost_context_hands_over_to_the_tiles(gl_page):
+    p = gl_page
+    p.eval("document.getElementById('canvas-gl').getContext('webgl2').getExtension('WEBGL_lose_context')"
+           ".loseContext()")
+    p.page.wait_for_function("window.viewer.render().drawing === 'tiles'")
+    p.idle()
+    assert "lost" in p.page.inner_text("#render-note") and p.page.locator("#render").input_value() == "tiles"
+    assert any("/tile?" in u for u in p.requests)
+    assert not p.eval("document.getElementById('canvas-gl').checkVisibility()")

@@ -186,6 +186,14 @@
     select.value = state.render;
     $("render-note").textContent = gl ? `WebGL2: ${gl.renderer}` + (software ? " (software: slower than tiles)" : "") :
       RENDER === "tiles" ? "" : "WebGL2 is not available here: the server draws tiles.";
+    // a lost context (a GPU reset, a driver's timeout) hands the page to the tiles for good
+    glCanvas.addEventListener("webglcontextlost", () => {
+      gl = glr = glLoading = null;
+      state.render = select.value = "tiles";
+      select.querySelector("option[value=webgl]").disabled = true;
+      $("render-note").textContent = "The WebGL2 context was lost: the server draws tiles.";
+      changed();
+    });
   }
   // Fetch the texton of an analysis once; the next frames draw it.
   function loadShader(key) {
