@@ -39,6 +39,8 @@ from warp_texton.view_images import to_8bit
 from warp_texton.view_query import view_window
 from warp_texton.view_webgl import VIEW_UNIFORMS
 
+pytestmark = pytest.mark.slow  # about a minute: a page load and SwiftShader frames per test
+
 CANVAS = (160, 120)  # SwiftShader draws the per-pixel shader at a few microseconds a pixel: a small view
 VIEWPORT = {"width": 300 + CANVAS[0], "height": CANVAS[1]}  # the side panel is 300 px wide
 BEYOND_ONE = 1e-3  # the share of pixels allowed beyond ±1 level (or 1e-3 of the range, as floats)
