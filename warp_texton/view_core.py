@@ -278,7 +278,7 @@ class Viewer:
         if key not in self._shaders:
             self._analysed(alive, analysis)
         return self._shaders.get(key, lambda: self._compute(alive, lambda: shader_payload(
-            self.texton(analysis), mni=self.defaults[1].mni, filters=VIEW_FILTERS)))
+            self.texton(analysis), filters=VIEW_FILTERS)))
 
     def _analysis_key(self, analysis: Analysis) -> Analysis | None:
         """Analysis settings change nothing when the input is a texton file."""

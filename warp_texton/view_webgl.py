@@ -61,15 +61,15 @@ def with_uniforms(source: str, names=VIEW_UNIFORMS) -> str:
     return source
 
 
-def shader_payload(texton: Texton, *, mni: float, filters, cell_factor: float = CELL_FACTOR) -> dict:
+def shader_payload(texton: Texton, *, filters, cell_factor: float = CELL_FACTOR) -> dict:
     """The page's WebGL2 program for ``texton``: the library with :data:`VIEW_UNIFORMS`,
     its main, the textures (base64 float32) and what the uniforms are computed from.
 
-    ``mni`` only makes a library to rewrite (any MNI the texton accepts);
     ``filters`` are the names the page offers, each with its mode and level bias.
     The unperiodic plane and exact Poisson counts, as the viewer's tiles.
     """
-    g = glsl_noise(texton, mni=mni, seed=0, period=None, cell_factor=cell_factor, poisson="exact",
+    # the MNI only sets constants that become uniforms: one that every texton's cells accept
+    g = glsl_noise(texton, mni=1.0, seed=0, period=None, cell_factor=cell_factor, poisson="exact",
                    filter="anisotropic")
     cw, ch = g.cell
     options = {name: FilterOptions.of(name) for name in filters}

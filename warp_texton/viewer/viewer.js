@@ -160,25 +160,24 @@
   const idleWaiters = [];
 
   // ------------------------------------------------------------- WebGL2
-  let gl = null;              // the overlay canvas's context {gl, renderer, floatTargets}, where WebGL2 is
-  let glr = null;             // the renderer of one analysis: ViewerGL.create(...) plus its key
-  let glLoading = null;       // the analysis whose texton is being fetched
-  const glFailed = new Map(); // analysis -> why WebGL does not draw it (tiles do)
-
+  let gl = null;  // ViewerGL.mode of the overlay canvas, where the browser has WebGL2
   const analysisKey = () => query({ src: state.info.src, ...analysisParams() });
+  const glNoise = () => ({ mni: state.mni, seed: state.seed, filter: state.filter });
   const glView = () => ({ width: canvas.width, height: canvas.height, scale: scale(), rot: state.rot,
                           left: state.left, top: state.top });
-  const glUniforms = () => (glr ? ViewerGL.noiseUniforms(glr.payload, state.mni, state.seed, state.filter) : null);
-  // WebGL draws the noise mode; the ground plane, mixing and settings the shader refuses are tiles
-  function usingGL() {
-    if (state.render !== "webgl" || gl === null || state.mode !== "noise") return false;
-    const key = analysisKey();
-    return !glFailed.has(key) && (glr === null || glr.key !== key || glUniforms() !== null);
-  }
+  // WebGL draws the noise mode; the ground plane, mixing and what the shader refuses are tiles
+  const usingGL = () => state.render === "webgl" && gl !== null && state.mode === "noise" &&
+                        gl.usable(analysisKey(), glNoise());
   function initGL() {
     const select = $("render");
+    const lost = () => {
+      state.render = select.value = "tiles";
+      select.querySelector("option[value=webgl]").disabled = true;
+      $("render-note").textContent = "The WebGL2 context was lost: the server draws tiles.";
+      changed();
+    };
     if (RENDER !== "tiles") {
-      try { gl = ViewerGL.context(glCanvas); } catch (e) { gl = null; }
+      try { gl = ViewerGL.mode(glCanvas, requestFrame, lost); } catch (e) { gl = null; }
     }
     select.querySelector("option[value=webgl]").disabled = gl === null;
     const software = gl !== null && SOFTWARE.test(gl.renderer);
@@ -186,49 +185,11 @@
     select.value = state.render;
     $("render-note").textContent = gl ? `WebGL2: ${gl.renderer}` + (software ? " (software: slower than tiles)" : "") :
       RENDER === "tiles" ? "" : "WebGL2 is not available here: the server draws tiles.";
-    // a lost context (a GPU reset, a driver's timeout) hands the page to the tiles for good
-    glCanvas.addEventListener("webglcontextlost", () => {
-      gl = glr = glLoading = null;
-      state.render = select.value = "tiles";
-      select.querySelector("option[value=webgl]").disabled = true;
-      $("render-note").textContent = "The WebGL2 context was lost: the server draws tiles.";
-      changed();
-    });
-  }
-  // Fetch the texton of an analysis once; the next frames draw it.
-  function loadShader(key) {
-    if (glLoading === key) return;
-    glLoading = key;
-    fetch(`/api/shader?${key}`)
-      .then(async (r) => {
-        if (!r.ok) throw new Error((await r.text()).trim() || `HTTP ${r.status}`);
-        return r.json();
-      })
-      .then((payload) => {
-        if (glLoading !== key) return;
-        const made = ViewerGL.create(gl.gl, payload);
-        if (glr) glr.dispose();
-        glr = Object.assign(made, { key });
-      })
-      .catch((e) => { if (glLoading === key) glFailed.set(key, e.message); })
-      .finally(() => { if (glLoading === key) glLoading = null; requestFrame(); });
   }
   function drawGL() {
     message(null);
     dropStale(new Set());
-    const key = analysisKey();
-    if (!glr || glr.key !== key) {  // the last frame stays on the canvas meanwhile
-      pending = 1;
-      loadShader(key);
-      return;
-    }
-    pending = 0;
-    if (glCanvas.width !== canvas.width || glCanvas.height !== canvas.height) {
-      glCanvas.width = canvas.width;
-      glCanvas.height = canvas.height;
-    }
-    glr.draw(glUniforms(), glView());
-    glCanvas.hidden = false;
+    pending = gl.draw(analysisKey(), glNoise(), glView());  // 1 while the texton loads: the last frame stays
   }
 
   function changed() { requestFrame(); }
@@ -359,9 +320,7 @@
       text = `${s >= 1 ? s.toFixed(2) + " px/texel" : (1 / s).toFixed(2) + " texels/px"} · ` +
              (glNow ? "WebGL2" : `level ${level()}`) + ` · centre (${cx.toFixed(1)}, ${cy.toFixed(1)})` +
              (pending ? (glNow ? " · loading the texton…" : ` · ${pending} tiles to load`) : "");
-      if (!glNow && state.render === "webgl" && state.mode === "noise") {
-        text += ` · tiles: ${glFailed.get(analysisKey()) || "the MNI is too high for this texton's cells"}`;
-      }
+      if (!glNow && state.render === "webgl" && state.mode === "noise" && gl) text += ` · tiles: ${gl.failure(analysisKey())}`;
     }
     if (lastTileMs !== null && !(state.mode === "noise" && usingGL())) text += ` · last ${lastTileMs.toFixed(0)} ms`;
     $("hud").textContent = text;
@@ -665,22 +624,11 @@
     // the WebGL2 mode: what draws now, the float32 pixels of the view (RGBA, top row first),
     // the uniforms of noise settings, and the time of n frames (ms each, drawn and finished)
     render: () => ({ requested: RENDER, render: state.render, drawing: state.info && usingGL() ? "webgl" : "tiles",
-                     renderer: gl && gl.renderer, floatTargets: gl !== null && gl.floatTargets,
-                     failed: Object.fromEntries(glFailed) }),
+                     renderer: gl && gl.renderer, floatTargets: gl !== null && gl.floatTargets }),
     setRender: (mode) => { state.render = mode; $("render").value = mode; changed(); },
-    readFloat: () => Array.from(glr.readFloat(glUniforms(), glView())),
-    noiseUniforms: (mni, seed, filter) => ViewerGL.noiseUniforms(glr.payload, mni, seed, filter),
-    glFrames: (n) => {
-      const u = glUniforms(), v = glView();
-      glr.draw(u, v);
-      ViewerGL.finish(gl.gl);
-      const t0 = performance.now();
-      for (let k = 0; k < n; k++) {
-        glr.draw(u, Object.assign(v, { left: v.left + 1 / v.scale }));  // a new view each frame
-        ViewerGL.finish(gl.gl);
-      }
-      return (performance.now() - t0) / n;
-    },
+    readFloat: () => Array.from(gl.readFloat(glNoise(), glView())),
+    noiseUniforms: (mni, seed, filter) => gl.noiseUniforms({ mni, seed, filter }),
+    glFrames: (n) => gl.frames(n, glNoise(), glView()),
   };
 
   fetch("/api/info")

@@ -109,5 +109,81 @@
     gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, px);
   }
 
-  root.ViewerGL = { poissonConstants, noiseUniforms, placement, create, context, finish };
+  // The page's WebGL2 mode on glCanvas: the texton of one analysis at a time, fetched once from
+  // /api/shader?KEY (KEY: the analysis's query), and frames of it. noise = {mni, seed, filter};
+  // view as create's draw takes it. onChange() asks the page for a frame; onLost() is called
+  // once if the context is lost (a GPU reset, a driver's timeout).
+  function mode(glCanvas, onChange, onLost) {
+    const ctx = context(glCanvas);
+    if (ctx === null) return null;
+    let current = null;           // create(...) of the analysis drawn, with its key
+    let loading = null;           // the analysis whose texton is being fetched
+    const failed = new Map();     // analysis -> why WebGL does not draw it (the tiles do)
+    const uniforms = (noise) => noiseUniforms(current.payload, noise.mni, noise.seed, noise.filter);
+    function load(key) {
+      if (loading === key) return;
+      loading = key;
+      let retry = 0;
+      fetch(`/api/shader?${key}`)
+        .then(async (r) => {
+          if (r.status === 503) { retry = 1000; return null; }  // the server is busy: ask again in a moment
+          if (!r.ok) throw new Error((await r.text()).trim() || `HTTP ${r.status}`);
+          return r.json();
+        })
+        .then((payload) => {
+          if (payload === null || loading !== key) return;
+          const made = create(ctx.gl, payload);
+          if (current) current.dispose();
+          current = Object.assign(made, { key });
+        })
+        .catch((e) => { if (loading === key) failed.set(key, e.message); })
+        .finally(() => setTimeout(() => { if (loading === key) loading = null; onChange(); }, retry));
+    }
+    let lost = false;
+    glCanvas.addEventListener("webglcontextlost", () => {
+      lost = true;
+      current = loading = null;
+      onLost();
+    });
+    return {
+      renderer: ctx.renderer,
+      floatTargets: ctx.floatTargets,
+      // whether WebGL draws this analysis and noise (true while its texton loads)
+      usable: (key, noise) => !lost && !failed.has(key) && (current === null || current.key !== key ||
+                                                          uniforms(noise) !== null),
+      // why it does not
+      failure: (key) => (lost ? "the WebGL2 context was lost" : failed.get(key) ||
+                         "the MNI is too high for this texton's cells"),
+      // draw a frame; returns 1 while the texton of key loads (the last frame stays), else 0
+      draw(key, noise, view) {
+        if (!current || current.key !== key) {
+          load(key);
+          return 1;
+        }
+        if (glCanvas.width !== view.width || glCanvas.height !== view.height) {
+          glCanvas.width = view.width;
+          glCanvas.height = view.height;
+        }
+        current.draw(uniforms(noise), view);
+        glCanvas.hidden = false;
+        return 0;
+      },
+      readFloat: (noise, view) => current.readFloat(uniforms(noise), view),
+      noiseUniforms: (noise) => uniforms(noise),
+      // ms per frame of n new views (a one-texel pan each), each drawn and finished
+      frames(n, noise, view) {
+        const u = uniforms(noise);
+        current.draw(u, view);
+        finish(ctx.gl);
+        const t0 = performance.now();
+        for (let k = 0; k < n; k++) {
+          current.draw(u, Object.assign(view, { left: view.left + 1 / view.scale }));
+          finish(ctx.gl);
+        }
+        return (performance.now() - t0) / n;
+      },
+    };
+  }
+
+  root.ViewerGL = { poissonConstants, noiseUniforms, placement, create, context, finish, mode };
 })(typeof window !== "undefined" ? window : globalThis);
