@@ -19,7 +19,9 @@ A bake with its UV atlas is timed against a re-bake from the UVs it made
 Then, once (on the first device), the quality of texton noise against the FFT
 sample and tiling and blending on real textures (``bench_quality.py``:
 spectrum, marginal histograms, clipped pixels, repetition, time per megapixel;
-grass and brick at 256² in the quick suite, every texture at 512² in the full).
+grass and brick at 256² in the quick suite, every texture at 512² in the full),
+and the viewer's frame time in headless Chromium, its WebGL2 mode against its
+tiles (``bench_viewer_webgl.py``: a 1280×720 canvas, 320×180 in the quick suite).
 
 Two parameter sets: ``--quick`` (CI smoke run: 256² and 512², MNI 30, texton
 32², one run each) and the full one (256² to 3840×2160, MNI 5 to 60, textons
@@ -86,6 +88,7 @@ class Suite:
     surface_render: tuple  # (height, width) of the surface render
     quality_textures: tuple | None  # names of bench_quality.TEXTURES; None: all that load here
     quality_shape: tuple  # (height, width) of the quality outputs
+    viewer_view: tuple = (1280, 720)  # (width, height) of the viewer's canvas, WebGL2 against tiles
 
 
 QUICK = Suite(
@@ -93,7 +96,7 @@ QUICK = Suite(
     ref_shape=(512, 512), ref_mni=30.0, ref_texton=32, repeat=1, image_side=256,
     naive_max_pixels=512 * 512, mix_steps=5, mix_sizes=((256, 256),),
     surface_subdivisions=3, surface_render=(128, 128),
-    quality_textures=("grass", "brick"), quality_shape=(256, 256),
+    quality_textures=("grass", "brick"), quality_shape=(256, 256), viewer_view=(320, 180),
 )
 FULL = Suite(
     name="full", sizes=((256, 256), (512, 512), (1024, 1024), (2048, 2048), (2160, 3840)),
@@ -384,6 +387,25 @@ def quality_case(suite: Suite, device: str, report: Report) -> None:
         report.add(case="quality", **r)
 
 
+def viewer_case(suite: Suite, device: str, report: Report) -> None:
+    """The viewer's frame time in headless Chromium: its WebGL2 mode against its tiles
+    (``bench_viewer_webgl.py``; the server computes the tiles on ``device``)."""
+    from . import bench_viewer_webgl
+
+    why = bench_viewer_webgl.available()
+    if why is not None:
+        report.skip("viewer: WebGL2 against tiles", why)
+        return
+    quick = suite.name == "quick"
+    print(f"viewer on {device}: a {suite.viewer_view[0]}x{suite.viewer_view[1]} canvas in Chromium", flush=True)
+    r = bench_viewer_webgl.measure(suite.viewer_view, frames=2 if quick else 5, runs=max(2, suite.repeat),
+                                   texton=suite.ref_texton, mni=suite.ref_mni, image_side=suite.image_side,
+                                   device=device)
+    report.add(case="viewer", **r)
+    print(f"  WebGL2 {r['webgl']['mean_ms']:.0f} ms a frame ({r['renderer']}); tiles cold "
+          f"{r['tiles_cold']['mean_ms']:.0f} ms, warm {r['tiles_warm']['mean_ms']:.0f} ms", flush=True)
+
+
 # ---------------------------------------------------------------- the run
 
 
@@ -403,6 +425,7 @@ def run(suite: Suite, devices: list[str]) -> dict:
         mixing_case(suite, u, device, cache, report)
         atlas_case(suite, textons, device, report)
     quality_case(suite, devices[0], report)  # the measures do not depend on the device
+    viewer_case(suite, devices[0], report)
     machine = machine_info()
     machine["threads"] = os.cpu_count()
     return {
@@ -581,6 +604,15 @@ def _quality_lines(report: dict) -> list[str]:
             "see docs/quality.md)", "", *table_lines({"results": rows})]
 
 
+def _viewer_lines(report: dict) -> list[str]:
+    """The viewer's WebGL2 mode against its tiles (bench_viewer_webgl.py)."""
+    from .bench_viewer_webgl import table_lines
+
+    rows = [r for r in report["results"] if r["case"] == "viewer"]
+    return [line for r in rows for line in ("", "## Viewer: WebGL2 against tiles (see docs/viewer.md)", "",
+                                            *table_lines(r))]
+
+
 def markdown(report: dict) -> str:
     m, p = report["machine"], report["parameters"]
     devices = ", ".join(
@@ -605,7 +637,7 @@ def markdown(report: dict) -> str:
         "run on the host (NumPy) whatever the device. Every method returns the finished raster in host memory.",
     ]
     for section in (_synthesis_lines, _analysis_lines, _mixing_lines, _filtering_lines, _surface_lines,
-                    _atlas_lines, _quality_lines):
+                    _atlas_lines, _quality_lines, _viewer_lines):
         lines += section(report)
     if report["skipped"]:
         lines += ["", "## Not measured", ""]

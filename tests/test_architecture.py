@@ -39,7 +39,7 @@ LAYERS = {
     "synthesis": 10, "plane": 10,
     "mixing": 11, "surface": 11, "dask": 11, "batches": 11,
     "mesh": 12, "shader_glsl": 12, "shader_osl": 12, "device": 12,
-    "render": 13, "mesh_files": 13, "shader": 13,
+    "render": 13, "mesh_files": 13, "shader": 13, "view_webgl": 13,
     "bake": 14, "demo": 14, "view_core": 14, "cli_options": 14,
     "jobs": 15, "view": 15,
     "cli_images": 16, "cli_surface": 16, "cli_view": 16, "cli_shader": 16,

@@ -57,7 +57,8 @@ GLSL_FILE = "texton_noise.glsl"
 JS_FILE = "texton_noise.js"
 META_FILE = "texton_noise.json"
 PREVIEW_FILE = "preview.html"
-_FILTER_MODES = {"none": 0, "mip": 1, "anisotropic": 2}
+#: TN_FILTER_MODE of each filter.
+FILTER_MODES = {"none": 0, "mip": 1, "anisotropic": 2}
 
 
 def _source(name: str) -> str:
@@ -74,9 +75,17 @@ def _vec(values) -> str:
     return f"vec{len(vals)}({', '.join(vals)})"
 
 
+def _f32(fn, x) -> float:
+    # exp and log rounded once from float64, as the C library's expf and logf round (the
+    # functions Warp's CPU kernels call); NumPy's float32 exp and log may be 1 ulp away
+    with np.errstate(all="ignore"):
+        return float(np.float32(fn(np.float64(x))))
+
+
 def poisson_constants(mean: float) -> tuple[float, float, tuple[float, ...], tuple[float, ...]]:
     """(e^−mean, √mean, (b, a, log(1/α), v_r), (log mean, 0)): what ``wp.poisson`` computes from its
-    mean before drawing, in float32 with the operations of Warp's rand.h, for a cell's mean count."""
+    mean before drawing, in float32 with the operations of Warp's rand.h, for a cell's mean count;
+    below a mean of 10, where ``wp.poisson`` multiplies uniforms, the PTRS values are 0."""
     f = np.float32
     lam = f(mean)
     with np.errstate(all="ignore"):
@@ -85,8 +94,10 @@ def poisson_constants(mean: float) -> tuple[float, float, tuple[float, ...], tup
         a = f(-0.059) + f(0.02483) * b
         invalpha = f(1.1239) + f(1.1328) / (b - f(3.4))
         vr = f(0.9277) - f(3.6224) / (b - f(2.0))
-        ptrs = (float(b), float(a), float(np.log(invalpha)), float(vr))
-        return float(np.exp(-lam)), float(slam), ptrs, (float(np.log(lam)), 0.0)
+    if not lam >= 10.0:  # the multiplication of uniforms draws: the PTRS constants are unused (and may be NaN)
+        return _f32(np.exp, -lam), float(slam), (0.0, 0.0, 0.0, 0.0), (0.0, 0.0)
+    ptrs = (float(b), float(a), _f32(np.log, invalpha), float(vr))
+    return _f32(np.exp, -lam), float(slam), ptrs, (_f32(np.log, lam), 0.0)
 
 
 @dataclass(frozen=True)
@@ -169,7 +180,7 @@ def glsl_noise(texton: Texton, *, mni: float = 30.0, seed: int = 0, period=None,
         ("const int", "TN_COEFF_ROWS", str(setup.coeffs.shape[0])),
         ("const int", "TN_COEFF_COLS", str(setup.coeffs.shape[1])),
         # the filters (kernels/filter2d.py)
-        ("const int", "TN_FILTER_MODE", str(_FILTER_MODES[options.kind])),
+        ("const int", "TN_FILTER_MODE", str(FILTER_MODES[options.kind])),
         ("const int", "TN_MAX_ANISO", str(options.max_aniso)),
         ("const float", "TN_LOD_BIAS", _f(options.bias if options.spec.footprint else 0.0)),
         ("const int", "TN_LEVELS", str(L)),
@@ -295,6 +306,14 @@ _PREVIEW_BOOT = """
 """
 
 
+def texture_data(textures: dict) -> dict:
+    """The textures as ``TextonNoise.textures`` takes them in a page: name -> {width, height,
+    data: base64 of little-endian float32 RGBA, top row first} (``TextonNoise.floats`` decodes it)."""
+    return {name: {"width": a.shape[1], "height": a.shape[0],
+                   "data": base64.b64encode(np.ascontiguousarray(a, "<f4").tobytes()).decode()}
+            for name, a in textures.items()}
+
+
 def _page(g: GlslNoise, shape, placement: dict) -> str:
     h, w = shape
     s = g.settings
@@ -302,9 +321,7 @@ def _page(g: GlslNoise, shape, placement: dict) -> str:
                + (f", period {s['period'][0]:g} x {s['period'][1]:g}" if s["period"] else ""))
     data = {"library": g.source, "main": _PREVIEW_MAIN, "width": w, "height": h, "channels": g.channels,
             "placement": placement, "caption": caption,
-            "textures": {name: {"width": a.shape[1], "height": a.shape[0],
-                                "data": base64.b64encode(np.ascontiguousarray(a, "<f4").tobytes()).decode()}
-                         for name, a in g.textures.items()}}
+            "textures": texture_data(g.textures)}
     blob = json.dumps(data).replace("</", "<\\/")  # no "</script>" inside the script element
     return f"""<!DOCTYPE html>
 <html lang="en">

@@ -39,10 +39,16 @@ from .view_inputs import MAX_UPLOAD_BYTES, digest
 from .view_query import MNI_RANGE, ORDERS, TEXTON_SIZES, VIEW_FILTERS, Analysis, BadRequest, Noise, Query
 
 LOOPBACK = ("127.0.0.1", "localhost", "::1")
-STATIC = {"/": ("index.html", "text/html; charset=utf-8"),
-          "/index.html": ("index.html", "text/html; charset=utf-8"),
-          "/viewer.js": ("viewer.js", "text/javascript; charset=utf-8"),
-          "/viewer.css": ("viewer.css", "text/css; charset=utf-8")}
+#: The page's ?render= choices: the noise drawn by WebGL2 in the browser, by the server's tiles,
+#: or auto (WebGL2 where it runs on a GPU, docs/viewer.md).
+RENDER_MODES = ("auto", "webgl", "tiles")
+#: The page's files: path -> (file in the package, content type).
+STATIC = {"/": ("viewer/index.html", "text/html; charset=utf-8"),
+          "/index.html": ("viewer/index.html", "text/html; charset=utf-8"),
+          "/viewer.js": ("viewer/viewer.js", "text/javascript; charset=utf-8"),
+          "/viewer.css": ("viewer/viewer.css", "text/css; charset=utf-8"),
+          "/viewer_webgl.js": ("viewer/viewer_webgl.js", "text/javascript; charset=utf-8"),
+          "/texton_noise.js": ("shaders/texton_noise.js", "text/javascript; charset=utf-8")}
 
 
 # ------------------------------------------------------------------ HTTP
@@ -65,7 +71,8 @@ def host_name(header: str) -> str | None:
 
 
 def _page(name: str) -> bytes:
-    return resources.files("warp_texton.viewer").joinpath(name).read_bytes()
+    folder, file = name.split("/")
+    return resources.files("warp_texton").joinpath(folder).joinpath(file).read_bytes()
 
 
 class _Handler(BaseHTTPRequestHandler):
@@ -163,6 +170,8 @@ class _Handler(BaseHTTPRequestHandler):
     # -- routes
     def _get(self, path: str, q: Query) -> None:
         if path in STATIC:
+            if STATIC[path][0].endswith(".html"):
+                q.choice("render", RENDER_MODES, default="auto")  # read by the page's script
             q.finish()
             name, ctype = STATIC[path]
             self._send(200, self.server.pages[name], ctype, {"Cache-Control": "no-cache"})
@@ -172,6 +181,9 @@ class _Handler(BaseHTTPRequestHandler):
         elif path == "/api/panel":
             self._check_src(q)
             self._json(self.viewer.panel_request(q))
+        elif path == "/api/shader":
+            self._check_src(q)
+            self._json(self.viewer.shader_request(q, self._alive))
         elif path == "/tile":
             self._check_src(q)
             self._image(*self.viewer.tile_request(q))

@@ -45,6 +45,7 @@ from .view_cache import Memo
 from .view_commands import plan_mix, plan_noise, plan_plane
 from .view_images import PNG_LEVEL, data_url, log_spectra, png_bytes, texton_picture
 from .view_inputs import MAX_UPLOAD_BYTES, MAX_UPLOADS, Source, decode_upload, digest, load_source, safe_name
+from .view_webgl import shader_payload
 from .view_query import (ANALYSIS_SEED, ENLARGE, MAX_EXPORT_PIXELS, MAX_EXPORT_SIDE, MAX_PLANE_PIXELS, MAX_REACH,
                          MIX_STEPS, MIX_ZOOM, MNI_RANGE, ORDERS, TEXTON_SIZES, TILE_SIZES, VIEW_FILTERS, ZOOM_MAX,
                          ZOOM_MIN, Analysis, BadRequest, Mix, Noise, Plane, Query, Tile, Window, parse_analysis,
@@ -109,6 +110,7 @@ class Viewer:
         self._textons = Memo(16)
         self._mixes = Memo(4)
         self._panels = Memo(16)
+        self._shaders = Memo(8)
         self._images = Memo(cache_bytes, weight=len)
         self._uploads: OrderedDict[str, Source] = OrderedDict()
         self._uploads_lock = threading.Lock()
@@ -266,6 +268,17 @@ class Viewer:
         seed = q.integer("seed", 0, 2**32 - 1, default=0)
         q.finish()
         return self.panel(analysis, seed)
+
+    def shader_request(self, q: Query, alive=None) -> dict:
+        """The page's WebGL2 program for an analysis (:func:`~warp_texton.view_webgl.shader_payload`):
+        the analysis first, as for a tile, then the library and textures within a view's bounds."""
+        analysis = parse_analysis(q, self.defaults[0])
+        q.finish()
+        key = self._analysis_key(analysis)
+        if key not in self._shaders:
+            self._analysed(alive, analysis)
+        return self._shaders.get(key, lambda: self._compute(alive, lambda: shader_payload(
+            self.texton(analysis), filters=VIEW_FILTERS)))
 
     def _analysis_key(self, analysis: Analysis) -> Analysis | None:
         """Analysis settings change nothing when the input is a texton file."""

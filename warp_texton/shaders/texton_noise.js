@@ -84,11 +84,12 @@ void main() {
   }
 
   // The texton's textures ({name: {width, height, data: Float32Array}}, as texton_noise.json
-  // lists them) on units 0, 1, ...; returns a function that binds them to a program.
+  // lists them) on units 0, 1, ...; returns a function that binds them to a program (and whose
+  // dispose() deletes them).
   function textures(gl, specs) {
     const made = Object.keys(specs).map((name) => [name, floatTexture(gl, specs[name].width, specs[name].height,
                                                                        specs[name].data)]);
-    return function bind(prog) {
+    function bind(prog) {
       gl.useProgram(prog);
       made.forEach(([name, tex], unit) => {
         gl.activeTexture(gl.TEXTURE0 + unit);
@@ -96,7 +97,9 @@ void main() {
         gl.uniform1i(gl.getUniformLocation(prog, name), unit);
       });
       return made.length;
-    };
+    }
+    bind.dispose = () => made.forEach(([, tex]) => gl.deleteTexture(tex));
+    return bind;
   }
 
   // Draw prog over a width x height viewport of the bound framebuffer.

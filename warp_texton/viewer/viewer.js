@@ -1,4 +1,5 @@
-// warp-texton view: an infinite canvas of texton noise, cut into tiles the server computes.
+// warp-texton view: an infinite canvas of texton noise, cut into tiles the server computes, or
+// drawn by the page itself with WebGL2 (viewer_webgl.js) where the browser offers it.
 //
 // View coordinates u are texels before the rotation; the noise shown at u is the
 // noise at R(rotation) u. At tile level z (2**z pixels per texel) tile (x, y) holds
@@ -13,10 +14,17 @@
   const ctx = canvas.getContext("2d", { alpha: false });
   const TILE = 256;
   const MAX_BITMAPS = 600;
+  const glCanvas = $("canvas-gl");
+  // ?render=webgl|tiles forces a mode; auto (the default): WebGL2 where the browser has it on a
+  // GPU. A software rasterizer draws the per-pixel shader far slower than the server's kernels,
+  // which draw each impact once per tile (docs/viewer.md has the measured frame times).
+  const RENDER = new URLSearchParams(location.search).get("render") || "auto";
+  const SOFTWARE = /SwiftShader|llvmpipe|softpipe|software|Basic Render/i;
 
   const state = {
     info: null,
     mode: "noise",
+    render: "tiles",  // "webgl": the page draws the noise mode itself; "tiles": the server does
     seed: 0, mni: 30, rot: 0, filter: "anisotropic",
     size: 64, order: 1, cc: true,
     zoom: 0,          // log2 of CSS pixels per texel
@@ -151,6 +159,39 @@
   let pending = 0, frameRequested = false, previousBase = null, planeURL = null;
   const idleWaiters = [];
 
+  // ------------------------------------------------------------- WebGL2
+  let gl = null;  // ViewerGL.mode of the overlay canvas, where the browser has WebGL2
+  const analysisKey = () => query({ src: state.info.src, ...analysisParams() });
+  const glNoise = () => ({ mni: state.mni, seed: state.seed, filter: state.filter });
+  const glView = () => ({ width: canvas.width, height: canvas.height, scale: scale(), rot: state.rot,
+                          left: state.left, top: state.top });
+  // WebGL draws the noise mode; the ground plane, mixing and what the shader refuses are tiles
+  const usingGL = () => state.render === "webgl" && gl !== null && state.mode === "noise" &&
+                        gl.usable(analysisKey(), glNoise());
+  function initGL() {
+    const select = $("render");
+    const lost = () => {
+      state.render = select.value = "tiles";
+      select.querySelector("option[value=webgl]").disabled = true;
+      $("render-note").textContent = "The WebGL2 context was lost: the server draws tiles.";
+      changed();
+    };
+    if (RENDER !== "tiles") {
+      try { gl = ViewerGL.mode(glCanvas, requestFrame, lost); } catch (e) { gl = null; }
+    }
+    select.querySelector("option[value=webgl]").disabled = gl === null;
+    const software = gl !== null && SOFTWARE.test(gl.renderer);
+    state.render = gl !== null && (RENDER === "webgl" || (RENDER === "auto" && !software)) ? "webgl" : "tiles";
+    select.value = state.render;
+    $("render-note").textContent = gl ? `WebGL2: ${gl.renderer}` + (software ? " (software: slower than tiles)" : "") :
+      RENDER === "tiles" ? "" : "WebGL2 is not available here: the server draws tiles.";
+  }
+  function drawGL() {
+    message(null);
+    dropStale(new Set());
+    pending = gl.draw(analysisKey(), glNoise(), glView());  // 1 while the texton loads: the last frame stays
+  }
+
   function changed() { requestFrame(); }
   function requestFrame() {
     if (!frameRequested) { frameRequested = true; requestAnimationFrame(draw); }
@@ -158,9 +199,14 @@
   function draw() {
     frameRequested = false;
     if (!state.info) return;
-    ctx.fillStyle = "#202225";
-    ctx.fillRect(0, 0, canvas.width, canvas.height);
-    if (state.mode === "plane") drawPlane(); else drawTiles();
+    if (usingGL()) {
+      drawGL();
+    } else {
+      glCanvas.hidden = true;
+      ctx.fillStyle = "#202225";
+      ctx.fillRect(0, 0, canvas.width, canvas.height);
+      if (state.mode === "plane") drawPlane(); else drawTiles();
+    }
     hud();
     if (pending === 0) while (idleWaiters.length) idleWaiters.shift()();
   }
@@ -270,10 +316,13 @@
     } else {
       const [cx, cy] = rotate(state.mode === "mix" ? 0 : state.rot, centre());
       const s = scale() / dpr();
-      text = `${s >= 1 ? s.toFixed(2) + " px/texel" : (1 / s).toFixed(2) + " texels/px"} · level ${level()}` +
-             ` · centre (${cx.toFixed(1)}, ${cy.toFixed(1)})` + (pending ? ` · ${pending} tiles to load` : "");
+      const glNow = usingGL();
+      text = `${s >= 1 ? s.toFixed(2) + " px/texel" : (1 / s).toFixed(2) + " texels/px"} · ` +
+             (glNow ? "WebGL2" : `level ${level()}`) + ` · centre (${cx.toFixed(1)}, ${cy.toFixed(1)})` +
+             (pending ? (glNow ? " · loading the texton…" : ` · ${pending} tiles to load`) : "");
+      if (!glNow && state.render === "webgl" && state.mode === "noise" && gl) text += ` · tiles: ${gl.failure(analysisKey())}`;
     }
-    if (lastTileMs !== null) text += ` · last ${lastTileMs.toFixed(0)} ms`;
+    if (lastTileMs !== null && !(state.mode === "noise" && usingGL())) text += ` · last ${lastTileMs.toFixed(0)} ms`;
     $("hud").textContent = text;
   }
   function message(text) {
@@ -443,6 +492,7 @@
     if (info.mix_b) addSecond(info.mix_b.id, info.mix_b.name);
     outputs();
 
+    bind("render", (t) => { state.render = t.value; }, "change");
     document.querySelectorAll("input[name=mode]").forEach((r) => r.addEventListener("change", (e) => setMode(e.target.value)));
     bind("seed", (t) => {
       const v = Number(t.value);
@@ -571,12 +621,21 @@
                    rot: state.rot, width: canvas.width, height: canvas.height, tile: TILE }),
     idle: () => new Promise((resolve) => { idleWaiters.push(resolve); requestFrame(); }),
     setView: (v) => { Object.assign(state, v); snap(); changed(); },
+    // the WebGL2 mode: what draws now, the float32 pixels of the view (RGBA, top row first),
+    // the uniforms of noise settings, and the time of n frames (ms each, drawn and finished)
+    render: () => ({ requested: RENDER, render: state.render, drawing: state.info && usingGL() ? "webgl" : "tiles",
+                     renderer: gl && gl.renderer, floatTargets: gl !== null && gl.floatTargets }),
+    setRender: (mode) => { state.render = mode; $("render").value = mode; changed(); },
+    readFloat: () => Array.from(gl.readFloat(glNoise(), glView())),
+    noiseUniforms: (mni, seed, filter) => gl.noiseUniforms({ mni, seed, filter }),
+    glFrames: (n) => gl.frames(n, glNoise(), glView()),
   };
 
   fetch("/api/info")
     .then((r) => r.json())
     .then((info) => {
       state.info = info;
+      initGL();
       setupControls();
       resize();
       setCentre(canvas.width / (2 * scale()), canvas.height / (2 * scale()));  // the origin at the top-left
