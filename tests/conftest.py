@@ -10,8 +10,12 @@ analysis finds with the truth rather than with a single noisy periodogram.
 
 from __future__ import annotations
 
+import json
 import os
+import shutil
+import subprocess
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -139,3 +143,34 @@ def color_kernel() -> np.ndarray:
     """
     mix = np.array([[1.0, 0.0, 0.0], [0.8, 0.6, 0.0], [0.5, 0.3, 0.8]])
     return 0.2 * np.random.default_rng(2).standard_normal((8, 8, 3)) @ mix.T
+
+
+#: The Khronos glTF validator (tests/node, ``npm ci``), run with node.
+GLTF_VALIDATOR = Path(__file__).resolve().parent / "node"
+
+
+@pytest.fixture(scope="session", autouse=True)
+def every_glb_is_valid(tmp_path_factory):
+    """After the session: the glTF validator on every GLB the tests wrote (the package's
+    bakes, vertex-colour meshes, re-bakes, the CLI's outputs), 0 errors and 0 warnings.
+
+    Files named ``broken*.glb`` are the validator's own negative test. Where node or
+    the validator is missing this is skipped outside CI (tests/clients.py's rule:
+    in CI the validator is installed and its test fails without it)."""
+    yield
+    base = tmp_path_factory.getbasetemp()
+    glbs = sorted(p for p in base.rglob("*.glb") if not p.name.startswith("broken") and p.is_file())
+    node = shutil.which("node")
+    if not glbs or node is None or not (GLTF_VALIDATOR / "node_modules" / "gltf-validator").is_dir():
+        return
+    bad = {}
+    for start in range(0, len(glbs), 50):
+        chunk = glbs[start:start + 50]
+        proc = subprocess.run([node, str(GLTF_VALIDATOR / "validate.js"), *map(str, chunk)], capture_output=True,
+                              text=True, timeout=300)
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        for path, report in json.loads(proc.stdout).items():
+            if report["errors"] or report["warnings"]:
+                bad[str(Path(path).relative_to(base))] = report["messages"][:5]
+    print(f"\nglTF validator: {len(glbs)} GLB files the tests wrote, {len(bad)} with errors or warnings")
+    assert not bad, f"the glTF validator finds errors or warnings in GLB files the tests wrote: {bad}"
