@@ -166,3 +166,18 @@ def test_xatlas_crash_on_an_icosphere_fails_that_mesh_and_the_batch_goes_on(tmp_
     # the default charting makes its atlas
     assert run_jobs([SurfaceJob(str(tmp_path / "ico.ply"), _texton(), str(tmp_path / "out"), 0.02, bake=64,
                                 device="cpu")])[0].status == "done"
+
+
+def test_the_atlas_is_priced_by_what_its_worker_holds():
+    # the budget prices the worker's resident peak (a small mesh fits a 256 MiB budget, as in
+    # the property suite), not its address-space cap, which maps far more than it touches
+    from warp_texton.limits import scoped_budget
+
+    box = trimesh.creation.box()
+    with scoped_budget(memory=256 << 20):
+        uv = atlas.make_atlas(box.vertices, box.faces, 64, 2, name="box.ply")
+    assert uv is not None
+    _, cap = atlas.worker_limits(len(box.faces), 64)
+    assert cap > 256 << 20  # the cap alone would have refused it
+    with scoped_budget(memory=32 << 20), pytest.raises(TextonError, match=r"box.ply: a UV atlas of 12 faces needs"):
+        atlas.make_atlas(box.vertices, box.faces, 64, 2, name="box.ply")

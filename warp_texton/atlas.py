@@ -70,6 +70,13 @@ WORKER_BYTES_PER_FACE = 4096.0
 WORKER_BYTES_PER_TEXEL = 4.0
 WORKER_BASE_BYTES = 256 << 20
 WORKER_BYTES_PER_THREAD = 16 << 20
+#: What the worker holds (its peak resident memory), priced against the memory budget: the
+#: measured 28 MB of an idle worker and 1.25 KB a face (packing normal charts), with room, and
+#: the packer's bit images. The address-space cap above is larger: an interpreter with NumPy
+#: maps far more than it touches.
+WORKER_RESIDENT_BASE = 48 << 20
+WORKER_RESIDENT_PER_FACE = 2560.0
+WORKER_RESIDENT_PER_TEXEL = 1.0
 WORKER = Path(__file__).with_name("atlas_worker.py")
 
 
@@ -184,7 +191,8 @@ def run_worker(payload: dict, n_faces: int, resolution: int, name: str) -> dict:
     """Run ``atlas_worker.py`` on ``payload``; its death, time-out or bad output is a
     :class:`TextonError` naming the mesh."""
     seconds, nbytes = worker_limits(n_faces, resolution)
-    check_memory(nbytes, f"{name}: a UV atlas of {n_faces} faces", "give the mesh UVs, or simplify it")
+    resident = WORKER_RESIDENT_BASE + WORKER_RESIDENT_PER_FACE * n_faces + WORKER_RESIDENT_PER_TEXEL * resolution ** 2
+    check_memory(resident, f"{name}: a UV atlas of {n_faces} faces", "give the mesh UVs, or simplify it")
     buf = io.BytesIO()
     np.savez(buf, **payload)
     try:
