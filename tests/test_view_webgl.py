@@ -326,3 +326,22 @@ def test_lost_context_hands_over_to_the_tiles(gl_page):
     assert "lost" in p.page.inner_text("#render-note") and p.page.locator("#render").input_value() == "tiles"
     assert any("/tile?" in u for u in p.requests)
     assert not p.eval("document.getElementById('canvas-gl').checkVisibility()")
+
+
+def test_tiles_draw_a_texton_with_a_histogram_transform(browser, rgb_path, tmp_path):
+    """The exported GLSL does not apply a histogram transform: the page asks, is refused,
+    says why and shows the tiles, which hold the example's colours."""
+    texton = analyze(read_image(rgb_path), size=SIZE, seed=0, histogram="preserve")
+    path = tmp_path / "preserve.exr"
+    texton.save(path)
+    with serve(path, port=0, size=SIZE, device=DEVICE) as handle:
+        p = Page(browser, handle.url + "?render=webgl")
+        try:
+            assert any("/api/shader?" in u for u in p.requests)
+            assert p.render()["drawing"] == "tiles" and any("/tile?" in u for u in p.requests)
+            assert "histogram transform" in p.page.inner_text("#hud")
+            s = p.eval("window.viewer.state")
+            want = view_values(p, texton, mni=float(s["mni"]), seed=s["seed"], filter=s["filter"])
+            beyond_one(p.pixels(), to_8bit(want), "tiles of a histogram-preserving texton against synthesize")
+        finally:
+            p.close()

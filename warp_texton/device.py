@@ -65,6 +65,7 @@ from .errors import TextonError
 from .filter_options import FilterOptions
 from .filtering import filter_struct, pyramid_struct
 from .frames import UP
+from .histogram import refuse_transform
 from .kernels.filter2d import FilteredNoise, filtered_value
 from .kernels.noise2d import PlaneNoise, plane_value
 from .kernels.surface import SurfaceNoise, surface_frame_value, surface_value
@@ -77,10 +78,16 @@ __all__ = ["pack_plane", "pack_filtered", "pack_surface", "PlaneNoise", "Filtere
            "plane_value", "filtered_value", "surface_value", "surface_frame_value"]
 
 
+def _refuse_colours(texton) -> None:
+    refuse_transform(texton, "the device API", "analyse the example with histogram='gaussian', or use "
+                     "evaluate, synthesize or surface_noise for the example's colours")
+
+
 def _plane_settings(texton, mni, seed, period, poisson, cell_factor):
     """(setup, NoiseParams) of the plane noise, checked as ``evaluate`` checks them."""
     seed = check_seed(seed)
     setup = noise_setup(texton, mni, period, cell_factor)
+    _refuse_colours(texton)
     return setup, noise_params(texton, setup, seed, poisson)
 
 
@@ -251,6 +258,7 @@ def pack_surface(
     texel = check_positive(texel_size, "texel_size")
     seed = check_seed(seed)
     setup = surface_setup(texton, mni, cell_factor)
+    _refuse_colours(texton)
     params = surface_params(texton, setup, seed, poisson, up, side)
     device = resolve_device(device)
     noise = SurfaceNoise()

@@ -7,6 +7,7 @@ import scipy.fft as sfft
 
 from ._checks import check_mni, check_seed, check_shape
 from .errors import TextonError
+from .histogram import refuse_transform
 from .limits import check_memory, check_work
 from .texton import Texton
 
@@ -60,6 +61,8 @@ def dsn(texton: Texton, shape, *, mni: float = 30.0, seed: int = 0) -> np.ndarra
     """
     if not isinstance(texton, Texton):
         raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
+    refuse_transform(texton, "dsn (the discrete spot noise of the Gaussian model)",
+                     "use synthesize for the example's colours, or analyse the example with histogram='gaussian'")
     h, w = check_shape(shape)
     mni = check_mni(mni)
     seed = check_seed(seed)

@@ -37,6 +37,7 @@ from ._version import __version__
 from .errors import TextonError
 from .filter_options import FilterOptions
 from .filtering import pyramid_stack
+from .histogram import refuse_transform
 from .kernels.noise2d import PAD
 from .noise import CELL_FACTOR, noise_setup, params_record
 from .raster import raster_geometry, raster_reach
@@ -138,6 +139,8 @@ def glsl_noise(texton: Texton, *, mni: float = 30.0, seed: int = 0, period=None,
     if texton.order not in ORDERS:
         raise TextonError(f"order {texton.order} is not available in glsl; accepted: {', '.join(map(str, ORDERS))}",
                           param="texton")
+    refuse_transform(texton, "the glsl export", "analyse the example with histogram='gaussian' to export "
+                     "its Gaussian noise, or use synthesize for the example's colours")
     options = FilterOptions.of(filter)
     if options.kind not in FILTERS:
         raise TextonError(f"filter {options.kind!r} is not available in glsl; accepted: {', '.join(FILTERS)}",

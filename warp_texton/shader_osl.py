@@ -45,6 +45,7 @@ from ._checks import check_positive, check_seed
 from ._runtime import init_warp
 from .errors import TextonError
 from .frames import UP
+from .histogram import refuse_transform
 from .kernels.noise2d import PAD
 from .noise import CELL_FACTOR, noise_setup, params_record
 from .surface import surface_params, surface_setup
@@ -199,6 +200,8 @@ def osl_files(
     """
     if not isinstance(texton, Texton):
         raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
+    refuse_transform(texton, "the osl export", "analyse the example with histogram='gaussian' to export "
+                     "its Gaussian noise, or use surface_noise, texture_mesh or bake_mesh for the example's colours")
     seed = check_seed(seed)
     texel_size = check_positive(texel_size, "texel_size")
     setup = noise_setup(texton, mni, period, cell_factor)
