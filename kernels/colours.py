@@ -177,6 +177,8 @@ def faded_share(f: Filter, levels: int, cmap: ColourMap, J: wp.mat22) -> float:
     # the footprint's share, faded as the filter f fades the noise to its mean
     # within its last kept MIP level (`levels` kept), and 0 past it
     major, axis, n, lod = footprint_lookups(f, J)
+    if n == 1 and lod == 0.0:
+        return 1.0  # one lookup of level 0 is the unfiltered noise, with all its variance
     fade = wp.clamp(float(levels) - lod, 0.0, 1.0)
     if wp.isnan(lod):
         fade = 0.0
@@ -185,7 +187,8 @@ def faded_share(f: Filter, levels: int, cmap: ColourMap, J: wp.mat22) -> float:
 
 @wp.func
 def filtered_share(noise: FilteredNoise, cmap: ColourMap, J: wp.mat22) -> float:
-    """The share of the noise's variance that ``filtered_value(noise, x, J)`` keeps: the
+    """The share of the noise's variance that ``filtered_value(noise, x, J)`` keeps: 1
+    where the filter makes one lookup of level 0 (the unfiltered noise), else the
     footprint's share (:func:`footprint_share`), faded as the filter fades the noise
     to its mean within its last kept MIP level (0 past it)."""
     return faded_share(noise.filter, noise.pyramid.levels, cmap, J)

@@ -9,6 +9,8 @@ alternative: no runtime shows the Gaussian values silently.
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 import trimesh
@@ -17,13 +19,12 @@ import warp as wp
 import device_kernels as user
 import warp_texton.device as td
 from test_view import small_rgb
-from warp_texton import (FilterOptions, Texton, TextonError, analyze, dsn, evaluate, export_shader, read_image,
+from warp_texton import (FilterOptions, Texton, TextonError, analyze, dsn, evaluate, read_image,
                          surface_noise, synthesize)
 from warp_texton.filtering import RasterPixels, pixel_shares
 from warp_texton.raster import raster_geometry
 from warp_texton.shader import write_shader_preview
 from warp_texton.demo import demo_texture_path
-from warp_texton.view_webgl import shader_payload
 
 from helpers import run_cli
 
@@ -62,11 +63,7 @@ def plain(t: Texton) -> Texton:
 
 
 REFUSERS = {
-    "the glsl export": lambda t, d: export_shader(t, "glsl", d / "out"),
-    "the osl export": lambda t, d: export_shader(t, "osl", d / "out"),
-    "the glsl export ": lambda t, d: write_shader_preview(t, d / "out", (8, 8)),  # the preview
     "dsn .*": lambda t, d: dsn(t, (8, 8)),
-    "the glsl export  ": lambda t, d: shader_payload(t, filters=("none",)),  # the viewer's WebGL2 mode
 }
 
 
@@ -76,16 +73,6 @@ def test_runtimes_without_the_transform_refuse(grey, tmp_path, target):
         REFUSERS[target](grey, tmp_path)
     assert err.value.param == "texton" and "histogram='gaussian'" in str(err.value)
     assert not (tmp_path / "out").exists() and list(tmp_path.iterdir()) == []  # nothing half-written
-
-
-def test_cli_shader_refuses(grey, tmp_path, capsys):
-    path = tmp_path / "grass.exr"
-    grey.save(path)
-    for lang in ("glsl", "osl"):
-        assert run_cli(["shader", path, "--lang", lang, "-o", tmp_path / "out"]) == 2
-        err = capsys.readouterr().err.strip().splitlines()
-        assert len(err) == 1 and f"which the {lang} export does not apply" in err[0], err
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["grass.exr"]
 
 
 # ------------------------------------------------------------------ device API
@@ -147,3 +134,149 @@ def test_surface_colour_is_surface_noise(rgb, device):
 def test_pack_colours_refuses():
     with pytest.raises(TextonError, match="texton must be a Texton, got ndarray"):
         td.pack_colours(np.zeros((4, 4, 1)))
+
+
+# ------------------------------------------------------------------------ GLSL
+@pytest.fixture(scope="module")
+def browser():
+    from clients import chromium_browser
+
+    with chromium_browser() as b:
+        yield b
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("which, place", [("grey", {}), ("rgb", dict(scale=0.7, rotation=30.0, offset=(1.0e6, -5.0)))],
+                         ids=["grey", "rgb-placed"])
+def test_glsl_preview_shows_the_colours(which, place, request, browser, tmp_path):
+    from test_shader_glsl import SHAPE, TOLERANCE, open_preview, read
+
+    texton = request.getfixturevalue(which)
+    page = open_preview(browser, write_shader_preview(texton, tmp_path / "p.html", SHAPE, mni=30, seed=2, **place))
+    got = read(page, "readFloat", SHAPE)[..., :texton.channels]
+    ref = synthesize(texton, SHAPE, mni=30, seed=2, device="cpu", **place)
+    err = np.abs(got - ref).max(axis=-1) / float(np.ptp(ref))
+    print(f"{which}: max error {err.max():.2e} of the range")
+    assert err.max() <= TOLERANCE
+    gauss = synthesize(plain(texton), SHAPE, mni=30, seed=2, device="cpu", **place)
+    assert np.abs(gauss - ref).max() > 0.05 * np.ptp(ref)  # the transform changes the values the page matches
+
+
+@pytest.mark.slow
+def test_glsl_filtered_and_surface_colours(rgb, browser, tmp_path):
+    """The filtered variant with its shares (scales out to past the kept levels: the
+    example's mean colour) and the surface variant, against the package."""
+    from test_shader_glsl import TOLERANCE, open_preview, pixel_centres
+
+    from warp_texton.noise import noise_setup
+    from warp_texton.shader_glsl import glsl_noise
+
+    page = open_preview(browser, write_shader_preview(rgb, tmp_path / "p.html", (4, 4), mni=30, seed=3))
+    errors = {}
+    for scale in (0.6, 0.1, 0.02, 0.002):
+        shape = (8, 10)
+        place = dict(scale=scale, rotation=20.0, offset=(321.5, -77.25))
+        ref = synthesize(rgb, shape, mni=30, seed=3, filter="anisotropic", device="cpu", **place)
+        pts, step = pixel_centres(shape, **place)
+        cell = np.array(noise_setup(rgb, 30).cell)
+        base = np.floor(pts / cell)
+        inputs = np.zeros((len(pts), 12), np.float32)
+        inputs[:, :2], inputs[:, 2:4] = base, pts - base * cell
+        inputs[:, 4:6], inputs[:, 6:8] = step[:, 0], step[:, 1]
+        got = np.array(page.evaluate("x => window.textonNoise.evaluatePoints('filtered', x)",
+                                     inputs.ravel().tolist()), np.float32).reshape(shape + (4,))[..., :3]
+        errors[scale] = np.abs(got - ref).max() / float(np.ptp(rgb.histogram.lut))
+    np.testing.assert_allclose(ref.reshape(-1, 3), np.broadcast_to(rgb.histogram.centre, (80, 3)), atol=2e-3)
+    rng = np.random.default_rng(4)
+    normals = rng.normal(size=(200, 3))
+    points = 40.0 * normals / np.linalg.norm(normals, axis=1, keepdims=True)
+    sref = surface_noise(rgb, points, normals, 1.0, mni=30, seed=3, device="cpu")
+    n = (normals / np.sqrt((normals ** 2).sum(axis=1, keepdims=True))).astype(np.float32)
+    cube = float(glsl_noise(rgb, mni=30, seed=3).settings["cube"])
+    base = np.floor(points / cube)
+    inputs = np.zeros((len(points), 12), np.float32)
+    inputs[:, :3], inputs[:, 4:7], inputs[:, 8:11] = base, points - base * cube, n
+    got = np.array(page.evaluate("x => window.textonNoise.evaluatePoints('surface', x)", inputs.ravel().tolist()),
+                   np.float32).reshape(-1, 4)[:, :3]
+    errors["surface"] = np.abs(got - sref).max() / float(np.ptp(sref))
+    print("max error of the range:", {k: f"{v:.2e}" for k, v in errors.items()})
+    assert max(errors.values()) <= TOLERANCE
+
+
+def test_filtered_colour_of_one_texel_is_the_unfiltered_colour(rgb, device):
+    """One lookup of level 0 is the unfiltered noise: its share is 1 and its colour that of
+    colour_value, as synthesize gives it for a raster that needs no filtering."""
+    pts = np.random.default_rng(3).uniform(-30, 30, (200, 2))
+    J = wp.array(np.broadcast_to(np.eye(2, dtype=np.float32), (200, 2, 2)).copy(), dtype=wp.mat22, device=device)
+    cmap = td.pack_colours(rgb, device=device)
+    a = launch(user.filtered_colour_at, 200, [td.pack_filtered(rgb, seed=4, filter="anisotropic", device=device), cmap,
+                                              wp.array(pts, dtype=wp.vec2d, device=device), J], device)
+    b = launch(user.plane_colour_at, 200, [td.pack_plane(rgb, seed=4, device=device), cmap,
+                                           wp.array(pts, dtype=wp.vec2d, device=device)], device)
+    assert np.array_equal(a, b)
+
+
+# ------------------------------------------------------------------------- OSL
+@pytest.mark.slow
+def test_osl_renders_the_colours(grey, rgb, tmp_path):
+    """Blender's Cycles renders the OSL shaders of histogram-preserving textons (the table
+    embedded): the plane's pixels are evaluate's colours, the sphere's surface_noise's."""
+    from test_shader_osl import (MIN_AGREEMENT, PLANE_TEXEL, SIZE, TOLERANCE, agreement, jitter_box, pixel_centres,
+                                 plane_mesh, render, sphere_hits)
+
+    from warp_texton.shader_osl import PLANE_FILE, SURFACE_FILE, osl_files
+
+    plane_scale, sphere_scale, texel = 1.8, 1.2, 0.06
+    mesh = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
+    jobs = []
+    for n, texton in enumerate((grey, rgb)):
+        osl = tmp_path / f"{n}_{PLANE_FILE}"
+        osl.write_bytes(osl_files(texton, mni=30, seed=7 + n, texel_size=PLANE_TEXEL)[PLANE_FILE])
+        jobs.append({"osl": str(osl), "mode": "internal", "inputs": {"coordinates": "object"},
+                     "ortho_scale": plane_scale, "output": "Color", **plane_mesh(1.0)})
+    osl = tmp_path / SURFACE_FILE
+    osl.write_bytes(osl_files(rgb, mni=60, seed=3, texel_size=texel)[SURFACE_FILE])
+    jobs.append({"osl": str(osl), "mode": "external", "ortho_scale": sphere_scale, "vertices": mesh.vertices,
+                 "faces": mesh.faces, "smooth": True})
+    reports = render(tmp_path, jobs)
+    x, y = pixel_centres(plane_scale)
+    for n, (texton, rep) in enumerate(zip((grey, rgb), reports)):
+        def values(dx, dy):
+            pts = np.stack([(x + dx) / PLANE_TEXEL, -(y + dy) / PLANE_TEXEL], -1).reshape(-1, 2)
+            return evaluate(texton, pts, mni=30, seed=7 + n, device="cpu").reshape(SIZE, SIZE, texton.channels)
+
+        covered = rep["rgba"][..., 3] == 1.0
+        a = agreement(rep["rgba"], *jitter_box(values, plane_scale), covered, texton.channels)
+        print(f"plane, {texton.channels} channel(s), histogram-preserving: {a}")
+        assert covered.all() and a["fraction"] >= MIN_AGREEMENT and a["max_outside_jitter"] <= TOLERANCE
+    rep = reports[2]
+    x, y = pixel_centres(sphere_scale)
+
+    def surface(dx, dy):
+        h, pts, nrm = sphere_hits(mesh, rep["vertex_normals"], x + dx, y + dy)
+        out = np.zeros((SIZE, SIZE, 3))
+        out[h] = surface_noise(rgb, pts, nrm, texel, mni=60, seed=3, device="cpu")
+        return out
+
+    hit = sphere_hits(mesh, rep["vertex_normals"], x, y)[0]
+    covered = hit & (rep["rgba"][..., 3] == 1.0)
+    a = agreement(rep["rgba"], *jitter_box(surface, sphere_scale), covered, 3)
+    print(f"sphere, 3 channels, histogram-preserving: {a}")
+    assert covered.sum() == SIZE * SIZE and a["fraction"] >= MIN_AGREEMENT and a["max_outside_jitter"] <= TOLERANCE
+
+
+def test_exports_carry_the_transform(rgb, tmp_path):
+    """The command line exports a histogram-preserving texton with its tables: GLSL as two
+    float textures beside the coefficient textures, OSL embedded in both shaders."""
+    path = tmp_path / "rgb.exr"
+    rgb.save(path)
+    assert run_cli(["shader", path, "--lang", "glsl", "-o", tmp_path / "glsl", "-q"]) == 0
+    meta = json.loads((tmp_path / "glsl" / "texton_noise.json").read_text())
+    assert meta["textures"]["texton_colours"] == {"file": "texton_colours.f32", "width": 1024, "height": 33,
+                                                  "format": "RGBA32F"}
+    tables = np.fromfile(tmp_path / "glsl" / "texton_colours.f32", "<f4").reshape(33, 1024, 4)
+    assert np.array_equal(tables[-1, :, :3], rgb.histogram.lut.T.astype(np.float32))
+    assert "const bool TN_HISTOGRAM = true;" in (tmp_path / "glsl" / "texton_noise.glsl").read_text()
+    assert run_cli(["shader", path, "--lang", "osl", "-o", tmp_path / "osl", "-q"]) == 0
+    for name in ("texton_plane.osl", "texton_surface.osl"):
+        assert "float L[3072] = {" in (tmp_path / "osl" / name).read_text()
