@@ -38,8 +38,10 @@ def dsn(texton: Texton, shape, *, mni: float = 30.0, seed: int = 0) -> np.ndarra
     Raises
     ------
     TextonError
-        For a ``texton`` that is not a :class:`Texton`, a bad ``shape``,
-        ``mni`` or ``seed``, and a raster over the memory or work budget.
+        For a ``texton`` that is not a :class:`Texton`, or that has a histogram
+        transform (this reference draws the Gaussian model: use
+        :func:`~warp_texton.synthesize` for the example's colours), a bad
+        ``shape``, ``mni`` or ``seed``, and a raster over the memory or work budget.
 
     Notes
     -----
