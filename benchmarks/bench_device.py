@@ -49,6 +49,12 @@ def filtered_at(noise: td.FilteredNoise, points: wp.array(dtype=wp.vec2d), footp
 
 
 @wp.kernel
+def colours_at(cmap: td.ColourMap, values: wp.array(dtype=wp.vec3), out: wp.array(dtype=wp.vec3)):
+    t = wp.tid()
+    out[t] = td.colour_value(cmap, values[t])
+
+
+@wp.kernel
 def surface_at(noise: td.SurfaceNoise, points: wp.array(dtype=wp.vec3d), normals: wp.array(dtype=wp.vec3d),
                out: wp.array(dtype=wp.vec3)):
     t = wp.tid()
@@ -107,13 +113,47 @@ def run(args) -> dict:
         check = (lambda r=ref: np.array_equal(surf()[:, :texton.channels], r())) if device == "cpu" or \
             method == "points" else (lambda: True)
         row(f"surface_value / surface_noise ({method})", len(p), surf, ref, check)
+    maps = colour_maps(args, device)
     return {
         **report_header("device", device),
+        "colour_maps": maps,
         "parameters": {"texton": list(texton.size), "channels": texton.channels, "mni": args.mni,
                        "surface_mni": 60.0, "repeat": args.repeat, "quick": args.quick,
                        "cpu_threads": cpu_threads() if device == "cpu" else None},
         "results": rows,
     }
+
+
+def colour_maps(args, device) -> dict:
+    """A histogram-preserving texton's colour map over 2^20 (quick: 2^14) RGB noise values: a
+    user's kernel (``colour_value``), the package's host mapping (``colours.to_colours``, the
+    same function launched on the CPU) and the float64 NumPy lookup of
+    ``HistogramTransform.to_colours`` (the transform's reference), interleaved."""
+    from warp_texton.colours import noise_moments, to_colours
+
+    texton = analyze(make_texture(128), size=args.size, seed=0, histogram="preserve")
+    n = 1 << (14 if args.quick else 20)
+    values = (np.random.default_rng(1).standard_normal((n, 3)) * np.sqrt(np.diag(texton.covariance()))
+              + texton.mean).astype(np.float32)
+    mean, std = noise_moments(texton)
+    cmap = td.pack_colours(texton, device=device)
+    user = user_launch(colours_at, cmap, [lambda: wp.array(values, dtype=wp.vec3, device=device)], n, device)
+
+    def host():
+        out = values.copy()
+        to_colours(out, texton)
+        return out
+
+    def numpy_lookup():
+        return texton.histogram.to_colours((values.astype(np.float64) - mean) / std)
+
+    if device == "cpu":
+        assert np.array_equal(user(), host()), "colour_value and to_colours differ"
+    diff = float(np.abs(host() - numpy_lookup()).max())
+    t = interleaved({"device API": user, "package": host, "NumPy float64": numpy_lookup}, args.repeat)
+    print(f"  colour map of {n} values: device API {t['device API']['best_s']:.3f} s, package "
+          f"{t['package']['best_s']:.3f} s, NumPy float64 {t['NumPy float64']['best_s']:.3f} s", flush=True)
+    return {"values": n, **t, "max_diff_numpy": diff, "range": float(np.ptp(texton.histogram.lut))}
 
 
 def markdown(report: dict) -> str:
@@ -134,6 +174,17 @@ def markdown(report: dict) -> str:
         a, b = r["device API"], r["package"]
         lines.append(f"| {r['what']} | {r['points']} | {a['best_s']:.3f} ({a['median_s']:.3f}) | "
                      f"{b['best_s']:.3f} ({b['median_s']:.3f}) | {r['ratio_best']:.2f} |")
+    m = report.get("colour_maps")
+    if m:
+        lines += ["", f"A histogram-preserving texton's colour map over {m['values']} RGB noise values (the same "
+                  "interleaved runs): a user's kernel calling `colour_value`, the package's host mapping "
+                  "(`colours.to_colours`: the same function launched on the CPU) and the float64 NumPy lookup "
+                  f"of `HistogramTransform.to_colours`, which the float32 map matches to {m['max_diff_numpy']:.1e} "
+                  f"(tables' range {m['range']:.2f}).", "",
+                  "| map | best (s) | median (s) | vs NumPy |", "|---|---|---|---|"]
+        for name in ("device API", "package", "NumPy float64"):
+            lines.append(f"| {name} | {m[name]['best_s']:.3f} | {m[name]['median_s']:.3f} | "
+                         f"{m[name]['best_s'] / m['NumPy float64']['best_s']:.2f} |")
     return "\n".join(lines) + "\n"
 
 

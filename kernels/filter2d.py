@@ -165,6 +165,27 @@ def add_lookups(c: PyramidLookup, d: wp.vec2, acc: wp.vec3):
 sum_lookups = cell_walk(add_lookups, "sum_lookups")
 
 
+@wp.func
+def footprint_lookups(f: Filter, J: wp.mat22):
+    # The filter's choice for the footprint J: (major length, unit major axis,
+    # lookups n, MIP level ≥ 0 before the fade), as filtering.footprint_levels
+    # computes it on the host.
+    major, minor, axis = footprint_axes(J)
+    n = int(1)
+    width = major
+    if f.mode == ANISOTROPIC:
+        if major > minor * float(f.max_aniso):
+            n = f.max_aniso
+        elif minor > 0.0:
+            n = int(wp.ceil(major / minor - 1.0e-4))
+        n = wp.max(n, 1)
+        width = wp.max(minor, major / float(n))
+    lod = 0.0
+    if width > 0.0:
+        lod = wp.max(wp.log2(width) + f.lod_bias, 0.0)
+    return major, axis, n, lod
+
+
 @wp.struct
 class FilteredNoise:
     """Texton noise filtered for a footprint, as a kernel evaluates it (the device API).
@@ -205,20 +226,7 @@ def filtered_value(noise: FilteredNoise, x: wp.vec2d, J: wp.mat22) -> wp.vec3:
     """
     p = noise.params
     pyr = noise.pyramid
-    f = noise.filter
-    major, minor, axis = footprint_axes(J)
-    n = int(1)
-    width = major
-    if f.mode == ANISOTROPIC:
-        if major > minor * float(f.max_aniso):
-            n = f.max_aniso
-        elif minor > 0.0:
-            n = int(wp.ceil(major / minor - 1.0e-4))
-        n = wp.max(n, 1)
-        width = wp.max(minor, major / float(n))
-    lod = 0.0
-    if width > 0.0:
-        lod = wp.max(wp.log2(width) + f.lod_bias, 0.0)
+    major, axis, n, lod = footprint_lookups(noise.filter, J)
     # past the kept levels (or not finite): the mean; compared as floats before
     # any int conversion
     if lod >= float(pyr.levels) or wp.isnan(lod):

@@ -34,3 +34,31 @@ def surface_frame_at(noise: td.SurfaceNoise, points: wp.array(dtype=wp.vec3d), n
                      tangents: wp.array(dtype=wp.vec3), out: wp.array(dtype=wp.vec3)):
     t = wp.tid()
     out[t] = td.surface_frame_value(noise, points[t], normals[t], tangents[t])
+
+
+@wp.kernel
+def plane_colour_at(noise: td.PlaneNoise, cmap: td.ColourMap, points: wp.array(dtype=wp.vec2d),
+                    out: wp.array(dtype=wp.vec3)):
+    t = wp.tid()
+    out[t] = td.colour_value(cmap, td.plane_value(noise, points[t]))
+
+
+@wp.kernel
+def filtered_colour_at(noise: td.FilteredNoise, cmap: td.ColourMap, points: wp.array(dtype=wp.vec2d),
+                       footprints: wp.array(dtype=wp.mat22), out: wp.array(dtype=wp.vec3)):
+    t = wp.tid()
+    out[t] = td.filtered_colour(noise, cmap, points[t], footprints[t])
+
+
+@wp.kernel
+def surface_colour_at(noise: td.SurfaceNoise, cmap: td.ColourMap, points: wp.array(dtype=wp.vec3d),
+                      normals: wp.array(dtype=wp.vec3d), out: wp.array(dtype=wp.vec3)):
+    t = wp.tid()
+    out[t] = td.colour_value(cmap, td.surface_value(noise, points[t], normals[t]))
+
+
+@wp.kernel
+def shares_at(noise: td.FilteredNoise, cmap: td.ColourMap, footprints: wp.array(dtype=wp.mat22),
+              out: wp.array(dtype=float)):
+    t = wp.tid()
+    out[t] = td.filtered_share(noise, cmap, footprints[t])

@@ -326,3 +326,28 @@ def test_lost_context_hands_over_to_the_tiles(gl_page):
     assert "lost" in p.page.inner_text("#render-note") and p.page.locator("#render").input_value() == "tiles"
     assert any("/tile?" in u for u in p.requests)
     assert not p.eval("document.getElementById('canvas-gl').checkVisibility()")
+
+
+def test_webgl_shows_the_colours_of_a_histogram_transform(browser, rgb_path, tmp_path):
+    """The exported GLSL maps the noise through a texton's histogram transform: WebGL shows
+    the tiles' pixels (the example's colours), near and zoomed out (the prefiltered tables)."""
+    texton = analyze(read_image(rgb_path), size=SIZE, seed=0, histogram="preserve")
+    path = tmp_path / "preserve.exr"
+    texton.save(path)
+    with serve(path, port=0, size=SIZE, device=DEVICE) as handle:
+        p = Page(browser, handle.url + "?render=webgl")
+        try:
+            for zoom in (0, -3):
+                p.eval(f"window.viewer.setView({{ zoom: {zoom}, left: -40.5, top: 17.25 }})")
+                p.idle()
+                assert p.render()["drawing"] == "webgl"
+                gl, values = p.pixels(), p.floats()
+                s = p.eval("window.viewer.state")
+                want = view_values(p, texton, mni=float(s["mni"]), seed=s["seed"], filter=s["filter"])
+                err = np.abs(values - want).max(axis=-1) / np.ptp(texton.histogram.lut)
+                print(f"zoom {zoom}: max error {err.max():.2e} of the tables' range")
+                assert (err > 1e-3).mean() <= BEYOND_ONE
+                beyond_one(gl, p.mode("tiles"), f"WebGL against the tiles at zoom {zoom}, histogram-preserving")
+                p.mode("webgl")
+        finally:
+            p.close()

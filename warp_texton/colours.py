@@ -22,7 +22,11 @@ import functools
 
 import numpy as np
 
+from ._runtime import init_warp
 from .filter_options import FilterOptions
+from .histogram import GAUSS_RANGE
+from .kernels import colours as K
+from .kernels.filter2d import Filter
 from .limits import check_memory
 from .texton import Texton
 
@@ -43,22 +47,62 @@ def noise_moments(texton: Texton) -> tuple[np.ndarray, np.ndarray]:
     return texton.mean.astype(np.float64), np.sqrt(np.maximum(var, 1e-30))
 
 
+def make_colour_map(texton: Texton, device: str = "cpu", shares: bool = False) -> K.ColourMap:
+    """The kernels' ``ColourMap`` of ``texton`` on ``device`` (float32 copies of its
+    transform and noise moments; ``enabled`` 0 without a transform), with its table
+    of footprint shares when ``shares`` (:func:`share_table`)."""
+    wp = init_warp()
+    cmap = K.ColourMap()
+    tr = texton.histogram
+    c = texton.channels
+    cmap.channels = c
+    cmap.enabled = int(tr is not None)
+    cmap.gauss_range = GAUSS_RANGE
+    matrix = np.eye(3)
+    mean, std = noise_moments(texton)
+    if tr is not None:
+        matrix[:c, :c] = tr.matrix
+        cmap.centre = wp.vec3(*np.pad(tr.centre, (0, 3 - c)))
+        cmap.tables = wp.array(tr.prefiltered.astype(np.float32), dtype=float, device=device)
+    cmap.matrix = wp.mat33(*matrix.ravel())
+    cmap.mean = wp.vec3(*np.pad(mean, (0, 3 - c)))
+    cmap.std = wp.vec3(*np.pad(std, (0, 3 - c), constant_values=1.0))
+    if shares:
+        cmap.shares = wp.array(share_table(texton).astype(np.float32), dtype=float, device=device)
+        cmap.log_first = float(LOG_EXTENTS[0])
+        cmap.log_step = float(LOG_EXTENTS[1] - LOG_EXTENTS[0])
+    return cmap
+
+
+#: The host's maps, one per texton (shared by its outputs' threads; never changed).
+colour_map = functools.lru_cache(maxsize=16)(make_colour_map)
+
+
 def to_colours(values: np.ndarray, texton: Texton | None, share=None) -> None:
     """Map ``values`` (N, ≥ C) float32, in place, from the noise of ``texton`` to its
     example's colours; nothing for a texton without a histogram transform.
 
     ``share``: None (unfiltered values) or the share of the variance each value
-    kept, a number or (N,) (:func:`footprint_shares`).
+    kept, a number or (N,) (:func:`footprint_shares`). The values are mapped by
+    the device API's functions (``colour_value``, ``colour_share``) on the CPU.
     """
     if texton is None or texton.histogram is None or not len(values):
         return
+    wp = init_warp()
     c = texton.channels
-    mean, std = noise_moments(texton)
-    shares = None if share is None else np.broadcast_to(np.asarray(share, np.float64), (len(values),))
-    for start in range(0, len(values), CHUNK):  # float64 temporaries of a bounded size
+    cmap = colour_map(texton)
+    shares = None if share is None else np.broadcast_to(np.asarray(share, np.float32), (len(values),))
+    for start in range(0, len(values), CHUNK):  # copies of a bounded size
         part = values[start:start + CHUNK]
-        g = (part[:, :c].astype(np.float64) - mean) / std
-        part[:, :c] = texton.histogram.to_colours(g, None if shares is None else shares[start:start + CHUNK])
+        v = np.zeros((len(part), 3), np.float32)
+        v[:, :c] = part[:, :c]
+        arr = wp.array(v, dtype=wp.vec3, device="cpu")
+        if shares is None:
+            wp.launch(K.map_values, dim=len(v), inputs=[cmap, arr], device="cpu")
+        else:
+            s = wp.array(np.ascontiguousarray(shares[start:start + CHUNK]), dtype=float, device="cpu")
+            wp.launch(K.map_shared_values, dim=len(v), inputs=[cmap, arr, s], device="cpu")
+        part[:, :c] = arr.numpy()[:, :c]
 
 
 def mean_colour(texton: Texton) -> np.ndarray:
@@ -95,32 +139,23 @@ def share_table(texton: Texton) -> np.ndarray:
 
 def footprint_shares(texton: Texton, J: np.ndarray, options: FilterOptions) -> np.ndarray:
     """The share of the noise's variance kept by pixels of footprints J (..., 2, 2)
-    filtered as ``options`` say: 1 for unfiltered pixels; J's leading shape."""
-    J = np.asarray(J, np.float64)
+    filtered as ``options`` say: 1 for unfiltered pixels; J's leading shape.
+    Computed by the device API's ``footprint_share`` on the CPU (J in float32)."""
+    J = np.asarray(J)
     if not (options.spec.footprint or options.spec.supersamples):
         return np.ones(J.shape[:-2])
-    m = np.einsum("...ij,...kj->...ik", J, J)
-    half = 0.5 * (m[..., 0, 0] + m[..., 1, 1])
-    disc = np.sqrt(0.25 * (m[..., 0, 0] - m[..., 1, 1]) ** 2 + m[..., 0, 1] ** 2)
-    major, minor = np.sqrt(half + disc), np.sqrt(np.maximum(half - disc, 0.0))
-    angle = 0.5 * np.arctan2(2.0 * m[..., 0, 1], m[..., 0, 0] - m[..., 1, 1])  # of the major axis
-    table = share_table(texton)
-    step = LOG_EXTENTS[1] - LOG_EXTENTS[0]
-    n = len(LOG_EXTENTS)
+    return shares_of(texton, J)
 
-    def axis(extent):
-        with np.errstate(divide="ignore"):
-            pos = np.clip((np.log2(extent) - LOG_EXTENTS[0]) / step, 0.0, n - 1)
-        i = np.minimum(pos.astype(np.int64), n - 2)
-        return i, pos - i
 
-    (i, ti), (j, tj) = axis(major), axis(minor)
-    pk = np.mod(angle, np.pi) / np.pi * ANGLES
-    k = np.minimum(pk.astype(np.int64), ANGLES - 1)
-    tk = pk - k
-    k1 = (k + 1) % ANGLES
-    out = 0.0
-    for di, wi in ((0, 1.0 - ti), (1, ti)):
-        for dj, wj in ((0, 1.0 - tj), (1, tj)):
-            out = out + wi * wj * (table[i + di, j + dj, k] * (1.0 - tk) + table[i + di, j + dj, k1] * tk)
-    return np.clip(out, 0.0, 1.0)
+def shares_of(texton: Texton, J: np.ndarray, flt: Filter | None = None, levels: int = 0) -> np.ndarray:
+    """float32 shares of footprints J (..., 2, 2): the footprints' own, or faded as the
+    MIP filter ``flt`` with ``levels`` kept levels fades the noise (``filtered_share``)."""
+    wp = init_warp()
+    J = np.asarray(J, np.float32)
+    flat = np.ascontiguousarray(J.reshape(-1, 2, 2))
+    out = wp.zeros(len(flat), dtype=float, device="cpu")
+    if len(flat):
+        wp.launch(K.pixel_shares, dim=len(flat), device="cpu",
+                  inputs=[colour_map(texton, "cpu", True), wp.array(flat, dtype=wp.mat22, device="cpu"),
+                          int(flt is not None), Filter() if flt is None else flt, int(levels), out])
+    return out.numpy().reshape(J.shape[:-2])

@@ -11,6 +11,7 @@ kernel.
 | :func:`pack_plane` | ``PlaneNoise`` | ``plane_value(noise, x: wp.vec2d) -> wp.vec3`` |
 | :func:`pack_filtered` | ``FilteredNoise`` | ``filtered_value(noise, x: wp.vec2d, J: wp.mat22) -> wp.vec3`` |
 | :func:`pack_surface` | ``SurfaceNoise`` | ``surface_value(noise, x: wp.vec3d, normal: wp.vec3d) -> wp.vec3``, ``surface_frame_value(noise, y: wp.vec3d, n: wp.vec3, u1: wp.vec3) -> wp.vec3`` |
+| :func:`pack_colours` | ``ColourMap`` | ``colour_value(cmap, v: wp.vec3) -> wp.vec3``, ``filtered_colour(fnoise, cmap, x: wp.vec2d, J: wp.mat22) -> wp.vec3``, ``colour_share``, ``filtered_share``, ``footprint_share`` |
 
 The structs and functions are those of the package's own kernels
 (``warp_texton.kernels``, re-exported here): :func:`~warp_texton.evaluate`,
@@ -38,7 +39,10 @@ device, from the same inputs:
   ``tangents``).
 
 The values are ``wp.vec3``; the first ``texton.channels`` components are the
-noise, the others zero. A struct's arrays live on the device it was packed
+noise, the others zero. They are the Gaussian noise: for a texton analysed with
+``histogram="preserve"``, whose outputs are mapped to the example's colours,
+a kernel maps them with :func:`pack_colours`'s struct (``colour_value``,
+``filtered_colour``) as the package does. A struct's arrays live on the device it was packed
 for: launch the kernels that take it there. A kernel cannot raise, so the
 packers check everything they can (the ``TextonError`` of the functions they
 mirror); a point beyond the noise's cell range (±2³⁰ cells, the range
@@ -63,8 +67,11 @@ from ._checks import check_positive, check_seed
 from ._runtime import resolve_device
 from .errors import TextonError
 from .filter_options import FilterOptions
+from .colours import make_colour_map
 from .filtering import filter_struct, pyramid_struct
 from .frames import UP
+from .kernels.colours import (ColourMap, colour_share, colour_value, filtered_colour, filtered_share,
+                              footprint_share)
 from .kernels.filter2d import FilteredNoise, filtered_value
 from .kernels.noise2d import PlaneNoise, plane_value
 from .kernels.surface import SurfaceNoise, surface_frame_value, surface_value
@@ -73,8 +80,9 @@ from .surface import CELL_FACTOR as SURFACE_CELL_FACTOR
 from .surface import surface_params, surface_setup
 from .texton import Texton
 
-__all__ = ["pack_plane", "pack_filtered", "pack_surface", "PlaneNoise", "FilteredNoise", "SurfaceNoise",
-           "plane_value", "filtered_value", "surface_value", "surface_frame_value"]
+__all__ = ["pack_plane", "pack_filtered", "pack_surface", "pack_colours", "PlaneNoise", "FilteredNoise",
+           "SurfaceNoise", "ColourMap", "plane_value", "filtered_value", "surface_value", "surface_frame_value",
+           "colour_value", "colour_share", "filtered_colour", "filtered_share", "footprint_share"]
 
 
 def _plane_settings(texton, mni, seed, period, poisson, cell_factor):
@@ -258,3 +266,65 @@ def pack_surface(
     noise.coeffs = wp.array(setup.coeffs, dtype=wp.vec3, device=device)
     noise.texel_size = texel
     return noise
+
+
+def pack_colours(texton: Texton, *, device=None) -> ColourMap:
+    """The histogram transform of ``texton`` packed for ``colour_value`` and ``filtered_colour``.
+
+    A texton analysed with ``analyze(..., histogram="preserve")`` evaluates
+    Gaussian values; the package maps every output through its transform
+    (docs/histogram.md). A user's kernel does the same with the struct this
+    returns: ``colour_value(cmap, plane_value(noise, x))`` is ``evaluate``'s
+    value, ``colour_value(cmap, surface_value(...))`` that of
+    ``surface_noise``, and ``filtered_colour(fnoise, cmap, x, J)`` the pixel of
+    the filtered ``synthesize``.
+
+    Parameters
+    ----------
+    texton : Texton
+        Any texton: without a transform the functions return the values as
+        they are (``cmap.enabled`` is 0), so one kernel serves both kinds.
+    device : str, optional
+        Where the struct's arrays live, as in :func:`pack_plane`.
+
+    Returns
+    -------
+    ColourMap
+        A ``@wp.struct`` holding the principal axes and mean colour, the noise's
+        mean and standard deviation, the inverse-CDF tables and their versions
+        prefiltered per variance share (float32, (33, C, 1024)), and the texton's
+        table of footprint shares. The device functions:
+
+        * ``colour_value(cmap, v: wp.vec3) -> wp.vec3``: the colour of an
+          unfiltered value;
+        * ``colour_share(cmap, v, share: float) -> wp.vec3``: the colour of a
+          value that kept ``share`` of the noise's variance;
+        * ``footprint_share(cmap, J: wp.mat22) -> float``: the share a footprint
+          keeps (before a MIP filter's fade);
+        * ``filtered_share(fnoise, cmap, J) -> float``: the share of
+          ``filtered_value(fnoise, x, J)``, faded as its filter fades;
+        * ``filtered_colour(fnoise, cmap, x, J) -> wp.vec3``: both, the
+          colour of the filtered pixel.
+
+        The host maps the package's outputs with these functions on the CPU,
+        so on the CPU a user's kernel gives the outputs bit for bit; on CUDA
+        to float32 rounding (docs/renderers.md).
+
+    Raises
+    ------
+    TextonError
+        For a ``texton`` that is not a Texton, a bad ``device``, or a texton
+        whose share table exceeds the memory budget.
+
+    Examples
+    --------
+    >>> from warp_texton import analyze, read_image
+    >>> from warp_texton.demo import demo_texture_path
+    >>> texton = analyze(read_image(demo_texture_path()), size=16, histogram="preserve")
+    >>> cmap = pack_colours(texton, device="cpu")
+    >>> int(cmap.enabled), cmap.tables.shape
+    (1, (33, 1, 1024))
+    """
+    if not isinstance(texton, Texton):
+        raise TextonError(f"texton must be a Texton, got {type(texton).__name__}", param="texton")
+    return make_colour_map(texton, resolve_device(device), True)

@@ -7,6 +7,7 @@ import scipy.fft as sfft
 
 from ._checks import check_mni, check_seed, check_shape
 from .errors import TextonError
+from .histogram import refuse_transform
 from .limits import check_memory, check_work
 from .texton import Texton
 
@@ -37,8 +38,10 @@ def dsn(texton: Texton, shape, *, mni: float = 30.0, seed: int = 0) -> np.ndarra
     Raises
     ------
     TextonError
-        For a ``texton`` that is not a :class:`Texton`, a bad ``shape``,
-        ``mni`` or ``seed``, and a raster over the memory or work budget.
+        For a ``texton`` that is not a :class:`Texton`, or that has a histogram
+        transform (this reference draws the Gaussian model: use
+        :func:`~warp_texton.synthesize` for the example's colours), a bad
+        ``shape``, ``mni`` or ``seed``, and a raster over the memory or work budget.
 
     Notes
     -----
@@ -60,6 +63,8 @@ def dsn(texton: Texton, shape, *, mni: float = 30.0, seed: int = 0) -> np.ndarra
     """
     if not isinstance(texton, Texton):
         raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
+    refuse_transform(texton, "dsn (the discrete spot noise of the Gaussian model)",
+                     "use synthesize for the example's colours, or analyse the example with histogram='gaussian'")
     h, w = check_shape(shape)
     mni = check_mni(mni)
     seed = check_seed(seed)

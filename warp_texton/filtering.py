@@ -36,7 +36,7 @@ from .filter_options import (FADE_ENERGY, FILTERS, LOD_BIAS, MAX_ANISO, MAX_LOD_
 from .kernels import filter2d as F
 from .kernels.noise2d import PAD
 from .limits import check_memory, check_work
-from .colours import footprint_shares
+from .colours import footprint_shares, shares_of
 from .noise import NoiseSetup, cell_limit, params_mean, point_values, support_reach, visits_per_point, walk_cost
 from .texton import Texton, lag0_covariance
 
@@ -502,11 +502,10 @@ def pixel_shares(texton: Texton, pixels: PixelSet, options: FilterOptions) -> np
     histogram transform. Within the last kept MIP level the filters fade the noise to
     its mean, and past it they return the mean: the shares fade with them."""
     J = pixels.footprints(0, pixels.count)
-    shares = footprint_shares(texton, J, options)
-    if options.spec.footprint:
-        lod = np.maximum(footprint_levels(J, options)[1], 0.0)
-        with np.errstate(invalid="ignore"):
-            shares = shares * np.clip(kept_levels(texton, fade_energy=options.fade_energy) - lod, 0.0, 1.0) ** 2
+    if options.spec.footprint:  # the device API's filtered_share
+        shares = shares_of(texton, J, filter_struct(options), kept_levels(texton, fade_energy=options.fade_energy))
+    else:
+        shares = footprint_shares(texton, J, options)
     return np.broadcast_to(shares, (pixels.count,))
 
 

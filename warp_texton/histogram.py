@@ -295,3 +295,13 @@ def check_histogram(histogram) -> str:
         raise TextonError(f"histogram must be one of {', '.join(HISTOGRAMS)}, got {histogram!r:.60}",
                           param="histogram")
     return histogram
+
+
+def refuse_transform(texton, target: str, instead: str) -> None:
+    """Refuse a texton with a histogram transform in ``target``, an output that does not
+    apply it: it would show the noise's Gaussian values where every other output shows
+    the example's colours. ``instead`` says what to use."""
+    if getattr(texton, "histogram", None) is not None:
+        raise TextonError(f"texton has a histogram transform (analyze(..., histogram='preserve')), which {target} "
+                          f"does not apply: it would show Gaussian values, not the example's colours; {instead}",
+                          param="texton")

@@ -137,6 +137,15 @@ def export_shader(texton: Texton, lang: str, out_dir, *, mni: float = 30.0, seed
     ``texton_surface.osl``, ``texton_plane.osl`` and
     ``texton_noise_osl.json`` (the settings).
 
+    A texton with a histogram transform (``analyze(...,
+    histogram="preserve")``) is exported with it, so the shaders return the
+    example's colours as the package's outputs do: GLSL adds
+    ``texton_colours.f32`` (the inverse-CDF tables, one row per variance
+    share) and ``texton_shares.f32`` (the footprint shares of the filtered
+    variant), and keeps the Gaussian values as ``texton_gaussian_noise`` and
+    its variants; OSL embeds the unfiltered table in both shaders
+    (docs/renderers.md).
+
     Examples
     --------
     >>> import tempfile, pathlib

@@ -2,12 +2,10 @@
 
 The GLSL source (``shaders/texton_noise.glsl``, package data) is one template:
 this module writes its constants block from the host code the Warp kernels
-take their parameters from (:func:`warp_texton.noise.noise_setup` and
-:func:`~warp_texton.noise.params_record` for the plane,
-:func:`warp_texton.surface.surface_setup` and
-:func:`~warp_texton.surface.surface_params` for surfaces,
-:func:`warp_texton.filtering.pyramid_stack` for the filters), so the shader's
-constants are the kernels' float32 values. Floats are written with nine
+take their parameters from (``noise.noise_setup`` and ``noise.params_record``
+for the plane, ``surface.surface_setup`` and ``surface.surface_params`` for
+surfaces, ``filtering.pyramid_stack`` for the filters, ``colours`` for a
+histogram transform), so the shader's constants are the kernels' float32 values. Floats are written with nine
 significant digits, which a GLSL compiler reads back to the same float32.
 
 The texton travels as RGBA32F textures read with ``texelFetch`` (exact values,
@@ -16,6 +14,11 @@ kernels' zero margin, and ``texton_pyramid``, the MIP levels stacked in rows as
 the kernels' ``Pyramid`` holds them. A GL mip chain is not used: GL halves odd
 sides down, the package's pyramid pads them up (block means of zero-padded
 2 × 2 blocks), and its levels carry the same zero margin as level 0.
+
+A texton with a histogram transform adds ``texton_colours`` (its inverse-CDF
+tables, one row per variance share) and ``texton_shares`` (its footprint
+shares), which the library's ``texton_noise*`` functions use to return the
+example's colours (:func:`colour_textures`).
 
 The JavaScript that builds programs and uploads the textures
 (``shaders/texton_noise.js``) is shared by the HTML preview and any page that
@@ -37,6 +40,8 @@ from ._version import __version__
 from .errors import TextonError
 from .filter_options import FilterOptions
 from .filtering import pyramid_stack
+from .colours import ANGLES, LOG_EXTENTS, noise_moments, share_table
+from .histogram import GAUSS_RANGE, SHARE_STEPS
 from .kernels.noise2d import PAD
 from .noise import CELL_FACTOR, noise_setup, params_record
 from .raster import raster_geometry, raster_reach
@@ -129,6 +134,45 @@ def check_texture_sizes(textures: dict, limit: int = MAX_TEXTURE_SIZE, target: s
                 param="texton")
 
 
+def colour_textures(texton: Texton) -> dict:
+    """The histogram transform's textures (none without one): ``texton_colours``, row s
+    the inverse-CDF tables prefiltered for the share s / (S − 1), channels in RGB;
+    ``texton_shares``, the footprint shares (row: major extent; column: minor extent ·
+    ANGLES + angle) in R."""
+    if texton.histogram is None:
+        return {}
+    tables = np.transpose(texton.histogram.prefiltered, (0, 2, 1))  # (S, K, C)
+    shares = share_table(texton)
+    e = shares.shape[0]
+    return {"texton_colours": _rgba(tables), "texton_shares": _rgba(shares.reshape(e, -1)[..., None])}
+
+
+def colour_constants(texton: Texton) -> list:
+    """The histogram transform's constants (kernels/colours.py ``ColourMap``); pass-through
+    values without one."""
+    tr = texton.histogram
+    c = texton.channels
+    matrix, centre = np.eye(3), np.zeros(3)
+    if tr is not None:
+        matrix[:c, :c] = tr.matrix
+        centre[:c] = tr.centre
+    std = np.ones(3)
+    std[:c] = noise_moments(texton)[1]
+    return [
+        ("const bool", "TN_HISTOGRAM", "true" if tr is not None else "false"),
+        ("const vec3", "TN_NOISE_STD", _vec(std)),
+        ("const mat3", "TN_COLOUR_MATRIX", f"mat3({', '.join(_f(v) for v in matrix.ravel(order='F'))})"),
+        ("const vec3", "TN_COLOUR_CENTRE", _vec(centre)),
+        ("const float", "TN_GAUSS_RANGE", _f(GAUSS_RANGE)),
+        ("const int", "TN_LUT_SIZE", str(tr.lut.shape[1] if tr is not None else 2)),
+        ("const int", "TN_SHARE_STEPS", str(SHARE_STEPS)),
+        ("const int", "TN_EXTENTS", str(len(LOG_EXTENTS))),
+        ("const int", "TN_ANGLES", str(ANGLES)),
+        ("const float", "TN_LOG_FIRST", _f(LOG_EXTENTS[0])),
+        ("const float", "TN_LOG_STEP", _f(LOG_EXTENTS[1] - LOG_EXTENTS[0])),
+    ]
+
+
 def glsl_noise(texton: Texton, *, mni: float = 30.0, seed: int = 0, period=None, cell_factor: float = CELL_FACTOR,
                poisson: str = "exact", filter="anisotropic", surface_mni: float | None = None, up=UP,
                side=None) -> GlslNoise:
@@ -147,6 +191,7 @@ def glsl_noise(texton: Texton, *, mni: float = 30.0, seed: int = 0, period=None,
     rec = params_record(texton, setup, seed, poisson)
     pyr = pyramid_stack(texton, options.fade_energy)
     textures = {"texton_coeffs": _rgba(setup.coeffs), "texton_pyramid": _rgba(pyr.coeffs[:int(pyr.rows[:pyr.levels].sum())])}
+    textures.update(colour_textures(texton))
     check_texture_sizes(textures)
     s3 = surface_setup(texton, mni if surface_mni is None else surface_mni, cell_factor)
     sp = surface_params(texton, s3, seed, poisson, up, side)
@@ -204,6 +249,7 @@ def glsl_noise(texton: Texton, *, mni: float = 30.0, seed: int = 0, period=None,
         ("const float", "TN_SURFACE_INV_SCALE", _f(sp.inv_scale)),
         ("const vec3", "TN_FRAME_UP", _vec(sp.up)),
         ("const vec3", "TN_FRAME_SIDE", _vec(sp.side)),
+        *colour_constants(texton),
     ]
     block = "\n".join(f"{t} {name} = {value};" for t, name, value in consts)
     header = (f"// Generated by warp-texton {__version__}: texton {texton.size[1]} x {texton.size[0]}, order "

@@ -45,6 +45,8 @@ from ._checks import check_positive, check_seed
 from ._runtime import init_warp
 from .errors import TextonError
 from .frames import UP
+from .colours import noise_moments
+from .histogram import GAUSS_RANGE
 from .kernels.noise2d import PAD
 from .noise import CELL_FACTOR, noise_setup, params_record
 from .surface import surface_params, surface_setup
@@ -119,6 +121,39 @@ def coefficient_array(coeffs: np.ndarray, channels: int) -> str:
     for start in range(0, flat.size, 8):
         lines.append("        " + ", ".join(f32(v) for v in flat[start:start + 8]))
     return ",\n".join(lines)
+
+
+def colour_map_code(texton: Texton) -> str:
+    """The statements that map the noise value g to the example's colours through the
+    texton's histogram transform, as kernels/colours.py ``colour_value`` does (the
+    unfiltered table, embedded; float32 arithmetic in the same order); none without one."""
+    tr = texton.histogram
+    if tr is None:
+        return ""
+    c = texton.channels
+    k = tr.lut.shape[1]
+    mean, std = noise_moments(texton)
+    lut = "\n".join("        " + ", ".join(f32(v) for v in row) + ","
+                     for row in np.asarray(tr.lut, np.float32).reshape(-1, 8))
+    per = f32(np.float32(k - 1) / (np.float32(2.0) * np.float32(GAUSS_RANGE)))
+    mix = "\n".join(f"    g[{r}] = " + f32(tr.centre[r]) + "".join(f" + z[{q}] * {f32(tr.matrix[q, r])}" for q in range(c))
+                     + ";" for r in range(c))
+    return f"""    // the histogram transform: the example's colours (kernels/colours.py colour_value)
+    float L[{c * k}] = {{
+{lut.rstrip(",")}
+    }};
+    float mu[{c}] = {{{", ".join(f32(v) for v in mean)}}};
+    float sd[{c}] = {{{", ".join(f32(v) for v in std)}}};
+    color z = 0;
+    for (int c = 0; c < {c}; c++) {{
+        float gz = (g[c] - mu[c]) / sd[c];
+        float pos = clamp((gz + {f32(GAUSS_RANGE)}) * {per}, 0.0, {float(k - 1):.1f});
+        int i0 = min(int(pos), {k - 2});
+        float t = pos - float(i0);
+        z[c] = L[c * {k} + i0] * (1.0 - t) + L[c * {k} + i0 + 1] * t;
+    }}
+{mix}
+"""
 
 
 def colour_of(channels: int) -> str:
@@ -222,6 +257,7 @@ def osl_files(
         "PCG_OUT": str(i32(277803737)), "SEED": str(i32(seed)), "MNI": f32(setup.mni), "AREA": f32(texton.support_area),
         "TEXEL_SIZE": f32(texel_size), "EXACT": "1" if poisson == "exact" else "0",
         "VALUE": "g[0]", "COLOUR": "g" if channels == 3 else "color(g[0], g[0], g[0])",
+        "MAP": colour_map_code(texton),
     }
     cells = rec["cells"]
     plane = dict(common, **{

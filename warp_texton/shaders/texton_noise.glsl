@@ -8,7 +8,9 @@
 // seed, period, normalisation, filter) are the constants below, written by the exporter from
 // the host code the kernels take theirs from.
 //
-// Entry points (x in texel units, y down as in the package's rasters):
+// Entry points (x in texel units, y down as in the package's rasters); they return the example's
+// colours for a texton with a histogram transform, and texton_gaussian_noise, ..._at,
+// ..._filtered(_at), texton_gaussian_surface_noise(_at) the Gaussian values:
 //   vec3 texton_noise(vec2 x)
 //   vec3 texton_noise_at(ivec2 cell, vec2 rel)                 x = cell * TN_CELL + rel, far from the origin
 //   vec3 texton_noise_filtered(vec2 x, vec2 dx, vec2 dy)       footprint columns: x's steps per pixel
@@ -23,6 +25,8 @@ precision highp int;
 
 uniform highp sampler2D texton_coeffs;
 uniform highp sampler2D texton_pyramid;
+uniform highp sampler2D texton_colours;  // histogram transform: inverse-CDF rows per variance share
+uniform highp sampler2D texton_shares;   // histogram transform: variance shares of footprints
 
 //@CONSTANTS@
 
@@ -300,16 +304,16 @@ ivec2 tn_cell_of(vec2 x) {
     return ivec2(floor(x / vec2(TN_CELL_W, TN_CELL_H)));
 }
 
-vec3 texton_noise_at(ivec2 cell, vec2 rel) {
+vec3 texton_gaussian_noise_at(ivec2 cell, vec2 rel) {
     TnLook look;
     look.kind = 0;
     vec3 acc = tn_walk(cell, rel, TN_LO, TN_HI, look);
     return TN_MEAN + (acc - TN_INTEGRAL * TN_LAM) / TN_SQRT_LAM;
 }
 
-vec3 texton_noise(vec2 x) {
+vec3 texton_gaussian_noise(vec2 x) {
     ivec2 cell = tn_cell_of(x);
-    return texton_noise_at(cell, x - vec2(cell) * vec2(TN_CELL_W, TN_CELL_H));
+    return texton_gaussian_noise_at(cell, x - vec2(cell) * vec2(TN_CELL_W, TN_CELL_H));
 }
 
 vec3 texton_impacts_at(ivec2 cell, vec2 rel) {
@@ -342,12 +346,13 @@ vec3 tn_footprint_axes(mat2 J, out vec2 u) {
     return vec3(s * sqrt(l1), s * sqrt(l2), 0.0);
 }
 
-vec3 texton_noise_filtered_at(ivec2 cell, vec2 rel, vec2 dx, vec2 dy) {
-    if (TN_FILTER_MODE == 0) return texton_noise_at(cell, rel);
-    vec2 axis;
-    vec3 ax = tn_footprint_axes(mat2(dx, dy), axis);
-    float major = ax.x, minor = ax.y;
-    int n = 1;
+float tn_footprint_lod(mat2 J, out vec2 axis, out float major, out int n) {
+    // the filter's MIP level (≥ 0, before the fade) for the footprint J, its major length and
+    // axis and the lookups along it (kernels/filter2d.py footprint_lookups)
+    vec3 ax = tn_footprint_axes(J, axis);
+    major = ax.x;
+    float minor = ax.y;
+    n = 1;
     float width = major;
     if (TN_FILTER_MODE == 2) {
         if (major > minor * float(TN_MAX_ANISO)) n = TN_MAX_ANISO;
@@ -357,6 +362,15 @@ vec3 texton_noise_filtered_at(ivec2 cell, vec2 rel, vec2 dx, vec2 dy) {
     }
     float lod = 0.0;
     if (width > 0.0) lod = max(log2(width) + TN_LOD_BIAS, 0.0);
+    return lod;
+}
+
+vec3 texton_gaussian_noise_filtered_at(ivec2 cell, vec2 rel, vec2 dx, vec2 dy) {
+    if (TN_FILTER_MODE == 0) return texton_gaussian_noise_at(cell, rel);
+    vec2 axis;
+    float major;
+    int n;
+    float lod = tn_footprint_lod(mat2(dx, dy), axis, major, n);
     if (lod >= float(TN_LEVELS) || isnan(lod)) return TN_MEAN;
     int l0 = int(floor(lod));
     float frac = lod - float(l0);
@@ -389,9 +403,9 @@ vec3 texton_noise_filtered_at(ivec2 cell, vec2 rel, vec2 dx, vec2 dy) {
     return TN_MEAN + (acc - TN_INTEGRAL * (TN_LAM * real)) / TN_SQRT_LAM;
 }
 
-vec3 texton_noise_filtered(vec2 x, vec2 dx, vec2 dy) {
+vec3 texton_gaussian_noise_filtered(vec2 x, vec2 dx, vec2 dy) {
     ivec2 cell = tn_cell_of(x);
-    return texton_noise_filtered_at(cell, x - vec2(cell) * vec2(TN_CELL_W, TN_CELL_H), dx, dy);
+    return texton_gaussian_noise_filtered_at(cell, x - vec2(cell) * vec2(TN_CELL_W, TN_CELL_H), dx, dy);
 }
 
 // ---------------------------------------------------------------- surface noise (CGF §6)
@@ -415,7 +429,7 @@ void tn_tangent_frame(vec3 n, out vec3 u1, out vec3 u2) {
     u2 = cross(n, u1);
 }
 
-vec3 texton_surface_noise_at(ivec3 cube, vec3 rel, vec3 n) {
+vec3 texton_gaussian_surface_noise_at(ivec3 cube, vec3 rel, vec3 n) {
     vec3 u1, u2;
     tn_tangent_frame(n, u1, u2);
     float c = TN_CUBE;
@@ -453,7 +467,136 @@ vec3 texton_surface_noise_at(ivec3 cube, vec3 rel, vec3 n) {
     return TN_MEAN + (acc - TN_SURFACE_SHIFT) * TN_SURFACE_INV_SCALE;
 }
 
-vec3 texton_surface_noise(vec3 y, vec3 n) {
+vec3 texton_gaussian_surface_noise(vec3 y, vec3 n) {
     ivec3 cube = ivec3(floor(y / TN_CUBE));
-    return texton_surface_noise_at(cube, y - vec3(cube) * TN_CUBE, n);
+    return texton_gaussian_surface_noise_at(cube, y - vec3(cube) * TN_CUBE, n);
+}
+
+// ---------------------------------------------------------------- colours (histogram transform)
+// A texton analysed with histogram="preserve" maps its Gaussian noise to the example's colours
+// (kernels/colours.py): standardised per channel, looked up in the inverse-CDF tables (rows of
+// texton_colours, one per variance share, channels in RGB), rotated back by TN_COLOUR_MATRIX.
+// Filtered values use the tables prefiltered for the share of the variance they keep, read from
+// texton_shares (footprint extents and angle). Without a transform (TN_HISTOGRAM false) the
+// values pass through.
+float tn_table(int row, int c, float g) {
+    float k = float(TN_LUT_SIZE - 1);
+    float pos = clamp((g + TN_GAUSS_RANGE) * (k / (2.0 * TN_GAUSS_RANGE)), 0.0, k);
+    int i0 = min(int(pos), TN_LUT_SIZE - 2);
+    float t = pos - float(i0);
+    return texelFetch(texton_colours, ivec2(i0, row), 0)[c] * (1.0 - t) +
+           texelFetch(texton_colours, ivec2(i0 + 1, row), 0)[c] * t;
+}
+
+vec3 tn_mapped(vec3 v, int j0, float ts) {
+    vec3 z = vec3(0.0);
+    for (int c = 0; c < TN_CHANNELS; c++) {
+        float g = (v[c] - TN_MEAN[c]) / TN_NOISE_STD[c];
+        float a = tn_table(j0, c, g);
+        if (ts > 0.0) a = a * (1.0 - ts) + tn_table(j0 + 1, c, g) * ts;
+        z[c] = a;
+    }
+    vec3 out_ = v;
+    for (int r = 0; r < TN_CHANNELS; r++) {
+        float acc = TN_COLOUR_CENTRE[r];
+        for (int c = 0; c < TN_CHANNELS; c++) acc += z[c] * TN_COLOUR_MATRIX[r][c];
+        out_[r] = acc;
+    }
+    return out_;
+}
+
+vec3 texton_colour(vec3 v) {
+    // the colour of an unfiltered noise value
+    if (!TN_HISTOGRAM) return v;
+    return tn_mapped(v, TN_SHARE_STEPS - 1, 0.0);
+}
+
+vec3 texton_colour_share(vec3 v, float share) {
+    // the colour of a value that kept the share `share` of the noise's variance
+    if (!TN_HISTOGRAM) return v;
+    float s = isnan(share) ? 0.0 : clamp(share, 0.0, 1.0);
+    float sp = s * float(TN_SHARE_STEPS - 1);
+    int j0 = min(int(sp), TN_SHARE_STEPS - 2);
+    return tn_mapped(v, j0, sp - float(j0));
+}
+
+vec2 tn_extent_index(float extent) {
+    float pos = clamp((log2(extent) - TN_LOG_FIRST) / TN_LOG_STEP, 0.0, float(TN_EXTENTS - 1));
+    if (isnan(pos)) pos = 0.0;
+    int i = min(int(pos), TN_EXTENTS - 2);
+    return vec2(float(i), pos - float(i));
+}
+
+float tn_share_at(int i, int j, int k) {
+    return texelFetch(texton_shares, ivec2(j * TN_ANGLES + k, i), 0).r;
+}
+
+float texton_footprint_share(vec2 dx, vec2 dy) {
+    // the share of the noise's variance a footprint of columns dx, dy keeps (before the fade)
+    mat2 J = mat2(dx, dy);
+    float s = max(max(abs(J[0][0]), abs(J[1][0])), max(abs(J[0][1]), abs(J[1][1])));
+    if (s == 0.0) s = 1.0;
+    mat2 K = J / s;
+    float m00 = K[0][0] * K[0][0] + K[1][0] * K[1][0];
+    float m01 = K[0][0] * K[0][1] + K[1][0] * K[1][1];
+    float m11 = K[0][1] * K[0][1] + K[1][1] * K[1][1];
+    float half_ = 0.5 * (m00 + m11);
+    float disc = sqrt(0.25 * (m00 - m11) * (m00 - m11) + m01 * m01);
+    vec2 ei = tn_extent_index(s * sqrt(half_ + disc));
+    vec2 ej = tn_extent_index(s * sqrt(max(half_ - disc, 0.0)));
+    float a = 0.5 * atan(2.0 * m01, m00 - m11) / 3.14159265358979;
+    float pk = (a - floor(a)) * float(TN_ANGLES);
+    int k = min(int(pk), TN_ANGLES - 1);
+    float tk = pk - float(k);
+    int k1 = (k + 1) % TN_ANGLES;
+    int i = int(ei.x), j = int(ej.x);
+    float out_ = 0.0;
+    for (int di = 0; di < 2; di++) {
+        float wi = di == 1 ? ei.y : 1.0 - ei.y;
+        for (int dj = 0; dj < 2; dj++) {
+            float wj = dj == 1 ? ej.y : 1.0 - ej.y;
+            out_ += wi * wj * (tn_share_at(i + di, j + dj, k) * (1.0 - tk) + tn_share_at(i + di, j + dj, k1) * tk);
+        }
+    }
+    return clamp(out_, 0.0, 1.0);
+}
+
+float texton_filtered_share(vec2 dx, vec2 dy) {
+    // the share of texton_gaussian_noise_filtered's value: faded with the noise past the kept levels
+    if (TN_FILTER_MODE == 0) return 1.0;
+    vec2 axis;
+    float major;
+    int n;
+    float lod = tn_footprint_lod(mat2(dx, dy), axis, major, n);
+    if (n == 1 && lod == 0.0) return 1.0;  // one lookup of level 0: the unfiltered noise
+    float fade = isnan(lod) ? 0.0 : clamp(float(TN_LEVELS) - lod, 0.0, 1.0);
+    return texton_footprint_share(dx, dy) * fade * fade;
+}
+
+// The entry points: colours (the Gaussian values for a texton without a transform).
+vec3 texton_noise_at(ivec2 cell, vec2 rel) {
+    return texton_colour(texton_gaussian_noise_at(cell, rel));
+}
+
+vec3 texton_noise(vec2 x) {
+    return texton_colour(texton_gaussian_noise(x));
+}
+
+vec3 texton_noise_filtered_at(ivec2 cell, vec2 rel, vec2 dx, vec2 dy) {
+    vec3 v = texton_gaussian_noise_filtered_at(cell, rel, dx, dy);
+    if (!TN_HISTOGRAM) return v;
+    return texton_colour_share(v, texton_filtered_share(dx, dy));
+}
+
+vec3 texton_noise_filtered(vec2 x, vec2 dx, vec2 dy) {
+    ivec2 cell = tn_cell_of(x);
+    return texton_noise_filtered_at(cell, x - vec2(cell) * vec2(TN_CELL_W, TN_CELL_H), dx, dy);
+}
+
+vec3 texton_surface_noise_at(ivec3 cube, vec3 rel, vec3 n) {
+    return texton_colour(texton_gaussian_surface_noise_at(cube, rel, n));
+}
+
+vec3 texton_surface_noise(vec3 y, vec3 n) {
+    return texton_colour(texton_gaussian_surface_noise(y, n));
 }
