@@ -38,7 +38,8 @@ from .frames import UP, up_vector
 from .mesh import check_mesh, vertex_normals
 from .mesh_files import PNG_DTYPES, texture_8bit
 from .render import cast_rays, check_background
-from .surface import check_method, check_surface_work, evaluate_points, surface_params, surface_setup, texel_positions
+from .surface import (check_method, check_surface_work, evaluate_points, surface_params, surface_setup,
+                      texel_positions)
 from .texton import Texton
 
 if TYPE_CHECKING:
@@ -53,11 +54,10 @@ MAX_RESOLUTION = 16384
 #: many samples per side.
 SAMPLE_DENSITY = 1.0
 MAX_SAMPLES_SIDE = 8
-#: The share of a lone point's walk that a bake's sample costs: a bake's samples lie close
-#: together, so the blocks they are evaluated in (surface.evaluate_points) draw each cube's
-#: impacts once for many samples; measured, bakes of 128² and 256² at 4² samples ran at
-#: 6.0e9-6.2e9 lone-walk operations a second against the lone walk's 7.4e8-1e9 (docs/limits.md).
-BAKE_WALK_SHARE = 1.0 / 6.0
+#: The share of the texture that an atlas covers, at least, for the estimate of a bake's
+#: samples before the atlas is made (xatlas packs charts far tighter: a lower share only
+#: lowers that first estimate, which the count after the atlas replaces).
+ATLAS_COVERAGE = 0.25
 #: Most samples per texel side that an explicit ``supersample`` may ask for: 64² =
 #: 4096 evaluations per texel, the bound the filters put on theirs (a texel's
 #: work grows with its square).
@@ -343,6 +343,17 @@ def bake_mesh(
     own_uv = mesh_uvs(mesh) if uv != "atlas" else None
     if own_uv is None and uv == "mesh":
         raise TextonError(f"{name}: has no UVs (uv='mesh'); use uv='auto' or 'atlas' to make an atlas")
+    work_hint = "use a smaller resolution, a smaller supersample or a lower mni"
+    # priced before the atlas and the texels' setup from the mesh's area and the texels it
+    # will cover (its own UVs' area, or ATLAS_COVERAGE), refined once the samples are known
+    area = _texel_area(vertices, faces, texel)
+    covered = res * res * (ATLAS_COVERAGE if own_uv is None else _uv_coverage(own_uv, faces))
+    samples = covered * supersample ** 2 if supersample is not None else \
+        max(covered, min(area, MAX_SAMPLES_SIDE ** 2 * covered))
+    if samples > 0 and area > 0:
+        check_surface_work(setup, samples, samples / area,
+                           f"a {res}x{res} bake with about {samples:.3g} samples at MNI {mni:.6g}", work_hint,
+                           param="supersample", mentions=("resolution", "supersample", "mni"), early=True)
     device = resolve_device(device)
     bar = progress_bar(progress, 0 if own_uv is not None else 2, "bake", "step")
     if own_uv is not None:
@@ -399,9 +410,10 @@ def bake_mesh(
     check_memory(min(total, SAMPLES_PER_ROUND) * BYTES_PER_SAMPLE + len(f) * BYTES_PER_BAKED_TEXEL,
                  f"a {res}x{res} bake with {total} samples",
                  "use a smaller resolution or supersample")
-    # every sample is one point of the surface noise, of a dense set (BAKE_WALK_SHARE)
-    check_surface_work(setup, total * BAKE_WALK_SHARE, f"a {res}x{res} bake with {total} samples at MNI {mni:.6g}",
-                       "use a smaller resolution, a smaller supersample or a lower mni", param="supersample",
+    # every sample is one point of the surface noise, as dense as the samples over the
+    # footprints of their texels
+    check_surface_work(setup, total, total / max(float(area.sum()), 1e-300),
+                       f"a {res}x{res} bake with {total} samples at MNI {mni:.6g}", work_hint, param="supersample",
                        mentions=("resolution", "supersample", "mni"))
     p = surface_params(texton, setup, seed, "exact", up, side)
     sums = np.zeros((len(f), 3), np.float64)
@@ -436,6 +448,26 @@ def bake_mesh(
     axis = up_vector(up)
     return BakedMesh(out, texture, covered, per_texel, float(np.sum((nx * ny)[inner])) / n_cov, source,
                      (float(axis[0]), float(axis[1]), float(axis[2])), dtype)
+
+
+def _texel_area(vertices: np.ndarray, faces: np.ndarray, texel: float) -> float:
+    """The mesh's area in texton texels²."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        p = vertices[faces] / texel
+        return float(np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1).sum()) / 2.0
+
+
+def _uv_coverage(uvs: np.ndarray, faces: np.ndarray) -> float:
+    """The share of the texture that the faces' UV triangles cover, at most 1 (overlaps
+    counted twice: an upper bound)."""
+    t = np.asarray(uvs, np.float64)
+    if t.ndim != 2 or t.shape[1] != 2 or not len(faces) or len(t) <= int(faces.max()):
+        return 1.0  # refused later, by check_uvs
+    t = t[faces]
+    with np.errstate(over="ignore", invalid="ignore"):
+        e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+        covered = float(np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum()) / 2.0
+    return min(covered, 1.0) if np.isfinite(covered) else 1.0
 
 
 def _check_choices(res: int, uv, supersample, gutter, charts, dtype) -> tuple[int | None, int]:
