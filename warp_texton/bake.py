@@ -22,6 +22,7 @@ hold them as they are unless ``linear=True`` asks for the sRGB decoding.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -54,6 +55,10 @@ MAX_RESOLUTION = 16384
 #: many samples per side.
 SAMPLE_DENSITY = 1.0
 MAX_SAMPLES_SIDE = 8
+#: Operations (the unit of limits.check_work) of a bake's setup per texel of its texture:
+#: its texels claimed by the faces, the gutter's distance transform and each texel's map
+#: (measured: about 3 µs a texel, 14 s at 2048², on a two-core CPU; docs/limits.md).
+BAKE_TEXEL_OPS = 2000.0
 #: The share of the texture that an atlas covers, at least, for the estimate of a bake's
 #: samples before the atlas is made (xatlas packs charts far tighter: a lower share only
 #: lowers that first estimate, which the count after the atlas replaces).
@@ -350,10 +355,10 @@ def bake_mesh(
     covered = res * res * (ATLAS_COVERAGE if own_uv is None else _uv_coverage(own_uv, faces))
     samples = covered * supersample ** 2 if supersample is not None else \
         max(covered, min(area, MAX_SAMPLES_SIDE ** 2 * covered))
-    if samples > 0 and area > 0:
-        check_surface_work(setup, samples, samples / area,
-                           f"a {res}x{res} bake with about {samples:.3g} samples at MNI {mni:.6g}", work_hint,
-                           param="supersample", mentions=("resolution", "supersample", "mni"), early=True)
+    check_surface_work(setup, samples, samples / area if area > 0 else math.inf,
+                       f"a {res}x{res} bake with about {samples:.3g} samples at MNI {mni:.6g}", work_hint,
+                       param="supersample", mentions=("resolution", "supersample", "mni"), early=True,
+                       other=res * res * BAKE_TEXEL_OPS)
     device = resolve_device(device)
     bar = progress_bar(progress, 0 if own_uv is not None else 2, "bake", "step")
     if own_uv is not None:
@@ -414,7 +419,7 @@ def bake_mesh(
     # footprints of their texels
     check_surface_work(setup, total, total / max(float(area.sum()), 1e-300),
                        f"a {res}x{res} bake with {total} samples at MNI {mni:.6g}", work_hint, param="supersample",
-                       mentions=("resolution", "supersample", "mni"))
+                       mentions=("resolution", "supersample", "mni"), other=res * res * BAKE_TEXEL_OPS)
     p = surface_params(texton, setup, seed, "exact", up, side)
     sums = np.zeros((len(f), 3), np.float64)
     kinds = sorted(set(zip(nx.tolist(), ny.tolist())))

@@ -73,7 +73,7 @@ BLOCK_IMPACT_OPS = 3.7
 LIST_OPS = 7.0
 GATHER_OPS = 1.5
 BLOCK_WALK_CUBE_OPS = 62.0
-BLOCK_WALK_OPS = 1.5
+BLOCK_WALK_OPS = 2.0
 
 
 def _prepare_points(pts: np.ndarray, normals: np.ndarray, texel: float) -> tuple[np.ndarray, np.ndarray]:
@@ -204,10 +204,13 @@ def check_floor(setup: SurfaceSetup, points: float, what: str, hint: str, *, par
 
 
 def check_surface_work(setup: SurfaceSetup, points: float, density: float, what: str, hint: str, *,
-                       param: str | None = None, mentions: tuple[str, ...] = (), early: bool = False) -> None:
+                       param: str | None = None, mentions: tuple[str, ...] = (), early: bool = False,
+                       other: float = 0.0) -> None:
     """Refuse ``points`` evaluations of the surface noise at ``density`` points per texel²
-    of a surface (:func:`density_visits`) beyond the work budget."""
-    check_work(points * density_visits(setup, density), what, hint, param=param, mentions=mentions, early=early)
+    of a surface (:func:`density_visits`), with ``other`` operations of the caller's own,
+    beyond the work budget."""
+    check_work(other + points * density_visits(setup, density), what, hint, param=param, mentions=mentions,
+               early=early)
 
 
 @dataclass(frozen=True)
