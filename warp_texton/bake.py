@@ -22,7 +22,6 @@ hold them as they are unless ``linear=True`` asks for the sRGB decoding.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -31,7 +30,7 @@ import warp as wp
 
 from ._checks import check_int, check_positive, check_seed
 from ._runtime import progress_bar, resolve_device, split_launch
-from .atlas import CHART_METHODS, check_uvs, make_atlas, mesh_uvs
+from .atlas import CHART_METHODS, check_uvs, make_atlas, mesh_uvs, uv_coverage
 from .errors import TextonError
 from .kernels import bake as KB
 from .limits import check_memory
@@ -55,13 +54,10 @@ MAX_RESOLUTION = 16384
 #: many samples per side.
 SAMPLE_DENSITY = 1.0
 MAX_SAMPLES_SIDE = 8
-#: Operations (the unit of limits.check_work) of a bake's setup per texel of its texture:
-#: its texels claimed by the faces, the gutter's distance transform and each texel's map
-#: (measured: about 3 µs a texel, 14 s at 2048², on a two-core CPU; docs/limits.md).
+#: Operations (limits.check_work) of a bake's setup per texel (claims, gutter, maps: about
+#: 3 µs a texel on a two-core CPU, docs/limits.md); and the least share of the texture an
+#: atlas covers, for the estimate of the samples before the atlas (xatlas packs tighter).
 BAKE_TEXEL_OPS = 2000.0
-#: The share of the texture that an atlas covers, at least, for the estimate of a bake's
-#: samples before the atlas is made (xatlas packs charts far tighter: a lower share only
-#: lowers that first estimate, which the count after the atlas replaces).
 ATLAS_COVERAGE = 0.25
 #: Most samples per texel side that an explicit ``supersample`` may ask for: 64² =
 #: 4096 evaluations per texel, the bound the filters put on theirs (a texel's
@@ -291,7 +287,9 @@ def bake_mesh(
         crashing, running past its time limit or over its memory cap (it runs
         in a process of its own: :func:`warp_texton.atlas.run_worker`); a
         bake over the memory budget (about 360 bytes per texel at the peak:
-        1.5 GB at 2048², 6 GB at 4096²); vertices too far from the origin.
+        1.5 GB at 2048², 6 GB at 4096²) or the work budget (the texels' setup
+        and the samples by their path, first before the atlas: docs/limits.md);
+        vertices too far from the origin.
 
     References
     ----------
@@ -348,17 +346,13 @@ def bake_mesh(
     own_uv = mesh_uvs(mesh) if uv != "atlas" else None
     if own_uv is None and uv == "mesh":
         raise TextonError(f"{name}: has no UVs (uv='mesh'); use uv='auto' or 'atlas' to make an atlas")
-    work_hint = "use a smaller resolution, a smaller supersample or a lower mni"
-    # priced before the atlas and the texels' setup from the mesh's area and the texels it
-    # will cover (its own UVs' area, or ATLAS_COVERAGE), refined once the samples are known
-    area = _texel_area(vertices, faces, texel)
-    covered = res * res * (ATLAS_COVERAGE if own_uv is None else _uv_coverage(own_uv, faces))
-    samples = covered * supersample ** 2 if supersample is not None else \
-        max(covered, min(area, MAX_SAMPLES_SIDE ** 2 * covered))
-    check_surface_work(setup, samples, samples / area if area > 0 else math.inf,
-                       f"a {res}x{res} bake with about {samples:.3g} samples at MNI {mni:.6g}", work_hint,
-                       param="supersample", mentions=("resolution", "supersample", "mni"), early=True,
-                       other=res * res * BAKE_TEXEL_OPS)
+    # priced before the atlas from the mesh's area (texton texels²) and the texels it will cover
+    work_hint, texels2 = "use a smaller resolution, a smaller supersample or a lower mni", mesh.area / texel**2
+    covered = res * res * (ATLAS_COVERAGE if own_uv is None else uv_coverage(own_uv, faces))
+    n = covered * supersample**2 if supersample else max(covered, min(texels2, MAX_SAMPLES_SIDE**2 * covered))
+    check_surface_work(setup, n, n / max(texels2, 1e-300), f"a {res}x{res} bake with about "
+                       f"{n:.3g} samples at MNI {mni:.6g}", work_hint, param="supersample",
+                       mentions=("resolution", "supersample", "mni"), early=True, other=res * res * BAKE_TEXEL_OPS)
     device = resolve_device(device)
     bar = progress_bar(progress, 0 if own_uv is not None else 2, "bake", "step")
     if own_uv is not None:
@@ -415,8 +409,7 @@ def bake_mesh(
     check_memory(min(total, SAMPLES_PER_ROUND) * BYTES_PER_SAMPLE + len(f) * BYTES_PER_BAKED_TEXEL,
                  f"a {res}x{res} bake with {total} samples",
                  "use a smaller resolution or supersample")
-    # every sample is one point of the surface noise, as dense as the samples over the
-    # footprints of their texels
+    # every sample is a point of the surface noise, as dense as the samples over their texels
     check_surface_work(setup, total, total / max(float(area.sum()), 1e-300),
                        f"a {res}x{res} bake with {total} samples at MNI {mni:.6g}", work_hint, param="supersample",
                        mentions=("resolution", "supersample", "mni"), other=res * res * BAKE_TEXEL_OPS)
@@ -453,26 +446,6 @@ def bake_mesh(
     axis = up_vector(up)
     return BakedMesh(out, texture, covered, per_texel, float(np.sum((nx * ny)[inner])) / n_cov, source,
                      (float(axis[0]), float(axis[1]), float(axis[2])), dtype)
-
-
-def _texel_area(vertices: np.ndarray, faces: np.ndarray, texel: float) -> float:
-    """The mesh's area in texton texels²."""
-    with np.errstate(over="ignore", invalid="ignore"):
-        p = vertices[faces] / texel
-        return float(np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1).sum()) / 2.0
-
-
-def _uv_coverage(uvs: np.ndarray, faces: np.ndarray) -> float:
-    """The share of the texture that the faces' UV triangles cover, at most 1 (overlaps
-    counted twice: an upper bound)."""
-    t = np.asarray(uvs, np.float64)
-    if t.ndim != 2 or t.shape[1] != 2 or not len(faces) or len(t) <= int(faces.max()):
-        return 1.0  # refused later, by check_uvs
-    t = t[faces]
-    with np.errstate(over="ignore", invalid="ignore"):
-        e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
-        covered = float(np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum()) / 2.0
-    return min(covered, 1.0) if np.isfinite(covered) else 1.0
 
 
 def _check_choices(res: int, uv, supersample, gutter, charts, dtype) -> tuple[int | None, int]:

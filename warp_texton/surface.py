@@ -398,7 +398,11 @@ def surface_noise(
         cubes)", which a tiny ``texel_size`` also gives); a ``cell_factor``
         that would visit more than 8192 cells per point
         (``MAX_CUBES_PER_POINT``) or hold more than 10**5 impacts per cell;
-        a block whose impacts would pass the memory budget.
+        a block whose impacts would pass the memory budget; points over the
+        work budget, priced by the path they take (the walk, or the blocks
+        they are sorted into; docs/limits.md, "Surface noise by path"):
+        "surface noise at … points at MNI … needs about … operations, over
+        the work budget …".
 
     Notes
     -----
