@@ -1445,6 +1445,6 @@ class TestRenderWork:
         cast = []
         monkeypatch.setattr(R, "_cast_box", lambda *a, **k: cast.append(a))
         with pytest.raises(TextonError, match=rf"a {shape[1]}x{shape[0]} render at MNI {mni} needs about .* over "
-                                              r"the work budget .*render fewer pixels or use a lower mni") as info:
+                                              r"the work budget .*use a smaller shape or a lower mni") as info:
             render_mesh(trimesh.creation.icosphere(subdivisions=2), small_texton(), shape, mni=mni, device="cpu")
         assert not cast and info.value.param == "mni"

@@ -461,9 +461,9 @@ def render_mesh(
     setup = surface_setup(texton, mni)
     texel_positions(vertices, texel, setup, "the mesh's vertices")  # refuses far meshes and tiny texels
     bg = check_background(background)
-    what, hint = f"a {w}x{h} render at MNI {mni:.6g}", "render fewer pixels or use a lower mni"
+    what, hint = f"a {w}x{h} render at MNI {mni:.6g}", "use a smaller shape or a lower mni"
     # before the cast, as if every pixel hit the mesh at the fewest operations a point costs
-    check_work(h * w * (CAST_OPS + floor_visits(setup)), what, hint, param="mni", mentions=("shape",), early=True)
+    check_work(h * w * (CAST_OPS + floor_visits(setup)), what, hint, param="mni", mentions=("shape", "mni"), early=True)
     device = resolve_device(device)
     p = surface_params(texton, setup, seed, "exact", up, side)
     (r0, r1, c0, c1), (face, bary, nrm, shade), vertices, faces = _cast_box(mesh, (h, w), camera, up, orbit, fov,
@@ -493,7 +493,7 @@ def render_mesh(
             pos, hit_nrm = pos_w.numpy(), nrm_w.numpy()
             # the cast and the hits' noise, priced by the path the hits take
             plan = plan_points(setup, pos, hit_nrm, method)
-            check_work(cast + plan.operations, what, hint, param="mni", mentions=("shape",))
+            check_work(cast + plan.operations, what, hint, param="mni", mentions=("shape", "mni"))
             g = evaluate_points(p, setup, pos, hit_nrm, None, device, plan=plan)
             g_w: wp.array = wp.array(g, dtype=wp.vec3)
             shade_w: wp.array = wp.array(shade.reshape(-1), dtype=wp.float32, copy=not on_cpu)

@@ -477,7 +477,7 @@ def surface_noise(
     check_method(method)
     setup = surface_setup(texton, mni, cell_factor)
     what, hint = f"surface noise at {len(pts)} points at MNI {mni:.6g}", "use fewer points or a lower mni"
-    check_floor(setup, len(pts), what, hint, param="mni", mentions=("points",))
+    check_floor(setup, len(pts), what, hint, param="mni", mentions=("points", "mni"))
     device = resolve_device(device)  # starts Warp quietly, before the first launch
     if tangents is None:
         # positions in texels and float32 unit normals in one CPU pass (the values of
@@ -502,7 +502,7 @@ def surface_noise(
     p = surface_params(texton, setup, seed, poisson, up, side)
     # priced by the path taken, once the points are sorted into blocks
     plan = plan_points(setup, pos, nrm, method)
-    check_work(plan.operations, what, hint, param="mni", mentions=("points",))
+    check_work(plan.operations, what, hint, param="mni", mentions=("points", "mni"))
     out = evaluate_points(p, setup, pos, nrm, tan, device, plan=plan)
     return np.ascontiguousarray(out[:, : texton.channels])
 
