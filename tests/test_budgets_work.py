@@ -60,6 +60,27 @@ def test_bake_priced(tmp_path, res, supersample):
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
 
 
+@pytest.mark.parametrize("render, mni", [("8192x8192", "5000"), ("2048x2048", "200000")])
+def test_render_priced(tmp_path, render, mni):
+    """A render no path could afford is refused before the ray cast (the code before this
+    pricing ran over 10 min and 3.6 GB on the first), nothing written."""
+    code = (
+        "import sys, trimesh, numpy as np, warp_texton as wt\n"
+        "from warp_texton.cli import main\n"
+        "trimesh.creation.icosphere(subdivisions=3).export(sys.argv[1] + '/sphere.ply')\n"
+        "wt.Texton(np.full((8, 8, 3), 0.1), [0.5, 0.5, 0.5]).save(sys.argv[1] + '/t.exr')\n"
+        "sys.exit(main(['surface', sys.argv[1] + '/sphere.ply', '--texton', sys.argv[1] + '/t.exr', '--out-dir',"
+        f" sys.argv[1] + '/out', '--render', '{render}', '--mni', '{mni}', '--quiet']))\n"
+    )
+    out = run_bomb(code, str(tmp_path))
+    assert out.returncode == 1 and out.seconds < 10, (out.returncode, out.stderr[-500:])
+    assert "Traceback" not in out.stderr and out.peak_bytes < ADDRESS_SPACE // 2
+    assert [line for line in out.error_lines if "error:" in line] == out.error_lines[:1]
+    assert f"a {render} render at MNI {mni} needs about" in out.stderr
+    assert "use a smaller --render or a lower --mni" in out.stderr
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+
+
 _MIX = (
     "import sys, numpy as np, warp_texton as wt\n"
     "from warp_texton.cli import main\n"
