@@ -27,8 +27,8 @@ sys.path.insert(0, str(HERE))
 
 from common import machine_line, make_texture, report_header, run_main  # noqa: E402
 
-from warp_texton import (FilterOptions, analyze, dsn, evaluate, gaussian_texture, mix_textons,  # noqa: E402
-                         render_plane, synthesize, synthesize_mixed)
+from warp_texton import (FilterOptions, analyze, bake_mesh, dsn, evaluate, gaussian_texture,  # noqa: E402
+                         mix_textons, render_mesh, render_plane, surface_noise, synthesize, synthesize_mixed)
 from warp_texton._runtime import resolve_device  # noqa: E402
 from warp_texton.limits import DEFAULT_WORK_BUDGET, work_log  # noqa: E402
 
@@ -58,6 +58,30 @@ def workloads(texton, u, device, quick: bool, mni: float):
                                                        [0.0, 0.5, 1.0], size=64)),
         ("gaussian_texture", lambda: gaussian_texture(u, shape=(2 * n, 2 * n))),
         ("dsn", lambda: dsn(texton, (n, n), mni=mni)),
+        *surface_workloads(texton, device, quick),
+    ]
+
+
+def surface_workloads(texton, device, quick: bool):
+    """The surface paths, priced by the path they take: a dense torus (the blocks), points a
+    few cubes apart (the walk), a render and a bake (MNI 60, the surface default)."""
+    import trimesh
+
+    sections = 250 if quick else 1000
+    torus = trimesh.creation.torus(1.0, 0.35, major_sections=sections, minor_sections=sections)
+    pts, nrm = np.asarray(torus.vertices), np.asarray(torus.vertex_normals)
+    rng = np.random.default_rng(0)
+    apart, normals = rng.uniform(-1, 1, (20_000 // (4 if quick else 1), 3)), rng.normal(size=(20_000, 3))
+    sphere = trimesh.creation.icosphere(subdivisions=4 if quick else 6)
+    m = 256 if quick else 1024
+    return [
+        (f"surface_noise, blocks ({len(pts)} torus vertices)",
+         lambda: surface_noise(texton, pts, nrm, 0.004, device=device)),
+        (f"surface_noise, walk ({len(apart)} points apart)",
+         lambda: surface_noise(texton, apart, normals[:len(apart)], 0.0005, device=device)),
+        (f"render_mesh {m}², blocks", lambda: render_mesh(sphere, texton, (m, m), texel_size=1 / 128, device=device)),
+        (f"bake_mesh torus {m // 2}²", lambda: bake_mesh(trimesh.creation.torus(1.0, 0.35), texton, 0.004,
+                                                         resolution=m // 2, device=device)),
     ]
 
 

@@ -237,6 +237,7 @@ def label_impacts(
     strips: int,
     regions: int,
     rho: wp.array2d(dtype=float),
+    rho_first: wp.vec2i,
     labels: wp.array(dtype=wp.int32),
 ):
     """The texton of each impact: the region of the raster that the centre of its
@@ -247,15 +248,17 @@ def label_impacts(
 
     ``strips`` = 1: ``regions`` vertical strips across the window's width;
     otherwise the nearest pixel of the ρ map (clamped at the border) picks
-    texton round(ρ (regions − 1)).
+    texton round(ρ (regions − 1)). The map starts at the global (row, column)
+    ``rho_first``, so a raster computed in strips of rows (windows of their
+    own ``first``) labels its impacts as in one pass.
     """
     k = wp.tid()
     c = impact_cell[k]
     w = windows[cell_window[c]]
     at = impact_from_origin(w, c, impacts[k]) + wp.vec2d(wp.float64(centre[0]), wp.float64(centre[1]))
     q = w.inv * at  # global (column, row) + ½ of the texton's centre
-    px = float(q[0] - wp.float64(w.first[1]))
-    py = float(q[1] - wp.float64(w.first[0]))
+    px = float(q[0] - wp.float64(rho_first[1]))
+    py = float(q[1] - wp.float64(rho_first[0]))
     if strips != 0:
         lab = int(wp.floor(px / float(w.width) * float(regions)))
     else:

@@ -550,9 +550,31 @@ def test_bake_work_is_priced_before_sampling(monkeypatch):
     monkeypatch.setattr(B, "evaluate_points", lambda *a, **k: called.append(a))
     set_work_budget(1e9)
     try:
-        with pytest.raises(TextonError, match=r"a 64x64 bake with \d+ samples at MNI 60 .* over the work budget of 1e\+09; "
+        with pytest.raises(TextonError, match=r"a 64x64 bake with (about )?[\d.e+]+ samples at MNI 60 .* over the work "
+                                              r"budget of 1e\+09; "
                                               r"use a smaller resolution, a smaller supersample") as info:
             bake_mesh(plane_with_uvs(), random_texton(), 0.01, resolution=64, supersample=64, device="cpu")
     finally:
         set_work_budget(None)
     assert not called and info.value.param == "supersample" and "resolution" in info.value.mentions
+
+
+@pytest.mark.parametrize("uv, kwargs", [("atlas", {"supersample": 64}), ("atlas", {"mni": 20000}),
+                                        ("mesh", {"supersample": 64})])
+def test_bake_priced_before_the_atlas(monkeypatch, uv, kwargs):
+    """A bake that no atlas could make affordable is refused before the atlas and the
+    texels' setup (seconds and a gigabyte at 2048²), from the mesh's area and the texels
+    it would cover; a bake within the budget gets past that first estimate."""
+    import warp_texton.bake as B
+
+    setup = []
+    monkeypatch.setattr(B, "make_atlas", lambda *a, **k: setup.append("atlas"))
+    monkeypatch.setattr(B, "_claimed", lambda *a, **k: setup.append("claimed"))
+    mesh = plane_with_uvs() if uv == "mesh" else trimesh.creation.icosphere(subdivisions=3)
+    with pytest.raises(TextonError, match=r"a 2048x2048 bake with about [\d.e+]+ samples at MNI [\d.]+ needs about "
+                                          r".* over the work budget") as info:
+        bake_mesh(mesh, random_texton(), 0.01, resolution=2048, uv=uv, device="cpu", **kwargs)
+    assert not setup and info.value.param == "supersample"
+    with pytest.raises(TypeError):  # past the estimate: the stand-in atlas returns nothing
+        bake_mesh(mesh, random_texton(), 0.01, resolution=256, uv=uv, device="cpu")
+    assert setup

@@ -33,31 +33,47 @@ def test_batch_of_tiny_items(count):
              rf"a batch of {count} 1x1 rasters .* over the (work|memory) budget")
 
 
-@pytest.mark.parametrize("count, mni", [(200_000, 5000), (2_000_000, 600)])
+@pytest.mark.parametrize("count, mni", [(200_000, 50_000), (2_000_000, 6000)])
 def test_surface_noise_priced(count, mni):
     setup = TEXTON + f"\nrng = np.random.default_rng(0)\npts = rng.uniform(-10, 10, ({count}, 3))"
     _refused(api_bomb(f"wt.surface_noise(t, pts, pts + 1, 0.1, mni={mni}, device='cpu')", setup),
              rf"surface noise at {count} points at MNI {mni} .* over the work budget")
 
 
-@pytest.mark.parametrize("res, supersample", [(512, 64), (1024, 32)])
-def test_bake_priced(tmp_path, res, supersample):
-    """The CLI's bake is refused before sampling: the mesh fails in seconds, nothing is written."""
-    code = (
-        "import sys, trimesh, numpy as np, warp_texton as wt\n"
-        "from warp_texton.cli import main\n"
-        "trimesh.creation.icosphere(subdivisions=3).export(sys.argv[1] + '/sphere.ply')\n"
-        "t = wt.Texton(np.full((8, 8, 3), 0.1), [0.5, 0.5, 0.5])\n"
-        "t.save(sys.argv[1] + '/t.exr')\n"
-        "sys.exit(main(['surface', sys.argv[1] + '/sphere.ply', '--texton', sys.argv[1] + '/t.exr', '--out-dir',"
-        f" sys.argv[1] + '/out', '--bake', '{res}', '--supersample', '{supersample}', '--quiet']))\n"
-    )
-    out = run_bomb(code, str(tmp_path))
+_SURFACE = (
+    "import sys, trimesh, numpy as np, warp_texton as wt\n"
+    "from warp_texton.cli import main\n"
+    "trimesh.creation.icosphere(subdivisions=3).export(sys.argv[1] + '/sphere.ply')\n"
+    "wt.Texton(np.full((8, 8, 3), 0.1), [0.5, 0.5, 0.5]).save(sys.argv[1] + '/t.exr')\n"
+    "sys.exit(main(['surface', sys.argv[1] + '/sphere.ply', '--texton', sys.argv[1] + '/t.exr', '--out-dir',"
+    " sys.argv[1] + '/out', *sys.argv[2:], '--quiet']))\n"
+)
+
+
+def _surface_refused(tmp_path, *args: str) -> str:
+    """The surface command on a sphere with ``args``: the mesh fails in seconds with one
+    error line, nothing is written; returns its stderr."""
+    out = run_bomb(_SURFACE, str(tmp_path), *args)
     assert out.returncode == 1 and out.seconds < 10, (out.returncode, out.stderr[-500:])
     assert "Traceback" not in out.stderr and out.peak_bytes < ADDRESS_SPACE // 2
     assert [line for line in out.error_lines if "error:" in line] == out.error_lines[:1]
-    assert "over the work budget" in out.stderr and "a smaller --supersample or a lower --mni" in out.stderr
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+    return out.stderr
+
+
+@pytest.mark.parametrize("res, supersample", [(512, 64), (1024, 32), (2048, 16)])
+def test_bake_priced(tmp_path, res, supersample):
+    """The CLI's bake is refused before the atlas and sampling."""
+    err = _surface_refused(tmp_path, "--bake", str(res), "--supersample", str(supersample))
+    assert "over the work budget" in err and "a smaller --supersample or a lower --mni" in err
+
+
+@pytest.mark.parametrize("render, mni", [("8192x8192", "5000"), ("2048x2048", "200000")])
+def test_render_priced(tmp_path, render, mni):
+    """A render no path could afford is refused before the ray cast (the code before this
+    pricing ran over 10 min and 3.6 GB on the first)."""
+    err = _surface_refused(tmp_path, "--render", render, "--mni", mni)
+    assert f"a {render} render at MNI {mni} needs about" in err and "use a smaller --render or a lower --mni" in err
 
 
 _MIX = (

@@ -545,9 +545,45 @@ class TestHeaderPricing:
                 for side in (30000, 15000):
                     with limits_set("1G"), pytest.raises(TextonError, match=f"huge{side}.bmp.*memory budget"):
                         read_image(tmp_path / f"huge{side}.bmp")
+            # the reader's raise is scoped to its own reads: Pillow's limit is back after them
+            assert Image.MAX_IMAGE_PIXELS == 1000
             Image.MAX_IMAGE_PIXELS = None  # unset by the user: stays unset
             read_image(tmp_path / "ok.bmp")
             assert Image.MAX_IMAGE_PIXELS is None
+        finally:
+            Image.MAX_IMAGE_PIXELS = before
+
+    def test_pillows_limit_is_raised_only_while_reading(self, tmp_path, monkeypatch):
+        """During a read the limit is the budget's largest image, in every thread's view (a
+        module setting); after the last concurrent read it is Pillow's own again, unless
+        someone else changed it meanwhile."""
+        import threading
+
+        import warp_texton.image_readers as R
+
+        Image.new("L", (64, 64), 7).save(tmp_path / "a.bmp")
+        before = Image.MAX_IMAGE_PIXELS
+        seen, go = [], threading.Barrier(2)
+        real = R._pil_pixels
+
+        def slow(im, path):  # two reads overlap: each sees the raised limit
+            seen.append(Image.MAX_IMAGE_PIXELS)
+            go.wait(10)
+            return real(im, path)
+
+        monkeypatch.setattr(R, "_pil_pixels", slow)
+        with limits_set("1G"):
+            threads = [threading.Thread(target=read_image, args=(tmp_path / "a.bmp",)) for _ in range(2)]
+            for t in threads:
+                t.start()
+            for t in threads:
+                t.join(20)
+        assert seen == [(1 << 30) // R.MIN_PIXEL_BYTES] * 2 and before < seen[0]
+        assert Image.MAX_IMAGE_PIXELS == before
+        monkeypatch.setattr(R, "_pil_pixels", lambda im, path: setattr(Image, "MAX_IMAGE_PIXELS", 5) or real(im, path))
+        try:
+            read_image(tmp_path / "a.bmp")
+            assert Image.MAX_IMAGE_PIXELS == 5  # changed during the read: kept
         finally:
             Image.MAX_IMAGE_PIXELS = before
 

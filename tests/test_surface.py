@@ -1358,9 +1358,93 @@ class TestWorkBudget:
             set_work_budget(None)
         assert info.value.param == "mni" and not launched
 
+    def test_dense_sets_priced_by_blocks(self, monkeypatch):
+        """A dense set is priced by the blocks it is sorted into, far below lone walks: the
+        estimate the call checks is block_visits of its sorted points, and a torus ten times
+        as dense (10**7 points) fits the default budget at MNI 60, which lone walks do not."""
+        import warp_texton.surface as S
+        from warp_texton.limits import DEFAULT_WORK_BUDGET, set_work_budget, work_log
+
+        t = Texton(np.random.default_rng(0).standard_normal((64, 64, 3)) / 64, [0.5, 0.5, 0.5])
+        torus = trimesh.creation.torus(1.0, 0.35, major_sections=200, minor_sections=200)
+        pts, nrm = np.asarray(torus.vertices), np.asarray(torus.vertex_normals)
+        texel = 0.02  # about the density of 10**6 vertices at texel 0.004, in points per texel²
+        setup = S.surface_setup(t, 60)
+        plan = S.plan_points(setup, pts / texel, S.unit_rows(nrm, "n").astype(np.float32))
+        assert plan.method == "blocks"
+        assert plan.operations == pytest.approx(S.block_visits(setup, plan.blocked))
+        per_point = plan.operations / len(pts)
+        assert per_point * 10**7 < DEFAULT_WORK_BUDGET < S.surface_visits(setup) * 10**7
+        # the estimate before the points exist (renders, bakes) agrees with the sorted one within 3x
+        area = 4 * np.pi**2 * 1.0 * 0.35 / texel**2
+        assert 1 / 3 < S.density_visits(setup, len(pts) / area) / per_point < 3
+        with work_log() as log:
+            surface_noise(t, pts, nrm, texel, device="cpu")
+        assert log[-1][1] == pytest.approx(plan.operations)
+        # just over the budget: refused once sorted, before any evaluation
+        launched = []
+        monkeypatch.setattr(S, "evaluate_points", lambda *a, **k: launched.append(a) or np.zeros((len(a[2]), 3)))
+        set_work_budget(plan.operations * 0.99)
+        try:
+            with pytest.raises(TextonError, match=r"surface noise at 40000 points at MNI 60 .* over the work budget"):
+                surface_noise(t, pts, nrm, texel, device="cpu")
+            set_work_budget(plan.operations * 1.01)
+            surface_noise(t, pts, nrm, texel, device="cpu")
+        finally:
+            set_work_budget(None)
+        assert len(launched) == 1
+
+    def test_bomb_refused_before_sorting(self, monkeypatch):
+        """Points that no path could evaluate within the budget are refused before they are
+        prepared or sorted."""
+        import warp_texton.surface as S
+        from warp_texton.limits import DEFAULT_WORK_BUDGET
+
+        work = []
+        monkeypatch.setattr(S, "sort_into_blocks", lambda *a, **k: work.append("sort"))
+        monkeypatch.setattr(S, "_prepare_points", lambda *a, **k: work.append("prepare"))
+        pts = np.random.default_rng(0).uniform(-10, 10, (1_000_000, 3))
+        with pytest.raises(TextonError, match=r"surface noise at 1000000 points at MNI 50000 .* over the work budget"):
+            surface_noise(small_texton(), pts, pts, 0.1, mni=50_000, device="cpu")
+        assert not work
+        assert 10**6 * S.floor_visits(S.surface_setup(small_texton(), 50_000)) > DEFAULT_WORK_BUDGET
+
     def test_work_grows_with_mni(self):
         import warp_texton.surface as S
 
         t = small_texton()
         a, b = (S.surface_visits(S.surface_setup(t, m)) for m in (50, 500))
         assert b == pytest.approx(10 * a)
+
+
+class TestRenderWork:
+    """render_mesh prices its ray cast and the noise at its hits by the path the hits take."""
+
+    def test_priced_by_path(self):
+        import warp_texton.render as R
+        from warp_texton.limits import DEFAULT_WORK_BUDGET, work_log
+        from warp_texton.surface import floor_visits, surface_setup, surface_visits
+
+        sphere = trimesh.creation.icosphere(subdivisions=4)
+        t = small_texton()
+        with work_log() as log:
+            render_mesh(sphere, t, (256, 256), texel_size=1 / 128, device="cpu")
+        (what, ops), = log
+        assert what == "a 256x256 render at MNI 60"
+        setup = surface_setup(t, 60.0)
+        # the hits go to blocks: far below lone walks, and a 16x larger render fits the default budget
+        assert ops < 0.25 * 256 * 256 * (R.CAST_OPS + surface_visits(setup))
+        assert ops * 256 < DEFAULT_WORK_BUDGET
+        # and the early estimate of a 4096x4096 render passes
+        assert 4096**2 * (R.CAST_OPS + floor_visits(setup)) < DEFAULT_WORK_BUDGET
+
+    @pytest.mark.parametrize("shape, mni", [((2048, 2048), 200_000), ((8192, 8192), 5000)])
+    def test_absurd_refused_before_the_cast(self, monkeypatch, shape, mni):
+        import warp_texton.render as R
+
+        cast = []
+        monkeypatch.setattr(R, "_cast_box", lambda *a, **k: cast.append(a))
+        with pytest.raises(TextonError, match=rf"a {shape[1]}x{shape[0]} render at MNI {mni} needs about .* over "
+                                              r"the work budget .*use a smaller shape or a lower mni") as info:
+            render_mesh(trimesh.creation.icosphere(subdivisions=2), small_texton(), shape, mni=mni, device="cpu")
+        assert not cast and info.value.param == "mni"

@@ -179,6 +179,18 @@ def check_uvs(uv: np.ndarray, vertices: int) -> np.ndarray:
     return np.clip(uv, 0.0, 1.0)
 
 
+def uv_coverage(uvs, faces: np.ndarray) -> float:
+    """The share of the texture that the faces' UV triangles cover, at most 1 (overlaps
+    counted twice: an upper bound); 1 for UVs that :func:`check_uvs` will refuse."""
+    t = np.asarray(uvs, np.float64)
+    if t.ndim != 2 or t.shape[1] != 2 or not len(faces) or len(t) <= int(faces.max()):
+        return 1.0
+    with np.errstate(over="ignore", invalid="ignore"):
+        e1, e2 = t[faces][:, 1] - t[faces][:, 0], t[faces][:, 2] - t[faces][:, 0]
+        covered = float(np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum()) / 2.0
+    return min(covered, 1.0) if np.isfinite(covered) else 1.0
+
+
 def worker_limits(n_faces: int, resolution: int) -> tuple[float, float]:
     """(seconds, bytes) that the worker may take for a mesh of ``n_faces`` at ``resolution``²."""
     seconds = WORKER_SECONDS + WORKER_SECONDS_PER_FACE * n_faces

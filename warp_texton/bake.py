@@ -30,7 +30,7 @@ import warp as wp
 
 from ._checks import check_int, check_positive, check_seed
 from ._runtime import progress_bar, resolve_device, split_launch
-from .atlas import CHART_METHODS, check_uvs, make_atlas, mesh_uvs
+from .atlas import CHART_METHODS, check_uvs, make_atlas, mesh_uvs, uv_coverage
 from .colours import mean_colour
 from .errors import TextonError
 from .kernels import bake as KB
@@ -39,7 +39,8 @@ from .frames import UP, up_vector
 from .mesh import check_mesh, vertex_normals
 from .mesh_files import PNG_DTYPES, texture_8bit
 from .render import cast_rays, check_background
-from .surface import check_method, check_surface_work, evaluate_points, surface_params, surface_setup, texel_positions
+from .surface import (check_method, check_surface_work, evaluate_points, surface_params, surface_setup,
+                      texel_positions)
 from .texton import Texton
 
 if TYPE_CHECKING:
@@ -54,11 +55,11 @@ MAX_RESOLUTION = 16384
 #: many samples per side.
 SAMPLE_DENSITY = 1.0
 MAX_SAMPLES_SIDE = 8
-#: The share of a lone point's walk that a bake's sample costs: a bake's samples lie close
-#: together, so the blocks they are evaluated in (surface.evaluate_points) draw each cube's
-#: impacts once for many samples; measured, bakes of 128² and 256² at 4² samples ran at
-#: 6.0e9-6.2e9 lone-walk operations a second against the lone walk's 7.4e8-1e9 (docs/limits.md).
-BAKE_WALK_SHARE = 1.0 / 6.0
+#: Operations (limits.check_work) of a bake's setup per texel (claims, gutter, maps: about
+#: 3 µs a texel on a two-core CPU, docs/limits.md); and the least share of the texture an
+#: atlas covers, for the estimate of the samples before the atlas (xatlas packs tighter).
+BAKE_TEXEL_OPS = 2000.0
+ATLAS_COVERAGE = 0.25
 #: Most samples per texel side that an explicit ``supersample`` may ask for: 64² =
 #: 4096 evaluations per texel, the bound the filters put on theirs (a texel's
 #: work grows with its square).
@@ -287,7 +288,9 @@ def bake_mesh(
         crashing, running past its time limit or over its memory cap (it runs
         in a process of its own: :func:`warp_texton.atlas.run_worker`); a
         bake over the memory budget (about 360 bytes per texel at the peak:
-        1.5 GB at 2048², 6 GB at 4096²); vertices too far from the origin.
+        1.5 GB at 2048², 6 GB at 4096²) or the work budget (the texels' setup
+        and the samples by their path, first before the atlas: docs/limits.md);
+        vertices too far from the origin.
 
     References
     ----------
@@ -344,6 +347,13 @@ def bake_mesh(
     own_uv = mesh_uvs(mesh) if uv != "atlas" else None
     if own_uv is None and uv == "mesh":
         raise TextonError(f"{name}: has no UVs (uv='mesh'); use uv='auto' or 'atlas' to make an atlas")
+    # priced before the atlas from the mesh's area (texton texels²) and the texels it will cover
+    work_hint, texels2 = "use a smaller resolution, a smaller supersample or a lower mni", mesh.area / texel**2
+    covered = res * res * (ATLAS_COVERAGE if own_uv is None else uv_coverage(own_uv, faces))
+    n = covered * supersample**2 if supersample else max(covered, min(texels2, MAX_SAMPLES_SIDE**2 * covered))
+    check_surface_work(setup, n, n / max(texels2, 1e-300), f"a {res}x{res} bake with about "
+                       f"{n:.3g} samples at MNI {mni:.6g}", work_hint, param="supersample",
+                       mentions=("resolution", "supersample", "mni"), early=True, other=res * res * BAKE_TEXEL_OPS)
     device = resolve_device(device)
     bar = progress_bar(progress, 0 if own_uv is not None else 2, "bake", "step")
     if own_uv is not None:
@@ -400,10 +410,10 @@ def bake_mesh(
     check_memory(min(total, SAMPLES_PER_ROUND) * BYTES_PER_SAMPLE + len(f) * BYTES_PER_BAKED_TEXEL,
                  f"a {res}x{res} bake with {total} samples",
                  "use a smaller resolution or supersample")
-    # every sample is one point of the surface noise, of a dense set (BAKE_WALK_SHARE)
-    check_surface_work(setup, total * BAKE_WALK_SHARE, f"a {res}x{res} bake with {total} samples at MNI {mni:.6g}",
-                       "use a smaller resolution, a smaller supersample or a lower mni", param="supersample",
-                       mentions=("resolution", "supersample", "mni"))
+    # every sample is a point of the surface noise, as dense as the samples over their texels
+    check_surface_work(setup, total, total / max(float(area.sum()), 1e-300),
+                       f"a {res}x{res} bake with {total} samples at MNI {mni:.6g}", work_hint, param="supersample",
+                       mentions=("resolution", "supersample", "mni"), other=res * res * BAKE_TEXEL_OPS)
     p = surface_params(texton, setup, seed, "exact", up, side)
     sums = np.zeros((len(f), 3), np.float64)
     kinds = sorted(set(zip(nx.tolist(), ny.tolist())))

@@ -236,7 +236,7 @@ SURFACE = Command(
     "others still finish; the exit status is 1 if any failed, 130 if interrupted.",
     _arguments, _surface,
     {**ANALYSIS_NAMES, "mni": "--mni", "texel_size": "--texel-size", "max_edge": "--max-edge", "fov": "--fov",
-     "device": "--device", "supersample": "--supersample", "resolution": "--bake"},
+     "device": "--device", "supersample": "--supersample", "resolution": "--bake", "shape": "--render"},
     lambda args: {"u": args.texton},
     epilog="""examples:
   warp-texton surface scans/*.ply --texton wood.exr --out-dir textured --render 512x512

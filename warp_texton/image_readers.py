@@ -11,8 +11,10 @@ Pillow refuses images above ``PIL.Image.MAX_IMAGE_PIXELS`` (with a warning
 above half of that) as decompression bombs. The memory budget does that job
 here for every format, priced before decoding, so Pillow's limit is raised
 (never lowered, and left off when unset) to the largest image the budget
-could hold (:func:`_raise_pillow_limit`): a file is then refused once, by
-the budget, with one ``TextonError`` and no extra warning line.
+could hold, while the package's reader opens and decodes a file
+(:func:`_pillow_limit`; put back when the last such read ends): a file is
+then refused once, by the budget, with one ``TextonError`` and no extra
+warning line, and other code's Pillow calls keep their own limit.
 
 TIFF layouts are read as declared: one page whose axes are ``YX`` (grey),
 ``YXS`` (interleaved samples) or ``SYX`` (planar samples), with 1 or 2 samples
@@ -28,6 +30,7 @@ import logging
 import struct
 import threading
 import warnings
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -216,12 +219,34 @@ def check_declared(d: Declared, path, file_bytes: int = 0) -> None:
                  f"{8 * d.itemsize}-bit sample{'s' if d.samples > 1 else ''} per pixel", "use a smaller image")
 
 
-def _raise_pillow_limit() -> None:
-    """Pillow's bomb limit no lower than the budget's largest image (see the module notes)."""
+_pillow_lock = threading.Lock()
+_pillow_readers = 0  # the package's Pillow reads in progress, in any thread
+_pillow_saved: int | None = None  # Pillow's limit before the first of them
+_pillow_raised: int | None = None  # the limit they set
+
+
+@contextlib.contextmanager
+def _pillow_limit() -> Iterator[None]:
+    """Pillow's bomb limit no lower than the budget's largest image while the package's
+    reader opens and decodes a file (see the module notes), put back when the last
+    such read in any thread ends, unless someone changed it meanwhile."""
+    global _pillow_readers, _pillow_saved, _pillow_raised
     from PIL import Image
 
-    if Image.MAX_IMAGE_PIXELS is not None:
-        Image.MAX_IMAGE_PIXELS = max(Image.MAX_IMAGE_PIXELS, memory_budget() // MIN_PIXEL_BYTES)
+    with _pillow_lock:
+        if _pillow_readers == 0:
+            _pillow_saved = Image.MAX_IMAGE_PIXELS
+        _pillow_readers += 1
+        if Image.MAX_IMAGE_PIXELS is not None:
+            Image.MAX_IMAGE_PIXELS = max(Image.MAX_IMAGE_PIXELS, memory_budget() // MIN_PIXEL_BYTES)
+        _pillow_raised = Image.MAX_IMAGE_PIXELS
+    try:
+        yield
+    finally:
+        with _pillow_lock:
+            _pillow_readers -= 1
+            if _pillow_readers == 0 and Image.MAX_IMAGE_PIXELS == _pillow_raised:
+                Image.MAX_IMAGE_PIXELS = _pillow_saved
 
 
 @contextlib.contextmanager
@@ -315,9 +340,14 @@ def _read_png16(path: Path) -> np.ndarray:
 
 
 def _read_pillow(path: Path, d: Declared | None) -> np.ndarray:
+
+    with _pillow_limit():
+        return _read_pillow_scoped(path, d)
+
+
+def _read_pillow_scoped(path: Path, d: Declared | None) -> np.ndarray:
     from PIL import Image
 
-    _raise_pillow_limit()
     try:
         with warnings.catch_warnings():
             # only for formats whose header is not read here (d is None): their

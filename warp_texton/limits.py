@@ -263,14 +263,18 @@ def work_log() -> Iterator[list[tuple[str, float]]]:
 
 
 def check_work(operations: float, what: str, hint: str, *, param: str | None = None,
-               mentions: tuple[str, ...] = ()) -> None:
+               mentions: tuple[str, ...] = (), early: bool = False) -> None:
     """Refuse a request whose estimated work exceeds the work budget.
 
     ``what`` names the request (``"a 4096x4096 raster at MNI 30000"``), ``hint``
     says what to change (``"use a lower mni or a smaller raster"``); ``param``
-    and ``mentions`` as for :func:`check_memory`.
+    and ``mentions`` as for :func:`check_memory`. ``early``: a first estimate made
+    before the work's setup, which a later check of the same request refines: it
+    goes to :func:`work_log` only when it refuses.
     """
     entries = getattr(_log, "entries", None)
+    if early and operations <= work_budget():
+        return
     if entries is not None:
         entries.append((what, float(operations)))
     budget = work_budget()

@@ -24,10 +24,10 @@ import warp as wp
 
 from ._checks import check_positive, check_real
 from ._runtime import BANDS_PER_THREAD, is_cpu, split_launch
-from .canvas import VEC3_BYTES, Canvas
+from .canvas import VEC3_BYTES, Canvas, strips
 from .errors import TextonError
 from .kernels import noise2d as K
-from .limits import check_memory, check_work
+from .limits import check_memory, check_work, checkpoint
 from .noise import NoiseSetup, check_cell_range, check_pair, lookup_cost, record_dtype
 
 #: Raster strategies: "splat" (each impact adds its texton to the pixels it
@@ -96,6 +96,7 @@ class Regions:
 
     count: int  # number of stacked textons
     rho: np.ndarray | None  # (H, W) float32 ρ map, or None for vertical strips
+    first: tuple[int, int] = (0, 0)  # the global (row, column) of the map's pixel (0, 0) and of the strips' left edge
 
 
 @dataclass(frozen=True)
@@ -332,7 +333,8 @@ def rasters(windows, stack: TextonStack, shape, device, method: str, out,
                 centre = wp.vec2(0.5 * (setup.lo[0] + setup.hi[0]), 0.5 * (setup.lo[1] + setup.hi[1]))
                 wp.launch(K.label_impacts, dim=n, inputs=[wins, cell_window, impacts, impact_cell, centre,
                                                           int(regions.rho is None), regions.count,
-                                                          wp.array(rho, dtype=float), marks.labels])
+                                                          wp.array(rho, dtype=float), wp.vec2i(*regions.first),
+                                                          marks.labels])
         if method == "splat":
 
             def band(r0, r1):
@@ -369,5 +371,15 @@ def raster(p: np.ndarray, setup: NoiseSetup, coeffs: np.ndarray, order: int, sha
     # the canvas and the copy the caller makes of its channels
     check_raster_cost(nbytes + 2 * VEC3_BYTES * h * w, work, what)
     canvas = Canvas(shape, device)
-    rasters([win], stack, shape, device, method, canvas.rows(w), regions, blocks)
+    rows = canvas.rows(w)
+    parts = strips(h, w)
+    if len(parts) == 1:
+        rasters([win], stack, shape, device, method, rows, regions, blocks)
+    else:
+        for r0, r1 in parts:
+            # strips of rows, each placing its own impacts (the values of one pass): a caller
+            # that has gone stops the computation between two (limits.cancellable)
+            checkpoint()
+            strip = RasterWindow(p, setup, 0, order, origin, step, (r0, 0), scale)
+            rasters([strip], stack, (r1 - r0, w), device, method, rows[r0:r1], regions)
     return canvas.result(3, "numpy", textons=[None])  # mixed values: the caller adds the means

@@ -19,13 +19,17 @@ from ._runtime import resolve_device, split_launch
 from .errors import TextonError
 from .frames import UP, as_direction, as_point, up_rotation, up_vector
 from .kernels import render as KR
-from .limits import check_memory
+from .limits import check_memory, check_work
 from .mesh import check_mesh, default_texel_size, vertex_normals
-from .surface import check_method, evaluate_points, surface_params, surface_setup, texel_positions
+from .surface import (check_method, evaluate_points, floor_visits, plan_points, surface_params, surface_setup,
+                      texel_positions)
 from .texton import Texton
 
 #: Largest render, in pixels (64 Mpx: about 4 GB at the peak of a render).
 MAX_RENDER_PIXELS = 1 << 26
+#: Operations (the unit of limits.check_work) of one ray of the cast: Warp's BVH answers
+#: ``mesh_query_ray`` in about 0.55 µs on one core of a two-core CPU (docs/limits.md).
+CAST_OPS = 500.0
 #: Default orbit of renders: azimuth and elevation (degrees) of the camera seen from
 #: the mesh's centre, in the Z-up frame (azimuth 0 along +X, −90 along −Y: the front).
 ORBIT = (-55.0, 25.0)
@@ -393,7 +397,10 @@ def render_mesh(
         ``orbit`` or ``fov``; a ``fov`` outside (0, 180); a bad ``orbit`` or
         ``up``; a zero ``light``; a ``background`` that is not a finite RGB
         triple; the ``mni`` errors of :func:`surface_noise`; a render over
-        the memory budget; and vertices too far from the origin for
+        the memory budget, or over the work budget (the ray cast and the
+        noise at its hits: priced before the cast as if every pixel hit the
+        mesh at the least a point can cost, then by the path the hits take);
+        and vertices too far from the origin for
         ``texel_size`` (the error of :func:`surface_noise`, "the mesh's
         vertices lie too far from the origin …", also for absurd texel
         sizes such as 1e-300): never a silent background.
@@ -454,10 +461,14 @@ def render_mesh(
     setup = surface_setup(texton, mni)
     texel_positions(vertices, texel, setup, "the mesh's vertices")  # refuses far meshes and tiny texels
     bg = check_background(background)
+    what, hint = f"a {w}x{h} render at MNI {mni:.6g}", "use a smaller shape or a lower mni"
+    # before the cast, as if every pixel hit the mesh at the fewest operations a point costs
+    check_work(h * w * (CAST_OPS + floor_visits(setup)), what, hint, param="mni", mentions=("shape", "mni"), early=True)
     device = resolve_device(device)
     p = surface_params(texton, setup, seed, "exact", up, side)
     (r0, r1, c0, c1), (face, bary, nrm, shade), vertices, faces = _cast_box(mesh, (h, w), camera, up, orbit, fov,
                                                                             light, device)
+    cast = (r1 - r0) * (c1 - c0) * CAST_OPS
     hit = face >= 0
     pixels = np.flatnonzero(hit.reshape(-1)).astype(np.int32)
     with wp.ScopedDevice(device):
@@ -479,7 +490,11 @@ def render_mesh(
                       wp.float64(texel)]
             split_launch(device, KR, pixels.size, lambda a, b: wp.launch(
                 KR.hit_points, dim=b - a, inputs=[pix[a:b], *inputs, pos_w[a:b], nrm_w[a:b]]))
-            g = evaluate_points(p, setup, pos_w.numpy(), nrm_w.numpy(), None, device, method)
+            pos, hit_nrm = pos_w.numpy(), nrm_w.numpy()
+            # the cast and the hits' noise, priced by the path the hits take
+            plan = plan_points(setup, pos, hit_nrm, method)
+            check_work(cast + plan.operations, what, hint, param="mni", mentions=("shape", "mni"))
+            g = evaluate_points(p, setup, pos, hit_nrm, None, device, plan=plan)
             g_w: wp.array = wp.array(g, dtype=wp.vec3)
             shade_w: wp.array = wp.array(shade.reshape(-1), dtype=wp.float32, copy=not on_cpu)
             split_launch(device, KR, pixels.size, lambda a, b: wp.launch(

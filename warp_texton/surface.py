@@ -31,13 +31,14 @@ import warp as wp
 
 from ._checks import check_positive, check_seed
 from ._runtime import map_points, resolve_device, split_launch
-from .blocks import gather_blocks, sort_into_blocks
+from .blocks import BLOCK_CUBES, BYTES_PER_POINT, CLUSTER_MIN, CLUSTER_POINTS, BlockedPoints, gather_blocks, \
+    sort_into_blocks
 from .colours import to_colours
 from .errors import TextonError
 from .frames import UP, as_points, check_lengths, frame_rule, unit_rows
 from .kernels import surface as K
 from .kernels.impacts import Cells3
-from .limits import check_work
+from .limits import check_memory, check_work
 from .noise import MAX_CELL_INDEX, MAX_CELL_MEAN, POISSON_MODES, WALK_COST, noise_setup
 from .texton import Texton
 
@@ -61,6 +62,19 @@ AUTO_MIN_POINTS = 4096
 AUTO_MIN_DENSITY = 24.0
 #: Room for float32 rounding in :func:`walk_reach` (relative).
 REACH_ROUNDING = 1.0 + 1e-5
+#: Operations (the unit of limits.check_work) of the block path, fitted to its measured
+#: times on dense and sparse point sets (docs/limits.md, "Surface noise by path"): per
+#: cube drawn (its count, its impacts' slots and the host's index arrays) and per impact
+#: drawn; per impact of a listed cluster's cubes scanned (the cubes of one walk); per
+#: point and impact of its cluster's list (about λ r times the support box); and for a
+#: point of a cluster too small for a list, which walks its block's drawn impacts, per
+#: cube of its walk tested and per impact read.
+BLOCK_CUBE_OPS = 340.0
+BLOCK_IMPACT_OPS = 3.7
+LIST_OPS = 7.0
+GATHER_OPS = 1.5
+BLOCK_WALK_CUBE_OPS = 62.0
+BLOCK_WALK_OPS = 2.0
 
 
 def _prepare_points(pts: np.ndarray, normals: np.ndarray, texel: float) -> tuple[np.ndarray, np.ndarray]:
@@ -106,18 +120,127 @@ def surface_setup(texton: Texton, mni: float, cell_factor: float = CELL_FACTOR) 
     return SurfaceSetup(r, lam, cell, base.coeffs, base.lo, base.hi, texton)
 
 
+def walk_cubes(setup: SurfaceSetup) -> int:
+    """The cubes a point's walk may visit."""
+    return (math.ceil(setup.r * math.sqrt(3.0) / setup.cell) + 1) ** 3
+
+
 def surface_visits(setup: SurfaceSetup) -> float:
-    """Operations (the unit of limits.check_work) of one point: the impacts of the cubes its
-    walk may visit, times WALK_COST, as a point of the plane counts them (noise.walk_cost).
-    Measured on a two-core CPU: 7e8 to 1e9 of them a second (docs/limits.md)."""
-    cubes = (math.ceil(setup.r * math.sqrt(3.0) / setup.cell) + 1) ** 3
-    return WALK_COST * cubes * setup.lam * setup.cell ** 3
+    """Operations (the unit of limits.check_work) of one point's walk (``method="points"``):
+    the impacts of the cubes its walk may visit, times WALK_COST, as a point of the plane
+    counts them (noise.walk_cost). Measured on a two-core CPU: 7e8 to 1e9 of them a second
+    (docs/limits.md)."""
+    return WALK_COST * walk_cubes(setup) * setup.lam * setup.cell ** 3
 
 
-def check_surface_work(setup: SurfaceSetup, points: float, what: str, hint: str, *, param: str | None = None,
-                       mentions: tuple[str, ...] = ()) -> None:
-    """Refuse ``points`` evaluations of the surface noise beyond the work budget."""
-    check_work(points * surface_visits(setup), what, hint, param=param, mentions=mentions)
+def _listed(setup: SurfaceSetup) -> float:
+    # impacts of a cluster's list, about: λ r times the texton's support box
+    return setup.lam * setup.r * (setup.hi[0] - setup.lo[0]) * (setup.hi[1] - setup.lo[1])
+
+
+def _gather_visits(setup: SurfaceSetup, per_cluster: float) -> float:
+    # a point of a cluster of ``per_cluster`` points: its walk of the block's impacts (a
+    # cluster too small for a list), or its share of the list and its gather
+    mu = setup.lam * setup.cell ** 3
+    if per_cluster < CLUSTER_MIN:
+        return walk_cubes(setup) * (BLOCK_WALK_CUBE_OPS + BLOCK_WALK_OPS * mu)
+    return walk_cubes(setup) * mu * LIST_OPS / per_cluster + _listed(setup) * GATHER_OPS
+
+
+def _cube_ops(setup: SurfaceSetup) -> float:
+    return BLOCK_CUBE_OPS + BLOCK_IMPACT_OPS * setup.lam * setup.cell ** 3
+
+
+def block_visits(setup: SurfaceSetup, blocked: BlockedPoints) -> float:
+    """Operations of the block path for points sorted into blocks: the cubes each block
+    draws, each listed cluster's scan of its cubes and its points' gathers, and the walks
+    of the points of clusters too small for a list (BLOCK_CUBE_OPS ... BLOCK_WALK_OPS).
+    A cluster's list grows with the spread ν of its normals (its slab and support ranges
+    widen by R ν, R = (r/2)√3: kernels/surface.py, list_cluster), up to all the impacts
+    of its cubes: points on a surface have ν near 0, a cloud of random normals near 1.4."""
+    n = len(blocked.order)
+    cubes = float(np.prod(blocked.hi - blocked.lo + 1, axis=1, dtype=np.float64).sum())
+    sizes = np.diff(np.r_[blocked.clusters, n])
+    listed = sizes >= CLUSTER_MIN
+    n_listed = float(sizes[listed].sum())
+    scanned = walk_cubes(setup) * setup.lam * setup.cell ** 3
+    gathers = 0.0
+    if n_listed and blocked.nrm is not None:
+        mean = np.add.reduceat(blocked.nrm, blocked.clusters, axis=0, dtype=np.float64) / sizes[:, None]
+        spread = np.linalg.norm(blocked.nrm - np.repeat(mean, sizes, axis=0), axis=1)
+        nu = np.maximum.reduceat(spread, blocked.clusters)[listed]
+        growth = (1.0 + math.sqrt(3.0) * nu) ** 3
+        gathers = float(np.sum(sizes[listed] * np.minimum(_listed(setup) * growth, scanned))) * GATHER_OPS
+    return (cubes * _cube_ops(setup) + float(np.count_nonzero(listed)) * scanned * LIST_OPS + gathers
+            + (n - n_listed) * _gather_visits(setup, 0.0))
+
+
+def density_visits(setup: SurfaceSetup, density: float) -> float:
+    """Operations per point of points spread over a surface at ``density`` points per
+    texel² (a render's hits, a bake's samples), on the path ``method="auto"`` takes: the
+    walk where a block would hold fewer than AUTO_MIN_DENSITY points, else a block's
+    cubes around a flat patch shared by its points, plus a cluster's share. The estimate
+    of :func:`block_visits` before the points exist."""
+    side = BLOCK_CUBES * setup.cell
+    per_block = density * side * side
+    if not per_block >= AUTO_MIN_DENSITY:
+        return surface_visits(setup)
+    e = 2.0 * walk_reach(setup.r) / setup.cell + 1.0  # cubes a block reaches past its points, per axis
+    cubes = (BLOCK_CUBES + e) ** 2 * (1.0 + e)
+    per_cluster = min(float(CLUSTER_POINTS), density * (setup.cell / 2.0) ** 2)
+    return min(surface_visits(setup), cubes * _cube_ops(setup) / per_block + _gather_visits(setup, per_cluster))
+
+
+def floor_visits(setup: SurfaceSetup) -> float:
+    """The fewest operations a point can cost on any path (a full cluster's share of the
+    densest block path): ``points × floor_visits`` over the budget is refused before
+    anything is sorted or cast."""
+    return _gather_visits(setup, float(CLUSTER_POINTS))
+
+
+def check_floor(setup: SurfaceSetup, points: float, what: str, hint: str, *, param: str | None = None,
+                mentions: tuple[str, ...] = ()) -> None:
+    """Refuse ``points`` evaluations that would pass the work budget on any path, before
+    any work (an early check: the call's estimate by path comes later)."""
+    check_work(points * floor_visits(setup), what, hint, param=param, mentions=mentions, early=True)
+
+
+def check_surface_work(setup: SurfaceSetup, points: float, density: float, what: str, hint: str, *,
+                       param: str | None = None, mentions: tuple[str, ...] = (), early: bool = False,
+                       other: float = 0.0) -> None:
+    """Refuse ``points`` evaluations of the surface noise at ``density`` points per texel²
+    of a surface (:func:`density_visits`), with ``other`` operations of the caller's own,
+    beyond the work budget."""
+    check_work(other + points * density_visits(setup, density), what, hint, param=param, mentions=mentions,
+               early=early)
+
+
+@dataclass(frozen=True)
+class PointsPlan:
+    """How :func:`evaluate_points` will evaluate a set of points: ``method``
+    ("blocks" or "points"), its estimated ``operations`` and, for blocks, the
+    points sorted into them."""
+
+    method: str
+    operations: float
+    blocked: BlockedPoints | None = None
+
+
+def plan_points(setup: SurfaceSetup, pos: np.ndarray, nrm: np.ndarray, method: str = "auto") -> PointsPlan:
+    """The path and the price of evaluating the surface noise at checked texel positions
+    ``pos`` with unit normals ``nrm``: the walk (``surface_visits`` a point) below
+    AUTO_MIN_POINTS points, for ``method="points"`` and for sparse sets; else the points
+    are sorted into blocks (their memory priced first) and priced by :func:`block_visits`."""
+    n = len(pos)
+    walk = n * surface_visits(setup)
+    if n == 0 or method == "points" or (method == "auto" and n < AUTO_MIN_POINTS):
+        return PointsPlan("points", walk)
+    check_memory(n * float(BYTES_PER_POINT), f"sorting {n} points into blocks", "evaluate fewer points at once")
+    blocked = sort_into_blocks(pos, nrm, setup.cell, walk_reach(setup.r))
+    # by density: a sparse set's blocks draw many cubes for few points each
+    if method == "auto" and n / len(blocked.starts) < AUTO_MIN_DENSITY:
+        return PointsPlan("points", walk)
+    return PointsPlan("blocks", block_visits(setup, blocked), blocked)
 
 
 def surface_params(texton: Texton, setup: SurfaceSetup, seed: int, poisson: str, up, side) -> K.SurfaceParams:
@@ -277,7 +400,11 @@ def surface_noise(
         cubes)", which a tiny ``texel_size`` also gives); a ``cell_factor``
         that would visit more than 8192 cells per point
         (``MAX_CUBES_PER_POINT``) or hold more than 10**5 impacts per cell;
-        a block whose impacts would pass the memory budget.
+        a block whose impacts would pass the memory budget; points over the
+        work budget, priced by the path they take (the walk, or the blocks
+        they are sorted into; docs/limits.md, "Surface noise by path"):
+        "surface noise at … points at MNI … needs about … operations, over
+        the work budget …".
 
     Notes
     -----
@@ -351,8 +478,8 @@ def surface_noise(
     seed = check_seed(seed)
     check_method(method)
     setup = surface_setup(texton, mni, cell_factor)
-    check_surface_work(setup, len(pts), f"surface noise at {len(pts)} points at MNI {mni:.6g}",
-                       "use fewer points or a lower mni", param="mni", mentions=("points",))
+    what, hint = f"surface noise at {len(pts)} points at MNI {mni:.6g}", "use fewer points or a lower mni"
+    check_floor(setup, len(pts), what, hint, param="mni", mentions=("points", "mni"))
     device = resolve_device(device)  # starts Warp quietly, before the first launch
     if tangents is None:
         # positions in texels and float32 unit normals in one CPU pass (the values of
@@ -375,33 +502,33 @@ def surface_noise(
         tan = tan / np.linalg.norm(tan, axis=1)[:, None]
         pos = texel_positions(pts, texel, setup, "points")
     p = surface_params(texton, setup, seed, poisson, up, side)
-    out = evaluate_points(p, setup, pos, nrm, tan, device, method)
+    # priced by the path taken, once the points are sorted into blocks
+    plan = plan_points(setup, pos, nrm, method)
+    check_work(plan.operations, what, hint, param="mni", mentions=("points", "mni"))
+    out = evaluate_points(p, setup, pos, nrm, tan, device, plan=plan)
     return np.ascontiguousarray(out[:, : texton.channels])
 
 
 def evaluate_points(p: K.SurfaceParams, setup: SurfaceSetup, pos: np.ndarray, nrm: np.ndarray, tan, device,
-                    method: str = "auto") -> np.ndarray:
+                    method: str = "auto", *, plan: PointsPlan | None = None) -> np.ndarray:
     """(N, 3) float32 surface noise at checked float64 texel positions with unit
-    normals (and unit tangents, or None for the frame rule), mapped through the
-    texton's histogram transform when it has one: every surface output (points,
-    meshes, bakes, renders) gets its values here."""
-    values = _surface_values(p, setup, pos, nrm, tan, device, method)
+    normals (and unit tangents, or None for the frame rule), by ``plan`` (the caller's
+    :func:`plan_points`, priced) or else by ``method``, mapped through the texton's
+    histogram transform when it has one: every surface output (points, meshes, bakes,
+    renders) gets its values here."""
+    values = _surface_values(p, setup, pos, nrm, tan, device, method, plan)
     to_colours(values, setup.texton)
     return values
 
 
 def _surface_values(p: K.SurfaceParams, setup: SurfaceSetup, pos: np.ndarray, nrm: np.ndarray, tan, device,
-                    method: str) -> np.ndarray:
+                    method: str, plan: PointsPlan | None) -> np.ndarray:
     n = pos.shape[0]
     if n == 0:
         return np.zeros((0, 3), np.float32)
-    blocked = None
-    if method == "auto" and n < AUTO_MIN_POINTS:
-        method = "points"
-    elif method == "auto":
-        # by density: a sparse set's blocks draw many cubes for few points each
-        blocked = sort_into_blocks(pos, nrm, p.cells.size, walk_reach(setup.r))
-        method = "blocks" if n / len(blocked.starts) >= AUTO_MIN_DENSITY else "points"
+    if plan is None:
+        plan = plan_points(setup, pos, nrm, method)
+    method, blocked = plan.method, plan.blocked
     with wp.ScopedDevice(device):
         coeffs: wp.array = wp.array(setup.coeffs, dtype=wp.vec3)
         if method == "points":

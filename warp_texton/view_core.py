@@ -44,7 +44,8 @@ from .texton import Texton
 from .view_cache import Memo
 from .view_commands import plan_mix, plan_noise, plan_plane
 from .view_images import PNG_LEVEL, data_url, log_spectra, png_bytes, texton_picture
-from .view_inputs import MAX_UPLOAD_BYTES, MAX_UPLOADS, Source, decode_upload, digest, load_source, safe_name
+from .view_inputs import (MAX_UPLOAD_BYTES, MAX_UPLOADS, Source, decode_upload, digest, load_source,
+                          price_upload, safe_name)
 from .view_webgl import shader_payload
 from .view_query import (ANALYSIS_SEED, ENLARGE, MAX_EXPORT_PIXELS, MAX_EXPORT_SIDE, MAX_PLANE_PIXELS, MAX_REACH,
                          MIX_STEPS, MIX_ZOOM, MNI_RANGE, ORDERS, TEXTON_SIZES, TILE_SIZES, VIEW_FILTERS, ZOOM_MAX,
@@ -149,7 +150,7 @@ class Viewer:
     def add_upload(self, data: bytes, name: str, alive=None) -> Source:
         """Decode an upload in a computation slot, within a request's bounds."""
         b = self._compute(alive, lambda: decode_upload(data, safe_name(name), self.workdir), MAX_VIEW_WORK,
-                          self.request_bytes)
+                          self.request_bytes, price=lambda: price_upload(data))
         with self._uploads_lock:
             self._uploads[b.digest] = b
             self._uploads.move_to_end(b.digest)
@@ -182,16 +183,24 @@ class Viewer:
         return self._mixes.get((analysis, mix.b, mix.steps), compute)
 
     # -- work
-    def _compute(self, alive, fn, work: float = MAX_VIEW_WORK, memory: float | None = None):
+    def _compute(self, alive, fn, work: float = MAX_VIEW_WORK, memory: float | None = None, price=None):
         """Run ``fn`` in a computation slot, within ``work`` and ``memory`` (default:
         a view's, :data:`MAX_VIEW_BYTES` at most): the library's own estimates
-        refuse it before it allocates (413, naming the bound). Give up if the client
-        has gone meanwhile, or goes while ``fn`` computes (between its strips)."""
+        refuse it before it allocates (413, naming the bound); ``price()``, the
+        checks that need no computation, refuses it before it waits for a slot.
+        Give up if the client has gone meanwhile, or goes while ``fn`` computes
+        (between its strips)."""
+        memory = min(MAX_VIEW_BYTES, self.request_bytes) if memory is None else memory
+        if price is not None:
+            try:
+                with scoped_budget(memory, work):
+                    price()
+            except OverBudget as exc:
+                raise _over(exc, memory, work) from None
         with self._waiting_lock:
             if self._waiting >= MAX_WAITING:
                 raise BadRequest(f"busy: {MAX_WAITING} requests are already waiting", 503)
             self._waiting += 1
-        memory = min(MAX_VIEW_BYTES, self.request_bytes) if memory is None else memory
         try:
             with self._slots:
                 if alive is not None and not alive():
@@ -201,8 +210,7 @@ class Viewer:
         except Cancelled:
             raise ClientGone() from None
         except OverBudget as exc:
-            raise BadRequest(f"{exc} [this server's bounds per request: memory {format_bytes(memory)}, "
-                             f"work {work:.3g} operations]", 413) from None
+            raise _over(exc, memory, work) from None
         finally:
             with self._waiting_lock:
                 self._waiting -= 1
@@ -439,3 +447,8 @@ class Viewer:
             "filter_notes": {name: FILTERS[name].description for name in VIEW_FILTERS},
             "mix_b": None if start_b is None else {"id": start_b.digest, "name": start_b.name},
         }
+
+
+def _over(exc: OverBudget, memory: float, work: float) -> BadRequest:
+    return BadRequest(f"{exc} [this server's bounds per request: memory {format_bytes(memory)}, "
+                      f"work {work:.3g} operations]", 413)

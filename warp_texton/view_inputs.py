@@ -91,10 +91,10 @@ def load_source(input, what: str = "input") -> Source:
     return Source(path.name, resolved, read_image(path), None, key)
 
 
-def decode_upload(data: bytes, name: str, workdir: Path) -> Source:
-    """An uploaded image, parsed defensively: its size read from its header and
-    priced (:func:`~warp_texton.limits.check_memory`) before decoding, then read by
-    the package's reader from a private temporary file. Run it in a computation slot."""
+def price_upload(data: bytes) -> None:
+    """Refuse an upload whose header declares an image over the bounds or the memory
+    budget, before anything is decoded (cheap: a server prices it before it waits for
+    a computation slot, and again in the slot)."""
     from PIL import Image
 
     if len(data) > MAX_UPLOAD_BYTES:
@@ -113,6 +113,13 @@ def decode_upload(data: bytes, name: str, workdir: Path) -> Source:
     # the size its header declares, priced before decoding (a few KB of PNG can declare 4096²)
     check_memory(float(w) * h * UPLOAD_BYTES_PER_PIXEL, f"decoding the uploaded {w}x{h} image",
                  "upload a smaller image")
+
+
+def decode_upload(data: bytes, name: str, workdir: Path) -> Source:
+    """An uploaded image, parsed defensively: its size read from its header and
+    priced (:func:`~warp_texton.limits.check_memory`) before decoding, then read by
+    the package's reader from a private temporary file. Run it in a computation slot."""
+    price_upload(data)
     fd, tmp = tempfile.mkstemp(dir=workdir, suffix=".img")
     try:
         with os.fdopen(fd, "wb") as f:
