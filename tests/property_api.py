@@ -361,8 +361,10 @@ def directions():
         lambda d: math.hypot(*d) > 1e-3)
 
 
-def refused_directions():
-    return st.one_of(JUNK, st.sampled_from(["abc", (0.0, 0.0, 0.0), (1.0, NAN, 0.0), (1.0, 2.0), ("1", "0", "0")]))
+def refused_directions(default_none: bool = False):
+    """Directions to refuse; with ``default_none`` None is left out (the documented default)."""
+    junk = JUNK.filter(lambda v: v is not None) if default_none else JUNK
+    return st.one_of(junk, st.sampled_from(["abc", (0.0, 0.0, 0.0), (1.0, NAN, 0.0), (1.0, 2.0), ("1", "0", "0")]))
 
 
 @st.composite
@@ -880,11 +882,11 @@ ENTRIES: list[Entry] = [
           {"path": st.sampled_from([None, 5, b"x.exr", ["a"]])}),
     # ---- meshes
     Entry("tangent_frames", "warp_texton:tangent_frames", tangent_args(),
-          {"normals": refused_points(), "up": refused_directions(), "side": refused_directions()}),
+          {"normals": refused_points(), "up": refused_directions(), "side": refused_directions(default_none=True)}),
     Entry("surface_noise", "warp_texton:surface_noise", surface_args(),
           {"texton": refused_textons(), "points": refused_points(), "normals": refused_points(),
            "texel_size": refused_positive(), "mni": refused_positive(), "seed": refused_int(0),
-           "up": refused_directions(), "side": refused_directions()},
+           "up": refused_directions(), "side": refused_directions(default_none=True)},
           edges={"texel_size": huge_and_tiny(), "mni": huge_and_tiny()},
           check="check_surface", may_refuse=r"memory budget|work budget|too far|cells"),
     Entry("texture_mesh", "property_api:texture_mesh_of", texture_mesh_args(),
