@@ -6,6 +6,8 @@ conftest.py) through the ``device`` fixture; helpers here take it as an argument
 
 from __future__ import annotations
 
+import shutil
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -79,6 +81,16 @@ def run_cli(argv):
         return main([str(a) for a in argv])
     except SystemExit as exc:
         return exc.code
+
+
+def cli_script() -> str | None:
+    """The installed ``warp-texton`` command of the interpreter running the tests, or None.
+
+    It is looked up beside ``sys.executable`` first (a virtual environment's ``bin/``, which
+    is on PATH only when the environment is activated), then on PATH.
+    """
+    here = Path(sys.executable).parent
+    return shutil.which("warp-texton", path=str(here)) or shutil.which("warp-texton")
 
 
 def parts(folder) -> list[str]:

@@ -3,9 +3,7 @@
 from __future__ import annotations
 
 import re
-import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -13,7 +11,7 @@ import pytest
 from PIL import Image
 
 from warp_texton import load_texton, read_image
-from helpers import parts, run_cli
+from helpers import cli_script, parts, run_cli
 
 # User errors print one line. Errors found by warp-texton say "warp-texton: error:";
 # argparse usage errors of a subcommand name it ("warp-texton analyze: error:").
@@ -174,7 +172,7 @@ class TestHelp:
 
     @pytest.mark.slow
     def test_installed_console_script(self, tmp_path):
-        script = shutil.which("warp-texton") or shutil.which("warp-texton", path=str(Path(sys.executable).parent))
+        script = cli_script()
         if script is None:
             pytest.skip("the warp-texton console script is not installed")
         done = subprocess.run([script, "--help"], capture_output=True, text=True, timeout=60)
