@@ -313,6 +313,21 @@ def texton_args(draw):
 
 
 @st.composite
+def noise_options_args(draw):
+    return dict(mni=draw(floats(1e-3, 1e6)), seed=draw(SEEDS),
+                period=draw(st.one_of(st.none(), pairs(floats(1e-3, 1e12)))),
+                poisson=draw(st.sampled_from(["exact", "gaussian"])), cell_factor=draw(floats(1e-6, 1e6)))
+
+
+@st.composite
+def analysis_options_args(draw):
+    return dict(size=draw(st.integers(2, 4096)), order=draw(st.sampled_from([0, 1, 3, 5])),
+                iterations=draw(st.integers(1, 10**6)), seed=draw(SEEDS), periodic=draw(st.booleans()),
+                color_correction=draw(st.booleans()), support=draw(st.sampled_from(["square", "disk"])),
+                histogram=draw(st.sampled_from(["gaussian", "preserve"])))
+
+
+@st.composite
 def filter_options_args(draw):
     return dict(kind=draw(st.sampled_from(["none", "mip", "anisotropic", "supersample"])),
                 max_aniso=draw(st.integers(1, 64)), supersample=draw(st.integers(1, 64)),
@@ -872,6 +887,20 @@ ENTRIES: list[Entry] = [
            "supersample": refused_int(1), "fade_energy": st.one_of(refused_number(), st.sampled_from(["0.1", 1.5, -0.1])),
            "lod_bias": st.one_of(st.sampled_from(["0", NAN, INF, 1e300, True]))},
           names={"kind": "filter"}, may_refuse=r"(?!)"),
+    Entry("NoiseOptions", "warp_texton:NoiseOptions", noise_options_args(),
+          {"mni": st.one_of(refused_number(), st.sampled_from([0, -1.0, 1e-4])),
+           "seed": st.sampled_from([-1, 2**32, 1.5, True, "1", None, np.array([1])]),
+           "period": st.one_of(refused_pair().filter(lambda v: v is not None), pairs(floats(-5.0, 0.0))),
+           "poisson": st.one_of(JUNK, st.just("fast")),
+           "cell_factor": st.one_of(refused_number(), st.sampled_from([0, -0.6]))},
+          may_refuse=r"(?!)"),
+    Entry("AnalysisOptions", "warp_texton:AnalysisOptions", analysis_options_args(),
+          {"size": st.one_of(refused_int(2), st.just(4097)), "order": st.one_of(refused_int(), st.sampled_from([2, 4])),
+           "iterations": refused_int(1), "seed": st.sampled_from([-1, 2**32, 1.5, True, "1", None]),
+           "periodic": st.sampled_from([1, 0, "yes", None, 1.0]),
+           "color_correction": st.sampled_from([1, 0, "no", None]),
+           "support": st.one_of(JUNK, st.just("circle")), "histogram": st.one_of(JUNK, st.just("uniform"))},
+          may_refuse=r"(?!)"),
     Entry("set_memory_budget", "property_api:with_budget",
           st.one_of(st.integers(1, 2**60), st.sampled_from(["2G", "512M", "1.5T", "100"])).map(
               lambda v: dict(setter="set_memory_budget", value=v)),

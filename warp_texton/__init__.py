@@ -28,7 +28,9 @@ if TYPE_CHECKING:  # what type checkers and documentation tools see; at run time
     from .analysis import analyze, model_error
     from .bake import BakedMesh, bake_mesh, render_baked
     from .dsn import dsn
+    from .analysis_options import AnalysisOptions
     from .filter_options import FilterOptions
+    from .noise_options import NoiseOptions
     from .gaussian import gaussian_texture, periodic_component
     from .io import read_image, write_image
     from .mixing import mix_textons, synthesize_mixed
@@ -48,7 +50,7 @@ _LAZY = {
     "analyze": "analysis", "model_error": "analysis",
     "BakedMesh": "bake", "bake_mesh": "bake", "render_baked": "bake", "write_baked": "mesh_files",
     "dsn": "dsn",
-    "FilterOptions": "filter_options",
+    "FilterOptions": "filter_options", "NoiseOptions": "noise_options", "AnalysisOptions": "analysis_options",
     "gaussian_texture": "gaussian", "periodic_component": "gaussian",
     "read_image": "io", "write_image": "io",
     "mix_textons": "mixing", "synthesize_mixed": "mixing",
@@ -62,11 +64,13 @@ _LAZY = {
 }
 
 __all__ = [
+    "AnalysisOptions",
     "BakedMesh",
     "Batch",
     "BatchParams",
     "Camera",
     "FilterOptions",
+    "NoiseOptions",
     "Texton",
     "TextonError",
     "__version__",

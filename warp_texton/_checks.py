@@ -39,6 +39,8 @@ MAX_VALUE = 1.0e10
 #: Smallest MNI: the noise divides by √λ in float32, and λ = MNI / area(supp h)
 #: must stay well inside float32's range for every texton size.
 MIN_MNI = 1.0e-3
+#: Largest texton side: analysed (``size``) or read from a file (textons are small by design).
+MAX_TEXTON_SIDE = 4096
 #: Largest magnitude float32 can hold.
 FLOAT32_MAX = float(np.finfo(np.float32).max)
 
@@ -241,3 +243,37 @@ def check_shape(shape, name: str = "shape", *, max_pixels: int = 1 << 28) -> tup
             f"{name} {h}x{w} is too large: at most {max_pixels} pixels ({h * w} asked)", param=name
         )
     return h, w
+
+
+def options_or_keywords(cls, value, name: str, defaults, keywords: dict):
+    """The frozen option value of a call that takes both ``name=`` (a ``cls``) and the
+    keywords it stands for (the fields of ``cls``).
+
+    ``value`` itself when given, provided each keyword still holds its default in
+    ``defaults`` (a ``cls``; None: ``cls()``); else ``cls`` made from the keywords,
+    the fields they leave out taken from ``defaults``. A setting given twice is
+    refused, naming the keyword, so that it has one place.
+    """
+    base = cls() if defaults is None else defaults
+    if value is None:
+        return cls(**{**{f: getattr(base, f) for f in cls.__dataclass_fields__}, **keywords})
+    if not isinstance(value, cls):
+        article = "an" if cls.__name__[0] in "AEIOU" else "a"
+        raise TextonError(f"{name} must be {article} {cls.__name__}, got {type(value).__name__}", param=name)
+    for key, given in keywords.items():
+        if not _is_default(given, getattr(base, key)):
+            raise TextonError(f"{key} is given both as a keyword ({given!r:.60}) and in {name} "
+                              f"({getattr(value, key)!r:.60}); give it in one place", param=key)
+    return value
+
+
+def _is_default(value, default) -> bool:
+    """``value`` is ``default`` as a caller leaves it (arrays and odd types compared safely)."""
+    if value is default:
+        return True
+    if value is None or default is None or isinstance(value, (bool, np.bool_)) != isinstance(default, bool):
+        return False
+    try:
+        return type(value) is type(default) and bool(value == default)
+    except (TypeError, ValueError):
+        return False

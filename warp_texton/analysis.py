@@ -23,26 +23,19 @@ from dataclasses import replace
 import numpy as np
 import scipy.fft as sfft
 
-from ._checks import as_image, check_bool, check_int, check_seed
-from .bspline import ORDERS, bhat
+from ._checks import as_image, check_bool
+from .bspline import bhat
+from .analysis_options import SUPPORTS, AnalysisOptions, check_support  # noqa: F401 - this module's names too
 from .errors import TextonError
 from .limits import check_memory, check_work
-from .histogram import HistogramTransform, check_histogram
+from .histogram import HistogramTransform
 from .gaussian import FFT_WORKERS, normalized_kernel, relative_model_error_half
-from .texton import MAX_TEXTON_SIDE, Texton, lag0_covariance
+from .texton import Texton, lag0_covariance
 
-SUPPORTS = ("square", "disk")
 #: Bytes per image value (pixel × channel) that the analysis holds at its peak:
 #: the periodic component and the kernel in float64, their spectra (complex128
 #: and complex64 half-planes), the target and its conjugate, the iterates.
 ANALYSIS_BYTES_PER_VALUE = 96
-
-
-def check_support(support) -> str:
-    """The name of a support shape."""
-    if not isinstance(support, str) or support not in SUPPORTS:
-        raise TextonError(f"support must be one of {', '.join(SUPPORTS)}, got {support!r:.60}", param="support")
-    return support
 
 
 def check_size_fits(size: int, grid, name: str, what: str = "the image") -> None:
@@ -155,6 +148,7 @@ def analyze(
     support: str = "square",
     histogram: str = "gaussian",
     progress: bool = False,
+    options: AnalysisOptions | None = None,
 ) -> Texton:
     """Compute the texton of a Gaussian texture example.
 
@@ -198,6 +192,11 @@ def analyze(
         colour histogram (docs/histogram.md).
     progress : bool
         Show a progress bar over the iterations.
+    options : AnalysisOptions, optional
+        ``size``, ``order``, ``iterations``, ``seed``, ``periodic``,
+        ``color_correction``, ``support`` and ``histogram`` as one value
+        (:class:`~warp_texton.AnalysisOptions`), in place of those keywords,
+        which must then keep their defaults.
 
     Returns
     -------
@@ -237,15 +236,11 @@ def analyze(
     0.449
     """
     u = as_image(u)
-    size = check_int(size, "size", minimum=2, maximum=MAX_TEXTON_SIDE)
-    order = check_int(order, "order", choices=ORDERS)
-    iterations = check_int(iterations, "iterations", minimum=1)
-    seed = check_seed(seed)
-    periodic = check_bool(periodic, "periodic")
-    color_correction = check_bool(color_correction, "color_correction")
+    o = AnalysisOptions.given(options, size=size, order=order, iterations=iterations, seed=seed, periodic=periodic,
+                              color_correction=color_correction, support=support, histogram=histogram)
     progress = check_bool(progress, "progress")
-    check_support(support)
-    histogram = check_histogram(histogram)
+    size, order, iterations, seed = o.size, o.order, o.iterations, o.seed
+    periodic, color_correction, support, histogram = o.periodic, o.color_correction, o.support, o.histogram
     m, n, c = u.shape
     check_size_fits(size, (m, n), "u")
     check_analysis_cost((m, n), c, iterations, f"analysing a {n}x{m} image")

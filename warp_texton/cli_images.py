@@ -14,8 +14,8 @@ from pathlib import Path
 
 from .cli_options import (ANALYSIS_NAMES, FILTER_NAMES, NOISE_IMAGE_NAMES, SHAPE_NAMES, Command,
                           add_analysis_options, add_filter_options, add_format_options, add_noise_image_options,
-                          add_placement_options, add_run_options, dtype_of, filter_options, input_file,
-                          seconds_since, texton_of)
+                          add_placement_options, add_run_options, analysis_options, dtype_of, filter_options,
+                          input_file, noise_options, seconds_since, texton_of)
 from .errors import TextonError
 
 
@@ -39,9 +39,7 @@ def _analyze(args) -> None:
                           param="histogram")
     u = read_example(args.input, args.iterations)
     t0 = time.perf_counter()
-    texton = analyze(u, size=args.size, order=args.order, iterations=args.iterations, seed=args.seed,
-                     periodic=args.periodic, color_correction=args.color_correction,
-                     support=args.support, histogram=args.histogram, progress=not args.quiet)
+    texton = analyze(u, options=analysis_options(args), progress=not args.quiet)
     texton.metadata["source"] = Path(args.input).name
     texton.save(out)
     if not args.quiet:
@@ -120,12 +118,13 @@ def _synthesize(args) -> None:
     out = check_image_path(out)
     check_dtype(out, dtype)
     options = filter_options(args)
+    noise = noise_options(args)
     t0 = time.perf_counter()
     texton = texton_of(args)
-    noise = synthesize(texton, shape=(args.height, args.width), mni=args.mni, seed=args.seed, scale=args.scale,
-                       rotation=args.rotation, offset=tuple(args.offset), period=args.period, device=args.device,
-                       filter=options, progress=not args.quiet)
-    write_image(out, noise, dtype=dtype, compression=args.compression)
+    values = synthesize(texton, shape=(args.height, args.width), noise=noise, scale=args.scale,
+                        rotation=args.rotation, offset=tuple(args.offset), device=args.device,
+                        filter=options, progress=not args.quiet)
+    write_image(out, values, dtype=dtype, compression=args.compression)
     if not args.quiet:
         print(f"{out}: {args.width}x{args.height} texton noise, MNI {args.mni:g} ({seconds_since(t0)})")
 
@@ -158,13 +157,13 @@ def _synthesize_zarr(args, out: Path, dtype) -> None:
         raise TextonError(f"{out}: exists; give --overwrite to replace it")
     h, w = check_big_shape((args.height, args.width))
     chunk = _zarr_chunk(args, h, w, CHUNK)
+    noise = noise_options(args)
     t0 = time.perf_counter()
     texton = texton_of(args)
     report = write_zarr(out, texton, (h, w), chunks=chunk, dtype=dtype or ZARR_DTYPE, scheduler=args.scheduler,
                         workers=args.workers, overwrite=args.overwrite, progress=not args.quiet,
-                        mni=args.mni, seed=args.seed, scale=args.scale, rotation=args.rotation,
-                        offset=tuple(args.offset), period=args.period, device=args.device,
-                        filter=filter_options(args))
+                        noise=noise, scale=args.scale, rotation=args.rotation,
+                        offset=tuple(args.offset), device=args.device, filter=filter_options(args))
     if not args.quiet:
         print(f"{out}: {w}x{h} texton noise, MNI {args.mni:g}, {report['dtype']} Zarr in chunks of "
               f"{chunk[0]}x{chunk[1]} ({seconds_since(t0)})")
@@ -269,9 +268,7 @@ def _mix_input(args, path):
         return x
     from .analysis import analyze
 
-    return analyze(x, size=args.size, order=args.order, iterations=args.iterations, seed=args.seed,
-                   periodic=args.periodic, color_correction=args.color_correction, support=args.support,
-                   histogram="preserve")
+    return analyze(x, options=analysis_options(args))  # with --histogram preserve
 
 
 def _mix_weights(args):
@@ -316,9 +313,7 @@ def _mix(args) -> None:
     weights, shape = _mix_weights(args)
     t0 = time.perf_counter()
     textons = mix_textons(_mix_input(args, args.a), _mix_input(args, args.b), np.linspace(0.0, 1.0, args.steps),
-                          size=args.size, order=args.order, seed=args.seed, iterations=args.iterations,
-                          periodic=args.periodic, color_correction=args.color_correction,
-                          support=args.support, progress=not args.quiet)
+                          options=analysis_options(args).replace(histogram="gaussian"), progress=not args.quiet)
     noise = synthesize_mixed(textons, weights, shape, mni=args.mni, seed=args.seed, device=args.device)
     write_image(out, noise)
     if not args.quiet:

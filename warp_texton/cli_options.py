@@ -138,6 +138,23 @@ def filter_options(args):
                          fade_energy=args.fade_energy)
 
 
+def noise_options(args):
+    """The NoiseOptions of --mni, --seed and, where the command has it, --period."""
+    from .noise_options import NoiseOptions
+
+    return NoiseOptions(mni=args.mni, seed=args.seed, period=getattr(args, "period", None))
+
+
+def analysis_options(args):
+    """The AnalysisOptions of the analysis options (--size, --order, --iterations, --seed,
+    --support, --no-periodic, --no-color-correction, --histogram)."""
+    from .analysis_options import AnalysisOptions
+
+    return AnalysisOptions(size=args.size, order=args.order, iterations=args.iterations, seed=args.seed,
+                           periodic=args.periodic, color_correction=args.color_correction, support=args.support,
+                           histogram=args.histogram)
+
+
 def add_format_options(p: argparse.ArgumentParser, zarr: bool = False) -> None:
     """How the output stores its pixels (and, with ``zarr``, how a .zarr store is written)."""
     from .io import EXR_COMPRESSIONS, TIFF_COMPRESSIONS
@@ -191,9 +208,7 @@ def texton_of(args, path=None):
     path = args.input if path is None else path
     if is_texton_path(path):
         return load_texton(path)
-    return analyze(read_example(path, args.iterations), size=args.size, order=args.order, iterations=args.iterations,
-                   seed=args.seed, periodic=args.periodic, color_correction=args.color_correction,
-                   support=args.support, histogram=args.histogram, progress=not args.quiet)
+    return analyze(read_example(path, args.iterations), options=analysis_options(args), progress=not args.quiet)
 
 
 def seconds_since(t0: float) -> str:

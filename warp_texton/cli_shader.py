@@ -7,7 +7,7 @@ import time
 from pathlib import Path
 
 from .cli_options import (ANALYSIS_NAMES, FILTER_NAMES, SHAPE_NAMES, Command, add_analysis_options,
-                          add_placement_options, input_file, seconds_since, texton_of)
+                          add_placement_options, input_file, noise_options, seconds_since, texton_of)
 from .errors import TextonError
 
 LANGS = ("glsl", "osl")
@@ -45,14 +45,14 @@ def _shader(args) -> None:
         raise TextonError(f"--html previews the glsl export (WebGL2); it is not available with --lang {args.lang}")
     t0 = time.perf_counter()
     texton = texton_of(args)
-    noise = dict(mni=args.mni, seed=args.seed, period=args.period)
+    noise = noise_options(args)
     # the page is made (and its options checked) before the folder is written: all outputs or none
     html = None if args.html is None else preview_html(
         texton, (args.height, args.width), scale=args.scale, rotation=args.rotation, offset=tuple(args.offset),
-        **noise)
+        noise=noise)
     if args.output is not None:
         out = export_shader(texton, args.lang, args.output, up=args.up, overwrite=args.overwrite,
-                            filter=args.filter, texel_size=args.texel_size, **noise)
+                            filter=args.filter, texel_size=args.texel_size, noise=noise)
         if not args.quiet:
             print(f"{out}: {args.lang} export of texton noise, MNI {args.mni:g} ({seconds_since(t0)})")
     if html is not None:

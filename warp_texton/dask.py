@@ -36,6 +36,7 @@ from .filtering import FilterOptions, needs_filtering
 from .io import convert_pixels, report_clipped
 from .limits import check_memory, check_work
 from .noise import CELL_FACTOR, noise_setup
+from .noise_options import NoiseOptions
 from .raster import raster_geometry, raster_reach
 from .synthesis import synthesize
 from .texton import Texton
@@ -107,17 +108,18 @@ class _Plan:
     """A validated request: the texton, the raster, its chunks and synthesize's options."""
 
     def __init__(self, texton, shape, chunks, mni, seed, scale, rotation, offset, period, device, poisson,
-                 cell_factor, method, filter):
+                 cell_factor, method, filter, noise=None):
         if not isinstance(texton, Texton):
             raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
         self.texton = texton
         self.shape = check_big_shape(shape)
         self.chunks = check_chunks(chunks, self.shape)
-        self.options = dict(mni=mni, seed=seed, scale=scale, rotation=rotation, offset=offset, period=period,
-                            device=device, poisson=poisson, cell_factor=cell_factor, method=method,
-                            filter=FilterOptions.of(filter))
+        self.noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson,
+                                        cell_factor=cell_factor)
+        self.options = dict(noise=self.noise, scale=scale, rotation=rotation, offset=offset, device=device,
+                            method=method, filter=FilterOptions.of(filter))
         # everything synthesize would refuse is refused here, once, before any chunk runs
-        setup = noise_setup(texton, mni, period, cell_factor)
+        setup = noise_setup(texton, self.noise.mni, self.noise.period, self.noise.cell_factor)
         origin, step = raster_geometry(self.shape, scale, rotation, offset)
         raster_reach(origin, step, self.shape, setup)
         synthesize(texton, (1, 1), **{**self.options, "device": "cpu"}, pixel_offset=(0, 0))
@@ -161,6 +163,7 @@ def synthesize_dask(
     device=None,
     poisson: str = "exact",
     cell_factor: float = CELL_FACTOR,
+    noise: NoiseOptions | None = None,
     method: str = "auto",
     filter="none",
 ) -> dask.array.Array:
@@ -199,6 +202,9 @@ def synthesize_dask(
     cell_factor : float
         Side of the random cells relative to the texton's support, as in
         :func:`warp_texton.synthesize`.
+    noise : NoiseOptions, optional
+        ``mni``, ``seed``, ``period``, ``poisson`` and ``cell_factor`` as one
+        value, as in :func:`warp_texton.synthesize`.
     method : {"auto", "splat", "gather"}
         How the raster is computed, as in :func:`warp_texton.synthesize`.
     filter : str or FilterOptions
@@ -237,7 +243,7 @@ def synthesize_dask(
     import dask.array as da
 
     plan = _Plan(texton, shape, chunks, mni, seed, scale, rotation, offset, period, device, poisson,
-                 cell_factor, method, filter)
+                 cell_factor, method, filter, noise)
     check_memory(plan.chunk_bytes(), f"a {plan.chunks[0]}x{plan.chunks[1]} chunk", "use smaller chunks")
     h, w = plan.shape
     ch, cw = plan.chunks
@@ -357,7 +363,7 @@ def write_zarr(
         A progress bar over the chunks.
     **options
         mni, seed, scale, rotation, offset, period, device, poisson,
-        cell_factor, method, filter: as in :func:`warp_texton.synthesize`.
+        cell_factor, noise, method, filter: as in :func:`warp_texton.synthesize`.
 
     Returns
     -------
@@ -404,11 +410,11 @@ def write_zarr(
     if workers is not None:
         workers = check_int(workers, "workers", minimum=1)
     unknown = set(options) - {"mni", "seed", "scale", "rotation", "offset", "period", "device", "poisson",
-                              "cell_factor", "method", "filter"}
+                              "cell_factor", "noise", "method", "filter"}
     if unknown:
         raise TextonError(f"unknown options: {', '.join(sorted(unknown))}")
     defaults = dict(mni=30.0, seed=0, scale=1.0, rotation=0.0, offset=(0.0, 0.0), period=None, device=None,
-                    poisson="exact", cell_factor=CELL_FACTOR, method="auto", filter="none")
+                    poisson="exact", cell_factor=CELL_FACTOR, method="auto", filter="none", noise=None)
     plan = _Plan(texton, shape, chunks, **{**defaults, **options})
     check_replaceable(path, overwrite)
     check_store_cost(plan)
@@ -440,11 +446,11 @@ def write_zarr(
 
 def _attributes(plan: _Plan, dtype: str) -> dict:
     o = plan.options
+    n = plan.noise
     t = plan.texton
-    noise = {k: v for k, v in o.items() if k not in ("device", "filter", "method")}
-    noise["filter"] = o["filter"].kind
-    noise["offset"] = list(o["offset"])
-    noise["period"] = None if o["period"] is None else list(o["period"])
+    noise = dict(mni=n.mni, seed=n.seed, scale=o["scale"], rotation=o["rotation"], offset=list(o["offset"]),
+                 period=None if n.period is None else list(n.period), poisson=n.poisson, cell_factor=n.cell_factor,
+                 filter=o["filter"].kind)
     values = "noise values" if dtype.startswith("float") else f"[0, 1] scaled to 0..{np.iinfo(dtype).max}, clipped"
     return {"warp_texton": {"version": __version__, "noise": json.loads(json.dumps(noise, default=float)),
                             "texton": {"size": list(t.size), "order": t.order, "channels": t.channels,

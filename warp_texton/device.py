@@ -63,7 +63,7 @@ from __future__ import annotations
 
 import warp as wp
 
-from ._checks import check_positive, check_seed
+from ._checks import check_positive
 from ._runtime import resolve_device
 from .errors import TextonError
 from .filter_options import FilterOptions
@@ -76,8 +76,9 @@ from .kernels.filter2d import FilteredNoise, filtered_value
 from .kernels.noise2d import PlaneNoise, plane_value
 from .kernels.surface import SurfaceNoise, surface_frame_value, surface_value
 from .noise import CELL_FACTOR, noise_params, noise_setup
+from .noise_options import NoiseOptions
 from .surface import CELL_FACTOR as SURFACE_CELL_FACTOR
-from .surface import surface_params, surface_setup
+from .surface import surface_options, surface_params, surface_setup
 from .texton import Texton
 
 __all__ = ["pack_plane", "pack_filtered", "pack_surface", "pack_colours", "PlaneNoise", "FilteredNoise",
@@ -85,11 +86,10 @@ __all__ = ["pack_plane", "pack_filtered", "pack_surface", "pack_colours", "Plane
            "colour_value", "colour_share", "filtered_colour", "filtered_share", "footprint_share"]
 
 
-def _plane_settings(texton, mni, seed, period, poisson, cell_factor):
+def _plane_settings(texton, noise: NoiseOptions):
     """(setup, NoiseParams) of the plane noise, checked as ``evaluate`` checks them."""
-    seed = check_seed(seed)
-    setup = noise_setup(texton, mni, period, cell_factor)
-    return setup, noise_params(texton, setup, seed, poisson)
+    setup = noise_setup(texton, noise.mni, noise.period, noise.cell_factor)
+    return setup, noise_params(texton, setup, noise.seed, noise.poisson)
 
 
 def pack_plane(
@@ -101,6 +101,7 @@ def pack_plane(
     device=None,
     poisson: str = "exact",
     cell_factor: float = CELL_FACTOR,
+    noise: NoiseOptions | None = None,
 ) -> PlaneNoise:
     """The plane noise of ``texton`` packed for ``plane_value`` in a user's kernel.
 
@@ -110,6 +111,9 @@ def pack_plane(
     mni, seed, period, poisson, cell_factor
         The noise, as in :func:`~warp_texton.evaluate`: the same values give
         the same noise.
+    noise : NoiseOptions, optional
+        Those five as one value (:class:`~warp_texton.NoiseOptions`), in
+        place of the keywords, which must then keep their defaults.
     device : str, optional
         Where the struct's coefficient array lives and its kernels run: "cpu",
         "cuda", "cuda:N"; default CUDA when available, else the CPU.
@@ -136,12 +140,13 @@ def pack_plane(
     >>> int(noise.params.cells.seed), noise.coeffs.shape
     (1, (18, 18))
     """
-    setup, params = _plane_settings(texton, mni, seed, period, poisson, cell_factor)
+    noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
+    setup, params = _plane_settings(texton, noise)
     device = resolve_device(device)
-    noise = PlaneNoise()
-    noise.params = params
-    noise.coeffs = wp.array(setup.coeffs, dtype=wp.vec3, device=device)
-    return noise
+    struct = PlaneNoise()
+    struct.params = params
+    struct.coeffs = wp.array(setup.coeffs, dtype=wp.vec3, device=device)
+    return struct
 
 
 def pack_filtered(
@@ -154,13 +159,14 @@ def pack_filtered(
     poisson: str = "exact",
     cell_factor: float = CELL_FACTOR,
     filter="anisotropic",
+    noise: NoiseOptions | None = None,
 ) -> FilteredNoise:
     """The noise of ``texton`` and a footprint filter, packed for ``filtered_value`` in a user's kernel.
 
     Parameters
     ----------
     texton : Texton
-    mni, seed, period, device, poisson, cell_factor
+    mni, seed, period, device, poisson, cell_factor, noise
         As in :func:`pack_plane`.
     filter : {"mip", "anisotropic"} or FilterOptions
         A filter that looks the texton up in its MIP pyramid at each
@@ -196,14 +202,15 @@ def pack_filtered(
         raise TextonError(f"filter must be a footprint filter, mip or anisotropic, for filtered_value; got "
                           f"{options.kind!r} (use pack_plane and plane_value for the unfiltered noise)",
                           param="filter")
-    _, params = _plane_settings(texton, mni, seed, period, poisson, cell_factor)
+    noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
+    _, params = _plane_settings(texton, noise)
     device = resolve_device(device)
-    noise = FilteredNoise()
-    noise.params = params
+    struct = FilteredNoise()
+    struct.params = params
     with wp.ScopedDevice(device):
-        noise.pyramid = pyramid_struct(texton, options.fade_energy)
-    noise.filter = filter_struct(options)
-    return noise
+        struct.pyramid = pyramid_struct(texton, options.fade_energy)
+    struct.filter = filter_struct(options)
+    return struct
 
 
 def pack_surface(
@@ -217,6 +224,7 @@ def pack_surface(
     side=None,
     poisson: str = "exact",
     cell_factor: float = SURFACE_CELL_FACTOR,
+    noise: NoiseOptions | None = None,
 ) -> SurfaceNoise:
     """The surface noise of ``texton`` (CGF §6) packed for ``surface_value`` in a user's kernel.
 
@@ -225,7 +233,7 @@ def pack_surface(
     texton : Texton
     texel_size : float
         World units per texel, > 0, as in :func:`~warp_texton.surface_noise`.
-    mni, seed, up, side, poisson, cell_factor
+    mni, seed, up, side, poisson, cell_factor, noise
         As in :func:`~warp_texton.surface_noise`: ``up`` and ``side`` set the
         frame rule ``surface_value`` applies.
     device : str, optional
@@ -257,15 +265,15 @@ def pack_surface(
     if not isinstance(texton, Texton):
         raise TextonError(f"texton must be a Texton, got {type(texton).__name__}", param="texton")
     texel = check_positive(texel_size, "texel_size")
-    seed = check_seed(seed)
-    setup = surface_setup(texton, mni, cell_factor)
-    params = surface_params(texton, setup, seed, poisson, up, side)
+    noise = surface_options(noise, mni=mni, seed=seed, poisson=poisson, cell_factor=cell_factor)
+    setup = surface_setup(texton, noise.mni, noise.cell_factor)
+    params = surface_params(texton, setup, noise.seed, noise.poisson, up, side)
     device = resolve_device(device)
-    noise = SurfaceNoise()
-    noise.params = params
-    noise.coeffs = wp.array(setup.coeffs, dtype=wp.vec3, device=device)
-    noise.texel_size = texel
-    return noise
+    struct = SurfaceNoise()
+    struct.params = params
+    struct.coeffs = wp.array(setup.coeffs, dtype=wp.vec3, device=device)
+    struct.texel_size = texel
+    return struct
 
 
 def pack_colours(texton: Texton, *, device=None) -> ColourMap:

@@ -26,11 +26,11 @@ from dataclasses import replace
 import numpy as np
 import scipy.fft as sfft
 
-from ._checks import as_image, as_real_array, check_bool, check_int, check_mni, check_seed, check_shape
+from ._checks import as_image, as_real_array, check_bool, check_mni, check_seed, check_shape
 from ._runtime import resolve_device
-from .analysis import (check_analysis_cost, check_size_fits, check_support, texton_from_spectrum,
+from .analysis import (check_analysis_cost, check_size_fits, texton_from_spectrum,
                        texton_half_spectrum, unit_phase)
-from .bspline import ORDERS
+from .analysis_options import AnalysisOptions
 from .errors import TextonError
 from .limits import check_memory
 from .gaussian import FFT_WORKERS, normalized_kernel
@@ -38,7 +38,7 @@ from .histogram import HistogramTransform
 from .colours import noise_moments
 from .noise import noise_setup, padded_coeffs, params_record
 from .raster import Regions, raster, raster_geometry
-from .texton import MAX_TEXTON_SIDE, Texton
+from .texton import Texton
 
 #: Host memory per mixed texton besides its coefficients (8 bytes each at most): its rho (a
 #: float in an array and in a list, 40 bytes), the Texton object and its metadata; measured
@@ -155,6 +155,7 @@ def mix_textons(
     color_correction: bool = True,
     support: str = "square",
     progress: bool = False,
+    options: AnalysisOptions | None = None,
 ) -> list[Texton]:
     """Textons along the optimal-transport path from the texture u to v.
 
@@ -188,6 +189,13 @@ def mix_textons(
         As in :func:`warp_texton.analyze`.
     progress : bool
         Show a progress bar over the ρ values.
+    options : AnalysisOptions, optional
+        ``size``, ``order``, ``iterations``, ``seed``, ``periodic``,
+        ``color_correction`` and ``support`` as one value
+        (:class:`~warp_texton.AnalysisOptions`), in place of those keywords,
+        which must then keep their defaults. Its ``histogram`` must be
+        "gaussian": histogram transforms are mixed from textons that carry them
+        (give ``u`` and ``v`` as textons from ``analyze(..., histogram="preserve")``).
 
     Returns
     -------
@@ -260,16 +268,17 @@ def mix_textons(
     >>> bool(np.allclose(mid.histogram.lut, (a.histogram.lut + b.histogram.lut) / 2))
     True
     """
-    size = check_int(size, "size", minimum=2, maximum=MAX_TEXTON_SIDE)
+    o = AnalysisOptions.given(options, size=size, order=order, iterations=iterations, seed=seed, periodic=periodic,
+                              color_correction=color_correction, support=support)
+    if o.histogram != "gaussian":
+        raise TextonError(f"histogram {o.histogram!r} of options: mix_textons mixes the histogram transforms of "
+                          "textons that carry them; give u and v as textons from analyze(..., "
+                          "histogram='preserve'), with options of histogram 'gaussian'", param="histogram")
+    size, order, iterations, seed = o.size, o.order, o.iterations, o.seed
+    periodic, color_correction, support = o.periodic, o.color_correction, o.support
     transforms = _mixed_transforms(u, v)
     rhos = _check_rhos(rhos, size)
-    order = check_int(order, "order", choices=ORDERS)
-    iterations = check_int(iterations, "iterations", minimum=1)
-    seed = check_seed(seed)
-    periodic = check_bool(periodic, "periodic")
-    color_correction = check_bool(color_correction, "color_correction")
     progress = check_bool(progress, "progress")
-    check_support(support)
     # images are converted once (an RGBA input warns once)
     u = u if isinstance(u, Texton) else as_image(u, "u")
     v = v if isinstance(v, Texton) else as_image(v, "v")

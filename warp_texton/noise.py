@@ -30,12 +30,10 @@ from ._checks import check_mni, check_positive, check_real
 from ._runtime import init_warp, map_points, split_launch
 from .errors import TextonError
 from .limits import check_memory, check_work
+from .noise_options import CELL_FACTOR, check_period, check_poisson, unpack_pair
 from .kernels import noise2d as K
 from .texton import Texton
 
-#: Default cell side as a fraction of the texton support side (CGF §8).
-CELL_FACTOR = 0.6
-POISSON_MODES = ("exact", "gaussian")
 #: Refuse cell grids where one point must visit more cells than this (a tiny
 #: period or cell_factor), or where a cell holds more impacts than MAX_CELL_MEAN
 #: on average (a huge cell_factor): both would hang or overflow the kernels.
@@ -146,25 +144,9 @@ def check_cell_range(lo: float, hi: float, cell: float, what: str) -> None:
         )
 
 
-def check_period(period) -> tuple[float, float]:
-    """A pair (Px, Py) of positive numbers."""
-    px, py = _pair(period, "period", "(Px, Py) of positive numbers")
-    return check_positive(px, "period[0]"), check_positive(py, "period[1]")
-
-
-def _pair(value, name: str, what: str):
-    if isinstance(value, (str, bytes)):
-        raise TextonError(f"{name} must be a pair {what}, got {value!r:.60}", param=name)
-    try:
-        a, b = value
-    except Exception:  # not iterable, wrong length
-        raise TextonError(f"{name} must be a pair {what}, got {value!r:.60}", param=name) from None
-    return a, b
-
-
 def check_pair(value, name: str) -> tuple[float, float]:
     """A pair (x, y) of finite numbers."""
-    x, y = _pair(value, name, "(x, y) of numbers")
+    x, y = unpack_pair(value, name, "(x, y) of numbers")
     return check_real(x, f"{name}[0]"), check_real(y, f"{name}[1]")
 
 
@@ -225,8 +207,7 @@ def params_record(texton: Texton, setup: NoiseSetup, seed: int, poisson: str = "
     of its NumPy dtype: the one place its fields are written. Rasters carry it as
     it is (in their Window records); it is cheaper to make than Warp's struct
     object, which :func:`params_struct` makes of it for the kernels that take one."""
-    if poisson not in POISSON_MODES:
-        raise TextonError(f"poisson must be one of {', '.join(POISSON_MODES)}, got {poisson!r}")
+    check_poisson(poisson)
     rec = np.zeros((), dtype=record_dtype(K.NoiseParams))
     c = rec["cells"]
     c["size"] = setup.cell

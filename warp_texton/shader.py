@@ -19,7 +19,7 @@ from .errors import TextonError
 from .folders import atomic_folder, check_replaceable
 from .frames import UP
 from .io import atomic_path
-from .noise import CELL_FACTOR
+from .noise_options import CELL_FACTOR, NoiseOptions
 from .texton import Texton
 
 #: The shader languages, each with the module and function that make its files.
@@ -50,12 +50,14 @@ def _is_export(path: Path) -> bool:
     return False
 
 
-def _osl_meta(texton: Texton, files: dict, noise: dict, texel_size) -> bytes:
+def _osl_meta(texton: Texton, files: dict, noise: NoiseOptions, frame: dict, texel_size) -> bytes:
     """The description of an OSL export: its files and settings, marked as the package's."""
     from ._version import __version__
 
+    values = {"mni": noise.mni, "seed": noise.seed, "period": noise.period, "poisson": noise.poisson,
+              "cell_factor": noise.cell_factor, **frame}
     settings = {k: (None if v is None else (v if isinstance(v, (int, float, str)) else [float(x) for x in v]))
-                for k, v in noise.items()}
+                for k, v in values.items()}
     settings["texel_size"] = 0.01 if texel_size is None else float(texel_size)
     meta = {"warp_texton": __version__, "language": "osl", "shaders": sorted(files), "order": texton.order,
             "channels": texton.channels, "settings": settings}
@@ -64,7 +66,7 @@ def _osl_meta(texton: Texton, files: dict, noise: dict, texel_size) -> bytes:
 
 def export_shader(texton: Texton, lang: str, out_dir, *, mni: float = 30.0, seed: int = 0, period=None,
                   poisson: str = "exact", cell_factor: float = CELL_FACTOR, filter=None, texel_size=None,
-                  up=UP, side=None, overwrite: bool = False) -> Path:
+                  up=UP, side=None, overwrite: bool = False, noise: NoiseOptions | None = None) -> Path:
     """Write texton noise as shader code for ``lang`` into the folder ``out_dir``.
 
     The shader evaluates the noise where it is used, with no stored image: the
@@ -92,6 +94,9 @@ def export_shader(texton: Texton, lang: str, out_dir, *, mni: float = 30.0, seed
         The noise, as in :func:`~warp_texton.synthesize`. The surface variant
         uses the same ``mni`` (:func:`~warp_texton.surface_noise` defaults
         to 60).
+    noise : NoiseOptions, optional
+        Those five as one value (:class:`~warp_texton.NoiseOptions`), in
+        place of the keywords, which must then keep their defaults.
     filter : str or FilterOptions, optional
         GLSL only: the filter of the filtered variant, "none", "mip" or
         "anisotropic" (the default) with their settings
@@ -160,18 +165,19 @@ def export_shader(texton: Texton, lang: str, out_dir, *, mni: float = 30.0, seed
     make = _files_of(lang)
     path = Path(out_dir)
     check_replaceable(path, overwrite, _is_export, "a shader export")  # before any work
-    noise = dict(mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor, up=up, side=side)
+    noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
+    frame = dict(up=up, side=side)
     if lang == "glsl":
         if texel_size is not None:
             raise TextonError("texel_size is an option of the osl export; the glsl functions take positions in "
                               "texels", param="texel_size")
-        files = make(texton, filter="anisotropic" if filter is None else filter, **noise)
+        files = make(texton, filter="anisotropic" if filter is None else filter, noise=noise, **frame)
     else:
         if filter is not None:
             raise TextonError(f"filter is an option of the glsl export; the {lang} shaders have no filtered "
                               "variant (a renderer antialiases by its samples)", param="filter")
-        files = make(texton, texel_size=0.01 if texel_size is None else texel_size, **noise)
-        files[META_FILES[1]] = _osl_meta(texton, files, noise, texel_size)
+        files = make(texton, texel_size=0.01 if texel_size is None else texel_size, noise=noise, **frame)
+        files[META_FILES[1]] = _osl_meta(texton, files, noise, frame, texel_size)
     with atomic_folder(path, lambda p: check_replaceable(p, overwrite, _is_export, "a shader export")) as tmp:
         for name, content in files.items():
             (tmp / name).write_bytes(content)
@@ -180,7 +186,8 @@ def export_shader(texton: Texton, lang: str, out_dir, *, mni: float = 30.0, seed
 
 def write_shader_preview(texton: Texton, path, shape=(512, 512), *, mni: float = 30.0, seed: int = 0,
                          scale: float = 1.0, rotation: float = 0.0, offset=(0.0, 0.0), period=None,
-                         poisson: str = "exact", cell_factor: float = CELL_FACTOR) -> Path:
+                         poisson: str = "exact", cell_factor: float = CELL_FACTOR,
+                         noise: NoiseOptions | None = None) -> Path:
     """Write one self-contained HTML page that draws a window of the noise with WebGL2.
 
     The page (no network: the GLSL, its JavaScript and the texton are inlined)
@@ -197,7 +204,7 @@ def write_shader_preview(texton: Texton, path, shape=(512, 512), *, mni: float =
         The HTML file, written atomically.
     shape : (height, width)
         At most 2048 pixels a side.
-    mni, seed, scale, rotation, offset, period, poisson, cell_factor
+    mni, seed, scale, rotation, offset, period, poisson, cell_factor, noise
         As in :func:`~warp_texton.synthesize`.
 
     Returns
@@ -212,8 +219,8 @@ def write_shader_preview(texton: Texton, path, shape=(512, 512), *, mni: float =
     """
     from .shader_glsl import preview_html
 
-    html = preview_html(texton, shape, mni=mni, seed=seed, scale=scale, rotation=rotation, offset=offset,
-                        period=period, poisson=poisson, cell_factor=cell_factor)
+    noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
+    html = preview_html(texton, shape, scale=scale, rotation=rotation, offset=offset, noise=noise)
     with atomic_path(path) as tmp:
         Path(tmp).write_text(html, encoding="utf-8")
     return Path(path)

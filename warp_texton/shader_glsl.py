@@ -35,7 +35,7 @@ from importlib import resources
 
 import numpy as np
 
-from ._checks import check_seed, check_shape
+from ._checks import check_shape
 from ._version import __version__
 from .errors import TextonError
 from .filter_options import FilterOptions
@@ -44,6 +44,7 @@ from .colours import ANGLES, LOG_EXTENTS, noise_moments, share_table
 from .histogram import GAUSS_RANGE, SHARE_STEPS
 from .kernels.noise2d import PAD
 from .noise import CELL_FACTOR, noise_setup, params_record
+from .noise_options import NoiseOptions
 from .raster import raster_geometry, raster_reach
 from .frames import UP
 from .surface import surface_params, surface_setup
@@ -175,8 +176,11 @@ def colour_constants(texton: Texton) -> list:
 
 def glsl_noise(texton: Texton, *, mni: float = 30.0, seed: int = 0, period=None, cell_factor: float = CELL_FACTOR,
                poisson: str = "exact", filter="anisotropic", surface_mni: float | None = None, up=UP,
-               side=None) -> GlslNoise:
-    """The GLSL library of a noise, with its constants from the kernels' host code (see the module)."""
+               side=None, noise: NoiseOptions | None = None) -> GlslNoise:
+    """The GLSL library of a noise, with its constants from the kernels' host code (see the module).
+
+    ``noise`` (a :class:`~warp_texton.NoiseOptions`) may stand for ``mni``, ``seed``,
+    ``period``, ``poisson`` and ``cell_factor``."""
     if not isinstance(texton, Texton):
         raise TextonError(f"texton must be a Texton, got {type(texton).__name__}", param="texton")
     if texton.order not in ORDERS:
@@ -186,7 +190,8 @@ def glsl_noise(texton: Texton, *, mni: float = 30.0, seed: int = 0, period=None,
     if options.kind not in FILTERS:
         raise TextonError(f"filter {options.kind!r} is not available in glsl; accepted: {', '.join(FILTERS)}",
                           param="filter")
-    seed = check_seed(seed)
+    noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
+    mni, seed, period, poisson, cell_factor = noise.mni, noise.seed, noise.period, noise.poisson, noise.cell_factor
     setup = noise_setup(texton, mni, period, cell_factor)
     rec = params_record(texton, setup, seed, poisson)
     pyr = pyramid_stack(texton, options.fade_energy)
@@ -390,16 +395,16 @@ canvas {{ display: block; image-rendering: pixelated; }}</style>
 
 def preview_html(texton: Texton, shape=(512, 512), *, mni: float = 30.0, seed: int = 0, scale: float = 1.0,
                  rotation: float = 0.0, offset=(0.0, 0.0), period=None, poisson: str = "exact",
-                 cell_factor: float = CELL_FACTOR, filter="anisotropic") -> str:
+                 cell_factor: float = CELL_FACTOR, filter="anisotropic", noise: NoiseOptions | None = None) -> str:
     """One self-contained HTML page that draws the window ``synthesize`` gives with the
     same arguments, with WebGL2 on a canvas ``#noise`` (see the module)."""
     h, w = check_shape(shape)
     if max(h, w) > MAX_PREVIEW_SIDE:
         raise TextonError(f"a preview is at most {MAX_PREVIEW_SIDE} pixels a side (the largest render target "
                           f"WebGL2 guarantees), got {w} x {h}", param="shape")
-    g = glsl_noise(texton, mni=mni, seed=seed, period=period, cell_factor=cell_factor, poisson=poisson,
-                   filter=filter)
-    setup = noise_setup(texton, mni, period, cell_factor)
+    noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
+    g = glsl_noise(texton, filter=filter, noise=noise)
+    setup = noise_setup(texton, noise.mni, noise.period, noise.cell_factor)
     origin, step = raster_geometry((h, w), scale, rotation, offset)
     raster_reach(origin, step, (h, w), setup)  # what synthesize refuses, refused here
     if not all(math.isfinite(v) for v in origin):

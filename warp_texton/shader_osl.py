@@ -41,7 +41,7 @@ from string import Template
 
 import numpy as np
 
-from ._checks import check_positive, check_seed
+from ._checks import check_positive
 from ._runtime import init_warp
 from .errors import TextonError
 from .frames import UP
@@ -49,6 +49,7 @@ from .colours import noise_moments
 from .histogram import GAUSS_RANGE
 from .kernels.noise2d import PAD
 from .noise import CELL_FACTOR, noise_setup, params_record
+from .noise_options import NoiseOptions
 from .surface import surface_params, surface_setup
 from .texton import Texton
 
@@ -171,6 +172,7 @@ def osl_files(
     texel_size: float = 0.01,
     up=UP,
     side=None,
+    noise: NoiseOptions | None = None,
 ) -> dict[str, bytes]:
     """OSL sources of texton noise: a surface shader (P, N) and a plane/UV shader.
 
@@ -200,6 +202,9 @@ def osl_files(
     up, side
         The surface frame rule's directions (:func:`~warp_texton.tangent_frames`);
         fixed at export.
+    noise : NoiseOptions, optional
+        ``mni``, ``seed``, ``period``, ``poisson`` and ``cell_factor`` as one
+        value (:class:`~warp_texton.NoiseOptions`), in place of those keywords.
 
     Returns
     -------
@@ -234,7 +239,8 @@ def osl_files(
     """
     if not isinstance(texton, Texton):
         raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
-    seed = check_seed(seed)
+    noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
+    mni, seed, period, poisson, cell_factor = noise.mni, noise.seed, noise.period, noise.poisson, noise.cell_factor
     texel_size = check_positive(texel_size, "texel_size")
     setup = noise_setup(texton, mni, period, cell_factor)
     rows, cols, _ = setup.coeffs.shape

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from ._checks import check_positive, check_seed
+from ._checks import check_positive
 from ._runtime import map_points, resolve_device, split_launch
 from .blocks import BLOCK_CUBES, BYTES_PER_POINT, CLUSTER_MIN, CLUSTER_POINTS, BlockedPoints, gather_blocks, \
     sort_into_blocks
@@ -39,7 +39,8 @@ from .frames import UP, as_points, check_lengths, frame_rule, unit_rows
 from .kernels import surface as K
 from .kernels.impacts import Cells3
 from .limits import check_memory, check_work
-from .noise import MAX_CELL_INDEX, MAX_CELL_MEAN, POISSON_MODES, WALK_COST, noise_setup
+from .noise import MAX_CELL_INDEX, MAX_CELL_MEAN, WALK_COST, noise_setup
+from .noise_options import NoiseOptions, check_poisson
 from .texton import Texton
 
 #: Default cell side relative to the slab thickness r.
@@ -258,8 +259,7 @@ def plan_points(setup: SurfaceSetup, pos: np.ndarray, nrm: np.ndarray, method: s
 
 def surface_params(texton: Texton, setup: SurfaceSetup, seed: int, poisson: str, up, side) -> K.SurfaceParams:
     """The kernels' ``SurfaceParams`` (CGF Prop. 3 normalisation, the frame rule's directions)."""
-    if poisson not in POISSON_MODES:
-        raise TextonError(f"poisson must be one of {', '.join(POISSON_MODES)}, got {poisson!r}")
+    check_poisson(poisson)
     cells = Cells3()
     cells.size = setup.cell
     cells.mean_count = setup.lam * setup.cell ** 3
@@ -323,6 +323,20 @@ def check_method(method: str) -> str:
     return method
 
 
+SURFACE_NOISE = NoiseOptions(mni=60.0, cell_factor=CELL_FACTOR)
+"""The surface functions' default noise options: MNI 60 (CGF Fig. 4), the other fields the plane's."""
+
+
+def surface_options(noise: NoiseOptions | None, **keywords) -> NoiseOptions:
+    """The :class:`~warp_texton.NoiseOptions` of a surface call: ``noise``, or its
+    keywords over :data:`SURFACE_NOISE`; a period is refused (surface noise has none)."""
+    noise = NoiseOptions.given(noise, defaults=SURFACE_NOISE, **keywords)
+    if noise.period is not None:
+        raise TextonError(f"period {noise.period} of noise: surface noise has no period; use period=None",
+                          param="period")
+    return noise
+
+
 def surface_noise(
     texton: Texton,
     points,
@@ -337,6 +351,7 @@ def surface_noise(
     side=None,
     poisson: str = "exact",
     cell_factor: float = CELL_FACTOR,
+    noise: NoiseOptions | None = None,
     method: str = "auto",
 ) -> np.ndarray:
     """Surface texton noise at points of a surface (CGF §6, Prop. 3).
@@ -381,6 +396,11 @@ def surface_noise(
     cell_factor : float
         As in :func:`warp_texton.synthesize`, relative to r (the cube side is
         ``cell_factor · r``).
+    noise : NoiseOptions, optional
+        ``mni``, ``seed``, ``poisson`` and ``cell_factor`` as one value
+        (:class:`~warp_texton.NoiseOptions`), in place of those keywords, which
+        must then keep their defaults; its ``period`` must be None (surface
+        noise has none).
     method : {"auto", "blocks", "points"}
         ``"blocks"``: points sorted into blocks share the impacts of their
         cubes; ``"points"``: each point draws its cubes' impacts itself (the
@@ -488,10 +508,10 @@ def surface_noise(
     if raw.shape != pts.shape:
         raise TextonError(f"normals has shape {raw.shape}; it must match points {pts.shape}")
     texel = check_positive(texel_size, "texel_size")
-    seed = check_seed(seed)
+    noise = surface_options(noise, mni=mni, seed=seed, poisson=poisson, cell_factor=cell_factor)
     check_method(method)
-    setup = surface_setup(texton, mni, cell_factor)
-    what, hint = f"surface noise at {len(pts)} points at MNI {mni:.6g}", "use fewer points or a lower mni"
+    setup = surface_setup(texton, noise.mni, noise.cell_factor)
+    what, hint = f"surface noise at {len(pts)} points at MNI {noise.mni:.6g}", "use fewer points or a lower mni"
     check_floor(setup, len(pts), what, hint, param="mni", mentions=("points", "mni"))
     device = resolve_device(device)  # starts Warp quietly, before the first launch
     if tangents is None:
@@ -514,7 +534,7 @@ def surface_noise(
                               "component in the tangent plane")
         tan = tan / np.linalg.norm(tan, axis=1)[:, None]
         pos = texel_positions(pts, texel, setup, "points")
-    p = surface_params(texton, setup, seed, poisson, up, side)
+    p = surface_params(texton, setup, noise.seed, noise.poisson, up, side)
     # priced by the path taken, once the points are sorted into blocks
     plan = plan_points(setup, pos, nrm, method)
     check_work(plan.operations, what, hint, param="mni", mentions=("points", "mni"))

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ._checks import as_real_array, check_seed, check_shape
+from ._checks import as_real_array, check_shape
 from ._runtime import progress_bar, resolve_device
 from .canvas import Canvas, check_output, result_bytes, strips
 from .errors import TextonError
@@ -28,6 +28,7 @@ from .filtering import (COST_HINT_NAMES, COST_SAMPLES, FILTER_BYTES_PER_PIXEL, F
                         check_jacobian, filter_pixels, filter_work, needs_filtering, pixel_cost, pixel_shares)
 from .noise import (CELL_FACTOR, NoiseSetup, check_cell_range, check_points_cost, noise_params, noise_setup,
                     params_record, params_struct, point_values)
+from .noise_options import NoiseOptions
 from .raster import (RasterWindow, TextonStack, check_method, check_raster_cost, raster_cost, raster_geometry,
                      raster_reach, rasters, resolve_method, window_block)
 from .texton import Texton
@@ -68,6 +69,7 @@ def synthesize(
     device=None,
     poisson: str = "exact",
     cell_factor: float = CELL_FACTOR,
+    noise: NoiseOptions | None = None,
     method: str = "auto",
     jacobian=None,
     filter="none",
@@ -131,6 +133,10 @@ def synthesize(
         Side of the random cells relative to the side of the texton's support
         (> 0; CGF §8 uses ~0.6). A different value gives a different, equally
         valid, noise.
+    noise : NoiseOptions, optional
+        ``mni``, ``seed``, ``period``, ``poisson`` and ``cell_factor`` as one
+        value (:class:`~warp_texton.NoiseOptions`), in place of those keywords,
+        which must then keep their defaults.
     method : {"auto", "splat", "gather"}
         How the raster is computed; both give the same noise. "splat": each
         impact adds its texton to the pixels it covers (CPU only; threads own
@@ -307,18 +313,19 @@ def synthesize(
     filter must be one of none, mip, anisotropic, supersample, got 'box'
     """
     h, w = check_shape(shape)
-    seed = check_seed(seed)
+    noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
+    seed = noise.seed
     check_method(method)
     first = check_pixel_offset(pixel_offset)
     output = check_output(output)
-    setup = noise_setup(texton, mni, period, cell_factor)
+    setup = noise_setup(texton, noise.mni, noise.period, noise.cell_factor)
     origin, step = raster_geometry((h, w), scale, rotation, offset)
     options = FilterOptions.of(filter)
     J = step if jacobian is None else check_jacobian(jacobian, (h, w))
     device = resolve_device(device)
     raster_reach(origin, step, (h, w), setup, first)  # far positions are refused before any allocation
     filtered = needs_filtering(J, options)
-    rec = params_record(texton, setup, seed, poisson)
+    rec = params_record(texton, setup, seed, noise.poisson)
     whole = RasterWindow(rec, setup, 0, texton.order, origin, step, (first[0], first[1]), float(scale))
     stack = TextonStack.of([setup.coeffs])
     parts = strips(h, w, pixel_cost(options, filtered))
@@ -373,6 +380,7 @@ def evaluate(
     device=None,
     poisson: str = "exact",
     cell_factor: float = CELL_FACTOR,
+    noise: NoiseOptions | None = None,
     output: str = "numpy",
 ) -> np.ndarray | wp.array:
     """Texton noise at arbitrary points.
@@ -401,6 +409,8 @@ def evaluate(
         As in :func:`synthesize`.
     cell_factor : float
         As in :func:`synthesize`.
+    noise : NoiseOptions, optional
+        As in :func:`synthesize`: the five options above as one value.
     output : {"numpy", "warp"}
         A NumPy array, or a ``wp.array`` on ``device`` (see :func:`synthesize`).
 
@@ -452,15 +462,15 @@ def evaluate(
         raise TextonError(f"points must have shape (N, 2), got {pts.shape}")
     if not np.isfinite(pts).all():
         raise TextonError(f"points contain {int((~np.isfinite(pts)).sum())} NaN or infinite values")
-    seed = check_seed(seed)
+    noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
     output = check_output(output)
-    setup = noise_setup(texton, mni, period, cell_factor)
+    setup = noise_setup(texton, noise.mni, noise.period, noise.cell_factor)
     if pts.size:
         check_cell_range(pts[:, 0].min() - setup.hi[0], pts[:, 0].max() - setup.lo[0], setup.cell[0], "points")
         check_cell_range(pts[:, 1].min() - setup.hi[1], pts[:, 1].max() - setup.lo[1], setup.cell[1], "points")
     check_points_cost(setup, pts.shape[0], f"{pts.shape[0]} points")
     device = resolve_device(device)
-    p = noise_params(texton, setup, seed, poisson)
+    p = noise_params(texton, setup, noise.seed, noise.poisson)
     n = pts.shape[0]
     canvas = Canvas((n,), device)
     if n:

@@ -21,7 +21,7 @@ import numpy as np
 import scipy.ndimage as ndi
 
 from ._version import __version__
-from ._checks import CHANNELS, MAX_VALUE, as_real_array, check_path, check_range, check_shape
+from ._checks import CHANNELS, MAX_TEXTON_SIDE, MAX_VALUE, as_real_array, check_path, check_range, check_shape
 from .bspline import ORDERS, kernel_width, sampled_autocorrelation
 from .errors import TextonError
 from .histogram import HistogramTransform
@@ -31,8 +31,6 @@ from .io import EXR, atomic_path, check_output_name, is_texton_header, read_exr,
 TEXTON_EXT = ".texton"
 #: Version of the metadata layout in EXR textons written by this package.
 EXR_TEXTON_VERSION = 1
-#: Largest texton side accepted from a file (textons are small by design).
-MAX_TEXTON_SIDE = 4096
 #: Largest .texton text file read (a 4096² RGB texton in text is far smaller).
 MAX_TEXTON_FILE_BYTES = 64 * 1024 * 1024
 

@@ -47,7 +47,7 @@ from .view_images import PNG_LEVEL, data_url, log_spectra, png_bytes, texton_pic
 from .view_inputs import (MAX_UPLOAD_BYTES, MAX_UPLOADS, Source, decode_upload, digest, load_source,
                           price_upload, safe_name)
 from .view_webgl import shader_payload
-from .view_query import (ANALYSIS_SEED, ENLARGE, MAX_EXPORT_PIXELS, MAX_EXPORT_SIDE, MAX_PLANE_PIXELS, MAX_REACH,
+from .view_query import (ENLARGE, MAX_EXPORT_PIXELS, MAX_EXPORT_SIDE, MAX_PLANE_PIXELS, MAX_REACH,
                          MIX_STEPS, MIX_ZOOM, MNI_RANGE, ORDERS, TEXTON_SIZES, TILE_SIZES, VIEW_FILTERS, ZOOM_MAX,
                          ZOOM_MIN, Analysis, BadRequest, Mix, Noise, Plane, Query, Tile, Window, parse_analysis,
                          parse_mix, parse_noise, parse_plane, parse_size, parse_tile, tile_window, view_window)
@@ -142,8 +142,7 @@ class Viewer:
         return self._textons.get(analysis, lambda: self._analyze(analysis))
 
     def _analyze(self, a: Analysis) -> Texton:
-        texton = analyze(self.source.image, size=a.size, order=a.order, seed=ANALYSIS_SEED,
-                         color_correction=a.color_correction)
+        texton = analyze(self.source.image, options=a.options())
         texton.metadata["source"] = self.source.name
         return texton
 
@@ -177,8 +176,7 @@ class Viewer:
         def compute():
             a = self.source.texton if self.source.texton is not None else self.source.image
             v = b.texton if b.texton is not None else b.image
-            return mix_textons(a, v, np.linspace(0.0, 1.0, mix.steps), size=analysis.size, order=analysis.order,
-                               seed=ANALYSIS_SEED, color_correction=analysis.color_correction)
+            return mix_textons(a, v, np.linspace(0.0, 1.0, mix.steps), options=analysis.options())
 
         return self._mixes.get((analysis, mix.b, mix.steps), compute)
 
@@ -220,7 +218,7 @@ class Viewer:
         if mix is None:
             w = tile_window(tile, noise)
             # output="numpy" (the default) gives NumPy
-            return cast(np.ndarray, synthesize(self.texton(analysis), w.shape, mni=noise.mni, seed=noise.seed,
+            return cast(np.ndarray, synthesize(self.texton(analysis), w.shape, noise=noise.options(),
                                                scale=w.scale, rotation=w.rotation, offset=w.offset,
                                                device=self.device, filter=noise.filter))
         return self.mixed_tile(tile, analysis, noise, mix)
@@ -407,9 +405,10 @@ class Viewer:
         name = f"{kind if kind == 'tile' else 'noise'}_{w}x{h}_seed{noise.seed}.{fmt}"
 
         def make() -> np.ndarray:
-            return cast(np.ndarray, synthesize(self.texton(analysis), window.shape, mni=noise.mni, seed=noise.seed,
+            return cast(np.ndarray, synthesize(self.texton(analysis), window.shape,
+                                               noise=noise.options().replace(period=window.period),
                                                scale=window.scale, rotation=window.rotation, offset=window.offset,
-                                               period=window.period, device=self.device, filter=noise.filter))
+                                               device=self.device, filter=noise.filter))
 
         return Export(name, plan_noise(name, window, analysis, noise, self.source, self.device), make)
 

@@ -15,7 +15,9 @@ from urllib.parse import parse_qsl
 
 import numpy as np
 
+from .analysis_options import AnalysisOptions
 from .filter_options import FILTERS
+from .noise_options import NoiseOptions
 
 # ----------------------------------------------------------------- bounds
 #: Tile sides the server computes (pixels).
@@ -119,6 +121,11 @@ class Analysis:
     order: int = 1
     color_correction: bool = True
 
+    def options(self) -> AnalysisOptions:
+        """The analysis these controls ask for, with the viewer's seed :data:`ANALYSIS_SEED`."""
+        return AnalysisOptions(size=self.size, order=self.order, seed=ANALYSIS_SEED,
+                               color_correction=self.color_correction)
+
 
 @dataclass(frozen=True)
 class Noise:
@@ -126,6 +133,10 @@ class Noise:
     mni: float = 30.0
     rotation: float = 0.0
     filter: str = "anisotropic"
+
+    def options(self) -> NoiseOptions:
+        """The noise these controls ask for (the rotation and the filter only sample it)."""
+        return NoiseOptions(mni=self.mni, seed=self.seed)
 
 
 @dataclass(frozen=True)

@@ -23,6 +23,7 @@ import numpy as np
 
 from .filter_options import FilterOptions
 from .noise import CELL_FACTOR, MAX_CELL_MEAN
+from .noise_options import NoiseOptions
 from .shader_glsl import FILTER_MODES, glsl_noise, texture_data
 from .texton import Texton
 
@@ -69,8 +70,7 @@ def shader_payload(texton: Texton, *, filters, cell_factor: float = CELL_FACTOR)
     The unperiodic plane and exact Poisson counts, as the viewer's tiles.
     """
     # the MNI only sets constants that become uniforms: one that every texton's cells accept
-    g = glsl_noise(texton, mni=1.0, seed=0, period=None, cell_factor=cell_factor, poisson="exact",
-                   filter="anisotropic")
+    g = glsl_noise(texton, filter="anisotropic", noise=NoiseOptions(mni=1.0, cell_factor=cell_factor))
     cw, ch = g.cell
     options = {name: FilterOptions.of(name) for name in filters}
     return {
