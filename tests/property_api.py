@@ -51,6 +51,7 @@ class Entry:
     names: dict = field(default_factory=dict)  # parameter -> the name its messages use, if not its own
     files: tuple = ()  # parameters that name files: placed in a fresh folder per call
     xfail: str | None = None  # a known failure, reported without failing the suite: where it is tracked
+    needs: tuple = ()  # optional packages (an extra) it needs: skipped where one is not installed
 
 
 # ------------------------------------------------------------------ values
@@ -965,7 +966,7 @@ ENTRIES: list[Entry] = [
           {"fmt": st.one_of(JUNK, st.sampled_from(["ply", "GLB ", ""])),
            "texture": st.one_of(JUNK.filter(lambda v: v is not None), st.just("tiff")),
            "stem": st.sampled_from(["x" * 300, "missing/a"])},
-          names={"stem": "a"}, files=("folder",)),
+          names={"stem": "a"}, files=("folder",), needs=("xatlas",)),
     Entry("render_baked", "property_api:render_baked_of",
           st.tuples(shapes(1, 24), st.one_of(st.none(), st.tuples(floats(-180.0, 180.0), floats(-89.0, 89.0))),
                     st.one_of(st.none(), floats(5.0, 120.0))).map(lambda a: dict(shape=a[0], orbit=a[1], fov=a[2], device="cpu")),
@@ -973,13 +974,13 @@ ENTRIES: list[Entry] = [
            # fov=None is the documented default (35 degrees), not a refusal
            "fov": st.one_of(refused_number().filter(lambda v: v is not None), st.sampled_from([0.0, 180.0, -5.0]))},
           edges={"shape": edge_shapes()},
-          may_refuse=r"memory budget|work budget|too large"),
+          may_refuse=r"memory budget|work budget|too large", needs=("xatlas",)),
     Entry("synthesize_dask", "property_api:synthesize_dask_of", dask_args(),
           {"texton": refused_textons(), "shape": refused_shapes(), "chunks": st.one_of(
               st.sampled_from([0, -4, "8", 1.5, (0, 4), (4,), None])), "mni": refused_positive(),
            "seed": refused_int(0), "scale": refused_positive(), "offset": refused_pair()},
           edges={"shape": st.sampled_from([(1, 1), (10**6, 10**6), (2**40, 2)]), "chunks": st.sampled_from([10**9, (1, 10**9)])},
-          may_refuse=r"memory budget|work budget|cells|impacts|reach|too small|too large|chunks"),
+          may_refuse=r"memory budget|work budget|cells|impacts|reach|too small|too large|chunks", needs=("dask",)),
 ]
 
 #: Entries by name (the tests' ids).
