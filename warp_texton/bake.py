@@ -356,6 +356,39 @@ def bake_mesh(
                        mentions=("resolution", "supersample", "mni"), early=True, other=res * res * BAKE_TEXEL_OPS)
     device = resolve_device(device)
     bar = progress_bar(progress, 0 if own_uv is not None else 2, "bake", "step")
+    source, vertices, vnormals, faces, uvs, corners, owner = _bake_uvs(
+        mesh, vertices, vnormals, faces, own_uv, res, gutter, charts, device, name, bar)
+    covered = owner >= 0
+    n_cov = int(covered.sum())
+    tx = _texel_faces(_extend(owner, covered, gutter), covered, faces, corners, vertices, vnormals, texel)
+    per_texel = float(np.median(1.0 / np.sqrt(np.maximum(tx.area[tx.inner], 1e-300))))
+    nx, ny = _sample_counts(tx, supersample)
+    total = int(np.sum(nx * ny))
+    check_memory(min(total, SAMPLES_PER_ROUND) * BYTES_PER_SAMPLE + len(tx.f) * BYTES_PER_BAKED_TEXEL,
+                 f"a {res}x{res} bake with {total} samples",
+                 "use a smaller resolution or supersample")
+    # every sample is a point of the surface noise, as dense as the samples over their texels
+    check_surface_work(setup, total, total / max(float(tx.area.sum()), 1e-300),
+                       f"a {res}x{res} bake with {total} samples at MNI {mni:.6g}", work_hint, param="supersample",
+                       mentions=("resolution", "supersample", "mni"), other=res * res * BAKE_TEXEL_OPS)
+    p = surface_params(texton, setup, seed, "exact", up, side)
+    sums = _sample_sums(p, setup, tx, nx, ny, vnormals, texel, device, method, bar)
+    bar.close()
+    values = (sums / (nx * ny)[:, None]).astype(np.float32)
+    c = texton.channels
+    texture = np.empty((res, res, c), np.float32)
+    texture[:] = mean_colour(texton)
+    texture[tx.rows, tx.cols] = values[:, :c]
+    out = _textured(vertices, faces, uvs, vnormals, texture, trimesh)
+    axis = up_vector(up)
+    return BakedMesh(out, texture, covered, per_texel, float(np.sum((nx * ny)[tx.inner])) / n_cov, source,
+                     (float(axis[0]), float(axis[1]), float(axis[2])), dtype)
+
+
+def _bake_uvs(mesh, vertices, vnormals, faces, own_uv, res, gutter, charts, device, name, bar):
+    """The bake's UVs and the texels their triangles claim: the mesh's own (checked, refused where
+    they overlap), or an atlas. -> (source, vertices, vertex normals, faces, uvs, corners, owner), the
+    first four re-indexed by the atlas's vertex map when there is one."""
     if own_uv is not None:
         try:
             uvs = check_uvs(own_uv, len(vertices))
@@ -379,9 +412,33 @@ def bake_mesh(
                                              charts="xatlas", name=name)
             corners, owner, overlap = _claimed(uvs, faces, res, device, name)
         vertices, vnormals = vertices[vmap], vnormals[vmap]
-    covered = owner >= 0
-    n_cov = int(covered.sum())
-    owner = _extend(owner, covered, gutter)
+    return source, vertices, vnormals, faces, uvs, corners, owner
+
+
+@dataclass(frozen=True)
+class _TexelFaces:
+    """The baked texels (``rows``, ``cols``; ``inner``: covered, not gutter) and, for each, its
+    face ``f`` (corners ``tri``, 3-D corners ``p3``, unit normal ``fn``), the face's first UV
+    corner ``a2`` and the inverse ``inv`` of its UV edge matrix (texel offsets → barycentric
+    weights), and the texel's footprint in texton texels (``side_x``, ``side_y``, ``area``)."""
+
+    rows: np.ndarray
+    cols: np.ndarray
+    inner: np.ndarray
+    f: np.ndarray
+    tri: np.ndarray
+    a2: np.ndarray
+    inv: np.ndarray
+    p3: np.ndarray
+    fn: np.ndarray
+    side_x: np.ndarray
+    side_y: np.ndarray
+    area: np.ndarray
+
+
+def _texel_faces(owner, covered, faces, corners, vertices, vnormals, texel) -> _TexelFaces:
+    """Each baked texel's face and that face's affine map (texel coordinates → barycentric
+    weights, 3-D point), with the texel's footprint on the surface."""
     rows, cols = np.nonzero(owner >= 0)
     inner = covered[rows, cols]
     f = owner[rows, cols].astype(np.int64)
@@ -400,22 +457,24 @@ def bake_mesh(
     side_x = np.linalg.norm(jac[:, :, 0], axis=1)
     side_y = np.linalg.norm(jac[:, :, 1], axis=1)
     area = np.linalg.norm(np.cross(jac[:, :, 0], jac[:, :, 1]), axis=1)
-    per_texel = float(np.median(1.0 / np.sqrt(np.maximum(area[inner], 1e-300))))
+    return _TexelFaces(rows, cols, inner, f, tri, a2, inv, p3, fn, side_x, side_y, area)
+
+
+def _sample_counts(tx: _TexelFaces, supersample) -> tuple[np.ndarray, np.ndarray]:
+    """Samples per texel along its x and y sides: ``supersample`` each, or as many as its
+    footprint needs (SAMPLE_DENSITY per texton texel, at most MAX_SAMPLES_SIDE)."""
     if supersample is None:
-        nx = np.clip(np.ceil(side_x * SAMPLE_DENSITY), 1, MAX_SAMPLES_SIDE).astype(np.int64)
-        ny = np.clip(np.ceil(side_y * SAMPLE_DENSITY), 1, MAX_SAMPLES_SIDE).astype(np.int64)
+        nx = np.clip(np.ceil(tx.side_x * SAMPLE_DENSITY), 1, MAX_SAMPLES_SIDE).astype(np.int64)
+        ny = np.clip(np.ceil(tx.side_y * SAMPLE_DENSITY), 1, MAX_SAMPLES_SIDE).astype(np.int64)
     else:
-        nx = ny = np.full(len(f), supersample, np.int64)
-    total = int(np.sum(nx * ny))
-    check_memory(min(total, SAMPLES_PER_ROUND) * BYTES_PER_SAMPLE + len(f) * BYTES_PER_BAKED_TEXEL,
-                 f"a {res}x{res} bake with {total} samples",
-                 "use a smaller resolution or supersample")
-    # every sample is a point of the surface noise, as dense as the samples over their texels
-    check_surface_work(setup, total, total / max(float(area.sum()), 1e-300),
-                       f"a {res}x{res} bake with {total} samples at MNI {mni:.6g}", work_hint, param="supersample",
-                       mentions=("resolution", "supersample", "mni"), other=res * res * BAKE_TEXEL_OPS)
-    p = surface_params(texton, setup, seed, "exact", up, side)
-    sums = np.zeros((len(f), 3), np.float64)
+        nx = ny = np.full(len(tx.f), supersample, np.int64)
+    return nx, ny
+
+
+def _sample_sums(p, setup, tx: _TexelFaces, nx, ny, vnormals, texel, device, method, bar) -> np.ndarray:
+    """The sum of the surface noise over each texel's nx × ny samples, in rounds of at most
+    SAMPLES_PER_ROUND samples of texels with the same counts."""
+    sums = np.zeros((len(tx.f), 3), np.float64)
     kinds = sorted(set(zip(nx.tolist(), ny.tolist())))
     per_kind = [max(1, SAMPLES_PER_ROUND // (sx * sy)) for sx, sy in kinds]
     bar.total += sum(-(-int(np.count_nonzero((nx == sx) & (ny == sy))) // n) for (sx, sy), n in zip(kinds, per_kind))
@@ -425,28 +484,19 @@ def bake_mesh(
         offsets = np.stack([ox.ravel(), oy.ravel()], axis=1)  # sample offsets from the texel centre
         for g0 in range(0, len(group), per_round):
             g = group[g0:g0 + per_round]
-            centre = np.stack([cols[g] + 0.5, rows[g] + 0.5], axis=1)
-            q = (centre[:, None, :] + offsets[None, :, :] - a2[g][:, None, :]).reshape(-1, 2)
+            centre = np.stack([tx.cols[g] + 0.5, tx.rows[g] + 0.5], axis=1)
+            q = (centre[:, None, :] + offsets[None, :, :] - tx.a2[g][:, None, :]).reshape(-1, 2)
             k = np.repeat(g, len(offsets))
             # barycentric weights from the face's affine map; samples past its edges
             # extrapolate on its plane (the texel's footprint on the tangent plane)
-            w12 = np.einsum("nij,nj->ni", inv[k], q)
+            w12 = np.einsum("nij,nj->ni", tx.inv[k], q)
             bary = np.stack([1.0 - w12[:, 0] - w12[:, 1], w12[:, 0], w12[:, 1]], axis=1)
-            pts = np.einsum("nc,ncd->nd", bary, p3[k])
-            nrm = _normals_at(bary, tri[k], vnormals, fn[k])
+            pts = np.einsum("nc,ncd->nd", bary, tx.p3[k])
+            nrm = _normals_at(bary, tx.tri[k], vnormals, tx.fn[k])
             vals = evaluate_points(p, setup, pts / texel, nrm, None, device, method)
             sums[g] += vals.reshape(len(g), len(offsets), 3).sum(axis=1)  # g holds distinct texels
             bar.update()
-    bar.close()
-    values = (sums / (nx * ny)[:, None]).astype(np.float32)
-    c = texton.channels
-    texture = np.empty((res, res, c), np.float32)
-    texture[:] = mean_colour(texton)
-    texture[rows, cols] = values[:, :c]
-    out = _textured(vertices, faces, uvs, vnormals, texture, trimesh)
-    axis = up_vector(up)
-    return BakedMesh(out, texture, covered, per_texel, float(np.sum((nx * ny)[inner])) / n_cov, source,
-                     (float(axis[0]), float(axis[1]), float(axis[2])), dtype)
+    return sums
 
 
 def _check_choices(res: int, uv, supersample, gutter, charts, dtype) -> tuple[int | None, int]:
