@@ -387,26 +387,10 @@ class Clusters:
 
 
 @wp.func
-def list_cluster(p: SurfaceParams, points: wp.array(dtype=wp.vec3d), normals: wp.array(dtype=wp.vec3),
-                 frames: PointFrames, block_of: wp.array(dtype=wp.int32), blocks: CubeBlocks, k0: int, k1: int,
-                 lists: Clusters, slot: int, min_points: int, simd: int):
-    """List, in slot ``slot`` of ``lists``, the impacts that may reach some point
-    k0 .. k1 − 1 of a cluster, in the walk's order; returns the number of runs, or
-    −1 for no list (fewer than ``min_points`` points, or it does not fit).
-
-    For a point y_i with frame (u1_i, u2_i, n_i) an impact q counts only if
-    |⟨y_i − q, n_i⟩| < r/2 and its frame coordinates lie in the support, so
-    |y_i − q| ≤ R = (r/2)√3. With y_c, n̄, ū1, ū2 the cluster's means, ν, μ1, μ2
-    the largest distances of n_i, u1_i, u2_i from their means and ρ_n, ρ1, ρ2 the
-    largest |⟨y_i − y_c, ·⟩| along n̄, ū1, ū2, ⟨y_c − q, n̄⟩ = ⟨y_i − q, n_i⟩ +
-    ⟨y_i − q, n̄ − n_i⟩ − ⟨y_i − y_c, n̄⟩ lies within r/2 + Rν + ρ_n of 0, and
-    ⟨y_c − q, ū1⟩, ⟨y_c − q, ū2⟩ within Rμ + ρ of the support's range (a cluster
-    on a surface is thin along n̄: ρ_n is far below its radius). Impacts outside those
-    ranges are left off the list: none of them can reach a point. Each cube's
-    impacts are tested by ``scan_cube`` (16 at a time in its vector form)."""
-    if k1 - k0 < min_points:
-        return -1
-    c = p.cells.size
+def cluster_means(points: wp.array(dtype=wp.vec3d), normals: wp.array(dtype=wp.vec3), frames: PointFrames,
+                  k0: int, k1: int):
+    """The mean position y_c and mean frame (n̄, ū1, ū2) of the points k0 .. k1 − 1, and the
+    box of the cubes their walks visit (x0, x1, y0, y1, z0, z1, from their frames' lo and hi)."""
     # means of the positions (relative to the first point) and of the frames
     y0 = points[k0]
     mean_off = wp.vec3(0.0)
@@ -439,6 +423,16 @@ def list_cluster(p: SurfaceParams, points: wp.array(dtype=wp.vec3d), normals: wp
     ubar = ubar * inv
     vbar = vbar * inv
     yc = wp.vec3d(y0[0] + wp.float64(mean_off[0]), y0[1] + wp.float64(mean_off[1]), y0[2] + wp.float64(mean_off[2]))
+    return yc, nbar, ubar, vbar, x0, x1, yy0, yy1, z0, z1
+
+
+@wp.func
+def cluster_ranges(p: SurfaceParams, points: wp.array(dtype=wp.vec3d), normals: wp.array(dtype=wp.vec3),
+                   frames: PointFrames, k0: int, k1: int, yc: wp.vec3d, nbar: wp.vec3, ubar: wp.vec3, vbar: wp.vec3):
+    """The ranges of ⟨y_c − q, n̄⟩ (±t_lim), ⟨y_c − q, ū1⟩ (a_lo .. a_hi) and ⟨y_c − q, ū2⟩
+    (b_lo .. b_hi) within which an impact q may reach a point of the cluster (see
+    ``list_cluster``), from the points' spread about the means."""
+    c = p.cells.size
     rho = float(0.0)  # the cluster's radius, and its extents along n̄, ū1, ū2
     rho_n = float(0.0)
     rho_u = float(0.0)
@@ -463,6 +457,32 @@ def list_cluster(p: SurfaceParams, points: wp.array(dtype=wp.vec3d), normals: wp
     a_hi = p.hi[0] - p.centre[0] + rho_u + big_r * mu1 + margin
     b_lo = p.lo[1] - p.centre[1] - rho_v - big_r * mu2 - margin
     b_hi = p.hi[1] - p.centre[1] + rho_v + big_r * mu2 + margin
+    return t_lim, a_lo, a_hi, b_lo, b_hi
+
+
+@wp.func
+def list_cluster(p: SurfaceParams, points: wp.array(dtype=wp.vec3d), normals: wp.array(dtype=wp.vec3),
+                 frames: PointFrames, block_of: wp.array(dtype=wp.int32), blocks: CubeBlocks, k0: int, k1: int,
+                 lists: Clusters, slot: int, min_points: int, simd: int):
+    """List, in slot ``slot`` of ``lists``, the impacts that may reach some point
+    k0 .. k1 − 1 of a cluster, in the walk's order; returns the number of runs, or
+    −1 for no list (fewer than ``min_points`` points, or it does not fit).
+
+    For a point y_i with frame (u1_i, u2_i, n_i) an impact q counts only if
+    |⟨y_i − q, n_i⟩| < r/2 and its frame coordinates lie in the support, so
+    |y_i − q| ≤ R = (r/2)√3. With y_c, n̄, ū1, ū2 the cluster's means, ν, μ1, μ2
+    the largest distances of n_i, u1_i, u2_i from their means and ρ_n, ρ1, ρ2 the
+    largest |⟨y_i − y_c, ·⟩| along n̄, ū1, ū2, ⟨y_c − q, n̄⟩ = ⟨y_i − q, n_i⟩ +
+    ⟨y_i − q, n̄ − n_i⟩ − ⟨y_i − y_c, n̄⟩ lies within r/2 + Rν + ρ_n of 0, and
+    ⟨y_c − q, ū1⟩, ⟨y_c − q, ū2⟩ within Rμ + ρ of the support's range (a cluster
+    on a surface is thin along n̄: ρ_n is far below its radius). Impacts outside those
+    ranges are left off the list: none of them can reach a point. Each cube's
+    impacts are tested by ``scan_cube`` (16 at a time in its vector form)."""
+    if k1 - k0 < min_points:
+        return -1
+    c = p.cells.size
+    yc, nbar, ubar, vbar, x0, x1, yy0, yy1, z0, z1 = cluster_means(points, normals, frames, k0, k1)
+    t_lim, a_lo, a_hi, b_lo, b_hi = cluster_ranges(p, points, normals, frames, k0, k1, yc, nbar, ubar, vbar)
     b = block_of[k0]
     o = blocks.origin[b]
     dm = blocks.dims[b]
