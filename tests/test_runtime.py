@@ -100,6 +100,8 @@ warp_texton.TextonError, warp_texton.__version__
 loaded = sorted(m for m in sys.modules if m == "warp" or m.startswith("warp."))
 print("warp modules:", loaded)
 assert not loaded
+# nor SciPy (a second on a cold start): the option values the commands make are imported when used
+assert "scipy" not in sys.modules, sorted(m for m in sys.modules if m.startswith("scipy"))[:5]
 """
 
 

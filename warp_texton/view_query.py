@@ -11,13 +11,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 from urllib.parse import parse_qsl
 
 import numpy as np
 
-from .analysis_options import AnalysisOptions
 from .filter_options import FILTERS
 from .noise_options import NoiseOptions
+
+if TYPE_CHECKING:
+    from .analysis_options import AnalysisOptions
 
 # ----------------------------------------------------------------- bounds
 #: Tile sides the server computes (pixels).
@@ -123,6 +126,10 @@ class Analysis:
 
     def options(self) -> AnalysisOptions:
         """The analysis these controls ask for, with the viewer's seed :data:`ANALYSIS_SEED`."""
+        # imported here: it brings SciPy (the histogram checks), which the command line's
+        # --help, importing this module for its bounds, does without
+        from .analysis_options import AnalysisOptions
+
         return AnalysisOptions(size=self.size, order=self.order, seed=ANALYSIS_SEED,
                                color_correction=self.color_correction)
 
