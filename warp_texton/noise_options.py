@@ -69,9 +69,9 @@ class NoiseOptions:
 
     :func:`~warp_texton.synthesize`, :func:`~warp_texton.evaluate`,
     :func:`~warp_texton.surface_noise`,
-    :func:`~warp_texton.dask.synthesize_dask`,
-    :func:`~warp_texton.export_shader` and the packers of
-    :mod:`warp_texton.device` take one as ``noise=``, beside their keyword
+    :func:`~warp_texton.dask.synthesize_dask` (and ``write_zarr``),
+    :func:`~warp_texton.export_shader` (and ``write_shader_preview``) and the
+    packers of :mod:`warp_texton.device` take one as ``noise=``, beside their keyword
     arguments, which keep working: ``synthesize(t, mni=40, seed=2)`` is
     ``synthesize(t, noise=NoiseOptions(mni=40, seed=2))``. A keyword set to
     something other than its default together with ``noise=`` is refused, so
