@@ -10,6 +10,8 @@ coefficient (row i, column j) at y = (j, i). Coefficients are stored with a
 zero margin of PAD texels so that every tap of every order reads in bounds.
 """
 
+from typing import Any
+
 import warp as wp
 
 from .impacts import GOLDEN, Cells, avalanche, cell_span, cell_state, cell_walk, draw_count, next_impact
@@ -60,11 +62,12 @@ def bspline_weight(t: float, order: int):
 
 
 @wp.func
-def texton_value(coeffs: wp.array2d(dtype=wp.vec3), row0: int, rows: int, y: wp.vec2, order: int):
+def texton_value(coeffs: wp.array2d(dtype=Any), row0: int, rows: int, y: wp.vec2, order: int):
     # h(y) for y inside the support, for the texton stored in rows [row0, row0 + rows)
-    # of a stack; taps outside the coefficients read the zero margin
+    # of a stack; taps outside the coefficients read the zero margin. One channel
+    # (float coefficients) or three (vec3): the same operations on each channel.
     cols = coeffs.shape[1]
-    acc = wp.vec3(0.0)
+    acc = coeffs.dtype(0.0)
     if order == 1:
         fx = wp.floor(y[0])
         fy = wp.floor(y[1])
@@ -87,7 +90,7 @@ def texton_value(coeffs: wp.array2d(dtype=wp.vec3), row0: int, rows: int, y: wp.
         i = i0 + a
         wy = bspline_weight(y[1] - float(i), order)
         ii = row0 + wp.clamp(i + PAD, 0, rows - 1)
-        row = wp.vec3(0.0)
+        row = coeffs.dtype(0.0)
         for b in range(order + 1):
             j = j0 + b
             wx = bspline_weight(y[0] - float(j), order)
@@ -104,6 +107,12 @@ def inside(d: wp.vec2, p: NoiseParams):
 @wp.func
 def normalize(acc: wp.vec3, p: NoiseParams):
     return p.mean + (acc - p.integral * p.lam) / wp.sqrt(p.lam)
+
+
+@wp.func
+def normalize(acc: float, p: NoiseParams):
+    # one channel: the vec3 form's operations on its first component
+    return p.mean[0] + (acc - p.integral[0] * p.lam) / wp.sqrt(p.lam)
 
 
 # ------------------------------------------------------------------ windows
@@ -268,42 +277,50 @@ def label_impacts(
     labels[k] = wp.clamp(lab, 0, regions - 1)
 
 
-# One footprint row of a grid splat, as a flat unit-stride loop over the 3·count
-# floats of the row: with restrict pointers the compiler vectorises it, which
-# Warp's strided array indexing does not allow. Rows of `acc` and `coeffs`
-# must be contiguous (the host allocates them so).
+# One footprint row of a grid splat, as a flat unit-stride loop over the C·count
+# floats of the row (C channels a texel): with restrict pointers the compiler
+# vectorises it, which Warp's strided array indexing does not allow. Rows of `acc`
+# and `coeffs` must be contiguous (the host allocates them so). One source for
+# every channel count: a float of the row takes the same operations whatever C is,
+# so a grey texton's raster equals the first channel of its three-channel form.
 _SPLAT_ROW = """
-float* __restrict dst = (float*)((char*)acc.data + (size_t)i * acc.strides[0]) + 3 * j;
-const float* __restrict top = (const float*)((const char*)coeffs.data + (size_t)a * coeffs.strides[0]) + 3 * b;
-const float* __restrict bot = (const float*)((const char*)coeffs.data + (size_t)(a + 1) * coeffs.strides[0]) + 3 * b;
-const int n = 3 * count;
+float* __restrict dst = (float*)((char*)acc.data + (size_t)i * acc.strides[0]) + C * j;
+const float* __restrict top = (const float*)((const char*)coeffs.data + (size_t)a * coeffs.strides[0]) + C * b;
+const float* __restrict bot = (const float*)((const char*)coeffs.data + (size_t)(a + 1) * coeffs.strides[0]) + C * b;
+const int n = C * count;
 for (int t = 0; t < n; ++t) {
     const float left = gy * top[t] + fy * bot[t];
-    const float right = gy * top[t + 3] + fy * bot[t + 3];
+    const float right = gy * top[t + C] + fy * bot[t + C];
     dst[t] += gx * left + fx * right;
 }
 """
 
 
-@wp.func_native(_SPLAT_ROW)
-def splat_row(
-    acc: wp.array2d(dtype=wp.vec3),
-    i: int,
-    j: int,
-    coeffs: wp.array2d(dtype=wp.vec3),
-    a: int,
-    b: int,
-    count: int,
-    gy: float,
-    fy: float,
-    gx: float,
-    fx: float,
-): ...
+@wp.func_native(_SPLAT_ROW.replace("C", "3"))
+def splat_row3(acc: wp.array2d(dtype=wp.vec3), i: int, j: int, coeffs: wp.array2d(dtype=wp.vec3), a: int, b: int,
+               count: int, gy: float, fy: float, gx: float, fx: float): ...
+
+
+@wp.func_native(_SPLAT_ROW.replace("C", "1"))
+def splat_row1(acc: wp.array2d(dtype=float), i: int, j: int, coeffs: wp.array2d(dtype=float), a: int, b: int,
+               count: int, gy: float, fy: float, gx: float, fx: float): ...
 
 
 @wp.func
-def splat_grid(w: Window, P: wp.vec2d, coeffs: wp.array2d(dtype=wp.vec3), t0: int, sign: float,
-               di: int, r_lo: int, r_hi: int, acc: wp.array2d(dtype=wp.vec3)):
+def splat_row(acc: wp.array2d(dtype=wp.vec3), i: int, j: int, coeffs: wp.array2d(dtype=wp.vec3), a: int, b: int,
+              count: int, gy: float, fy: float, gx: float, fx: float):
+    splat_row3(acc, i, j, coeffs, a, b, count, gy, fy, gx, fx)
+
+
+@wp.func
+def splat_row(acc: wp.array2d(dtype=float), i: int, j: int, coeffs: wp.array2d(dtype=float), a: int, b: int,
+              count: int, gy: float, fy: float, gx: float, fx: float):
+    splat_row1(acc, i, j, coeffs, a, b, count, gy, fy, gx, fx)
+
+
+@wp.func
+def splat_grid(w: Window, P: wp.vec2d, coeffs: wp.array2d(dtype=Any), t0: int, sign: float,
+               di: int, r_lo: int, r_hi: int, acc: wp.array2d(dtype=Any)):
     # A bilinear texton on an unrotated raster at scale 1: the offset from the
     # impact to global pixel (I, J) is (J + tx, I + ty) with t = ½ − P, so every
     # pixel sees the same fraction and the texton is the coefficient array
@@ -330,8 +347,8 @@ def splat_grid(w: Window, P: wp.vec2d, coeffs: wp.array2d(dtype=wp.vec3), t0: in
 
 
 @wp.func
-def splat_general(w: Window, P: wp.vec2d, coeffs: wp.array2d(dtype=wp.vec3), t0: int, sign: float,
-                  di: int, r_lo: int, r_hi: int, acc: wp.array2d(dtype=wp.vec3)):
+def splat_general(w: Window, P: wp.vec2d, coeffs: wp.array2d(dtype=Any), t0: int, sign: float,
+                  di: int, r_lo: int, r_hi: int, acc: wp.array2d(dtype=Any)):
     # The pixels whose offset can fall in the support box: the box of its
     # corners in pixel units, in float64 from global indices, so that every
     # window tests the same pixels.
@@ -372,7 +389,7 @@ def splat_general(w: Window, P: wp.vec2d, coeffs: wp.array2d(dtype=wp.vec3), t0:
 def splat_impacts(
     windows: wp.array(dtype=Window),
     cell_window: wp.array(dtype=wp.int32),
-    coeffs: wp.array2d(dtype=wp.vec3),
+    coeffs: wp.array2d(dtype=Any),
     impacts: wp.array(dtype=wp.vec2),
     impact_cell: wp.array(dtype=wp.int32),
     marks: Marks,
@@ -380,7 +397,7 @@ def splat_impacts(
     height: int,
     row0: int,
     row1: int,
-    acc: wp.array2d(dtype=wp.vec3),
+    acc: wp.array2d(dtype=Any),
 ):
     """Add the textons of impacts k0… to the output rows [row0, row1) of ``acc``
     (no atomics); ``normalize_rows`` turns the raw sums into noise values.
@@ -406,25 +423,49 @@ def splat_impacts(
             splat_general(w, P, coeffs, t0, sign, di, r_lo, r_hi, acc)
 
 
-@wp.kernel
-def normalize_rows(windows: wp.array(dtype=Window), height: int, row0: int, acc: wp.array2d(dtype=wp.vec3)):
-    """Raw sums to noise values, one output row per thread."""
-    i = wp.tid() + row0
-    p = windows[i / height].p
+# normalize's one-channel form over a row, as a unit-stride loop the compiler
+# vectorises: m + (a − s) / r with s = ∫h λ and r = √λ computed once (the same
+# values the per-pixel form computes; a division is exact in every lane).
+_NORMALIZE_ROW = """
+float* __restrict dst = (float*)((char*)acc.data + (size_t)i * acc.strides[0]);
+const int n = acc.shape[1];
+for (int t = 0; t < n; ++t)
+    dst[t] = m + (dst[t] - s) / r;
+"""
+
+
+@wp.func_native(_NORMALIZE_ROW)
+def normalize_row1(acc: wp.array2d(dtype=float), i: int, m: float, s: float, r: float): ...
+
+
+@wp.func
+def normalize_row(acc: wp.array2d(dtype=float), i: int, p: NoiseParams):
+    normalize_row1(acc, i, p.mean[0], p.integral[0] * p.lam, wp.sqrt(p.lam))
+
+
+@wp.func
+def normalize_row(acc: wp.array2d(dtype=wp.vec3), i: int, p: NoiseParams):
     for j in range(acc.shape[1]):
         acc[i, j] = normalize(acc[i, j], p)
 
 
 @wp.kernel
+def normalize_rows(windows: wp.array(dtype=Window), height: int, row0: int, acc: wp.array2d(dtype=Any)):
+    """Raw sums to noise values, one output row per thread."""
+    i = wp.tid() + row0
+    normalize_row(acc, i, windows[i / height].p)
+
+
+@wp.kernel
 def gather_raster(
     windows: wp.array(dtype=Window),
-    coeffs: wp.array2d(dtype=wp.vec3),
+    coeffs: wp.array2d(dtype=Any),
     impacts: wp.array(dtype=wp.vec2),
     offsets: wp.array(dtype=wp.int32),
     marks: Marks,
     height: int,
     row0: int,
-    out: wp.array2d(dtype=wp.vec3),
+    out: wp.array2d(dtype=Any),
 ):
     """One thread per pixel of output rows row0…: sum the textons of the impacts of nearby cells.
 
@@ -442,7 +483,7 @@ def gather_raster(
     size = p.cells.size
     ref = wp.vec2(float(x[0] - wp.float64(cx_lo) * wp.float64(size[0])),
                   float(x[1] - wp.float64(cy_lo) * wp.float64(size[1])))
-    acc = wp.vec3(0.0)
+    acc = coeffs.dtype(0.0)
     for cy in range(wp.max(cy_lo, w.cell0[1]), wp.min(cy_hi, w.cell0[1] + w.ncy - 1) + 1):
         ry = ref[1] - float(cy - cy_lo) * size[1]
         for cx in range(wp.max(cx_lo, w.cell0[0]), wp.min(cx_hi, w.cell0[0] + w.ncx - 1) + 1):
@@ -455,6 +496,14 @@ def gather_raster(
                     acc = acc + texton_value(coeffs, w.texton_row + lab * w.texton_rows, w.texton_rows, d,
                                              p.order) * sign
     out[i, j] = normalize(acc, p)
+
+
+#: The raster kernels for one channel (float) and three (vec3): a grey texton's
+#: raster reads and writes one float a texel, not three.
+for _lanes in (float, wp.vec3):
+    wp.overload(splat_impacts, {"coeffs": wp.array2d(dtype=_lanes), "acc": wp.array2d(dtype=_lanes)})
+    wp.overload(normalize_rows, {"acc": wp.array2d(dtype=_lanes)})
+    wp.overload(gather_raster, {"coeffs": wp.array2d(dtype=_lanes), "out": wp.array2d(dtype=_lanes)})
 
 
 @wp.kernel
@@ -474,13 +523,29 @@ class TextonLookup:
     order: int
 
 
+@wp.struct
+class TextonLookup1:
+    # the same, one channel
+    coeffs: wp.array2d(dtype=float)
+    row0: int
+    rows: int
+    order: int
+
+
 @wp.func
 def add_texton(t: TextonLookup, d: wp.vec2, acc: wp.vec3):
     return acc + texton_value(t.coeffs, t.row0, t.rows, d, t.order)
 
 
-#: Σ h(x − q) over the impacts q with x − q in [lo, hi] (see impacts.cell_walk).
+@wp.func
+def add_texton(t: TextonLookup1, d: wp.vec2, acc: float):
+    return acc + texton_value(t.coeffs, t.row0, t.rows, d, t.order)
+
+
+#: Σ h(x − q) over the impacts q with x − q in [lo, hi] (see impacts.cell_walk),
+#: three channels and one.
 sum_textons = cell_walk(add_texton, "sum_textons")
+sum_textons1 = cell_walk(add_texton, "sum_textons1", zero=wp.float32)
 
 
 @wp.struct
@@ -505,6 +570,26 @@ class PlaneNoise:
     coeffs: wp.array2d(dtype=wp.vec3)
 
 
+@wp.struct
+class PlaneNoise1:
+    """Texton noise in the plane of a one-channel (grey) texton (the device API).
+
+    Filled on the host by :func:`warp_texton.device.pack_plane` with
+    ``channels=1``; ``plane_value`` of it returns a float, and reads one float a
+    texel where ``PlaneNoise`` reads three.
+
+    Attributes
+    ----------
+    params : NoiseParams
+        As in ``PlaneNoise`` (the mean and integral in the first component).
+    coeffs : wp.array2d(dtype=float)
+        The texton's coefficients with a zero margin of ``PAD`` texels.
+    """
+
+    params: NoiseParams
+    coeffs: wp.array2d(dtype=float)
+
+
 @wp.func
 def plane_value(noise: PlaneNoise, x: wp.vec2d) -> wp.vec3:
     """Texton noise at the texel-space point ``x`` (CGF eq. (2)).
@@ -524,17 +609,48 @@ def plane_value(noise: PlaneNoise, x: wp.vec2d) -> wp.vec3:
     return normalize(sum_textons(x, p.lo, p.hi, p.cells, look), p)
 
 
-@wp.kernel
-def evaluate_points(
-    p: NoiseParams,
-    coeffs: wp.array2d(dtype=wp.vec3),
-    points: wp.array(dtype=wp.vec2d),
-    out: wp.array(dtype=wp.vec3),
-):
-    """Noise at arbitrary points (texel units), drawing each nearby cell's impacts:
-    ``plane_value``, the device API's function, at each point."""
-    t = wp.tid()
+@wp.func
+def plane_value(noise: PlaneNoise1, x: wp.vec2d) -> float:
+    """Texton noise of a one-channel texton at the texel-space point ``x``: the
+    first component of ``plane_value`` of the same texton packed as three
+    channels, bit for bit."""
+    p = noise.params
+    look = TextonLookup1()
+    look.coeffs = noise.coeffs
+    look.row0 = 0
+    look.rows = noise.coeffs.shape[0]
+    look.order = p.order
+    return normalize(sum_textons1(x, p.lo, p.hi, p.cells, look), p)
+
+
+@wp.func
+def plane_noise(p: NoiseParams, coeffs: wp.array2d(dtype=wp.vec3)):
     noise = PlaneNoise()
     noise.params = p
     noise.coeffs = coeffs
-    out[t] = plane_value(noise, points[t])
+    return noise
+
+
+@wp.func
+def plane_noise(p: NoiseParams, coeffs: wp.array2d(dtype=float)):
+    noise = PlaneNoise1()
+    noise.params = p
+    noise.coeffs = coeffs
+    return noise
+
+
+@wp.kernel
+def evaluate_points(
+    p: NoiseParams,
+    coeffs: wp.array2d(dtype=Any),
+    points: wp.array(dtype=wp.vec2d),
+    out: wp.array(dtype=Any),
+):
+    """Noise at arbitrary points (texel units), drawing each nearby cell's impacts:
+    ``plane_value``, the device API's function, at each point (one channel or three)."""
+    t = wp.tid()
+    out[t] = plane_value(plane_noise(p, coeffs), points[t])
+
+
+for _lanes in (float, wp.vec3):
+    wp.overload(evaluate_points, {"coeffs": wp.array2d(dtype=_lanes), "out": wp.array(dtype=_lanes)})
