@@ -110,7 +110,7 @@ def normalize(acc: wp.vec3, p: NoiseParams):
 
 
 @wp.func
-def normalize(acc: float, p: NoiseParams):
+def normalize(acc: float, p: NoiseParams):  # noqa: F811 (a Warp overload)
     # one channel: the vec3 form's operations on its first component
     return p.mean[0] + (acc - p.integral[0] * p.lam) / wp.sqrt(p.lam)
 
@@ -313,8 +313,8 @@ def splat_row(acc: wp.array2d(dtype=wp.vec3), i: int, j: int, coeffs: wp.array2d
 
 
 @wp.func
-def splat_row(acc: wp.array2d(dtype=float), i: int, j: int, coeffs: wp.array2d(dtype=float), a: int, b: int,
-              count: int, gy: float, fy: float, gx: float, fx: float):
+def splat_row(acc: wp.array2d(dtype=float), i: int, j: int, coeffs: wp.array2d(dtype=float), a: int,  # noqa: F811
+              b: int, count: int, gy: float, fy: float, gx: float, fx: float):  # (a Warp overload)
     splat_row1(acc, i, j, coeffs, a, b, count, gy, fy, gx, fx)
 
 
@@ -444,7 +444,7 @@ def normalize_row(acc: wp.array2d(dtype=float), i: int, p: NoiseParams):
 
 
 @wp.func
-def normalize_row(acc: wp.array2d(dtype=wp.vec3), i: int, p: NoiseParams):
+def normalize_row(acc: wp.array2d(dtype=wp.vec3), i: int, p: NoiseParams):  # noqa: F811 (a Warp overload)
     for j in range(acc.shape[1]):
         acc[i, j] = normalize(acc[i, j], p)
 
@@ -538,7 +538,7 @@ def add_texton(t: TextonLookup, d: wp.vec2, acc: wp.vec3):
 
 
 @wp.func
-def add_texton(t: TextonLookup1, d: wp.vec2, acc: float):
+def add_texton(t: TextonLookup1, d: wp.vec2, acc: float):  # noqa: F811 (a Warp overload)
     return acc + texton_value(t.coeffs, t.row0, t.rows, d, t.order)
 
 
@@ -610,7 +610,7 @@ def plane_value(noise: PlaneNoise, x: wp.vec2d) -> wp.vec3:
 
 
 @wp.func
-def plane_value(noise: PlaneNoise1, x: wp.vec2d) -> float:
+def plane_value(noise: PlaneNoise1, x: wp.vec2d) -> float:  # noqa: F811 (a Warp overload)
     """Texton noise of a one-channel texton at the texel-space point ``x``: the
     first component of ``plane_value`` of the same texton packed as three
     channels, bit for bit."""
@@ -632,7 +632,7 @@ def plane_noise(p: NoiseParams, coeffs: wp.array2d(dtype=wp.vec3)):
 
 
 @wp.func
-def plane_noise(p: NoiseParams, coeffs: wp.array2d(dtype=float)):
+def plane_noise(p: NoiseParams, coeffs: wp.array2d(dtype=float)):  # noqa: F811 (a Warp overload)
     noise = PlaneNoise1()
     noise.params = p
     noise.coeffs = coeffs
