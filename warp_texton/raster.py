@@ -292,6 +292,29 @@ def window_table(windows, blocks, stack: TextonStack, shape):
     return table, ncells
 
 
+def band_impacts(win: RasterWindow, block, i0: int, i1: int, offsets: np.ndarray, first_cell: int,
+                 k0: int, k1: int) -> tuple[int, int]:
+    """The impacts k0 ≤ k < k1 of ``win`` (cells from ``first_cell`` in the
+    blocks' ``offsets``) that can reach its rows i0 ≤ i < i1: those of the cell
+    rows whose impacts' supports meet the rows, and one more cell row each side
+    (far above rounding), when the raster is unrotated (a pixel row is a row of
+    the noise); all of them otherwise. A splat band visits only these: the
+    others would add nothing to its rows, so the sums do not change."""
+    step = win.step
+    if step[0, 1] != 0.0 or step[1, 0] != 0.0 or not step[1, 1] > 0.0:
+        return k0, k1
+    cx0, cy0, ncx, ncy = block
+    ch = win.setup.cell[1]
+    r = win.first[0]
+    y_lo = win.origin[1] + step[1, 1] * (r + i0 + 0.5) - win.setup.hi[1]
+    y_hi = win.origin[1] + step[1, 1] * (r + i1 - 0.5) - win.setup.lo[1]
+    a = max(math.floor(y_lo / ch) - 1 - cy0, 0)
+    b = min(math.floor(y_hi / ch) + 1 - cy0, ncy - 1)
+    if b < a:
+        return k0, k0
+    return max(k0, int(offsets[first_cell + a * ncx])), min(k1, int(offsets[first_cell + (b + 1) * ncx]))
+
+
 def rasters(windows, stack: TextonStack, shape, device, method: str, out,
             regions: Regions | None = None, blocks=None) -> None:
     """Evaluate the noise of every window into ``out``, a (len(windows) · H, W) array
@@ -351,9 +374,14 @@ def rasters(windows, stack: TextonStack, shape, device, method: str, out,
                                                           wp.array(rho, dtype=float), wp.vec2i(*regions.first),
                                                           marks.labels])
         if method == "splat":
+            offs = offsets.numpy()  # a view on the CPU
 
             def band(r0, r1):
                 k0, k1 = int(starts[r0 // h]), int(starts[(r1 - 1) // h + 1])
+                if r0 // h == (r1 - 1) // h:
+                    b = r0 // h
+                    k0, k1 = band_impacts(windows[b], blocks[b], r0 - b * h, r1 - b * h, offs, int(first_cells[b]),
+                                          k0, k1)
                 if k1 > k0:
                     wp.launch(K.splat_impacts, dim=k1 - k0,
                               inputs=[wins, cell_window, coeffs, impacts, impact_cell, marks, k0, h, r0, r1, out])
