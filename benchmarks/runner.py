@@ -139,22 +139,27 @@ def timings(times: list[float]) -> dict:
             "times_s": [round(t, 6) for t in times]}
 
 
-def interleaved(methods: dict, repeat: int, caps: dict | None = None) -> dict:
+def interleaved(methods: dict, repeat: int, caps: dict | None = None, cpu: bool = False) -> dict:
     """Best-of-``repeat`` timings of each callable, taking turns so that all see the same load.
 
     One untimed call of each first (kernel loading, FFT plans, first-touch
-    pages). ``caps`` limits the timed runs of slow methods.
+    pages). ``caps`` limits the timed runs of slow methods. ``cpu``: also the
+    CPU time of the process (all its threads) of each run, as ``cpu``.
     """
     caps = caps or {}
     for fn in methods.values():
         fn()
-    times = {name: [] for name in methods}
+    times: dict = {name: [] for name in methods}
+    cpu_times: dict = {name: [] for name in methods}
     for r in range(repeat):
         for name, fn in methods.items():
             if r < caps.get(name, repeat):
-                t0 = time.perf_counter()
+                c0, t0 = time.process_time(), time.perf_counter()
                 fn()
                 times[name].append(time.perf_counter() - t0)
+                cpu_times[name].append(time.process_time() - c0)
+    if cpu:
+        return {name: {**timings(t), "cpu": timings(cpu_times[name])} for name, t in times.items()}
     return {name: timings(t) for name, t in times.items()}
 
 
@@ -265,12 +270,13 @@ def frame_case(suite: Suite, u: np.ndarray, device: str, host_too: bool, cache: 
     elif host_too:
         report.skip("FastNoiseLite frame", missing)
     print(f"frames on {device}: {w}x{h}, MNI {suite.ref_mni:g}, texton {size}²", flush=True)
-    results = interleaved(methods, suite.repeat)
+    results = interleaved(methods, suite.repeat, cpu=True)
     for name, t in results.items():
         report.add(case="frame", method=name, device="host" if name in HOST_METHODS else device, shape=[h, w],
                    mni=suite.ref_mni, texton=size, channels=1 if name != RGB else 3,
                    mpix_per_s=h * w / t["best_s"] / 1e6, **t)
-    line = ", ".join(f"{name} {t['best_s'] * 1e3:.1f} ms" for name, t in results.items())
+    line = ", ".join(f"{name} {t['best_s'] * 1e3:.1f} ms (CPU {t['cpu']['best_s'] * 1e3:.1f} ms)"
+                     for name, t in results.items())
     g = results[GREY]["best_s"]
     line += f"; grey / RGB {g / results[RGB]['best_s']:.2f}"
     fnl = results.get(FNL) or _find(report.rows, case="frame", method=FNL, shape=[h, w])
@@ -574,6 +580,10 @@ def _frame_lines(report: dict) -> list[str]:
 
         lines.append(f"| `{d['name']}` | {_cell(grey)} | {_cell(rgb)} | {_cell(fnl)} | {ratio(grey, rgb)} | "
                      f"{ratio(grey, fnl)} | {ratio(rgb, fnl)} |")
+        if d["name"] == "cpu" and "cpu" in grey:
+            cpu = [r["cpu"] if r is not None and "cpu" in r else None for r in (grey, rgb, fnl)]
+            lines.append(f"| `cpu`, CPU time of the process | {_cell(cpu[0])} | {_cell(cpu[1])} | {_cell(cpu[2])} | "
+                         f"{ratio(cpu[0], cpu[1])} | {ratio(cpu[0], cpu[2])} | {ratio(cpu[1], cpu[2])} |")
     return lines
 
 
