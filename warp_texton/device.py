@@ -9,6 +9,7 @@ kernel.
 | host packer | struct | device functions |
 | --- | --- | --- |
 | :func:`pack_plane` | ``PlaneNoise`` | ``plane_value(noise, x: wp.vec2d) -> wp.vec3`` |
+| :func:`pack_plane` (``channels=1``) | ``PlaneNoise1`` | ``plane_value(noise, x: wp.vec2d) -> float`` |
 | :func:`pack_filtered` | ``FilteredNoise`` | ``filtered_value(noise, x: wp.vec2d, J: wp.mat22) -> wp.vec3`` |
 | :func:`pack_surface` | ``SurfaceNoise`` | ``surface_value(noise, x: wp.vec3d, normal: wp.vec3d) -> wp.vec3``, ``surface_frame_value(noise, y: wp.vec3d, n: wp.vec3, u1: wp.vec3) -> wp.vec3`` |
 | :func:`pack_colours` | ``ColourMap`` | ``colour_value(cmap, v: wp.vec3) -> wp.vec3``, ``filtered_colour(fnoise, cmap, x: wp.vec2d, J: wp.mat22) -> wp.vec3``, ``colour_share``, ``filtered_share``, ``footprint_share`` |
@@ -73,14 +74,14 @@ from .frames import UP
 from .kernels.colours import (ColourMap, colour_share, colour_value, filtered_colour, filtered_share,
                               footprint_share)
 from .kernels.filter2d import FilteredNoise, filtered_value
-from .kernels.noise2d import PlaneNoise, plane_value
+from .kernels.noise2d import PlaneNoise, PlaneNoise1, plane_value
 from .kernels.surface import SurfaceNoise, surface_frame_value, surface_value
 from .noise import CELL_FACTOR, noise_params, noise_setup
 from .surface import CELL_FACTOR as SURFACE_CELL_FACTOR
 from .surface import surface_params, surface_setup
 from .texton import Texton
 
-__all__ = ["pack_plane", "pack_filtered", "pack_surface", "pack_colours", "PlaneNoise", "FilteredNoise",
+__all__ = ["pack_plane", "pack_filtered", "pack_surface", "pack_colours", "PlaneNoise", "PlaneNoise1", "FilteredNoise",
            "SurfaceNoise", "ColourMap", "plane_value", "filtered_value", "surface_value", "surface_frame_value",
            "colour_value", "colour_share", "filtered_colour", "filtered_share", "footprint_share"]
 
@@ -101,7 +102,8 @@ def pack_plane(
     device=None,
     poisson: str = "exact",
     cell_factor: float = CELL_FACTOR,
-) -> PlaneNoise:
+    channels: int = 3,
+) -> PlaneNoise | PlaneNoise1:
     """The plane noise of ``texton`` packed for ``plane_value`` in a user's kernel.
 
     Parameters
@@ -113,19 +115,26 @@ def pack_plane(
     device : str, optional
         Where the struct's coefficient array lives and its kernels run: "cpu",
         "cuda", "cuda:N"; default CUDA when available, else the CPU.
+    channels : {3, 1}
+        3: a ``PlaneNoise`` (vec3 coefficients, ``plane_value`` returns a
+        ``wp.vec3``). 1, for a grey texton: a ``PlaneNoise1`` (float
+        coefficients, ``plane_value`` returns a float and reads one float a
+        texel, a third of the memory traffic), equal to the first component
+        of the three-channel form.
 
     Returns
     -------
-    PlaneNoise
+    PlaneNoise or PlaneNoise1
         A ``@wp.struct`` to pass to a kernel: ``plane_value(noise, x)`` is
-        ``evaluate(texton, [x], ...)[0]`` (padded to three components) bit
-        for bit on ``device``.
+        ``evaluate(texton, [x], ...)[0]`` (padded to three components, or its
+        one component) bit for bit on ``device``.
 
     Raises
     ------
     TextonError
         For the ``texton``, ``mni``, ``seed``, ``period``, ``device``,
-        ``poisson`` and ``cell_factor`` errors of :func:`~warp_texton.evaluate`.
+        ``poisson`` and ``cell_factor`` errors of :func:`~warp_texton.evaluate`;
+        for ``channels`` other than 1 or 3, or 1 with a texton of three channels.
 
     Examples
     --------
@@ -135,12 +144,24 @@ def pack_plane(
     >>> noise = pack_plane(texton, mni=30, seed=1, period=(64, 64), device="cpu")
     >>> int(noise.params.cells.seed), noise.coeffs.shape
     (1, (18, 18))
+    >>> pack_plane(texton, device="cpu", channels=1).coeffs.dtype.__name__
+    'float32'
     """
+    if channels not in (1, 3) or isinstance(channels, bool):
+        raise TextonError(f"channels must be 1 or 3, got {channels!r:.60}", param="channels")
+    if channels == 1 and isinstance(texton, Texton) and texton.channels != 1:
+        raise TextonError(f"channels=1 packs a grey texton; this texton has {texton.channels} channels "
+                          "(use channels=3)", param="channels")
     setup, params = _plane_settings(texton, mni, seed, period, poisson, cell_factor)
     device = resolve_device(device)
-    noise = PlaneNoise()
+    noise: PlaneNoise | PlaneNoise1
+    if channels == 1:
+        noise = PlaneNoise1()
+        noise.coeffs = wp.array(setup.coeffs[..., 0].copy(), dtype=wp.float32, device=device)
+    else:
+        noise = PlaneNoise()
+        noise.coeffs = wp.array(setup.coeffs, dtype=wp.vec3, device=device)
     noise.params = params
-    noise.coeffs = wp.array(setup.coeffs, dtype=wp.vec3, device=device)
     return noise
 
 
