@@ -277,7 +277,7 @@ def label_impacts(
     labels[k] = wp.clamp(lab, 0, regions - 1)
 
 
-# One footprint row of a grid splat: the C·count floats of the row (C channels a
+# The footprint rows of a grid splat, each the C·count floats of the row (C channels a
 # texel), each dst[t] += gx · left + fx · right with left = gy · top[t] + fy · bot[t]
 # the texton's vertical blend at float t and right the same at t + C. Rows of `acc`
 # and `coeffs` must be contiguous (the host allocates them so). One source for every
@@ -285,51 +285,58 @@ def label_impacts(
 # raster equals the first channel of its three-channel form.
 #
 # Where Warp's CPU compiler is Clang for a CPU with vector units (AVX2, AVX-512,
-# NEON; never CUDA), 16 floats at a time in Clang's vector extensions: each chunk's
+# NEON; never CUDA), WIDTH floats at a time in Clang's vector extensions: each chunk's
 # blend is computed once and serves as `left` of its own floats and, shifted by C
 # lanes (a shuffle with the next chunk's blend), as `right` of the floats C before,
 # which the plain loop computes twice: 7 operations a float instead of 10, the same
 # values (each lane's operations and their order are the plain loop's; neither form
-# contracts to FMAs). The last floats (fewer than 16) take the plain loop.
-_SPLAT_ROW = """
-float* __restrict dst = (float*)((char*)acc.data + (size_t)i * acc.strides[0]) + LANES * j;
-const float* __restrict top = (const float*)((const char*)coeffs.data + (size_t)a * coeffs.strides[0]) + LANES * b;
-const float* __restrict bot = (const float*)((const char*)coeffs.data + (size_t)(a + 1) * coeffs.strides[0]) + LANES * b;
-const int n = LANES * count;
-int t = 0;
+# contracts to FMAs). The last floats (fewer than WIDTH) take the plain loop. The row
+# loop is native too, so an impact's rows are one call.
+_SPLAT_ROWS = """
 VECTOR
-typedef float v16f __attribute__((ext_vector_type(16)));
-if (n >= 16) {
-    v16f ct, cb;
-    __builtin_memcpy(&ct, top, sizeof(v16f));
-    __builtin_memcpy(&cb, bot, sizeof(v16f));
-    v16f cur = gy * ct + fy * cb;
-    for (; t + 16 <= n; t += 16) {
-        v16f nt = 0.0f, nb = 0.0f;
-        if (t + 32 <= n + LANES) {
-            __builtin_memcpy(&nt, top + t + 16, sizeof(v16f));
-            __builtin_memcpy(&nb, bot + t + 16, sizeof(v16f));
-        } else {
-            // the row ends within LANES floats: only the next chunk's first LANES lanes are used
-            for (int l = 0; l < LANES; ++l) {
-                nt[l] = top[t + 16 + l];
-                nb[l] = bot[t + 16 + l];
-            }
-        }
-        const v16f next = gy * nt + fy * nb;
-        const v16f right = __builtin_shufflevector(cur, next, SHIFT);
-        v16f d;
-        __builtin_memcpy(&d, dst + t, sizeof(v16f));
-        d += gx * cur + fx * right;
-        __builtin_memcpy(dst + t, &d, sizeof(v16f));
-        cur = next;
-    }
-}
+typedef float vNf __attribute__((ext_vector_type(WIDTH)));
 #endif
-for (; t < n; ++t) {
-    const float left = gy * top[t] + fy * bot[t];
-    const float right = gy * top[t + LANES] + fy * bot[t + LANES];
-    dst[t] += gx * left + fx * right;
+const int n = LANES * count;
+for (int i = i0; i <= i1; ++i) {
+    const int a = a0 + i;
+    float* __restrict dst = (float*)((char*)acc.data + (size_t)i * acc.strides[0]) + LANES * j;
+    const float* __restrict top = (const float*)((const char*)coeffs.data + (size_t)a * coeffs.strides[0]) + LANES * b;
+    const float* __restrict bot = (const float*)((const char*)coeffs.data + (size_t)(a + 1) * coeffs.strides[0])
+                                  + LANES * b;
+    int t = 0;
+VECTOR
+    if (n >= WIDTH) {
+        vNf ct, cb;
+        __builtin_memcpy(&ct, top, sizeof(vNf));
+        __builtin_memcpy(&cb, bot, sizeof(vNf));
+        vNf cur = gy * ct + fy * cb;
+        for (; t + WIDTH <= n; t += WIDTH) {
+            vNf nt = 0.0f, nb = 0.0f;
+            if (t + 2 * WIDTH <= n + LANES) {
+                __builtin_memcpy(&nt, top + t + WIDTH, sizeof(vNf));
+                __builtin_memcpy(&nb, bot + t + WIDTH, sizeof(vNf));
+            } else {
+                // the row ends within LANES floats: only the next chunk's first LANES lanes are used
+                for (int l = 0; l < LANES; ++l) {
+                    nt[l] = top[t + WIDTH + l];
+                    nb[l] = bot[t + WIDTH + l];
+                }
+            }
+            const vNf next = gy * nt + fy * nb;
+            const vNf right = __builtin_shufflevector(cur, next, SHIFT);
+            vNf d;
+            __builtin_memcpy(&d, dst + t, sizeof(vNf));
+            d += gx * cur + fx * right;
+            __builtin_memcpy(dst + t, &d, sizeof(vNf));
+            cur = next;
+        }
+    }
+#endif
+    for (; t < n; ++t) {
+        const float left = gy * top[t] + fy * bot[t];
+        const float right = gy * top[t + LANES] + fy * bot[t + LANES];
+        dst[t] += gx * left + fx * right;
+    }
 }
 """
 #: The vector form is compiled by Clang for a CPU with 256-bit (AVX2, AVX-512) or
@@ -338,31 +345,36 @@ _VECTOR = ("#if defined(__clang__) && !defined(__CUDACC__) && !defined(__CUDA_AR
            "&& (defined(__AVX2__) || defined(__AVX512F__) || defined(__ARM_NEON))")
 
 
+#: Floats a vector of the splat's rows holds: 8, one 256-bit register (AVX2, and
+#: AVX-512 where Clang prefers 256-bit vectors), two NEON ones.
+WIDTH = 8
+
+
 def _splat_row_source(lanes: int) -> str:
-    shift = ", ".join(str(lanes + k) for k in range(16))
-    return _SPLAT_ROW.replace("VECTOR", _VECTOR).replace("SHIFT", shift).replace("LANES", str(lanes))
+    shift = ", ".join(str(lanes + k) for k in range(WIDTH))
+    return _SPLAT_ROWS.replace("VECTOR", _VECTOR).replace("SHIFT", shift).replace("LANES", str(lanes)).replace("WIDTH", str(WIDTH))
 
 
 @wp.func_native(_splat_row_source(3))
-def splat_row3(acc: wp.array2d(dtype=wp.vec3), i: int, j: int, coeffs: wp.array2d(dtype=wp.vec3), a: int, b: int,
-               count: int, gy: float, fy: float, gx: float, fx: float): ...
+def splat_rows3(acc: wp.array2d(dtype=wp.vec3), i0: int, i1: int, j: int, coeffs: wp.array2d(dtype=wp.vec3),
+                a0: int, b: int, count: int, gy: float, fy: float, gx: float, fx: float): ...
 
 
 @wp.func_native(_splat_row_source(1))
-def splat_row1(acc: wp.array2d(dtype=float), i: int, j: int, coeffs: wp.array2d(dtype=float), a: int, b: int,
-               count: int, gy: float, fy: float, gx: float, fx: float): ...
+def splat_rows1(acc: wp.array2d(dtype=float), i0: int, i1: int, j: int, coeffs: wp.array2d(dtype=float),
+                a0: int, b: int, count: int, gy: float, fy: float, gx: float, fx: float): ...
 
 
 @wp.func
-def splat_row(acc: wp.array2d(dtype=wp.vec3), i: int, j: int, coeffs: wp.array2d(dtype=wp.vec3), a: int, b: int,
-              count: int, gy: float, fy: float, gx: float, fx: float):
-    splat_row3(acc, i, j, coeffs, a, b, count, gy, fy, gx, fx)
+def splat_rows(acc: wp.array2d(dtype=wp.vec3), i0: int, i1: int, j: int, coeffs: wp.array2d(dtype=wp.vec3),
+               a0: int, b: int, count: int, gy: float, fy: float, gx: float, fx: float):
+    splat_rows3(acc, i0, i1, j, coeffs, a0, b, count, gy, fy, gx, fx)
 
 
 @wp.func
-def splat_row(acc: wp.array2d(dtype=float), i: int, j: int, coeffs: wp.array2d(dtype=float), a: int,  # noqa: F811
-              b: int, count: int, gy: float, fy: float, gx: float, fx: float):  # (a Warp overload)
-    splat_row1(acc, i, j, coeffs, a, b, count, gy, fy, gx, fx)
+def splat_rows(acc: wp.array2d(dtype=float), i0: int, i1: int, j: int, coeffs: wp.array2d(dtype=float),  # noqa: F811
+               a0: int, b: int, count: int, gy: float, fy: float, gx: float, fx: float):  # (a Warp overload)
+    splat_rows1(acc, i0, i1, j, coeffs, a0, b, count, gy, fy, gx, fx)
 
 
 @wp.func
@@ -388,9 +400,9 @@ def splat_grid(w: Window, P: wp.vec2d, coeffs: wp.array2d(dtype=Any), t0: int, s
     j_hi = wp.min(w.texton_cols - 2 - bx, w.width - 1)
     count = j_hi - j_lo + 1
     if count > 0:
-        for i in range(i_lo, i_hi + 1):
-            splat_row(acc, i, j_lo, coeffs, t0 + ay + i, bx + j_lo, count,
-                      (1.0 - fy) * sign, fy * sign, 1.0 - fx, fx)
+        # output rows i_lo..i_hi from texton rows t0 + ay + i (and the next)
+        splat_rows(acc, i_lo, i_hi, j_lo, coeffs, t0 + ay, bx + j_lo, count, (1.0 - fy) * sign, fy * sign,
+                   1.0 - fx, fx)
 
 
 @wp.func
