@@ -482,30 +482,47 @@ def splat_impacts(
             splat_general(w, P, coeffs, t0, sign, di, r_lo, r_hi, acc)
 
 
-# normalize's one-channel form over a row, as a unit-stride loop the compiler
-# vectorises: m + (a − s) / r with s = ∫h λ and r = √λ computed once (the same
-# values the per-pixel form computes; a division is exact in every lane).
+# normalize over a row, as a unit-stride loop the compiler vectorises: per channel
+# c, m_c + (a − s_c) / r with s_c = ∫h_c λ and r = √λ computed once (the values
+# the per-pixel form computes; a division is exact in every lane).
 _NORMALIZE_ROW = """
 float* __restrict dst = (float*)((char*)acc.data + (size_t)i * acc.strides[0]);
 const int n = acc.shape[1];
+const float r = sqrtf(lam);
+CHANNELS
+"""
+_NORMALIZE_ONE = """
+const float m = mean[0], s = integral[0] * lam;
 for (int t = 0; t < n; ++t)
     dst[t] = m + (dst[t] - s) / r;
 """
+_NORMALIZE_THREE = """
+const float m0 = mean[0], m1 = mean[1], m2 = mean[2];
+const float s0 = integral[0] * lam, s1 = integral[1] * lam, s2 = integral[2] * lam;
+for (int t = 0; t < n; ++t) {
+    dst[3 * t] = m0 + (dst[3 * t] - s0) / r;
+    dst[3 * t + 1] = m1 + (dst[3 * t + 1] - s1) / r;
+    dst[3 * t + 2] = m2 + (dst[3 * t + 2] - s2) / r;
+}
+"""
 
 
-@wp.func_native(_NORMALIZE_ROW)
-def normalize_row1(acc: wp.array2d(dtype=float), i: int, m: float, s: float, r: float): ...
+@wp.func_native(_NORMALIZE_ROW.replace("CHANNELS", _NORMALIZE_ONE))
+def normalize_row1(acc: wp.array2d(dtype=float), i: int, mean: wp.vec3, integral: wp.vec3, lam: float): ...
+
+
+@wp.func_native(_NORMALIZE_ROW.replace("CHANNELS", _NORMALIZE_THREE))
+def normalize_row3(acc: wp.array2d(dtype=wp.vec3), i: int, mean: wp.vec3, integral: wp.vec3, lam: float): ...
 
 
 @wp.func
 def normalize_row(acc: wp.array2d(dtype=float), i: int, p: NoiseParams):
-    normalize_row1(acc, i, p.mean[0], p.integral[0] * p.lam, wp.sqrt(p.lam))
+    normalize_row1(acc, i, p.mean, p.integral, p.lam)
 
 
 @wp.func
 def normalize_row(acc: wp.array2d(dtype=wp.vec3), i: int, p: NoiseParams):  # noqa: F811 (a Warp overload)
-    for j in range(acc.shape[1]):
-        acc[i, j] = normalize(acc[i, j], p)
+    normalize_row3(acc, i, p.mean, p.integral, p.lam)
 
 
 @wp.kernel
