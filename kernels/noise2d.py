@@ -310,18 +310,11 @@ VECTOR
         __builtin_memcpy(&ct, top, sizeof(vNf));
         __builtin_memcpy(&cb, bot, sizeof(vNf));
         vNf cur = gy * ct + fy * cb;
-        for (; t + WIDTH <= n; t += WIDTH) {
-            vNf nt = 0.0f, nb = 0.0f;
-            if (t + 2 * WIDTH <= n + LANES) {
-                __builtin_memcpy(&nt, top + t + WIDTH, sizeof(vNf));
-                __builtin_memcpy(&nb, bot + t + WIDTH, sizeof(vNf));
-            } else {
-                // the row ends within LANES floats: only the next chunk's first LANES lanes are used
-                for (int l = 0; l < LANES; ++l) {
-                    nt[l] = top[t + WIDTH + l];
-                    nb[l] = bot[t + WIDTH + l];
-                }
-            }
+        // chunks whose next chunk lies within the row's n + LANES floats
+        for (; t + 2 * WIDTH <= n + LANES; t += WIDTH) {
+            vNf nt, nb;
+            __builtin_memcpy(&nt, top + t + WIDTH, sizeof(vNf));
+            __builtin_memcpy(&nb, bot + t + WIDTH, sizeof(vNf));
             const vNf next = gy * nt + fy * nb;
             const vNf right = __builtin_shufflevector(cur, next, SHIFT);
             vNf d;
@@ -329,6 +322,22 @@ VECTOR
             d += gx * cur + fx * right;
             __builtin_memcpy(dst + t, &d, sizeof(vNf));
             cur = next;
+        }
+        if (t + WIDTH <= n) {
+            // the last whole chunk: the row ends within LANES floats of it, so only
+            // the next chunk's first LANES lanes are used
+            vNf nt = 0.0f, nb = 0.0f;
+            for (int l = 0; l < LANES; ++l) {
+                nt[l] = top[t + WIDTH + l];
+                nb[l] = bot[t + WIDTH + l];
+            }
+            const vNf next = gy * nt + fy * nb;
+            const vNf right = __builtin_shufflevector(cur, next, SHIFT);
+            vNf d;
+            __builtin_memcpy(&d, dst + t, sizeof(vNf));
+            d += gx * cur + fx * right;
+            __builtin_memcpy(dst + t, &d, sizeof(vNf));
+            t += WIDTH;
         }
     }
 #endif
