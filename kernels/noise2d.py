@@ -592,10 +592,14 @@ for _lanes in (float, wp.vec3):
 
 
 @wp.kernel
-def scatter_values(values: wp.array(dtype=wp.vec3), index: wp.array(dtype=wp.int64), out: wp.array(dtype=wp.vec3)):
+def scatter_values(values: wp.array(dtype=Any), index: wp.array(dtype=wp.int64), out: wp.array(dtype=Any)):
     """out[index[t]] = values[t]: computed pixels into an image that holds the mean elsewhere."""
     t = wp.tid()
     out[index[t]] = values[t]
+
+
+for _lanes in (float, wp.vec3):
+    wp.overload(scatter_values, {"values": wp.array(dtype=_lanes), "out": wp.array(dtype=_lanes)})
 
 
 # ------------------------------------------------------------------- points

@@ -29,6 +29,13 @@ def filtered_at(noise: td.FilteredNoise, points: wp.array(dtype=wp.vec2d), footp
 
 
 @wp.kernel
+def filtered_grey_at(noise: td.FilteredNoise1, points: wp.array(dtype=wp.vec2d),
+                     footprints: wp.array(dtype=wp.mat22), out: wp.array(dtype=float)):
+    t = wp.tid()
+    out[t] = td.filtered_value(noise, points[t], footprints[t])
+
+
+@wp.kernel
 def surface_at(noise: td.SurfaceNoise, points: wp.array(dtype=wp.vec3d), normals: wp.array(dtype=wp.vec3d),
                out: wp.array(dtype=wp.vec3)):
     t = wp.tid()

@@ -170,6 +170,25 @@ def test_filtered_value_is_filtered_synthesize(options, order, device):
     assert np.ptp(raster[0, :, 0]) > 0 and np.ptp(raster[:, 0, 0]) > 0
 
 
+@pytest.mark.parametrize("kind", ["mip", "anisotropic"])
+def test_grey_filtered_value_is_the_first_channel(kind, device):
+    """A grey texton's FilteredNoise1 gives, bit for bit, the first component of its
+    three-channel FilteredNoise (the same lookups on one float a texel)."""
+    texton = random_texton((12, 9), channels=1, seed=8)
+    rng = np.random.default_rng(1)
+    pts = rng.uniform(-50, 50, (300, 2))
+    J = (rng.normal(size=(300, 2, 2)) * 4.0).astype(np.float32)
+    args = [wp.array(pts, dtype=wp.vec2d, device=device), wp.array(J, dtype=wp.mat22, device=device)]
+    out = wp.zeros(len(pts), dtype=float, device=device)
+    wp.launch(user.filtered_grey_at, dim=len(pts), inputs=[td.pack_filtered(texton, seed=2, filter=kind, device=device,
+                                                                            channels=1), *args],
+              outputs=[out], device=device)
+    three = launch(user.filtered_at, len(pts), [td.pack_filtered(texton, seed=2, filter=kind, device=device), *args],
+                   device)
+    assert np.array_equal(out.numpy(), three[:, 0])
+    assert np.ptp(three[:, 0]) > 0 and not three[:, 1:].any()
+
+
 def test_filtered_value_of_a_pixel_footprint_is_plane_value(device):
     """A footprint of one texel needs one lookup of level 0: the unfiltered noise, bit for bit."""
     texton = colour_texton(1)

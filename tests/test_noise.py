@@ -805,6 +805,26 @@ def test_grey_raster_is_the_first_channel_of_the_three_lane_path(order, method, 
         assert np.ptp(one) > 0
 
 
+@pytest.mark.parametrize("filt", ["mip", "anisotropic", "supersample"])
+def test_grey_filtered_rasters_are_the_first_channel_of_the_three_lane_path(filt, device):
+    """Filtered rasters and plane views of a grey texton (one lane through the
+    filter kernels) equal the first channel of the three-lane path bit for bit."""
+    from warp_texton import FilterOptions, render_plane
+
+    grey, coloured = grey_and_coloured(1, seed=3)
+    f = FilterOptions("supersample", supersample=2) if filt == "supersample" else filt
+    J = np.zeros((24, 30, 2, 2))
+    J[..., 0, 0] = 1.0
+    J[..., 1, 1] = np.linspace(1.0, 12.0, 24)[:, None]
+    for kw in (dict(scale=0.25, rotation=15.0), dict(jacobian=J)):
+        one = synthesize(grey, (24, 30), filter=f, seed=6, device=device, **kw)
+        three = synthesize(coloured, (24, 30), filter=f, seed=6, device=device, **kw)
+        assert one.shape == (24, 30, 1) and np.array_equal(one[..., 0], three[..., 0]), kw
+    one = render_plane(grey, (32, 40), filter=f, tilt=60.0, texel_size=0.01, seed=6, device=device)
+    three = render_plane(coloured, (32, 40), filter=f, tilt=60.0, texel_size=0.01, seed=6, device=device)
+    assert np.array_equal(one[..., 0], three[..., 0]) and np.ptp(one) > 0
+
+
 def test_grey_points_are_the_first_channel_of_the_three_lane_path(device):
     grey, coloured = grey_and_coloured(1, seed=5)
     pts = np.random.default_rng(2).uniform(-80.0, 80.0, (400, 2))

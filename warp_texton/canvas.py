@@ -118,7 +118,7 @@ class Canvas:
 
 
 def fill_pixels(out, index: np.ndarray, mean, device, compute) -> None:
-    """``out`` (an (N,) vec3 array) holds ``mean`` except at ``index``, where
+    """``out`` (an (N,) vec3 or float array) holds ``mean`` except at ``index``, where
     ``compute(target)`` writes its values (into ``out`` itself when every pixel
     is computed, else through a scatter on the device)."""
     n = out.shape[0]
@@ -126,9 +126,12 @@ def fill_pixels(out, index: np.ndarray, mean, device, compute) -> None:
         if index.size == n:
             compute(out)
             return
-        out.fill_(wp.vec3(*(float(v) for v in mean)))
+        if out.dtype == wp.float32:  # one lane
+            out.fill_(float(mean[0]))
+        else:
+            out.fill_(wp.vec3(*(float(v) for v in mean)))
         if index.size:
-            values = wp.empty(index.size, dtype=wp.vec3)
+            values = wp.empty(index.size, dtype=out.dtype)
             compute(values)
             wp.launch(K.scatter_values, dim=index.size, inputs=[values, wp.array(index.astype(np.int64), dtype=wp.int64), out])
 

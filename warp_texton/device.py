@@ -10,6 +10,7 @@ kernel.
 | --- | --- | --- |
 | :func:`pack_plane` | ``PlaneNoise`` | ``plane_value(noise, x: wp.vec2d) -> wp.vec3`` |
 | :func:`pack_plane` (``channels=1``) | ``PlaneNoise1`` | ``plane_value(noise, x: wp.vec2d) -> float`` |
+| :func:`pack_filtered` (``channels=1``) | ``FilteredNoise1`` | ``filtered_value(noise, x, J) -> float`` |
 | :func:`pack_filtered` | ``FilteredNoise`` | ``filtered_value(noise, x: wp.vec2d, J: wp.mat22) -> wp.vec3`` |
 | :func:`pack_surface` | ``SurfaceNoise`` | ``surface_value(noise, x: wp.vec3d, normal: wp.vec3d) -> wp.vec3``, ``surface_frame_value(noise, y: wp.vec3d, n: wp.vec3, u1: wp.vec3) -> wp.vec3`` |
 | :func:`pack_colours` | ``ColourMap`` | ``colour_value(cmap, v: wp.vec3) -> wp.vec3``, ``filtered_colour(fnoise, cmap, x: wp.vec2d, J: wp.mat22) -> wp.vec3``, ``colour_share``, ``filtered_share``, ``footprint_share`` |
@@ -73,7 +74,7 @@ from .filtering import filter_struct, pyramid_struct
 from .frames import UP
 from .kernels.colours import (ColourMap, colour_share, colour_value, filtered_colour, filtered_share,
                               footprint_share)
-from .kernels.filter2d import FilteredNoise, filtered_value
+from .kernels.filter2d import FilteredNoise, FilteredNoise1, filtered_value
 from .kernels.noise2d import PlaneNoise, PlaneNoise1, plane_value
 from .kernels.surface import SurfaceNoise, surface_frame_value, surface_value
 from .noise import CELL_FACTOR, noise_params, noise_setup
@@ -82,8 +83,18 @@ from .surface import surface_params, surface_setup
 from .texton import Texton
 
 __all__ = ["pack_plane", "pack_filtered", "pack_surface", "pack_colours", "PlaneNoise", "PlaneNoise1", "FilteredNoise",
+           "FilteredNoise1",
            "SurfaceNoise", "ColourMap", "plane_value", "filtered_value", "surface_value", "surface_frame_value",
            "colour_value", "colour_share", "filtered_colour", "filtered_share", "footprint_share"]
+
+
+def _check_channels(texton, channels) -> None:
+    """1 (a grey texton's one lane) or 3."""
+    if channels not in (1, 3) or isinstance(channels, bool):
+        raise TextonError(f"channels must be 1 or 3, got {channels!r:.60}", param="channels")
+    if channels == 1 and isinstance(texton, Texton) and texton.channels != 1:
+        raise TextonError(f"channels=1 packs a grey texton; this texton has {texton.channels} channels "
+                          "(use channels=3)", param="channels")
 
 
 def _plane_settings(texton, mni, seed, period, poisson, cell_factor):
@@ -147,11 +158,7 @@ def pack_plane(
     >>> pack_plane(texton, device="cpu", channels=1).coeffs.dtype.__name__
     'float32'
     """
-    if channels not in (1, 3) or isinstance(channels, bool):
-        raise TextonError(f"channels must be 1 or 3, got {channels!r:.60}", param="channels")
-    if channels == 1 and isinstance(texton, Texton) and texton.channels != 1:
-        raise TextonError(f"channels=1 packs a grey texton; this texton has {texton.channels} channels "
-                          "(use channels=3)", param="channels")
+    _check_channels(texton, channels)
     setup, params = _plane_settings(texton, mni, seed, period, poisson, cell_factor)
     device = resolve_device(device)
     noise: PlaneNoise | PlaneNoise1
@@ -175,7 +182,8 @@ def pack_filtered(
     poisson: str = "exact",
     cell_factor: float = CELL_FACTOR,
     filter="anisotropic",
-) -> FilteredNoise:
+    channels: int = 3,
+) -> FilteredNoise | FilteredNoise1:
     """The noise of ``texton`` and a footprint filter, packed for ``filtered_value`` in a user's kernel.
 
     Parameters
@@ -187,10 +195,13 @@ def pack_filtered(
         A filter that looks the texton up in its MIP pyramid at each
         footprint (CGF §5), with its settings (``max_aniso``, ``lod_bias``,
         ``fade_energy``), as :func:`~warp_texton.synthesize` takes it.
+    channels : {3, 1}
+        As in :func:`pack_plane`: 1, for a grey texton, packs a
+        ``FilteredNoise1`` whose ``filtered_value`` returns a float.
 
     Returns
     -------
-    FilteredNoise
+    FilteredNoise or FilteredNoise1
         A ``@wp.struct``: ``filtered_value(noise, x, J)`` is the pixel of
         ``synthesize(..., filter=filter, jacobian=J)`` centred on ``x``, bit
         for bit on ``device``.
@@ -217,12 +228,13 @@ def pack_filtered(
         raise TextonError(f"filter must be a footprint filter, mip or anisotropic, for filtered_value; got "
                           f"{options.kind!r} (use pack_plane and plane_value for the unfiltered noise)",
                           param="filter")
+    _check_channels(texton, channels)
     _, params = _plane_settings(texton, mni, seed, period, poisson, cell_factor)
     device = resolve_device(device)
-    noise = FilteredNoise()
+    noise: FilteredNoise | FilteredNoise1 = FilteredNoise1() if channels == 1 else FilteredNoise()
     noise.params = params
     with wp.ScopedDevice(device):
-        noise.pyramid = pyramid_struct(texton, options.fade_energy)
+        noise.pyramid = pyramid_struct(texton, options.fade_energy, channels)
     noise.filter = filter_struct(options)
     return noise
 

@@ -320,8 +320,8 @@ def synthesize(
     filtered = needs_filtering(J, options)
     rec = params_record(texton, setup, seed, poisson)
     whole = RasterWindow(rec, setup, 0, texton.order, origin, step, (first[0], first[1]), float(scale))
-    # a grey texton's raster reads and writes one float a texel (the filters' kernels take three)
-    lanes = 3 if filtered else lanes_for([texton])
+    # a grey texton's raster reads and writes one float a texel
+    lanes = lanes_for([texton])
     stack = TextonStack.of([setup.coeffs], lanes)
     parts = strips(h, w, pixel_cost(options, filtered))
     strip = (parts[0][1] - parts[0][0], w)
