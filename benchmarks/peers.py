@@ -9,6 +9,10 @@ arguments that returns the finished (H, W, C) float32 raster on the host.
   pixel and channel: the cost floor of a procedural noise on the same device.
 * ``NaivePerPixel`` — ``warp_texton.evaluate`` at every pixel centre: each
   pixel draws its neighbouring cells' impacts itself, nothing is shared.
+* ``FastNoiseLiteFrame`` — FastNoiseLite's OpenSimplex2 noise through its
+  Python binding (``pyfastnoiselite``, a benchmark-only dependency),
+  ``gen_from_coords`` over a frame's pixel grid, one thread: the procedural
+  noise users of noise libraries compare with first. Host only.
 * ``TilingBlending`` — tiling and blending with the histogram-preserving
   operator (Heitz & Neyret, HPG 2018; Deliot & Heitz, GPU Zen 2, 2019), NumPy,
   host only: the quality peer of ``bench_quality.py`` (docs/quality.md).
@@ -28,7 +32,8 @@ from warp_texton.histogram import HistogramTransform
 
 from .bench_synthesis import FFTSample
 
-__all__ = ["FFTSample", "DSNSample", "PerlinRaster", "NaivePerPixel", "TextonNoise", "TilingBlending",
+__all__ = ["FFTSample", "DSNSample", "PerlinRaster", "NaivePerPixel", "TextonNoise", "FastNoiseLiteFrame",
+           "fastnoiselite_missing", "TilingBlending",
            "variance_preserving_blend", "triangle_grid", "cpu_threads"]
 
 #: Perlin lattice cells per pixel: one feature every 16 pixels, about a 64² texton's grain.
@@ -67,6 +72,36 @@ class TextonNoise:
 
     def __call__(self):
         return synthesize(*self.args, **self.kwargs)
+
+
+def fastnoiselite_missing() -> str | None:
+    """Why the FastNoiseLite peer cannot run here, or None."""
+    import importlib.util
+
+    if importlib.util.find_spec("pyfastnoiselite") is None:
+        return "pyfastnoiselite is not installed (pip install 'warp-texton[bench]')"
+    return None
+
+
+class FastNoiseLiteFrame:
+    """FastNoiseLite's OpenSimplex2 at every pixel of an (H, W) frame, as its Python
+    users call it: one ``gen_from_coords`` over the pixel grid's (2, H·W) float32
+    coordinates (made once, outside the timing: the most favourable reading for
+    FastNoiseLite), one thread (the binding has no threads), default frequency
+    0.01, one channel."""
+
+    def __init__(self, shape, seed: int = 1):
+        from pyfastnoiselite.pyfastnoiselite import FastNoiseLite, NoiseType
+
+        self.shape = tuple(shape)
+        self.noise = FastNoiseLite(seed)
+        self.noise.noise_type = NoiseType.NoiseType_OpenSimplex2
+        h, w = self.shape
+        ys, xs = np.mgrid[0:h, 0:w].astype(np.float32)
+        self.coords = np.ascontiguousarray(np.stack([xs.ravel(), ys.ravel()]))
+
+    def __call__(self):
+        return np.asarray(self.noise.gen_from_coords(self.coords), np.float32).reshape(self.shape + (1,))
 
 
 class DSNSample:

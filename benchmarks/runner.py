@@ -9,6 +9,9 @@ machine load (see ``peers.py``):
   discrete spot noise (``warp_texton.dsn``), NumPy on the host;
 * Warp's built-in Perlin noise ``wp.pnoise``, the cost floor of a procedural
   noise, on the same device;
+* FastNoiseLite's OpenSimplex2 frame (``pyfastnoiselite``'s ``gen_from_coords``,
+  one thread, host), against a grey and an RGB texton's frame (1920×1080,
+  MNI 30, texton 64²), with the ratios;
 * a naive per-pixel texton noise (``evaluate`` at every pixel centre, no
   shared impacts), to show what drawing the impacts once per raster gains.
 
@@ -63,7 +66,12 @@ FFT = "FFT sample"
 DSN = "DSN"
 PERLIN = "wp.pnoise"
 METHODS = (TEXTON, NAIVE, PERLIN, FFT, DSN)
-HOST_METHODS = (FFT, DSN)
+#: The frame case's methods: texton noise from a grey and an RGB texton, FastNoiseLite.
+GREY = "texton noise, grey"
+RGB = "texton noise, RGB"
+FNL = "FastNoiseLite OpenSimplex2"
+FRAME_METHODS = (GREY, RGB, FNL)
+HOST_METHODS = (FFT, DSN, FNL)
 #: Surface noise needs more impacts than the plane (CGF §6); the package default.
 SURFACE_MNI = 60.0
 
@@ -89,6 +97,8 @@ class Suite:
     quality_textures: tuple | None  # names of bench_quality.TEXTURES; None: all that load here
     quality_shape: tuple  # (height, width) of the quality outputs
     viewer_view: tuple = (1280, 720)  # (width, height) of the viewer's canvas, WebGL2 against tiles
+    frame_shape: tuple = (1080, 1920)  # (height, width) of the grey/RGB/FastNoiseLite frames
+    frame_texton: int = 64
 
 
 QUICK = Suite(
@@ -97,6 +107,7 @@ QUICK = Suite(
     naive_max_pixels=512 * 512, mix_steps=5, mix_sizes=((256, 256),),
     surface_subdivisions=3, surface_render=(128, 128),
     quality_textures=("grass", "brick"), quality_shape=(256, 256), viewer_view=(320, 180),
+    frame_shape=(270, 480), frame_texton=32,
 )
 FULL = Suite(
     name="full", sizes=((256, 256), (512, 512), (1024, 1024), (2048, 2048), (2160, 3840)),
@@ -128,22 +139,27 @@ def timings(times: list[float]) -> dict:
             "times_s": [round(t, 6) for t in times]}
 
 
-def interleaved(methods: dict, repeat: int, caps: dict | None = None) -> dict:
+def interleaved(methods: dict, repeat: int, caps: dict | None = None, cpu: bool = False) -> dict:
     """Best-of-``repeat`` timings of each callable, taking turns so that all see the same load.
 
     One untimed call of each first (kernel loading, FFT plans, first-touch
-    pages). ``caps`` limits the timed runs of slow methods.
+    pages). ``caps`` limits the timed runs of slow methods. ``cpu``: also the
+    CPU time of the process (all its threads) of each run, as ``cpu``.
     """
     caps = caps or {}
     for fn in methods.values():
         fn()
-    times = {name: [] for name in methods}
+    times: dict = {name: [] for name in methods}
+    cpu_times: dict = {name: [] for name in methods}
     for r in range(repeat):
         for name, fn in methods.items():
             if r < caps.get(name, repeat):
-                t0 = time.perf_counter()
+                c0, t0 = time.process_time(), time.perf_counter()
                 fn()
                 times[name].append(time.perf_counter() - t0)
+                cpu_times[name].append(time.process_time() - c0)
+    if cpu:
+        return {name: {**timings(t), "cpu": timings(cpu_times[name])} for name, t in times.items()}
     return {name: timings(t) for name, t in times.items()}
 
 
@@ -229,6 +245,45 @@ def synthesis_case(suite: Suite, textons: dict, device: str, host_too: bool, rep
             note = f"{w}x{h} is above {suite.naive_max_pixels} pixels"
             report.skip(f"naive per-pixel {w}x{h} on {device}", f"{note}; it is slow")
         print(f"  {w}x{h} MNI {mni:g} texton {case['texton']}²: " + ", ".join(parts) + " s", flush=True)
+
+
+def frame_case(suite: Suite, u: np.ndarray, device: str, host_too: bool, cache: dict, report: Report) -> None:
+    """One frame of texton noise from a grey texton and from an RGB one (the same
+    texture, its grey mean for the first), and FastNoiseLite's OpenSimplex2 frame
+    (host, one thread; skipped without pyfastnoiselite), interleaved; the ratios
+    grey / RGB and grey / FastNoiseLite."""
+    from warp_texton import analyze
+
+    from . import peers
+
+    h, w = suite.frame_shape
+    size = suite.frame_texton
+    if "frame" not in cache:
+        grey = np.ascontiguousarray(u.mean(axis=2, keepdims=True))
+        cache["frame"] = (analyze(grey, size=size, seed=0), analyze(u, size=size, seed=0))
+    grey_t, rgb_t = cache["frame"]
+    methods = {GREY: peers.TextonNoise(grey_t, (h, w), suite.ref_mni, device),
+               RGB: peers.TextonNoise(rgb_t, (h, w), suite.ref_mni, device)}
+    missing = peers.fastnoiselite_missing()
+    if host_too and missing is None:
+        methods[FNL] = peers.FastNoiseLiteFrame((h, w))
+    elif host_too:
+        report.skip("FastNoiseLite frame", missing)
+    print(f"frames on {device}: {w}x{h}, MNI {suite.ref_mni:g}, texton {size}²", flush=True)
+    results = interleaved(methods, suite.repeat, cpu=True)
+    for name, t in results.items():
+        report.add(case="frame", method=name, device="host" if name in HOST_METHODS else device, shape=[h, w],
+                   mni=suite.ref_mni, texton=size, channels=1 if name != RGB else 3,
+                   mpix_per_s=h * w / t["best_s"] / 1e6, **t)
+    line = ", ".join(f"{name} {t['best_s'] * 1e3:.1f} ms (CPU {t['cpu']['best_s'] * 1e3:.1f} ms)"
+                     for name, t in results.items())
+    g = results[GREY]["best_s"]
+    line += f"; grey / RGB {g / results[RGB]['best_s']:.2f}"
+    fnl = results.get(FNL) or _find(report.rows, case="frame", method=FNL, shape=[h, w])
+    if fnl is not None:
+        line += f", grey / FastNoiseLite {g / fnl['best_s']:.2f}, RGB / FastNoiseLite " \
+                f"{results[RGB]['best_s'] / fnl['best_s']:.2f}"
+    print("  " + line, flush=True)
 
 
 def mixing_case(suite: Suite, u: np.ndarray, device: str, textons_cache: dict, report: Report) -> None:
@@ -420,6 +475,7 @@ def run(suite: Suite, devices: list[str]) -> dict:
     cache = {}
     for k, device in enumerate(devices):
         synthesis_case(suite, textons, device, host_too=(k == 0), report=report)
+        frame_case(suite, u, device, host_too=(k == 0), cache=cache, report=report)
         filtering_case(suite, textons, device, report)
         surface_case(suite, textons, device, report)
         mixing_case(suite, u, device, cache, report)
@@ -499,6 +555,35 @@ def _synthesis_lines(report: dict) -> list[str]:
             for t in p["texton_sizes"]:
                 kw = dict(shape=[ref_h, ref_w], mni=p["ref_mni"], texton=t)
                 lines.append(f"| {t}² | " + " | ".join(_cell(get(mt, **kw)) for mt in METHODS) + " |")
+    return lines
+
+
+def _frame_lines(report: dict) -> list[str]:
+    """The grey/RGB/FastNoiseLite frames and their ratios, per device."""
+    rows = [r for r in report["results"] if r["case"] == "frame"]
+    if not rows:
+        return []
+    h, w = rows[0]["shape"]
+    p = report["parameters"]
+    lines = ["", f"## One frame, {w}×{h}: grey and RGB textons against FastNoiseLite (MNI {p['ref_mni']:g}, "
+             f"texton {rows[0]['texton']}²; FastNoiseLite: OpenSimplex2, `gen_from_coords`, one thread, host)", "",
+             "| device | " + " | ".join(FRAME_METHODS) + " | grey / RGB | grey / FastNoiseLite | RGB / FastNoiseLite |",
+             "|---|" + "---:|" * (len(FRAME_METHODS) + 3)]
+    fnl = _find(rows, method=FNL)
+    for d in report["devices"]:
+        grey, rgb = _find(rows, method=GREY, device=d["name"]), _find(rows, method=RGB, device=d["name"])
+        if grey is None or rgb is None:
+            continue
+
+        def ratio(a, b):
+            return f"{a['best_s'] / b['best_s']:.2f}" if a and b else "—"
+
+        lines.append(f"| `{d['name']}` | {_cell(grey)} | {_cell(rgb)} | {_cell(fnl)} | {ratio(grey, rgb)} | "
+                     f"{ratio(grey, fnl)} | {ratio(rgb, fnl)} |")
+        if d["name"] == "cpu" and "cpu" in grey:
+            cpu = [r["cpu"] if r is not None and "cpu" in r else None for r in (grey, rgb, fnl)]
+            lines.append(f"| `cpu`, CPU time of the process | {_cell(cpu[0])} | {_cell(cpu[1])} | {_cell(cpu[2])} | "
+                         f"{ratio(cpu[0], cpu[1])} | {ratio(cpu[0], cpu[2])} | {ratio(cpu[1], cpu[2])} |")
     return lines
 
 
@@ -633,10 +718,10 @@ def markdown(report: dict) -> str:
         f"Devices: {devices}. The whole run took {report['seconds']:.0f} s.",
         "",
         f"Textons analysed from a {p['image_side']}² RGB test texture ({p['texture']}), order 1; "
-        f"rasters RGB. Times in seconds after one untimed call of each method: {runs}. FFT sample and DSN "
+        f"rasters RGB except the grey frame. Times in seconds after one untimed call of each method: {runs}. FFT sample and DSN "
         "run on the host (NumPy) whatever the device. Every method returns the finished raster in host memory.",
     ]
-    for section in (_synthesis_lines, _analysis_lines, _mixing_lines, _filtering_lines, _surface_lines,
+    for section in (_synthesis_lines, _frame_lines, _analysis_lines, _mixing_lines, _filtering_lines, _surface_lines,
                     _atlas_lines, _quality_lines, _viewer_lines):
         lines += section(report)
     if report["skipped"]:
@@ -713,7 +798,8 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(
         prog="python -m benchmarks",
         description="Time texton analysis, 2-D texton noise, filtering, surface noise and mixing against "
-                    "their peers (FFT sample, discrete spot noise, wp.pnoise, naive per-pixel texton noise).",
+                    "their peers (FFT sample, discrete spot noise, wp.pnoise, FastNoiseLite, naive per-pixel "
+                    "texton noise).",
         formatter_class=_HelpFormatter,
     )
     parser.add_argument("--device", default="all",

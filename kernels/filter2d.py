@@ -14,6 +14,8 @@ expected value of the sum is λ ∫h exactly and the filtered noise keeps the
 texton mean.
 """
 
+from typing import Any
+
 import warp as wp
 
 from .impacts import cell_walk
@@ -45,6 +47,20 @@ class Pyramid:
 
 
 @wp.struct
+class Pyramid1:
+    # the same for a one-channel (grey) texton: float coefficients
+    coeffs: wp.array2d(dtype=float)
+    row0: wp.array(dtype=wp.int32)
+    rows: wp.array(dtype=wp.int32)
+    step: wp.array(dtype=float)
+    origin: wp.array(dtype=float)
+    lo: wp.array(dtype=wp.vec2)
+    hi: wp.array(dtype=wp.vec2)
+    levels: int
+    order: int
+
+
+@wp.struct
 class Filter:
     mode: int  # MIP or ANISOTROPIC
     max_aniso: int  # most lookups along the major axis
@@ -63,7 +79,7 @@ class Level:
 
 
 @wp.func
-def level_params(pyr: Pyramid, lvl: int):
+def level_params(pyr: Any, lvl: int):
     lv = Level()
     lv.row0 = pyr.row0[lvl]
     lv.rows = pyr.rows[lvl]
@@ -75,10 +91,10 @@ def level_params(pyr: Pyramid, lvl: int):
 
 
 @wp.func
-def lookup(coeffs: wp.array2d(dtype=wp.vec3), lv: Level, d: wp.vec2, order: int):
-    # h_ℓ(d), zero outside the level's box
+def lookup(coeffs: wp.array2d(dtype=Any), lv: Level, d: wp.vec2, order: int):
+    # h_ℓ(d), zero outside the level's box (one channel or three)
     if d[0] < lv.lo[0] or d[0] > lv.hi[0] or d[1] < lv.lo[1] or d[1] > lv.hi[1]:
-        return wp.vec3(0.0)
+        return coeffs.dtype(0.0)
     y = wp.vec2((d[0] - lv.origin) * lv.inv_step, (d[1] - lv.origin) * lv.inv_step)
     return texton_value(coeffs, lv.row0, lv.rows, y, order)
 
@@ -146,8 +162,24 @@ class PyramidLookup:
     box_hi: wp.vec2
 
 
+@wp.struct
+class PyramidLookup1:
+    # the same for a one-channel texton
+    coeffs: wp.array2d(dtype=float)
+    order: int
+    a: Level
+    b: Level
+    w0: float
+    w1: float
+    first: wp.vec2
+    stride: wp.vec2
+    n: int
+    box_lo: wp.vec2
+    box_hi: wp.vec2
+
+
 @wp.func
-def add_lookups(c: PyramidLookup, d: wp.vec2, acc: wp.vec3):
+def add_lookups(c: Any, d: wp.vec2, acc: Any):
     # the lookups q with d + first + q stride inside the coarser level's box
     d0 = d + c.first
     q0, q1 = lookup_range(d0, c.stride, c.n, c.box_lo, c.box_hi)
@@ -161,8 +193,57 @@ def add_lookups(c: PyramidLookup, d: wp.vec2, acc: wp.vec3):
     return acc
 
 
-#: Σ over the impacts q with x − q in [lo, hi] of the pixel's lookups (see impacts.cell_walk).
+#: Σ over the impacts q with x − q in [lo, hi] of the pixel's lookups (see impacts.cell_walk),
+#: three channels and one.
 sum_lookups = cell_walk(add_lookups, "sum_lookups")
+sum_lookups1 = cell_walk(add_lookups, "sum_lookups1", zero=wp.float32)
+
+
+@wp.func
+def pyramid_lookup(pyr: Pyramid):
+    look = PyramidLookup()
+    look.coeffs = pyr.coeffs
+    return look
+
+
+@wp.func
+def pyramid_lookup(pyr: Pyramid1):  # noqa: F811 (a Warp overload)
+    look = PyramidLookup1()
+    look.coeffs = pyr.coeffs
+    return look
+
+
+@wp.func
+def sum_pyramid(x: wp.vec2d, lo: wp.vec2, hi: wp.vec2, cells: Any, look: PyramidLookup):
+    return sum_lookups(x, lo, hi, cells, look)
+
+
+@wp.func
+def sum_pyramid(x: wp.vec2d, lo: wp.vec2, hi: wp.vec2, cells: Any, look: PyramidLookup1):  # noqa: F811
+    return sum_lookups1(x, lo, hi, cells, look)
+
+
+@wp.func
+def mean_of(p: NoiseParams, pyr: Pyramid):
+    return p.mean
+
+
+@wp.func
+def mean_of(p: NoiseParams, pyr: Pyramid1):  # noqa: F811 (a Warp overload)
+    return p.mean[0]
+
+
+@wp.func
+def filtered_normalize(acc: wp.vec3, p: NoiseParams, n: int, real: float):
+    a = acc / float(n)
+    return p.mean + (a - p.integral * (p.lam * real)) / wp.sqrt(p.lam)
+
+
+@wp.func
+def filtered_normalize(acc: float, p: NoiseParams, n: int, real: float):  # noqa: F811 (a Warp overload)
+    # the vec3 form's operations on the first channel
+    a = acc / float(n)
+    return p.mean[0] + (a - p.integral[0] * (p.lam * real)) / wp.sqrt(p.lam)
 
 
 @wp.func
@@ -211,26 +292,15 @@ class FilteredNoise:
 
 
 @wp.func
-def filtered_value(noise: FilteredNoise, x: wp.vec2d, J: wp.mat22) -> wp.vec3:
-    """Texton noise at the texel-space point ``x`` averaged over the footprint ``J`` (CGF §5).
-
-    The columns of ``J`` are the texel-space steps of one pixel along its two
-    axes (the pixel covers x + J [−½, ½]²), as ``synthesize(...,
-    jacobian=...)`` takes them, in float32. The lookup width w is the
-    footprint's major length ("mip"), or max(minor, major / N) with N =
-    min(⌈major / minor⌉, max_aniso) lookups spaced along the major axis
-    ("anisotropic"); the level is log2(w) + bias, blended linearly between
-    two levels. Past the last kept level the noise fades to its mean. The
-    value of ``synthesize`` with a "mip" or "anisotropic" filter at a pixel
-    whose centre is ``x`` and footprint ``J``, bit for bit on the same device.
-    """
+def filtered_sum(noise: Any, x: wp.vec2d, J: wp.mat22):
+    # filtered_value of a FilteredNoise (vec3) or a FilteredNoise1 (float)
     p = noise.params
     pyr = noise.pyramid
     major, axis, n, lod = footprint_lookups(noise.filter, J)
     # past the kept levels (or not finite): the mean; compared as floats before
     # any int conversion
     if lod >= float(pyr.levels) or wp.isnan(lod):
-        return p.mean
+        return mean_of(p, pyr)
     l0 = int(wp.floor(lod))
     frac = lod - float(l0)
     l1 = wp.min(l0 + 1, pyr.levels - 1)
@@ -256,8 +326,7 @@ def filtered_value(noise: FilteredNoise, x: wp.vec2d, J: wp.mat22) -> wp.vec3:
     ext = wp.vec2(wp.abs(spread[0]), wp.abs(spread[1]))
     lo = box_lo - ext
     hi = box_hi + ext
-    look = PyramidLookup()
-    look.coeffs = pyr.coeffs
+    look = pyramid_lookup(pyr)
     look.order = pyr.order
     look.a = level_params(pyr, l0)
     look.b = level_params(pyr, l1)
@@ -268,26 +337,89 @@ def filtered_value(noise: FilteredNoise, x: wp.vec2d, J: wp.mat22) -> wp.vec3:
     look.n = n
     look.box_lo = box_lo
     look.box_hi = box_hi
-    acc = sum_lookups(x, lo, hi, p.cells, look)
-    acc = acc / float(n)
-    return p.mean + (acc - p.integral * (p.lam * real)) / wp.sqrt(p.lam)
+    return filtered_normalize(sum_pyramid(x, lo, hi, p.cells, look), p, n, real)
+
+
+@wp.func
+def filtered_value(noise: FilteredNoise, x: wp.vec2d, J: wp.mat22) -> wp.vec3:
+    """Texton noise at the texel-space point ``x`` averaged over the footprint ``J`` (CGF §5).
+
+    The columns of ``J`` are the texel-space steps of one pixel along its two
+    axes (the pixel covers x + J [−½, ½]²), as ``synthesize(...,
+    jacobian=...)`` takes them, in float32. The lookup width w is the
+    footprint's major length ("mip"), or max(minor, major / N) with N =
+    min(⌈major / minor⌉, max_aniso) lookups spaced along the major axis
+    ("anisotropic"); the level is log2(w) + bias, blended linearly between
+    two levels. Past the last kept level the noise fades to its mean. The
+    value of ``synthesize`` with a "mip" or "anisotropic" filter at a pixel
+    whose centre is ``x`` and footprint ``J``, bit for bit on the same device.
+    """
+    return filtered_sum(noise, x, J)
+
+
+@wp.struct
+class FilteredNoise1:
+    """Filtered texton noise of a one-channel (grey) texton (the device API).
+
+    Filled by :func:`warp_texton.device.pack_filtered` with ``channels=1``:
+    ``filtered_value`` of it returns a float and reads one float a texel.
+
+    Attributes
+    ----------
+    params : NoiseParams
+        As in ``FilteredNoise``.
+    pyramid : Pyramid1
+        The texton's MIP levels with float coefficients.
+    filter : Filter
+        As in ``FilteredNoise``.
+    """
+
+    params: NoiseParams
+    pyramid: Pyramid1
+    filter: Filter
+
+
+@wp.func
+def filtered_value(noise: FilteredNoise1, x: wp.vec2d, J: wp.mat22) -> float:  # noqa: F811 (a Warp overload)
+    """Filtered texton noise of a one-channel texton at ``x`` over the footprint
+    ``J``: the first component of ``filtered_value`` of the same texton packed as
+    three channels, bit for bit."""
+    return filtered_sum(noise, x, J)
+
+
+@wp.func
+def filtered_noise(p: NoiseParams, pyr: Pyramid, f: Filter):
+    noise = FilteredNoise()
+    noise.params = p
+    noise.pyramid = pyr
+    noise.filter = f
+    return noise
+
+
+@wp.func
+def filtered_noise(p: NoiseParams, pyr: Pyramid1, f: Filter):  # noqa: F811 (a Warp overload)
+    noise = FilteredNoise1()
+    noise.params = p
+    noise.pyramid = pyr
+    noise.filter = f
+    return noise
 
 
 @wp.kernel
 def filtered_points(
     p: NoiseParams,
-    pyr: Pyramid,
+    pyr: Any,
     f: Filter,
     points: wp.array(dtype=wp.vec2d),
     jac: wp.array(dtype=wp.mat22),
     jac_stride: int,
-    out: wp.array(dtype=wp.vec3),
+    out: wp.array(dtype=Any),
 ):
     """Filtered noise at points (texel units) with footprints ``jac[t * jac_stride]``:
-    ``filtered_value``, the device API's function, at each point."""
+    ``filtered_value``, the device API's function, at each point (one channel or three)."""
     t = wp.tid()
-    noise = FilteredNoise()
-    noise.params = p
-    noise.pyramid = pyr
-    noise.filter = f
-    out[t] = filtered_value(noise, points[t], jac[t * jac_stride])
+    out[t] = filtered_value(filtered_noise(p, pyr, f), points[t], jac[t * jac_stride])
+
+
+wp.overload(filtered_points, {"pyr": Pyramid, "out": wp.array(dtype=wp.vec3)})
+wp.overload(filtered_points, {"pyr": Pyramid1, "out": wp.array(dtype=float)})

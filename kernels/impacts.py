@@ -134,10 +134,10 @@ def cell_span(x: wp.vec2d, lo: wp.vec2, hi: wp.vec2, size: wp.vec2):
             int(wp.floor((x[1] - wp.float64(hi[1])) / ch)), int(wp.floor((x[1] - wp.float64(lo[1])) / ch)))
 
 
-def cell_walk(contribution, name: str):
+def cell_walk(contribution, name: str, zero=wp.vec3):
     """A ``@wp.func walk(x: vec2d, lo: vec2, hi: vec2, cells: Cells, ctx) -> vec3``
     summing ``contribution(ctx, d, acc)`` over the impacts q with d = x − q in
-    [lo, hi].
+    [lo, hi], from ``zero(0.0)`` (``wp.float32`` for a one-channel sum).
 
     Cell indices come from float64 positions, so that points far from the
     origin land in the right cell; offsets inside a cell are small and float32.
@@ -148,7 +148,7 @@ def cell_walk(contribution, name: str):
         cw = wp.float64(cells.size[0])
         ch = wp.float64(cells.size[1])
         cx_lo, cx_hi, cy_lo, cy_hi = cell_span(x, lo, hi, cells.size)
-        acc = wp.vec3(0.0)
+        acc = zero(0.0)
         for cy in range(cy_lo, cy_hi + 1):
             for cx in range(cx_lo, cx_hi + 1):
                 # x relative to this cell's corner

@@ -10,6 +10,8 @@ coefficient (row i, column j) at y = (j, i). Coefficients are stored with a
 zero margin of PAD texels so that every tap of every order reads in bounds.
 """
 
+from typing import Any
+
 import warp as wp
 
 from .impacts import GOLDEN, Cells, avalanche, cell_span, cell_state, cell_walk, draw_count, next_impact
@@ -60,11 +62,12 @@ def bspline_weight(t: float, order: int):
 
 
 @wp.func
-def texton_value(coeffs: wp.array2d(dtype=wp.vec3), row0: int, rows: int, y: wp.vec2, order: int):
+def texton_value(coeffs: wp.array2d(dtype=Any), row0: int, rows: int, y: wp.vec2, order: int):
     # h(y) for y inside the support, for the texton stored in rows [row0, row0 + rows)
-    # of a stack; taps outside the coefficients read the zero margin
+    # of a stack; taps outside the coefficients read the zero margin. One channel
+    # (float coefficients) or three (vec3): the same operations on each channel.
     cols = coeffs.shape[1]
-    acc = wp.vec3(0.0)
+    acc = coeffs.dtype(0.0)
     if order == 1:
         fx = wp.floor(y[0])
         fy = wp.floor(y[1])
@@ -87,7 +90,7 @@ def texton_value(coeffs: wp.array2d(dtype=wp.vec3), row0: int, rows: int, y: wp.
         i = i0 + a
         wy = bspline_weight(y[1] - float(i), order)
         ii = row0 + wp.clamp(i + PAD, 0, rows - 1)
-        row = wp.vec3(0.0)
+        row = coeffs.dtype(0.0)
         for b in range(order + 1):
             j = j0 + b
             wx = bspline_weight(y[0] - float(j), order)
@@ -104,6 +107,12 @@ def inside(d: wp.vec2, p: NoiseParams):
 @wp.func
 def normalize(acc: wp.vec3, p: NoiseParams):
     return p.mean + (acc - p.integral * p.lam) / wp.sqrt(p.lam)
+
+
+@wp.func
+def normalize(acc: float, p: NoiseParams):  # noqa: F811 (a Warp overload)
+    # one channel: the vec3 form's operations on its first component
+    return p.mean[0] + (acc - p.integral[0] * p.lam) / wp.sqrt(p.lam)
 
 
 # ------------------------------------------------------------------ windows
@@ -268,42 +277,118 @@ def label_impacts(
     labels[k] = wp.clamp(lab, 0, regions - 1)
 
 
-# One footprint row of a grid splat, as a flat unit-stride loop over the 3·count
-# floats of the row: with restrict pointers the compiler vectorises it, which
-# Warp's strided array indexing does not allow. Rows of `acc` and `coeffs`
-# must be contiguous (the host allocates them so).
-_SPLAT_ROW = """
-float* __restrict dst = (float*)((char*)acc.data + (size_t)i * acc.strides[0]) + 3 * j;
-const float* __restrict top = (const float*)((const char*)coeffs.data + (size_t)a * coeffs.strides[0]) + 3 * b;
-const float* __restrict bot = (const float*)((const char*)coeffs.data + (size_t)(a + 1) * coeffs.strides[0]) + 3 * b;
-const int n = 3 * count;
-for (int t = 0; t < n; ++t) {
-    const float left = gy * top[t] + fy * bot[t];
-    const float right = gy * top[t + 3] + fy * bot[t + 3];
-    dst[t] += gx * left + fx * right;
+# The footprint rows of a grid splat, each the C·count floats of the row (C channels a
+# texel), each dst[t] += gx · left + fx · right with left = gy · top[t] + fy · bot[t]
+# the texton's vertical blend at float t and right the same at t + C. Rows of `acc`
+# and `coeffs` must be contiguous (the host allocates them so). One source for every
+# channel count: a float takes the same operations whatever C is, so a grey texton's
+# raster equals the first channel of its three-channel form.
+#
+# Where Warp's CPU compiler is Clang for a CPU with vector units (AVX2, AVX-512,
+# NEON; never CUDA), WIDTH floats at a time in Clang's vector extensions: each chunk's
+# blend is computed once and serves as `left` of its own floats and, shifted by C
+# lanes (a shuffle with the next chunk's blend), as `right` of the floats C before,
+# which the plain loop computes twice: 7 operations a float instead of 10, the same
+# values (each lane's operations and their order are the plain loop's; neither form
+# contracts to FMAs). The last floats (fewer than WIDTH) take the plain loop. The row
+# loop is native too, so an impact's rows are one call.
+_SPLAT_ROWS = """
+VECTOR
+typedef float vNf __attribute__((ext_vector_type(WIDTH)));
+#endif
+const int n = LANES * count;
+for (int i = i0; i <= i1; ++i) {
+    const int a = a0 + i;
+    float* __restrict dst = (float*)((char*)acc.data + (size_t)i * acc.strides[0]) + LANES * j;
+    const float* __restrict top = (const float*)((const char*)coeffs.data + (size_t)a * coeffs.strides[0]) + LANES * b;
+    const float* __restrict bot = (const float*)((const char*)coeffs.data + (size_t)(a + 1) * coeffs.strides[0])
+                                  + LANES * b;
+    int t = 0;
+VECTOR
+    if (n >= WIDTH) {
+        vNf ct, cb;
+        __builtin_memcpy(&ct, top, sizeof(vNf));
+        __builtin_memcpy(&cb, bot, sizeof(vNf));
+        vNf cur = gy * ct + fy * cb;
+        // chunks whose next chunk lies within the row's n + LANES floats
+        for (; t + 2 * WIDTH <= n + LANES; t += WIDTH) {
+            vNf nt, nb;
+            __builtin_memcpy(&nt, top + t + WIDTH, sizeof(vNf));
+            __builtin_memcpy(&nb, bot + t + WIDTH, sizeof(vNf));
+            const vNf next = gy * nt + fy * nb;
+            const vNf right = __builtin_shufflevector(cur, next, SHIFT);
+            vNf d;
+            __builtin_memcpy(&d, dst + t, sizeof(vNf));
+            d += gx * cur + fx * right;
+            __builtin_memcpy(dst + t, &d, sizeof(vNf));
+            cur = next;
+        }
+        if (t + WIDTH <= n) {
+            // the last whole chunk: the row ends within LANES floats of it, so only
+            // the next chunk's first LANES lanes are used
+            vNf nt = 0.0f, nb = 0.0f;
+            for (int l = 0; l < LANES; ++l) {
+                nt[l] = top[t + WIDTH + l];
+                nb[l] = bot[t + WIDTH + l];
+            }
+            const vNf next = gy * nt + fy * nb;
+            const vNf right = __builtin_shufflevector(cur, next, SHIFT);
+            vNf d;
+            __builtin_memcpy(&d, dst + t, sizeof(vNf));
+            d += gx * cur + fx * right;
+            __builtin_memcpy(dst + t, &d, sizeof(vNf));
+            t += WIDTH;
+        }
+    }
+#endif
+    for (; t < n; ++t) {
+        const float left = gy * top[t] + fy * bot[t];
+        const float right = gy * top[t + LANES] + fy * bot[t + LANES];
+        dst[t] += gx * left + fx * right;
+    }
 }
 """
+#: The vector form is compiled by Clang for a CPU with 256-bit (AVX2, AVX-512) or
+#: 128-bit (NEON) SIMD, never for CUDA (as kernels/surface_native.py's loops).
+_VECTOR = ("#if defined(__clang__) && !defined(__CUDACC__) && !defined(__CUDA_ARCH__) "
+           "&& (defined(__AVX2__) || defined(__AVX512F__) || defined(__ARM_NEON))")
 
 
-@wp.func_native(_SPLAT_ROW)
-def splat_row(
-    acc: wp.array2d(dtype=wp.vec3),
-    i: int,
-    j: int,
-    coeffs: wp.array2d(dtype=wp.vec3),
-    a: int,
-    b: int,
-    count: int,
-    gy: float,
-    fy: float,
-    gx: float,
-    fx: float,
-): ...
+#: Floats a vector of the splat's rows holds: 8, one 256-bit register (AVX2, and
+#: AVX-512 where Clang prefers 256-bit vectors), two NEON ones.
+WIDTH = 8
+
+
+def _splat_row_source(lanes: int) -> str:
+    shift = ", ".join(str(lanes + k) for k in range(WIDTH))
+    return _SPLAT_ROWS.replace("VECTOR", _VECTOR).replace("SHIFT", shift).replace("LANES", str(lanes)).replace("WIDTH", str(WIDTH))
+
+
+@wp.func_native(_splat_row_source(3))
+def splat_rows3(acc: wp.array2d(dtype=wp.vec3), i0: int, i1: int, j: int, coeffs: wp.array2d(dtype=wp.vec3),
+                a0: int, b: int, count: int, gy: float, fy: float, gx: float, fx: float): ...
+
+
+@wp.func_native(_splat_row_source(1))
+def splat_rows1(acc: wp.array2d(dtype=float), i0: int, i1: int, j: int, coeffs: wp.array2d(dtype=float),
+                a0: int, b: int, count: int, gy: float, fy: float, gx: float, fx: float): ...
 
 
 @wp.func
-def splat_grid(w: Window, P: wp.vec2d, coeffs: wp.array2d(dtype=wp.vec3), t0: int, sign: float,
-               di: int, r_lo: int, r_hi: int, acc: wp.array2d(dtype=wp.vec3)):
+def splat_rows(acc: wp.array2d(dtype=wp.vec3), i0: int, i1: int, j: int, coeffs: wp.array2d(dtype=wp.vec3),
+               a0: int, b: int, count: int, gy: float, fy: float, gx: float, fx: float):
+    splat_rows3(acc, i0, i1, j, coeffs, a0, b, count, gy, fy, gx, fx)
+
+
+@wp.func
+def splat_rows(acc: wp.array2d(dtype=float), i0: int, i1: int, j: int, coeffs: wp.array2d(dtype=float),  # noqa: F811
+               a0: int, b: int, count: int, gy: float, fy: float, gx: float, fx: float):  # (a Warp overload)
+    splat_rows1(acc, i0, i1, j, coeffs, a0, b, count, gy, fy, gx, fx)
+
+
+@wp.func
+def splat_grid(w: Window, P: wp.vec2d, coeffs: wp.array2d(dtype=Any), t0: int, sign: float,
+               di: int, r_lo: int, r_hi: int, acc: wp.array2d(dtype=Any)):
     # A bilinear texton on an unrotated raster at scale 1: the offset from the
     # impact to global pixel (I, J) is (J + tx, I + ty) with t = ½ − P, so every
     # pixel sees the same fraction and the texton is the coefficient array
@@ -324,14 +409,14 @@ def splat_grid(w: Window, P: wp.vec2d, coeffs: wp.array2d(dtype=wp.vec3), t0: in
     j_hi = wp.min(w.texton_cols - 2 - bx, w.width - 1)
     count = j_hi - j_lo + 1
     if count > 0:
-        for i in range(i_lo, i_hi + 1):
-            splat_row(acc, i, j_lo, coeffs, t0 + ay + i, bx + j_lo, count,
-                      (1.0 - fy) * sign, fy * sign, 1.0 - fx, fx)
+        # output rows i_lo..i_hi from texton rows t0 + ay + i (and the next)
+        splat_rows(acc, i_lo, i_hi, j_lo, coeffs, t0 + ay, bx + j_lo, count, (1.0 - fy) * sign, fy * sign,
+                   1.0 - fx, fx)
 
 
 @wp.func
-def splat_general(w: Window, P: wp.vec2d, coeffs: wp.array2d(dtype=wp.vec3), t0: int, sign: float,
-                  di: int, r_lo: int, r_hi: int, acc: wp.array2d(dtype=wp.vec3)):
+def splat_general(w: Window, P: wp.vec2d, coeffs: wp.array2d(dtype=Any), t0: int, sign: float,
+                  di: int, r_lo: int, r_hi: int, acc: wp.array2d(dtype=Any)):
     # The pixels whose offset can fall in the support box: the box of its
     # corners in pixel units, in float64 from global indices, so that every
     # window tests the same pixels.
@@ -372,7 +457,7 @@ def splat_general(w: Window, P: wp.vec2d, coeffs: wp.array2d(dtype=wp.vec3), t0:
 def splat_impacts(
     windows: wp.array(dtype=Window),
     cell_window: wp.array(dtype=wp.int32),
-    coeffs: wp.array2d(dtype=wp.vec3),
+    coeffs: wp.array2d(dtype=Any),
     impacts: wp.array(dtype=wp.vec2),
     impact_cell: wp.array(dtype=wp.int32),
     marks: Marks,
@@ -380,7 +465,7 @@ def splat_impacts(
     height: int,
     row0: int,
     row1: int,
-    acc: wp.array2d(dtype=wp.vec3),
+    acc: wp.array2d(dtype=Any),
 ):
     """Add the textons of impacts k0… to the output rows [row0, row1) of ``acc``
     (no atomics); ``normalize_rows`` turns the raw sums into noise values.
@@ -406,25 +491,66 @@ def splat_impacts(
             splat_general(w, P, coeffs, t0, sign, di, r_lo, r_hi, acc)
 
 
+# normalize over a row, as a unit-stride loop the compiler vectorises: per channel
+# c, m_c + (a − s_c) / r with s_c = ∫h_c λ and r = √λ computed once (the values
+# the per-pixel form computes; a division is exact in every lane).
+_NORMALIZE_ROW = """
+float* __restrict dst = (float*)((char*)acc.data + (size_t)i * acc.strides[0]);
+const int n = acc.shape[1];
+const float r = sqrtf(lam);
+CHANNELS
+"""
+_NORMALIZE_ONE = """
+const float m = mean[0], s = integral[0] * lam;
+for (int t = 0; t < n; ++t)
+    dst[t] = m + (dst[t] - s) / r;
+"""
+_NORMALIZE_THREE = """
+const float m0 = mean[0], m1 = mean[1], m2 = mean[2];
+const float s0 = integral[0] * lam, s1 = integral[1] * lam, s2 = integral[2] * lam;
+for (int t = 0; t < n; ++t) {
+    dst[3 * t] = m0 + (dst[3 * t] - s0) / r;
+    dst[3 * t + 1] = m1 + (dst[3 * t + 1] - s1) / r;
+    dst[3 * t + 2] = m2 + (dst[3 * t + 2] - s2) / r;
+}
+"""
+
+
+@wp.func_native(_NORMALIZE_ROW.replace("CHANNELS", _NORMALIZE_ONE))
+def normalize_row1(acc: wp.array2d(dtype=float), i: int, mean: wp.vec3, integral: wp.vec3, lam: float): ...
+
+
+@wp.func_native(_NORMALIZE_ROW.replace("CHANNELS", _NORMALIZE_THREE))
+def normalize_row3(acc: wp.array2d(dtype=wp.vec3), i: int, mean: wp.vec3, integral: wp.vec3, lam: float): ...
+
+
+@wp.func
+def normalize_row(acc: wp.array2d(dtype=float), i: int, p: NoiseParams):
+    normalize_row1(acc, i, p.mean, p.integral, p.lam)
+
+
+@wp.func
+def normalize_row(acc: wp.array2d(dtype=wp.vec3), i: int, p: NoiseParams):  # noqa: F811 (a Warp overload)
+    normalize_row3(acc, i, p.mean, p.integral, p.lam)
+
+
 @wp.kernel
-def normalize_rows(windows: wp.array(dtype=Window), height: int, row0: int, acc: wp.array2d(dtype=wp.vec3)):
+def normalize_rows(windows: wp.array(dtype=Window), height: int, row0: int, acc: wp.array2d(dtype=Any)):
     """Raw sums to noise values, one output row per thread."""
     i = wp.tid() + row0
-    p = windows[i / height].p
-    for j in range(acc.shape[1]):
-        acc[i, j] = normalize(acc[i, j], p)
+    normalize_row(acc, i, windows[i / height].p)
 
 
 @wp.kernel
 def gather_raster(
     windows: wp.array(dtype=Window),
-    coeffs: wp.array2d(dtype=wp.vec3),
+    coeffs: wp.array2d(dtype=Any),
     impacts: wp.array(dtype=wp.vec2),
     offsets: wp.array(dtype=wp.int32),
     marks: Marks,
     height: int,
     row0: int,
-    out: wp.array2d(dtype=wp.vec3),
+    out: wp.array2d(dtype=Any),
 ):
     """One thread per pixel of output rows row0…: sum the textons of the impacts of nearby cells.
 
@@ -442,7 +568,7 @@ def gather_raster(
     size = p.cells.size
     ref = wp.vec2(float(x[0] - wp.float64(cx_lo) * wp.float64(size[0])),
                   float(x[1] - wp.float64(cy_lo) * wp.float64(size[1])))
-    acc = wp.vec3(0.0)
+    acc = coeffs.dtype(0.0)
     for cy in range(wp.max(cy_lo, w.cell0[1]), wp.min(cy_hi, w.cell0[1] + w.ncy - 1) + 1):
         ry = ref[1] - float(cy - cy_lo) * size[1]
         for cx in range(wp.max(cx_lo, w.cell0[0]), wp.min(cx_hi, w.cell0[0] + w.ncx - 1) + 1):
@@ -457,11 +583,23 @@ def gather_raster(
     out[i, j] = normalize(acc, p)
 
 
+#: The raster kernels for one channel (float) and three (vec3): a grey texton's
+#: raster reads and writes one float a texel, not three.
+for _lanes in (float, wp.vec3):
+    wp.overload(splat_impacts, {"coeffs": wp.array2d(dtype=_lanes), "acc": wp.array2d(dtype=_lanes)})
+    wp.overload(normalize_rows, {"acc": wp.array2d(dtype=_lanes)})
+    wp.overload(gather_raster, {"coeffs": wp.array2d(dtype=_lanes), "out": wp.array2d(dtype=_lanes)})
+
+
 @wp.kernel
-def scatter_values(values: wp.array(dtype=wp.vec3), index: wp.array(dtype=wp.int64), out: wp.array(dtype=wp.vec3)):
+def scatter_values(values: wp.array(dtype=Any), index: wp.array(dtype=wp.int64), out: wp.array(dtype=Any)):
     """out[index[t]] = values[t]: computed pixels into an image that holds the mean elsewhere."""
     t = wp.tid()
     out[index[t]] = values[t]
+
+
+for _lanes in (float, wp.vec3):
+    wp.overload(scatter_values, {"values": wp.array(dtype=_lanes), "out": wp.array(dtype=_lanes)})
 
 
 # ------------------------------------------------------------------- points
@@ -474,13 +612,29 @@ class TextonLookup:
     order: int
 
 
+@wp.struct
+class TextonLookup1:
+    # the same, one channel
+    coeffs: wp.array2d(dtype=float)
+    row0: int
+    rows: int
+    order: int
+
+
 @wp.func
 def add_texton(t: TextonLookup, d: wp.vec2, acc: wp.vec3):
     return acc + texton_value(t.coeffs, t.row0, t.rows, d, t.order)
 
 
-#: Σ h(x − q) over the impacts q with x − q in [lo, hi] (see impacts.cell_walk).
+@wp.func
+def add_texton(t: TextonLookup1, d: wp.vec2, acc: float):  # noqa: F811 (a Warp overload)
+    return acc + texton_value(t.coeffs, t.row0, t.rows, d, t.order)
+
+
+#: Σ h(x − q) over the impacts q with x − q in [lo, hi] (see impacts.cell_walk),
+#: three channels and one.
 sum_textons = cell_walk(add_texton, "sum_textons")
+sum_textons1 = cell_walk(add_texton, "sum_textons1", zero=wp.float32)
 
 
 @wp.struct
@@ -505,6 +659,26 @@ class PlaneNoise:
     coeffs: wp.array2d(dtype=wp.vec3)
 
 
+@wp.struct
+class PlaneNoise1:
+    """Texton noise in the plane of a one-channel (grey) texton (the device API).
+
+    Filled on the host by :func:`warp_texton.device.pack_plane` with
+    ``channels=1``; ``plane_value`` of it returns a float, and reads one float a
+    texel where ``PlaneNoise`` reads three.
+
+    Attributes
+    ----------
+    params : NoiseParams
+        As in ``PlaneNoise`` (the mean and integral in the first component).
+    coeffs : wp.array2d(dtype=float)
+        The texton's coefficients with a zero margin of ``PAD`` texels.
+    """
+
+    params: NoiseParams
+    coeffs: wp.array2d(dtype=float)
+
+
 @wp.func
 def plane_value(noise: PlaneNoise, x: wp.vec2d) -> wp.vec3:
     """Texton noise at the texel-space point ``x`` (CGF eq. (2)).
@@ -524,17 +698,48 @@ def plane_value(noise: PlaneNoise, x: wp.vec2d) -> wp.vec3:
     return normalize(sum_textons(x, p.lo, p.hi, p.cells, look), p)
 
 
-@wp.kernel
-def evaluate_points(
-    p: NoiseParams,
-    coeffs: wp.array2d(dtype=wp.vec3),
-    points: wp.array(dtype=wp.vec2d),
-    out: wp.array(dtype=wp.vec3),
-):
-    """Noise at arbitrary points (texel units), drawing each nearby cell's impacts:
-    ``plane_value``, the device API's function, at each point."""
-    t = wp.tid()
+@wp.func
+def plane_value(noise: PlaneNoise1, x: wp.vec2d) -> float:  # noqa: F811 (a Warp overload)
+    """Texton noise of a one-channel texton at the texel-space point ``x``: the
+    first component of ``plane_value`` of the same texton packed as three
+    channels, bit for bit."""
+    p = noise.params
+    look = TextonLookup1()
+    look.coeffs = noise.coeffs
+    look.row0 = 0
+    look.rows = noise.coeffs.shape[0]
+    look.order = p.order
+    return normalize(sum_textons1(x, p.lo, p.hi, p.cells, look), p)
+
+
+@wp.func
+def plane_noise(p: NoiseParams, coeffs: wp.array2d(dtype=wp.vec3)):
     noise = PlaneNoise()
     noise.params = p
     noise.coeffs = coeffs
-    out[t] = plane_value(noise, points[t])
+    return noise
+
+
+@wp.func
+def plane_noise(p: NoiseParams, coeffs: wp.array2d(dtype=float)):  # noqa: F811 (a Warp overload)
+    noise = PlaneNoise1()
+    noise.params = p
+    noise.coeffs = coeffs
+    return noise
+
+
+@wp.kernel
+def evaluate_points(
+    p: NoiseParams,
+    coeffs: wp.array2d(dtype=Any),
+    points: wp.array(dtype=wp.vec2d),
+    out: wp.array(dtype=Any),
+):
+    """Noise at arbitrary points (texel units), drawing each nearby cell's impacts:
+    ``plane_value``, the device API's function, at each point (one channel or three)."""
+    t = wp.tid()
+    out[t] = plane_value(plane_noise(p, coeffs), points[t])
+
+
+for _lanes in (float, wp.vec3):
+    wp.overload(evaluate_points, {"coeffs": wp.array2d(dtype=_lanes), "out": wp.array(dtype=_lanes)})

@@ -16,8 +16,21 @@ def plane_at(noise: td.PlaneNoise, points: wp.array(dtype=wp.vec2d), out: wp.arr
 
 
 @wp.kernel
+def plane_grey_at(noise: td.PlaneNoise1, points: wp.array(dtype=wp.vec2d), out: wp.array(dtype=float)):
+    t = wp.tid()
+    out[t] = td.plane_value(noise, points[t])
+
+
+@wp.kernel
 def filtered_at(noise: td.FilteredNoise, points: wp.array(dtype=wp.vec2d), footprints: wp.array(dtype=wp.mat22),
                 out: wp.array(dtype=wp.vec3)):
+    t = wp.tid()
+    out[t] = td.filtered_value(noise, points[t], footprints[t])
+
+
+@wp.kernel
+def filtered_grey_at(noise: td.FilteredNoise1, points: wp.array(dtype=wp.vec2d),
+                     footprints: wp.array(dtype=wp.mat22), out: wp.array(dtype=float)):
     t = wp.tid()
     out[t] = td.filtered_value(noise, points[t], footprints[t])
 

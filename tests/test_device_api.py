@@ -54,6 +54,33 @@ def example_module():
 
 # ------------------------------------------------------------------- plane
 @pytest.mark.parametrize("order", [0, 1, 3])
+def test_grey_plane_value_is_the_first_channel(order, device):
+    """A grey texton packed on one channel (PlaneNoise1: float coefficients, a float
+    value) gives evaluate's values, and the first component of its three-channel
+    form, bit for bit."""
+    texton = random_texton((9, 11), channels=1, order=order, seed=order + 4)
+    rng = np.random.default_rng(order)
+    pts = np.concatenate([rng.uniform(-60, 60, (300, 2)), rng.uniform(-3, 3, (50, 2)) + [-1.0e6, 2.0e6]])
+    grey = td.pack_plane(texton, mni=25, seed=3, device=device, channels=1)
+    assert grey.coeffs.dtype == wp.float32 and grey.coeffs.ndim == 2
+    out = wp.zeros(len(pts), dtype=float, device=device)
+    wp.launch(user.plane_grey_at, dim=len(pts), inputs=[grey, wp.array(pts, dtype=wp.vec2d, device=device)],
+              outputs=[out], device=device)
+    three = launch(user.plane_at, len(pts), [td.pack_plane(texton, mni=25, seed=3, device=device),
+                                             wp.array(pts, dtype=wp.vec2d, device=device)], device)
+    want = evaluate(texton, pts, mni=25, seed=3, device=device)
+    assert np.array_equal(out.numpy(), want[:, 0]) and np.array_equal(out.numpy(), three[:, 0])
+    assert np.ptp(want) > 0
+
+
+def test_pack_plane_channels_errors():
+    with pytest.raises(TextonError, match="channels must be 1 or 3"):
+        td.pack_plane(random_texton((4, 4), channels=1), device="cpu", channels=2)
+    with pytest.raises(TextonError, match="channels=1 packs a grey texton"):
+        td.pack_plane(colour_texton(), device="cpu", channels=1)
+
+
+@pytest.mark.parametrize("order", [0, 1, 3])
 @pytest.mark.parametrize("seed, period", [(0, None), (7, (40.0, 30.5))])
 def test_plane_value_is_evaluate(order, seed, period, device):
     texton = colour_texton(order)
@@ -141,6 +168,25 @@ def test_filtered_value_is_filtered_synthesize(options, order, device):
                                                     device=device)], device)
     assert np.array_equal(got.reshape(h, w, 3), raster)
     assert np.ptp(raster[0, :, 0]) > 0 and np.ptp(raster[:, 0, 0]) > 0
+
+
+@pytest.mark.parametrize("kind", ["mip", "anisotropic"])
+def test_grey_filtered_value_is_the_first_channel(kind, device):
+    """A grey texton's FilteredNoise1 gives, bit for bit, the first component of its
+    three-channel FilteredNoise (the same lookups on one float a texel)."""
+    texton = random_texton((12, 9), channels=1, seed=8)
+    rng = np.random.default_rng(1)
+    pts = rng.uniform(-50, 50, (300, 2))
+    J = (rng.normal(size=(300, 2, 2)) * 4.0).astype(np.float32)
+    args = [wp.array(pts, dtype=wp.vec2d, device=device), wp.array(J, dtype=wp.mat22, device=device)]
+    out = wp.zeros(len(pts), dtype=float, device=device)
+    wp.launch(user.filtered_grey_at, dim=len(pts), inputs=[td.pack_filtered(texton, seed=2, filter=kind, device=device,
+                                                                            channels=1), *args],
+              outputs=[out], device=device)
+    three = launch(user.filtered_at, len(pts), [td.pack_filtered(texton, seed=2, filter=kind, device=device), *args],
+                   device)
+    assert np.array_equal(out.numpy(), three[:, 0])
+    assert np.ptp(three[:, 0]) > 0 and not three[:, 1:].any()
 
 
 def test_filtered_value_of_a_pixel_footprint_is_plane_value(device):

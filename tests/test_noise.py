@@ -771,3 +771,79 @@ class TestParamsAndBudgets:
                 synthesize_batch(t, 4, (16, 16), device="cpu")
         finally:
             set_work_budget(None)
+
+
+# ------------------------------------------------------- grey on one lane
+def grey_and_coloured(order: int, seed: int):
+    """A grey texton and a three-channel one whose first channel is the grey
+    texton's (the others the same support, other values and means)."""
+    grey = random_texton((10, 13), channels=1, order=order, seed=seed)
+    a = grey.coeffs[..., 0]
+    coloured = Texton(np.stack([a, 2.0 * a, -0.5 * a], axis=-1), mean=[grey.mean[0], 0.2, 0.7], order=order)
+    assert coloured.support_area == grey.support_area  # the same λ, so the same impacts
+    return grey, coloured
+
+
+@pytest.mark.parametrize("order", [0, 1, 3])
+@pytest.mark.parametrize("method", ["splat", "gather"])
+def test_grey_raster_is_the_first_channel_of_the_three_lane_path(order, method, device):
+    """A grey texton's raster (one float a texel through the kernels) is, bit for bit,
+    the first channel of the three-lane raster of a texton with the same first
+    channel: on the grid splat, scaled, rotated and offset windows, and in strips."""
+    if method == "splat" and device != "cpu":
+        pytest.skip("the splat runs on the CPU")
+    grey, coloured = grey_and_coloured(order, seed=order + 11)
+    cases = [dict(shape=(97, 131)), dict(shape=(40, 70), offset=(-3.3e3, 812.25), pixel_offset=(-77, 301)),
+             dict(shape=(45, 38), scale=0.7, rotation=25.0), dict(shape=(33, 52), scale=1.6),
+             dict(shape=(30, 41), period=(50.0, 37.5), mni=7.0)]
+    for kw in cases:
+        kw = {"mni": 20.0, "seed": 9, **kw}
+        one = synthesize(grey, device=device, method=method, **kw)
+        three = synthesize(coloured, device=device, method=method, **kw)
+        assert one.shape == three.shape[:2] + (1,) and one.dtype == np.float32
+        assert np.array_equal(one[..., 0], three[..., 0]), kw
+        assert np.ptp(one) > 0
+
+
+@pytest.mark.parametrize("filt", ["mip", "anisotropic", "supersample"])
+def test_grey_filtered_rasters_are_the_first_channel_of_the_three_lane_path(filt, device):
+    """Filtered rasters and plane views of a grey texton (one lane through the
+    filter kernels) equal the first channel of the three-lane path bit for bit."""
+    from warp_texton import FilterOptions, render_plane
+
+    grey, coloured = grey_and_coloured(1, seed=3)
+    f = FilterOptions("supersample", supersample=2) if filt == "supersample" else filt
+    J = np.zeros((24, 30, 2, 2))
+    J[..., 0, 0] = 1.0
+    J[..., 1, 1] = np.linspace(1.0, 12.0, 24)[:, None]
+    for kw in (dict(scale=0.25, rotation=15.0), dict(jacobian=J)):
+        one = synthesize(grey, (24, 30), filter=f, seed=6, device=device, **kw)
+        three = synthesize(coloured, (24, 30), filter=f, seed=6, device=device, **kw)
+        assert one.shape == (24, 30, 1) and np.array_equal(one[..., 0], three[..., 0]), kw
+    one = render_plane(grey, (32, 40), filter=f, tilt=60.0, texel_size=0.01, seed=6, device=device)
+    three = render_plane(coloured, (32, 40), filter=f, tilt=60.0, texel_size=0.01, seed=6, device=device)
+    assert np.array_equal(one[..., 0], three[..., 0]) and np.ptp(one) > 0
+
+
+def test_grey_points_are_the_first_channel_of_the_three_lane_path(device):
+    grey, coloured = grey_and_coloured(1, seed=5)
+    pts = np.random.default_rng(2).uniform(-80.0, 80.0, (400, 2))
+    one = evaluate(grey, pts, mni=15, seed=2, device=device)
+    three = evaluate(coloured, pts, mni=15, seed=2, device=device)
+    assert one.shape == (400, 1) and np.array_equal(one[:, 0], three[:, 0])
+
+
+def test_grey_textons_take_one_lane():
+    """The canvas and the texton stack of a grey texton without a histogram
+    transform hold one float a value; colour textons, three."""
+    import warp as wp
+
+    from warp_texton.canvas import Canvas, lanes_for
+    from warp_texton.raster import TextonStack
+
+    grey, coloured = grey_and_coloured(1, seed=1)
+    assert lanes_for([grey]) == 1 and lanes_for([coloured]) == 3 and lanes_for([grey, coloured]) == 3
+    stack = TextonStack.of([np.zeros((6, 7, 3), np.float32)], lanes=1)
+    assert stack.coeffs.shape == (6, 7, 1)
+    canvas = Canvas((4, 5), "cpu", lanes=1)
+    assert canvas.host is not None and canvas.host.shape == (4, 5, 1) and canvas.rows(5).dtype == wp.float32

@@ -31,12 +31,22 @@ STRIP_WORK = 1 << 22
 OUTPUTS = ("numpy", "warp")
 #: Bytes of one float32 vec3 value: the kernels' view of three channels.
 VEC3_BYTES = 12
+#: Channels a canvas holds per value: 1 (a grey texton without a histogram
+#: transform: its kernels read and write one float) or 3 (vec3: every other case).
+LANES = (1, 3)
+
+
+def lanes_for(textons: Sequence[Texton]) -> int:
+    """The lanes a canvas for ``textons`` needs: 1 when all are grey and none has a
+    histogram transform (its mapping works on three lanes), else 3."""
+    return 1 if all(t.channels == 1 and t.histogram is None for t in textons) else 3
 
 
 class Canvas:
-    """Float32 output memory ``shape`` + (3,) that the kernels write through vec3
-    views: NumPy on the CPU (zero pages, touched first by the threads that fill
-    them), a ``wp.array`` on a CUDA device.
+    """Float32 output memory ``shape`` + (lanes,) that the kernels write through
+    vec3 views (``lanes`` 3, the default) or float views (``lanes`` 1, grey
+    textons: see :func:`lanes_for`): NumPy on the CPU (zero pages, touched first
+    by the threads that fill them), a ``wp.array`` on a CUDA device.
 
     ``result(channels, output, textons=...)`` hands it over as NumPy
     (``output="numpy"``; a copy from a GPU) or as a ``wp.array`` on the device
@@ -46,15 +56,19 @@ class Canvas:
     variance they kept (:meth:`keep_shares`).
     """
 
-    def __init__(self, shape, device):
+    def __init__(self, shape, device, lanes: int = 3):
+        if lanes not in LANES:
+            raise ValueError(f"lanes must be one of {LANES}, got {lanes!r}")
         self.shape = tuple(int(s) for s in shape)
         self.device = device
+        self.lanes = lanes
+        self.dtype = wp.float32 if lanes == 1 else wp.vec3
         if is_cpu(device):
-            self.host: np.ndarray | None = np.zeros(self.shape + (3,), np.float32)
+            self.host: np.ndarray | None = np.zeros(self.shape + (lanes,), np.float32)
             self.data: wp.array = wp.array(self.host, dtype=wp.float32, device=device, copy=False)
         else:
             self.host = None
-            self.data = wp.zeros(self.shape + (3,), dtype=wp.float32, device=device)
+            self.data = wp.zeros(self.shape + (lanes,), dtype=wp.float32, device=device)
         self.size = int(np.prod(self.shape))
         self.shares: np.ndarray | None = None
 
@@ -65,13 +79,13 @@ class Canvas:
         self.shares[start:stop] = shares
 
     def pixels(self, start: int, stop: int) -> wp.array:
-        """Values start…stop (row-major order) as a 1-D vec3 view."""
-        return wp.array(ptr=self.data.ptr + start * VEC3_BYTES, dtype=wp.vec3, shape=(stop - start,),
+        """Values start…stop (row-major order) as a 1-D view (vec3, or float for one lane)."""
+        return wp.array(ptr=self.data.ptr + start * 4 * self.lanes, dtype=self.dtype, shape=(stop - start,),
                         device=self.device)
 
     def rows(self, width: int) -> wp.array:
-        """All values as a (size / width, width) vec3 view."""
-        return wp.array(ptr=self.data.ptr, dtype=wp.vec3, shape=(self.size // width, width), device=self.device)
+        """All values as a (size / width, width) view (vec3, or float for one lane)."""
+        return wp.array(ptr=self.data.ptr, dtype=self.dtype, shape=(self.size // width, width), device=self.device)
 
     @overload
     def result(self, channels: int, output: Literal["numpy"], *,
@@ -86,12 +100,13 @@ class Canvas:
         if any(t is not None and t.histogram is not None for t in textons):
             self._to_colours(textons)
         if output == "warp":
-            return self.data if channels == 3 else \
+            return self.data if channels == self.lanes else \
                 self.data[(slice(None),) * len(self.shape) + (slice(0, channels),)].contiguous()
         a = self.host if self.host is not None else self.data.numpy()
-        return a if channels == 3 else np.ascontiguousarray(a[..., :channels])
+        return a if channels == self.lanes else np.ascontiguousarray(a[..., :channels])
 
     def _to_colours(self, textons) -> None:
+        assert self.lanes == 3, "histogram transforms map three lanes (lanes_for)"
         a = self.host if self.host is not None else self.data.numpy()
         flat = a.reshape(len(textons), -1, 3)
         per = flat.shape[1]
@@ -103,7 +118,7 @@ class Canvas:
 
 
 def fill_pixels(out, index: np.ndarray, mean, device, compute) -> None:
-    """``out`` (an (N,) vec3 array) holds ``mean`` except at ``index``, where
+    """``out`` (an (N,) vec3 or float array) holds ``mean`` except at ``index``, where
     ``compute(target)`` writes its values (into ``out`` itself when every pixel
     is computed, else through a scatter on the device)."""
     n = out.shape[0]
@@ -111,9 +126,12 @@ def fill_pixels(out, index: np.ndarray, mean, device, compute) -> None:
         if index.size == n:
             compute(out)
             return
-        out.fill_(wp.vec3(*(float(v) for v in mean)))
+        if out.dtype == wp.float32:  # one lane
+            out.fill_(float(mean[0]))
+        else:
+            out.fill_(wp.vec3(*(float(v) for v in mean)))
         if index.size:
-            values = wp.empty(index.size, dtype=wp.vec3)
+            values = wp.empty(index.size, dtype=out.dtype)
             compute(values)
             wp.launch(K.scatter_values, dim=index.size, inputs=[values, wp.array(index.astype(np.int64), dtype=wp.int64), out])
 
@@ -130,15 +148,15 @@ def group_size(h: int, w: int) -> int:
     return max(1, STRIP_WORK // (h * w))
 
 
-def result_bytes(count: int, h: int, w: int, channels: int, device, output: str) -> int:
-    """Bytes of a float32 (count, H, W, 3) canvas plus what handing it over copies."""
+def result_bytes(count: int, h: int, w: int, channels: int, device, output: str, lanes: int = 3) -> int:
+    """Bytes of a float32 (count, H, W, lanes) canvas plus what handing it over copies."""
     n = count * h * w
     extra = 0
-    if channels != 3:
+    if channels != lanes:
         extra = n * channels * 4  # the channels taken out of the canvas
     elif output == "numpy" and not is_cpu(device):
-        extra = n * VEC3_BYTES  # the copy to the host
-    return n * VEC3_BYTES + extra
+        extra = n * lanes * 4  # the copy to the host
+    return n * lanes * 4 + extra
 
 
 def check_output(output) -> str:

@@ -9,6 +9,8 @@ kernel.
 | host packer | struct | device functions |
 | --- | --- | --- |
 | :func:`pack_plane` | ``PlaneNoise`` | ``plane_value(noise, x: wp.vec2d) -> wp.vec3`` |
+| :func:`pack_plane` (``channels=1``) | ``PlaneNoise1`` | ``plane_value(noise, x: wp.vec2d) -> float`` |
+| :func:`pack_filtered` (``channels=1``) | ``FilteredNoise1`` | ``filtered_value(noise, x, J) -> float`` |
 | :func:`pack_filtered` | ``FilteredNoise`` | ``filtered_value(noise, x: wp.vec2d, J: wp.mat22) -> wp.vec3`` |
 | :func:`pack_surface` | ``SurfaceNoise`` | ``surface_value(noise, x: wp.vec3d, normal: wp.vec3d) -> wp.vec3``, ``surface_frame_value(noise, y: wp.vec3d, n: wp.vec3, u1: wp.vec3) -> wp.vec3`` |
 | :func:`pack_colours` | ``ColourMap`` | ``colour_value(cmap, v: wp.vec3) -> wp.vec3``, ``filtered_colour(fnoise, cmap, x: wp.vec2d, J: wp.mat22) -> wp.vec3``, ``colour_share``, ``filtered_share``, ``footprint_share`` |
@@ -72,8 +74,8 @@ from .filtering import filter_struct, pyramid_struct
 from .frames import UP
 from .kernels.colours import (ColourMap, colour_share, colour_value, filtered_colour, filtered_share,
                               footprint_share)
-from .kernels.filter2d import FilteredNoise, filtered_value
-from .kernels.noise2d import PlaneNoise, plane_value
+from .kernels.filter2d import FilteredNoise, FilteredNoise1, filtered_value
+from .kernels.noise2d import PlaneNoise, PlaneNoise1, plane_value
 from .kernels.surface import SurfaceNoise, surface_frame_value, surface_value
 from .noise import CELL_FACTOR, noise_params, noise_setup
 from .noise_options import NoiseOptions
@@ -81,9 +83,19 @@ from .surface import CELL_FACTOR as SURFACE_CELL_FACTOR
 from .surface import surface_options, surface_params, surface_setup
 from .texton import Texton
 
-__all__ = ["pack_plane", "pack_filtered", "pack_surface", "pack_colours", "PlaneNoise", "FilteredNoise",
+__all__ = ["pack_plane", "pack_filtered", "pack_surface", "pack_colours", "PlaneNoise", "PlaneNoise1", "FilteredNoise",
+           "FilteredNoise1",
            "SurfaceNoise", "ColourMap", "plane_value", "filtered_value", "surface_value", "surface_frame_value",
            "colour_value", "colour_share", "filtered_colour", "filtered_share", "footprint_share"]
+
+
+def _check_channels(texton, channels) -> None:
+    """1 (a grey texton's one lane) or 3."""
+    if channels not in (1, 3) or isinstance(channels, bool):
+        raise TextonError(f"channels must be 1 or 3, got {channels!r:.60}", param="channels")
+    if channels == 1 and isinstance(texton, Texton) and texton.channels != 1:
+        raise TextonError(f"channels=1 packs a grey texton; this texton has {texton.channels} channels "
+                          "(use channels=3)", param="channels")
 
 
 def _plane_settings(texton, noise: NoiseOptions):
@@ -102,7 +114,8 @@ def pack_plane(
     poisson: str = "exact",
     cell_factor: float = CELL_FACTOR,
     noise: NoiseOptions | None = None,
-) -> PlaneNoise:
+    channels: int = 3,
+) -> PlaneNoise | PlaneNoise1:
     """The plane noise of ``texton`` packed for ``plane_value`` in a user's kernel.
 
     Parameters
@@ -117,19 +130,26 @@ def pack_plane(
     device : str, optional
         Where the struct's coefficient array lives and its kernels run: "cpu",
         "cuda", "cuda:N"; default CUDA when available, else the CPU.
+    channels : {3, 1}
+        3: a ``PlaneNoise`` (vec3 coefficients, ``plane_value`` returns a
+        ``wp.vec3``). 1, for a grey texton: a ``PlaneNoise1`` (float
+        coefficients, ``plane_value`` returns a float and reads one float a
+        texel, a third of the memory traffic), equal to the first component
+        of the three-channel form.
 
     Returns
     -------
-    PlaneNoise
+    PlaneNoise or PlaneNoise1
         A ``@wp.struct`` to pass to a kernel: ``plane_value(noise, x)`` is
-        ``evaluate(texton, [x], ...)[0]`` (padded to three components) bit
-        for bit on ``device``.
+        ``evaluate(texton, [x], ...)[0]`` (padded to three components, or its
+        one component) bit for bit on ``device``.
 
     Raises
     ------
     TextonError
         For the ``texton``, ``mni``, ``seed``, ``period``, ``device``,
-        ``poisson`` and ``cell_factor`` errors of :func:`~warp_texton.evaluate`.
+        ``poisson`` and ``cell_factor`` errors of :func:`~warp_texton.evaluate`;
+        for ``channels`` other than 1 or 3, or 1 with a texton of three channels.
 
     Examples
     --------
@@ -139,13 +159,21 @@ def pack_plane(
     >>> noise = pack_plane(texton, mni=30, seed=1, period=(64, 64), device="cpu")
     >>> int(noise.params.cells.seed), noise.coeffs.shape
     (1, (18, 18))
+    >>> pack_plane(texton, device="cpu", channels=1).coeffs.dtype.__name__
+    'float32'
     """
     noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
+    _check_channels(texton, channels)
     setup, params = _plane_settings(texton, noise)
     device = resolve_device(device)
-    struct = PlaneNoise()
+    struct: PlaneNoise | PlaneNoise1
+    if channels == 1:
+        struct = PlaneNoise1()
+        struct.coeffs = wp.array(setup.coeffs[..., 0].copy(), dtype=wp.float32, device=device)
+    else:
+        struct = PlaneNoise()
+        struct.coeffs = wp.array(setup.coeffs, dtype=wp.vec3, device=device)
     struct.params = params
-    struct.coeffs = wp.array(setup.coeffs, dtype=wp.vec3, device=device)
     return struct
 
 
@@ -160,7 +188,8 @@ def pack_filtered(
     cell_factor: float = CELL_FACTOR,
     filter="anisotropic",
     noise: NoiseOptions | None = None,
-) -> FilteredNoise:
+    channels: int = 3,
+) -> FilteredNoise | FilteredNoise1:
     """The noise of ``texton`` and a footprint filter, packed for ``filtered_value`` in a user's kernel.
 
     Parameters
@@ -172,10 +201,13 @@ def pack_filtered(
         A filter that looks the texton up in its MIP pyramid at each
         footprint (CGF §5), with its settings (``max_aniso``, ``lod_bias``,
         ``fade_energy``), as :func:`~warp_texton.synthesize` takes it.
+    channels : {3, 1}
+        As in :func:`pack_plane`: 1, for a grey texton, packs a
+        ``FilteredNoise1`` whose ``filtered_value`` returns a float.
 
     Returns
     -------
-    FilteredNoise
+    FilteredNoise or FilteredNoise1
         A ``@wp.struct``: ``filtered_value(noise, x, J)`` is the pixel of
         ``synthesize(..., filter=filter, jacobian=J)`` centred on ``x``, bit
         for bit on ``device``.
@@ -203,12 +235,13 @@ def pack_filtered(
                           f"{options.kind!r} (use pack_plane and plane_value for the unfiltered noise)",
                           param="filter")
     noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
+    _check_channels(texton, channels)
     _, params = _plane_settings(texton, noise)
     device = resolve_device(device)
-    struct = FilteredNoise()
+    struct: FilteredNoise | FilteredNoise1 = FilteredNoise1() if channels == 1 else FilteredNoise()
     struct.params = params
     with wp.ScopedDevice(device):
-        struct.pyramid = pyramid_struct(texton, options.fade_energy)
+        struct.pyramid = pyramid_struct(texton, options.fade_energy, channels)
     struct.filter = filter_struct(options)
     return struct
 

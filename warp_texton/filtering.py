@@ -239,11 +239,17 @@ def pyramid_stack(texton: Texton, fade_energy: float = FADE_ENERGY) -> PyramidSt
                         kept_levels(texton, levels, fade_energy), texton.order)
 
 
-def pyramid_struct(texton: Texton, fade_energy: float = FADE_ENERGY) -> F.Pyramid:
-    """The kernels' ``Pyramid`` of ``texton`` (arrays on the current device)."""
+def pyramid_struct(texton: Texton, fade_energy: float = FADE_ENERGY, lanes: int = 3) -> F.Pyramid | F.Pyramid1:
+    """The kernels' ``Pyramid`` of ``texton`` (arrays on the current device); with
+    ``lanes`` 1 (a grey texton), a ``Pyramid1`` of float coefficients."""
     st = pyramid_stack(texton, fade_energy)
-    pyr = F.Pyramid()
-    pyr.coeffs = wp.array(st.coeffs, dtype=wp.vec3)
+    pyr: F.Pyramid | F.Pyramid1
+    if lanes == 1:
+        pyr = F.Pyramid1()
+        pyr.coeffs = wp.array(np.ascontiguousarray(st.coeffs[..., 0]), dtype=wp.float32)
+    else:
+        pyr = F.Pyramid()
+        pyr.coeffs = wp.array(st.coeffs, dtype=wp.vec3)
     pyr.row0 = wp.array(st.row0, dtype=wp.int32)
     pyr.rows = wp.array(st.rows, dtype=wp.int32)
     pyr.step = wp.array(st.step, dtype=float)
@@ -482,14 +488,14 @@ def filter_pixels(p, texton: Texton, setup: NoiseSetup, pixels: PixelSet, option
     """(pixels.count, 3) values of the noise of ``p`` at ``pixels``, filtered as ``options`` say
     (the front ends check the cost first: :func:`check_filter_cost`).
 
-    With ``out`` (a (pixels.count,) vec3 array on ``device``) the values are
-    written there and nothing is returned.
+    With ``out`` (a (pixels.count,) vec3 array on ``device``, or a float one for a
+    grey texton: one lane) the values are written there and nothing is returned.
     """
     if options.spec.supersamples:
         values = supersampled(p, setup.coeffs, pixels, options.supersample, seed, device, cell_limit(setup), progress)
         if out is None:
             return values
-        out.assign(values)  # averaged on the host: one upload
+        out.assign(np.ascontiguousarray(values[:, 0]) if out.dtype == wp.float32 else values)  # one upload
         return None
     if not options.spec.footprint:
         return point_values(p, setup.coeffs, pixels.centres(0, pixels.count), device, out)
@@ -521,10 +527,11 @@ def filter_struct(options: FilterOptions) -> F.Filter:
 
 def filtered_points(p, texton: Texton, pixels: PixelSet, options: FilterOptions, device, out=None) -> np.ndarray | None:
     """(N, 3) "mip" or "anisotropic" values at the pixels' centres and footprints
-    (written into ``out`` when given)."""
+    (written into ``out`` when given: a vec3 array, or a float one for a grey
+    texton's one lane)."""
     f = filter_struct(options)
     with wp.ScopedDevice(device):
-        pyr = pyramid_struct(texton, options.fade_energy)
+        pyr = pyramid_struct(texton, options.fade_energy, 1 if out is not None and out.dtype == wp.float32 else 3)
 
         def launch(start, stop, res):
             pts, J = pixels.centres(start, stop), pixels.footprints(start, stop)

@@ -244,18 +244,23 @@ def params_mean(p: K.NoiseParams) -> np.ndarray:
 def point_values(p, coeffs: np.ndarray, pts: np.ndarray, device, out=None) -> np.ndarray | None:
     """(N, 3) unfiltered noise at float64 points (N, 2), split over threads on the CPU.
 
-    With ``out`` (an (N,) vec3 array on ``device``) the values are written there
-    and nothing is returned.
+    With ``out`` (an (N,) array on ``device``) the values are written there and
+    nothing is returned; a float ``out`` takes one channel (a grey texton's: its
+    kernels then read one float a texel), a vec3 one three.
     """
     with wp.ScopedDevice(device):
-        c: wp.array = wp.array(coeffs, dtype=wp.vec3)
         if out is not None:
+            one = out.dtype == wp.float32
+            c: wp.array = (wp.array(np.ascontiguousarray(coeffs[..., 0]), dtype=wp.float32) if one
+                           else wp.array(coeffs, dtype=wp.vec3))
+
             def launch(start, stop):
                 wp.launch(K.evaluate_points, dim=stop - start,
                           inputs=[p, c, wp.array(pts[start:stop], dtype=wp.vec2d), out[start:stop]])
 
             split_launch(device, K, pts.shape[0], launch)
             return None
+        c = wp.array(coeffs, dtype=wp.vec3)
 
         def values(start, stop):
             res = wp.zeros(stop - start, dtype=wp.vec3)

@@ -14,7 +14,7 @@ import numpy as np
 
 from ._checks import check_positive, check_real, check_seed, check_shape
 from ._runtime import progress_bar, resolve_device
-from .canvas import Canvas, check_output, fill_pixels, result_bytes, strips
+from .canvas import Canvas, check_output, fill_pixels, lanes_for, result_bytes, strips
 from .colours import to_colours
 from .errors import TextonError
 from .filtering import (COST_SAMPLES, FilterOptions, PixelSet, check_filter_cost, filter_pixels, pixel_cost,
@@ -315,10 +315,11 @@ def render_plane(
     check_seed(seed)
     device = resolve_device(device)
     check_plane_cost(texton, setup, camera, None, options)
-    check_memory(result_bytes(1, h, w, texton.channels, device, output) + h * w * 16,
+    lanes = lanes_for([texton])  # a grey texton's view: one float a pixel through the kernels
+    check_memory(result_bytes(1, h, w, texton.channels, device, output, lanes) + h * w * 16,
                  f"a {h}x{w} plane view", "use a smaller shape", mentions=("shape",))
     p = noise_params(texton, setup, seed)
-    canvas = Canvas((h, w), device)
+    canvas = Canvas((h, w), device, lanes)
     parts = strips(h, w, pixel_cost(options, True))
     bar = progress_bar(progress and len(parts) > 1, h, "render-plane", "row")
     try:

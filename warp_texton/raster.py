@@ -24,7 +24,7 @@ import warp as wp
 
 from ._checks import check_positive, check_real
 from ._runtime import BANDS_PER_THREAD, is_cpu, split_launch
-from .canvas import VEC3_BYTES, Canvas, strips
+from .canvas import LANES, VEC3_BYTES, Canvas, strips
 from .errors import TextonError
 from .kernels import noise2d as K
 from .limits import check_memory, check_work, checkpoint
@@ -118,29 +118,43 @@ class RasterWindow:
 @dataclass(frozen=True)
 class TextonStack:
     """Padded textons stacked along the rows (one common width): entry k holds
-    ``count[k]`` textons of ``rows[k]`` rows each from row ``row0[k]``, ``cols[k]`` wide."""
+    ``count[k]`` textons of ``rows[k]`` rows each from row ``row0[k]``, ``cols[k]`` wide,
+    with ``lanes`` channels a texel (1: grey textons, read and splatted as one
+    float; 3: the kernels' vec3)."""
 
-    coeffs: np.ndarray  # (total rows, width, 3) float32
+    coeffs: np.ndarray  # (total rows, width, lanes) float32
     row0: tuple
     rows: tuple
     cols: tuple
+    lanes: int = 3
 
     @classmethod
-    def of(cls, entries) -> "TextonStack":
+    def of(cls, entries, lanes: int = 3) -> "TextonStack":
         """Stack padded coefficient arrays (rows, cols, 3), or (R, rows, cols, 3) for
-        the R textons of mixed noise (one entry)."""
+        the R textons of mixed noise (one entry), keeping their first ``lanes``
+        channels (the others must be zero: 1 for grey textons)."""
+        if lanes not in LANES:
+            raise ValueError(f"lanes must be one of {LANES}, got {lanes!r}")
         entries = [np.asarray(e, np.float32) for e in entries]
         entries = [e[None] if e.ndim == 3 else e for e in entries]
         width = max(e.shape[2] for e in entries)
         total = sum(e.shape[0] * e.shape[1] for e in entries)
-        coeffs = np.zeros((total, width, 3), np.float32)
+        coeffs = np.zeros((total, width, lanes), np.float32)
         row0, at = [], 0
         for e in entries:
             n, r, c = e.shape[:3]
-            coeffs[at:at + n * r, :c] = e.reshape(n * r, c, 3)
+            coeffs[at:at + n * r, :c] = e.reshape(n * r, c, 3)[..., :lanes]
             row0.append(at)
             at += n * r
-        return cls(coeffs, tuple(row0), tuple(e.shape[1] for e in entries), tuple(e.shape[2] for e in entries))
+        return cls(coeffs, tuple(row0), tuple(e.shape[1] for e in entries), tuple(e.shape[2] for e in entries),
+                   lanes)
+
+    def device_array(self) -> wp.array:
+        """The coefficients as the kernels read them, on the current device: float
+        (one lane) or vec3."""
+        if self.lanes == 1:
+            return wp.array(np.ascontiguousarray(self.coeffs[..., 0]), dtype=wp.float32)
+        return wp.array(self.coeffs, dtype=wp.vec3)
 
 
 def window_block(win: RasterWindow, shape):
@@ -278,10 +292,34 @@ def window_table(windows, blocks, stack: TextonStack, shape):
     return table, ncells
 
 
+def band_impacts(win: RasterWindow, block, i0: int, i1: int, offsets: np.ndarray, first_cell: int,
+                 k0: int, k1: int) -> tuple[int, int]:
+    """The impacts k0 ≤ k < k1 of ``win`` (cells from ``first_cell`` in the
+    blocks' ``offsets``) that can reach its rows i0 ≤ i < i1: those of the cell
+    rows whose impacts' supports meet the rows, and one more cell row each side
+    (far above rounding), when the raster is unrotated (a pixel row is a row of
+    the noise); all of them otherwise. A splat band visits only these: the
+    others would add nothing to its rows, so the sums do not change."""
+    step = win.step
+    if step[0, 1] != 0.0 or step[1, 0] != 0.0 or not step[1, 1] > 0.0:
+        return k0, k1
+    cx0, cy0, ncx, ncy = block
+    ch = win.setup.cell[1]
+    r = win.first[0]
+    y_lo = win.origin[1] + step[1, 1] * (r + i0 + 0.5) - win.setup.hi[1]
+    y_hi = win.origin[1] + step[1, 1] * (r + i1 - 0.5) - win.setup.lo[1]
+    a = max(math.floor(y_lo / ch) - 1 - cy0, 0)
+    b = min(math.floor(y_hi / ch) + 1 - cy0, ncy - 1)
+    if b < a:
+        return k0, k0
+    return max(k0, int(offsets[first_cell + a * ncx])), min(k1, int(offsets[first_cell + (b + 1) * ncx]))
+
+
 def rasters(windows, stack: TextonStack, shape, device, method: str, out,
             regions: Regions | None = None, blocks=None) -> None:
-    """Evaluate the noise of every window into ``out``, a (len(windows) · H, W) vec3
-    array on ``device`` (zeroed for the splat): window b fills rows b·H….
+    """Evaluate the noise of every window into ``out``, a (len(windows) · H, W) array
+    on ``device`` of the stack's lanes (float for one, vec3 for three; zeroed for
+    the splat): window b fills rows b·H….
 
     All windows share one count/emit pass and one splat (CPU, split into row
     bands over threads) or gather launch. ``regions`` (one window only) makes
@@ -315,7 +353,7 @@ def rasters(windows, stack: TextonStack, shape, device, method: str, out,
         impact_cell = wp.empty(max(n, 1), dtype=wp.int32)
         if n:
             wp.launch(K.emit_impacts, dim=n_cells, inputs=[wins, cell_window, offsets, impacts, impact_cell])
-        coeffs: wp.array = wp.array(stack.coeffs, dtype=wp.vec3)
+        coeffs = stack.device_array()
         marks = K.Marks()
         if regions is None:
             marks.marked = 0
@@ -336,9 +374,14 @@ def rasters(windows, stack: TextonStack, shape, device, method: str, out,
                                                           wp.array(rho, dtype=float), wp.vec2i(*regions.first),
                                                           marks.labels])
         if method == "splat":
+            offs = offsets.numpy()  # a view on the CPU
 
             def band(r0, r1):
                 k0, k1 = int(starts[r0 // h]), int(starts[(r1 - 1) // h + 1])
+                if r0 // h == (r1 - 1) // h:
+                    b = r0 // h
+                    k0, k1 = band_impacts(windows[b], blocks[b], r0 - b * h, r1 - b * h, offs, int(first_cells[b]),
+                                          k0, k1)
                 if k1 > k0:
                     wp.launch(K.splat_impacts, dim=k1 - k0,
                               inputs=[wins, cell_window, coeffs, impacts, impact_cell, marks, k0, h, r0, r1, out])

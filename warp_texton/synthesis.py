@@ -22,7 +22,7 @@ import numpy as np
 
 from ._checks import as_real_array, check_shape
 from ._runtime import progress_bar, resolve_device
-from .canvas import Canvas, check_output, result_bytes, strips
+from .canvas import Canvas, check_output, lanes_for, result_bytes, strips
 from .errors import TextonError
 from .filtering import (COST_HINT_NAMES, COST_SAMPLES, FILTER_BYTES_PER_PIXEL, FilterOptions, RasterPixels,
                         check_jacobian, filter_pixels, filter_work, needs_filtering, pixel_cost, pixel_shares)
@@ -327,7 +327,9 @@ def synthesize(
     filtered = needs_filtering(J, options)
     rec = params_record(texton, setup, seed, noise.poisson)
     whole = RasterWindow(rec, setup, 0, texton.order, origin, step, (first[0], first[1]), float(scale))
-    stack = TextonStack.of([setup.coeffs])
+    # a grey texton's raster reads and writes one float a texel
+    lanes = lanes_for([texton])
+    stack = TextonStack.of([setup.coeffs], lanes)
     parts = strips(h, w, pixel_cost(options, filtered))
     strip = (parts[0][1] - parts[0][0], w)
     # one check for the call: the output and one strip at a time in memory, every strip's work
@@ -345,11 +347,11 @@ def synthesize(
         if len(parts) > 1:  # one strip's blocks at a time, each strip placing its own
             strip_bytes = raster_cost([whole], strip, stack, splat=method == "splat")[0]
             blocks = None
-    check_raster_cost(result_bytes(1, h, w, texton.channels, device, output) + strip_bytes, work, what,
+    check_raster_cost(result_bytes(1, h, w, texton.channels, device, output, lanes) + strip_bytes, work, what,
                       "use a smaller shape, or warp_texton.dask.synthesize_dask (or the CLI's .zarr output) "
                       "for rasters larger than memory", hint, mentions=("shape", *COST_HINT_NAMES))
     p = params_struct(rec) if filtered else rec
-    canvas = Canvas((h, w), device)
+    canvas = Canvas((h, w), device, lanes)
     rows = canvas.rows(w)
     bar = progress_bar(progress and len(parts) > 1, h, "synthesize", "row")
     try:
@@ -472,7 +474,7 @@ def evaluate(
     device = resolve_device(device)
     p = noise_params(texton, setup, noise.seed, noise.poisson)
     n = pts.shape[0]
-    canvas = Canvas((n,), device)
+    canvas = Canvas((n,), device, lanes_for([texton]))
     if n:
         point_values(p, setup.coeffs, np.ascontiguousarray(pts), device, canvas.pixels(0, n))
     return canvas.result(texton.channels, output, textons=[texton])
