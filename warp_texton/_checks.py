@@ -41,6 +41,12 @@ MAX_VALUE = 1.0e10
 MIN_MNI = 1.0e-3
 #: Largest magnitude float32 can hold.
 FLOAT32_MAX = float(np.finfo(np.float32).max)
+#: The range of a positive real argument (:func:`check_positive`): the value and its
+#: reciprocal are both normal float32 numbers (2**-126 to 2**126), so that neither the
+#: float32 copies the kernels take nor the quantities derived from them (a cell's size
+#: and its inverse, a texel size and the texels per unit) reach 0 or overflow.
+MIN_POSITIVE = float(np.finfo(np.float32).tiny)
+MAX_POSITIVE = 1.0 / MIN_POSITIVE
 
 
 def is_real(value) -> bool:
@@ -177,12 +183,16 @@ def check_int(value, name: str, *, minimum: int | None = None, maximum: int | No
 
 
 def check_positive(value, name: str) -> float:
-    """A finite, strictly positive real number."""
+    """A finite, strictly positive real number within [MIN_POSITIVE, MAX_POSITIVE]
+    (about 1.2e-38 to 8.5e37): itself and its reciprocal fit float32."""
     if not is_real(value):
         raise TextonError(f"{name} must be a positive number, got {value!r:.60}", param=name)
     value = float(value)
     if not math.isfinite(value) or value <= 0.0:
         raise TextonError(f"{name} must be a finite number > 0, got {value}", param=name)
+    if not MIN_POSITIVE <= value <= MAX_POSITIVE:
+        raise TextonError(f"{name} must be between {MIN_POSITIVE:.3g} and {MAX_POSITIVE:.3g} (it and its reciprocal "
+                          f"must fit float32), got {value:g}", param=name)
     return value
 
 
