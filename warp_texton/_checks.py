@@ -56,12 +56,11 @@ def is_real(value) -> bool:
 
 def check_path(value, name: str) -> Path:
     """A file name: a ``str`` or ``os.PathLike`` (not None, bytes or a number)."""
-    if isinstance(value, Path):
-        return value
     if isinstance(value, str) or (isinstance(value, os.PathLike) and isinstance(os.fspath(value), str)):
-        if not str(value) or "\x00" in str(value):
-            raise TextonError(f"{name} must be a non-empty file name, got {value!r}", param=name)
-        return Path(value)
+        if not str(value) or "\x00" in str(value):  # a Path too: it holds a NUL as any string does
+            raise TextonError(f"{name} must be a non-empty file name without NUL characters, got {value!r:.80}",
+                              param=name)
+        return value if isinstance(value, Path) else Path(value)
     raise TextonError(f"{name} must be a file name (str or path), got {type(value).__name__} {value!r:.60}",
                       param=name)
 
