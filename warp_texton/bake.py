@@ -35,13 +35,13 @@ from .atlas import CHART_METHODS, check_uvs, make_atlas, mesh_uvs, overlap_note,
 from .colours import mean_colour
 from .errors import TextonError
 from .kernels import bake as KB
-from .limits import check_memory
+from .limits import check_memory, check_work
 from .frames import UP, up_vector
 from .mesh import check_mesh, vertex_normals
 from .mesh_files import PNG_DTYPES, texture_8bit
 from .render import cast_rays, check_background
-from .surface import (check_method, check_surface_work, evaluate_points, surface_params, surface_setup,
-                      texel_positions)
+from .surface import (check_method, check_surface_work, evaluate_points, floor_visits, surface_params,
+                      surface_setup, texel_positions)
 from .texton import Texton
 
 if TYPE_CHECKING:
@@ -450,6 +450,38 @@ def bake_mesh(
     axis = up_vector(up)
     return BakedMesh(out, texture, covered, per_texel, float(np.sum((nx * ny)[inner])) / n_cov, source,
                      (float(axis[0]), float(axis[1]), float(axis[2])), dtype)
+
+
+def check_bake_arguments(texton: Texton, resolution: int, *, mni: float = 60.0, supersample: int | None = None,
+                         uv: str = "auto") -> None:
+    """Refuse, from the arguments alone (before any mesh is read), a bake that no mesh could
+    make within the budgets.
+
+    What does not depend on the mesh: the memory of the texture's setup
+    (``BYTES_PER_TEXEL`` a texel), the work of its texels' setup (``BAKE_TEXEL_OPS``
+    a texel), and the fewest samples it can take, each at the fewest operations a
+    point can cost (:func:`~warp_texton.surface.floor_visits`): ``supersample``² per
+    covered texel, over at least ``ATLAS_COVERAGE`` of the texture for ``uv="atlas"``
+    (a mesh's own UVs may cover less, so other choices count the setup alone).
+    :func:`bake_mesh` prices each mesh again, from its area and UVs, before its atlas.
+
+    Raises
+    ------
+    TextonError
+        Over the memory or the work budget, naming ``resolution``, ``supersample``
+        and ``mni``; and the errors of :func:`bake_mesh` for these arguments.
+    """
+    if not isinstance(texton, Texton):
+        raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
+    res = check_int(resolution, "resolution", minimum=1, maximum=MAX_RESOLUTION)
+    supersample, _ = _check_choices(res, uv, supersample, None, CHART_METHODS[0], PNG_DTYPES[0])
+    what = f"a {res}x{res} bake" + ("" if supersample is None else f" with {supersample}x{supersample} samples a texel")
+    check_memory(res * res * BYTES_PER_TEXEL, what, "use a smaller resolution", param="resolution")
+    setup = surface_setup(texton, mni)
+    samples = (ATLAS_COVERAGE * res * res if uv == "atlas" else 1.0) * (supersample or 1) ** 2
+    check_work(res * res * BAKE_TEXEL_OPS + samples * floor_visits(setup), f"{what} at MNI {mni:.6g}",
+               "use a smaller resolution, a smaller supersample or a lower mni", param="supersample",
+               mentions=("resolution", "supersample", "mni"), early=True)
 
 
 def _mesh_uvs(own_uv: np.ndarray, vertices: np.ndarray, faces: np.ndarray, name: str):
