@@ -54,6 +54,14 @@ def is_real(value) -> bool:
     return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
 
 
+def _float(value) -> float:
+    """A real number as a float; an integer too large for one is infinite (and refused as such)."""
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf if value > 0 else -math.inf
+
+
 def check_path(value, name: str) -> Path:
     """A file name: a ``str`` or ``os.PathLike`` (not None, bytes or a number)."""
     if isinstance(value, str) or (isinstance(value, os.PathLike) and isinstance(os.fspath(value), str)):
@@ -186,7 +194,7 @@ def check_positive(value, name: str) -> float:
     (about 1.2e-38 to 8.5e37): itself and its reciprocal fit float32."""
     if not is_real(value):
         raise TextonError(f"{name} must be a positive number, got {value!r:.60}", param=name)
-    value = float(value)
+    value = _float(value)
     if not math.isfinite(value) or value <= 0.0:
         raise TextonError(f"{name} must be a finite number > 0, got {value}", param=name)
     if not MIN_POSITIVE <= value <= MAX_POSITIVE:
@@ -209,7 +217,7 @@ def check_real(value, name: str, *, minimum: float | None = None, maximum: float
     """A finite real number, optionally within [minimum, maximum]."""
     if not is_real(value):
         raise TextonError(f"{name} must be a number, got {value!r:.60}", param=name)
-    value = float(value)
+    value = _float(value)
     if not math.isfinite(value):
         raise TextonError(f"{name} must be a finite number, got {value}", param=name)
     if minimum is not None and value < minimum:
