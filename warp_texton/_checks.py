@@ -189,14 +189,19 @@ def check_int(value, name: str, *, minimum: int | None = None, maximum: int | No
     return value
 
 
-def check_positive(value, name: str) -> float:
-    """A finite, strictly positive real number within [MIN_POSITIVE, MAX_POSITIVE]
-    (about 1.2e-38 to 8.5e37): itself and its reciprocal fit float32."""
+def _finite_positive(value, name: str) -> float:
     if not is_real(value):
         raise TextonError(f"{name} must be a positive number, got {value!r:.60}", param=name)
     value = _float(value)
     if not math.isfinite(value) or value <= 0.0:
         raise TextonError(f"{name} must be a finite number > 0, got {value}", param=name)
+    return value
+
+
+def check_positive(value, name: str) -> float:
+    """A finite, strictly positive real number within [MIN_POSITIVE, MAX_POSITIVE]
+    (about 1.2e-38 to 8.5e37): itself and its reciprocal fit float32."""
+    value = _finite_positive(value, name)
     if not MIN_POSITIVE <= value <= MAX_POSITIVE:
         raise TextonError(f"{name} must be between {MIN_POSITIVE:.3g} and {MAX_POSITIVE:.3g} (it and its reciprocal "
                           f"must fit float32), got {value:g}", param=name)
@@ -206,11 +211,11 @@ def check_positive(value, name: str) -> float:
 def check_mni(mni, name: str = "mni") -> float:
     """A mean number of impacts per point: a finite number >= MIN_MNI (larger
     values are bounded by the work budget and the cell limits)."""
-    mni = check_positive(mni, name)
+    mni = _finite_positive(mni, name)
     if mni < MIN_MNI:
         raise TextonError(f"{name} must be at least {MIN_MNI:g} (the noise divides by the square root of the "
                           f"intensity), got {mni:g}", param=name)
-    return mni
+    return check_positive(mni, name)
 
 
 def check_real(value, name: str, *, minimum: float | None = None, maximum: float | None = None) -> float:
