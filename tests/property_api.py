@@ -81,9 +81,14 @@ def not_numbers():
     return st.one_of(JUNK, st.text(max_size=4), st.just(np.array(["1.0"])), st.just(np.str_("2")))
 
 
+#: Positive numbers whose float32 copy or reciprocal leaves float32's normal range (0, ∞,
+#: subnormals): every positive-real parameter refuses them (``_checks.check_positive``).
+OUT_OF_FLOAT32 = st.sampled_from([5e-324, 1e-320, 1e-45, 1e-39, 1e38, 3.4e38, 1e39, 1e300, 10**40])
+
+
 def refused_positive():
     """Values a finite positive number parameter must refuse."""
-    return st.one_of(not_numbers(), NON_FINITE, floats(-1e300, 0.0), st.integers(-10**20, 0))
+    return st.one_of(not_numbers(), NON_FINITE, floats(-1e300, 0.0), st.integers(-10**20, 0), OUT_OF_FLOAT32)
 
 
 def refused_number():
@@ -691,6 +696,37 @@ def synthesize_batch_of(**kw):
     return None
 
 
+def pack_of(packer, **kw):
+    """A device API packer (``pack_plane``, ``pack_filtered``, ``pack_surface``): its struct
+    stays in the worker (a Warp struct does not pickle)."""
+    from warp_texton import device
+
+    getattr(device, packer)(**kw)
+    return None
+
+
+@st.composite
+def pack_args(draw, packer):
+    args = dict(packer=packer, texton=draw(textons()), mni=draw(floats(0.5, 60.0)), seed=draw(SEEDS), device="cpu",
+                poisson=draw(st.sampled_from(["exact", "gaussian"])), cell_factor=draw(floats(0.3, 2.0)))
+    if packer == "pack_surface":
+        args.update(texel_size=draw(floats(1e-3, 1.0)), up=draw(st.sampled_from(["x", "y", "z"])))
+    else:
+        args["period"] = draw(st.one_of(st.none(), pairs(floats(1.0, 300.0))))
+    if packer == "pack_filtered":
+        args["filter"] = draw(st.sampled_from(["mip", "anisotropic"]))
+    return args
+
+
+def export_shader_to(folder, name, **kw):
+    from warp_texton import export_shader
+
+    out = export_shader(out_dir=Path(folder) / name, **kw)
+    if not (out / ("texton_noise.json" if kw["lang"] == "glsl" else "texton_noise_osl.json")).is_file():
+        raise AssertionError(f"export_shader: {out} has no description file")
+    return None
+
+
 def _mesh(vertices, faces):
     import trimesh
 
@@ -952,6 +988,25 @@ ENTRIES: list[Entry] = [
           edges={"count": st.sampled_from([10**6, 10**12, 2**40]), "shape": edge_shapes(), "mni": huge_and_tiny(),
                  "scale": st.sampled_from([1e-30, 1e30, (1e-30, 1.0), (1.0, 1e30)])},
           may_refuse=r"memory budget|work budget|cells|impacts|reach|too small|too large"),
+    # ---- the device API and shader exports
+    *[Entry(packer, "property_api:pack_of", pack_args(packer),
+            {"texton": refused_textons(), "mni": refused_positive(), "seed": refused_int(0),
+             "cell_factor": refused_positive(), "poisson": st.one_of(JUNK, st.just("poisson")),
+             **({"texel_size": refused_positive()} if packer == "pack_surface" else
+                {"period": pairs(refused_number())})},
+            edges={"mni": huge_and_tiny(), "cell_factor": huge_and_tiny(),
+                   **({"texel_size": huge_and_tiny()} if packer == "pack_surface" else
+                      {"period": pairs(huge_and_tiny())})},
+            may_refuse=r"memory budget|work budget|cells|impacts")
+      for packer in ("pack_plane", "pack_filtered", "pack_surface")],
+    Entry("export_shader", "property_api:export_shader_to",
+          st.tuples(textons(), st.sampled_from(["glsl", "osl"]), floats(0.5, 60.0), SEEDS).map(
+              lambda a: dict(name="export", texton=a[0], lang=a[1], mni=a[2], seed=a[3])),
+          {"texton": refused_textons(), "lang": st.one_of(JUNK, st.just("hlsl")), "mni": refused_positive(),
+           "seed": refused_int(0), "cell_factor": refused_positive()},
+          edges={"name": st.sampled_from(["x" * 300, "a\x00b", "y" * 255, "z" * 200]), "mni": huge_and_tiny(),
+                 "cell_factor": huge_and_tiny()},
+          may_refuse=r"memory budget|work budget|cells|impacts|order|texture side", files=("folder",)),
     Entry("bake_mesh", "property_api:bake_mesh_of", bake_args(),
           {"texton": refused_textons(), "texel_size": refused_positive(), "resolution": refused_int(1),
            "mni": refused_positive(), "seed": refused_int(0), "supersample": refused_int(1).filter(lambda v: v is not None),

@@ -498,7 +498,7 @@ class TestOneError:
         (lambda t: synthesize(t, (8, 8), scale=1e9, device="cpu"), r"scale must be at most 10000"),
         (lambda t: synthesize(t, (8, 8), jacobian=[["1", "0"], ["0", "1"]], filter="mip", device="cpu"),
          r"jacobian must be an array"),
-        (lambda t: synthesize(t, (8, 8), cell_factor=1e-300, device="cpu"), r"cell_factor 1e-300 makes cells"),
+        (lambda t: synthesize(t, (8, 8), cell_factor=1e-300, device="cpu"), r"cell_factor must be between .* got 1e-300"),
         (lambda t: evaluate(t, [["1", "2"]], device="cpu"), r"points must be an array of shape \(N, 2\) of numbers"),
         (lambda t: render_plane(t, (8, 8), tilt="30", device="cpu"), r"tilt must be a number"),
         (lambda t: mix_textons(np.random.rand(16, 16), np.random.rand(16, 16), ["0.5"], size=4),

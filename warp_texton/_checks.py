@@ -43,6 +43,12 @@ MIN_MNI = 1.0e-3
 MAX_TEXTON_SIDE = 4096
 #: Largest magnitude float32 can hold.
 FLOAT32_MAX = float(np.finfo(np.float32).max)
+#: The range of a positive real argument (:func:`check_positive`): the value and its
+#: reciprocal are both normal float32 numbers (2**-126 to 2**126), so that neither the
+#: float32 copies the kernels take nor the quantities derived from them (a cell's size
+#: and its inverse, a texel size and the texels per unit) reach 0 or overflow.
+MIN_POSITIVE = float(np.finfo(np.float32).tiny)
+MAX_POSITIVE = 1.0 / MIN_POSITIVE
 
 
 def is_real(value) -> bool:
@@ -50,14 +56,21 @@ def is_real(value) -> bool:
     return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
 
 
+def _float(value) -> float:
+    """A real number as a float; an integer too large for one is infinite (and refused as such)."""
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf if value > 0 else -math.inf
+
+
 def check_path(value, name: str) -> Path:
     """A file name: a ``str`` or ``os.PathLike`` (not None, bytes or a number)."""
-    if isinstance(value, Path):
-        return value
     if isinstance(value, str) or (isinstance(value, os.PathLike) and isinstance(os.fspath(value), str)):
-        if not str(value) or "\x00" in str(value):
-            raise TextonError(f"{name} must be a non-empty file name, got {value!r}", param=name)
-        return Path(value)
+        if not str(value) or "\x00" in str(value):  # a Path too: it holds a NUL as any string does
+            raise TextonError(f"{name} must be a non-empty file name without NUL characters, got {value!r:.80}",
+                              param=name)
+        return value if isinstance(value, Path) else Path(value)
     raise TextonError(f"{name} must be a file name (str or path), got {type(value).__name__} {value!r:.60}",
                       param=name)
 
@@ -178,31 +191,40 @@ def check_int(value, name: str, *, minimum: int | None = None, maximum: int | No
     return value
 
 
-def check_positive(value, name: str) -> float:
-    """A finite, strictly positive real number."""
+def _finite_positive(value, name: str) -> float:
     if not is_real(value):
         raise TextonError(f"{name} must be a positive number, got {value!r:.60}", param=name)
-    value = float(value)
+    value = _float(value)
     if not math.isfinite(value) or value <= 0.0:
         raise TextonError(f"{name} must be a finite number > 0, got {value}", param=name)
+    return value
+
+
+def check_positive(value, name: str) -> float:
+    """A finite, strictly positive real number within [MIN_POSITIVE, MAX_POSITIVE]
+    (about 1.2e-38 to 8.5e37): itself and its reciprocal fit float32."""
+    value = _finite_positive(value, name)
+    if not MIN_POSITIVE <= value <= MAX_POSITIVE:
+        raise TextonError(f"{name} must be between {MIN_POSITIVE:.3g} and {MAX_POSITIVE:.3g} (it and its reciprocal "
+                          f"must fit float32), got {value:g}", param=name)
     return value
 
 
 def check_mni(mni, name: str = "mni") -> float:
     """A mean number of impacts per point: a finite number >= MIN_MNI (larger
     values are bounded by the work budget and the cell limits)."""
-    mni = check_positive(mni, name)
+    mni = _finite_positive(mni, name)
     if mni < MIN_MNI:
         raise TextonError(f"{name} must be at least {MIN_MNI:g} (the noise divides by the square root of the "
                           f"intensity), got {mni:g}", param=name)
-    return mni
+    return check_positive(mni, name)
 
 
 def check_real(value, name: str, *, minimum: float | None = None, maximum: float | None = None) -> float:
     """A finite real number, optionally within [minimum, maximum]."""
     if not is_real(value):
         raise TextonError(f"{name} must be a number, got {value!r:.60}", param=name)
-    value = float(value)
+    value = _float(value)
     if not math.isfinite(value):
         raise TextonError(f"{name} must be a finite number, got {value}", param=name)
     if minimum is not None and value < minimum:

@@ -179,6 +179,45 @@ def check_uvs(uv: np.ndarray, vertices: int) -> np.ndarray:
     return np.clip(uv, 0.0, 1.0)
 
 
+#: Share of the faces (by 3-D area) whose UV triangles may have no area before a bake warns:
+#: those parts of the surface get no texels of their own.
+MAX_FLAT_SHARE = 0.0
+
+
+def uv_face_areas(uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """The area of each face's UV triangle, in the unit square's units."""
+    t = uv[faces]
+    e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+    return 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+
+
+def uv_face_notes(uv: np.ndarray, faces: np.ndarray, vertices: np.ndarray) -> list[str]:
+    """What a bake on checked UVs (:func:`check_uvs`) should warn about: faces with surface
+    area whose UV triangles have none (that part of the surface gets no texels). UVs
+    whose triangles have no area at all cannot hold a bake: refused."""
+    flat = uv_face_areas(uv, faces) <= 1e-14
+    if flat.all():
+        raise TextonError("its UV triangles have no area (every face is laid on a line or a point of the "
+                          "texture), so no texel would show the surface")
+    p = vertices[faces]
+    area3 = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    lost = float(area3[flat].sum()) / max(float(area3.sum()), 1e-300)
+    if lost > MAX_FLAT_SHARE:
+        return [f"{int(flat.sum())} of {len(faces)} faces ({100 * lost:.3g} % of the surface) have UV triangles "
+                "without area, so those parts of the surface show no texels of their own; --uv atlas "
+                "(uv='atlas') lays every face"]
+    return []
+
+
+def overlap_note(overlap: float) -> list[str]:
+    """The warning for UVs that overlap a little (a bake refuses more than
+    ``bake.MAX_OVERLAP``): each texel claimed twice shows one of its surfaces."""
+    if overlap <= 0.0:
+        return []
+    return [f"its UVs overlap ({100 * overlap:.3g} % of the covered texels lie on two or more triangles, each "
+            "showing one of them); --uv atlas (uv='atlas') makes charts that do not overlap"]
+
+
 def uv_coverage(uvs, faces: np.ndarray) -> float:
     """The share of the texture that the faces' UV triangles cover, at most 1 (overlaps
     counted twice: an upper bound); 1 for UVs that :func:`check_uvs` will refuse."""

@@ -22,6 +22,7 @@ hold them as they are unless ``linear=True`` asks for the sRGB decoding.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -30,17 +31,17 @@ import warp as wp
 
 from ._checks import check_int, check_positive, check_seed
 from ._runtime import progress_bar, resolve_device, split_launch
-from .atlas import CHART_METHODS, check_uvs, make_atlas, mesh_uvs, uv_coverage
+from .atlas import CHART_METHODS, check_uvs, make_atlas, mesh_uvs, overlap_note, uv_coverage, uv_face_notes
 from .colours import mean_colour
 from .errors import TextonError
 from .kernels import bake as KB
-from .limits import check_memory
+from .limits import check_memory, check_work
 from .frames import UP, up_vector
 from .mesh import check_mesh, vertex_normals
 from .mesh_files import PNG_DTYPES, texture_8bit
 from .render import cast_rays, check_background
-from .surface import (check_method, check_surface_work, evaluate_points, surface_params, surface_setup,
-                      texel_positions)
+from .surface import (check_method, check_surface_work, evaluate_points, floor_visits, surface_params,
+                      surface_setup, texel_positions)
 from .texton import Texton
 
 if TYPE_CHECKING:
@@ -344,7 +345,10 @@ def bake_mesh(
     faces = np.asarray(mesh.faces, dtype=np.int64)
     texel_positions(vertices, texel, setup, "the mesh's vertices")
     vnormals = vertex_normals(mesh, up)
-    own_uv = mesh_uvs(mesh) if uv != "atlas" else None
+    try:
+        own_uv = mesh_uvs(mesh) if uv != "atlas" else None
+    except TextonError as exc:
+        raise TextonError(f"{name}: {exc}; use uv='atlas' (--uv atlas) to ignore them") from None
     if own_uv is None and uv == "mesh":
         raise TextonError(f"{name}: has no UVs (uv='mesh'); use uv='auto' or 'atlas' to make an atlas")
     # priced before the atlas from the mesh's area (texton texels²) and the texels it will cover
@@ -390,15 +394,14 @@ def _bake_uvs(mesh, vertices, vnormals, faces, own_uv, res, gutter, charts, devi
     they overlap), or an atlas. -> (source, vertices, vertex normals, faces, uvs, corners, owner), the
     first four re-indexed by the atlas's vertex map when there is one."""
     if own_uv is not None:
-        try:
-            uvs = check_uvs(own_uv, len(vertices))
-        except TextonError as exc:
-            raise TextonError(f"{name}: {exc}; use uv='atlas' (--uv atlas) to ignore them") from None
+        uvs, notes = _mesh_uvs(own_uv, vertices, faces, name)
         source, (corners, owner, overlap) = "mesh", _claimed(uvs, faces, res, device, name)
         if overlap > MAX_OVERLAP:
             raise TextonError(f"{name}: its UVs overlap ({100 * overlap:.1f} % of the covered texels lie on two or "
                               "more triangles), so one texel would stand for several surface points; use "
                               "uv='atlas' (--uv atlas) to ignore them")
+        for note in notes + overlap_note(overlap):  # Blender's and xatlas's users are told the same
+            warnings.warn(f"{name}: {note}", stacklevel=2)
     else:
         source = "atlas"
         # xatlas keeps charts 2 paddings apart (measured: 9 texels or more on the bunny at 1024² with a
@@ -499,20 +502,62 @@ def _sample_sums(p, setup, tx: _TexelFaces, nx, ny, vnormals, texel, device, met
     return sums
 
 
+def check_bake_arguments(texton: Texton, resolution: int, *, mni: float = 60.0, supersample: int | None = None,
+                         uv: str = "auto") -> None:
+    """Refuse, from the arguments alone (before any mesh is read), a bake that no mesh could
+    make within the budgets.
+
+    What does not depend on the mesh: the memory of the texture's setup
+    (``BYTES_PER_TEXEL`` a texel), the work of its texels' setup (``BAKE_TEXEL_OPS``
+    a texel), and the fewest samples it can take, each at the fewest operations a
+    point can cost (:func:`~warp_texton.surface.floor_visits`): ``supersample``² per
+    covered texel, over at least ``ATLAS_COVERAGE`` of the texture for ``uv="atlas"``
+    (a mesh's own UVs may cover less, so other choices count the setup alone).
+    :func:`bake_mesh` prices each mesh again, from its area and UVs, before its atlas.
+
+    Raises
+    ------
+    TextonError
+        Over the memory or the work budget, naming ``resolution``, ``supersample``
+        and ``mni``; and the errors of :func:`bake_mesh` for these arguments.
+    """
+    if not isinstance(texton, Texton):
+        raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
+    res = check_int(resolution, "resolution", minimum=1, maximum=MAX_RESOLUTION)
+    supersample, _ = _check_choices(res, uv, supersample, None, CHART_METHODS[0], PNG_DTYPES[0])
+    what = f"a {res}x{res} bake" + ("" if supersample is None else f" with {supersample}x{supersample} samples a texel")
+    check_memory(res * res * BYTES_PER_TEXEL, what, "use a smaller resolution", param="resolution")
+    setup = surface_setup(texton, mni)
+    samples = (ATLAS_COVERAGE * res * res if uv == "atlas" else 1.0) * (supersample or 1) ** 2
+    check_work(res * res * BAKE_TEXEL_OPS + samples * floor_visits(setup), f"{what} at MNI {mni:.6g}",
+               "use a smaller resolution, a smaller supersample or a lower mni", param="supersample",
+               mentions=("resolution", "supersample", "mni"), early=True)
+
+
+def _mesh_uvs(own_uv: np.ndarray, vertices: np.ndarray, faces: np.ndarray, name: str):
+    """(the mesh's UVs checked, the warnings a bake on them gives); UVs that cannot hold
+    a bake are one TextonError naming the mesh, with the ``uv='atlas'`` hint."""
+    try:
+        uvs = check_uvs(own_uv, len(vertices))
+        return uvs, uv_face_notes(uvs, faces, vertices)
+    except TextonError as exc:
+        raise TextonError(f"{name}: {exc}; use uv='atlas' (--uv atlas) to ignore them") from None
+
+
 def _check_choices(res: int, uv, supersample, gutter, charts, dtype) -> tuple[int | None, int]:
     """The checked ``supersample`` and ``gutter`` of a bake (its default for None), after
     ``uv``, ``charts`` and ``dtype``."""
-    if uv not in UV_MODES:
-        raise TextonError(f"uv must be one of {', '.join(UV_MODES)}, got {uv!r}")
+    if not isinstance(uv, str) or uv not in UV_MODES:  # an array would compare element by element
+        raise TextonError(f"uv must be one of {', '.join(UV_MODES)}, got {uv!r:.40}".replace("\n", " "))
     if supersample is not None:
         supersample = check_int(supersample, "supersample", minimum=1)
         if supersample > MAX_SUPERSAMPLE:
             raise TextonError(f"supersample must be at most {MAX_SUPERSAMPLE} samples per side, got {supersample}")
     gutter = default_gutter(res) if gutter is None else check_int(gutter, "gutter", minimum=0,
                                                                    maximum=min(MAX_GUTTER, max(2, res // 4)))
-    if charts not in CHART_METHODS:
+    if not isinstance(charts, str) or charts not in CHART_METHODS:
         raise TextonError(f"charts must be one of {', '.join(CHART_METHODS)}, got {charts!r:.40}")
-    if dtype not in PNG_DTYPES:
+    if isinstance(dtype, np.ndarray) or dtype not in PNG_DTYPES:
         raise TextonError(f"dtype must be 'uint8' or 'uint16' (the PNG sample types a baked texture is written "
                           f"with), got {dtype!r:.40}; for float values write the texture as EXR (texture='exr')",
                           "dtype")

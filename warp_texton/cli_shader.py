@@ -34,6 +34,24 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     add_analysis_options(p, seed=False)
 
 
+def _check_page(page, output) -> None:
+    """The --html page: a name the file system can hold, in a folder that exists, and
+    outside the export folder (which --overwrite may rewrite). Checked before any output
+    is written, so that a bad page leaves no export behind."""
+    from .io import check_output_name
+
+    path = check_output_name(page, "--html")
+    parent = (path.parent if str(path.parent) else Path(".")).resolve()
+    if not parent.is_dir():
+        raise TextonError(f"{page}: the output folder {path.parent} does not exist", param="--html")
+    if output is None:
+        return
+    folder = Path(output).resolve()
+    if path.resolve() == folder or parent == folder or folder in parent.parents:
+        raise TextonError(f"--html {page}: inside the export folder {output}; write the page beside it",
+                          param="--html")
+
+
 def _shader(args) -> None:
     from .io import atomic_path
     from .shader import export_shader
@@ -43,6 +61,8 @@ def _shader(args) -> None:
         raise TextonError("give -o DIR (the export folder), --html PAGE (the preview), or both")
     if args.html is not None and args.lang != "glsl":
         raise TextonError(f"--html previews the glsl export (WebGL2); it is not available with --lang {args.lang}")
+    if args.html is not None:
+        _check_page(args.html, args.output)
     t0 = time.perf_counter()
     texton = texton_of(args)
     noise = noise_options(args)

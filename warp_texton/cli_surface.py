@@ -172,11 +172,24 @@ def _surface_texton(args):
         raise TextonError(f"--texton {args.texton}: {exc}", exc.param, mentions=exc.mentions) from None
 
 
+def _price_bake(args, texton) -> None:
+    """A --bake priced from the options alone, before any mesh is read or any job starts:
+    one line and exit 2 for a bake no mesh could make within the budgets."""
+    from .bake import check_bake_arguments
+    from .texton import Texton, load_texton
+
+    if args.bake is None:
+        return
+    t = texton if isinstance(texton, Texton) else load_texton(texton)
+    check_bake_arguments(t, args.bake, mni=args.mni, supersample=args.supersample, uv=args.uv)
+
+
 def _run_jobs(args, executor, device, render, orbit):
     """(results, interrupted) of the batch's jobs."""
     from .jobs import JobsInterrupted, SurfaceJob, check_unique_outputs, expand_meshes, run_jobs
 
     texton = _surface_texton(args)
+    _price_bake(args, texton)
     meshes = expand_meshes(args.meshes)
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -32,7 +32,11 @@ device, from the same inputs:
 * ``filtered_value(noise, x, J)`` is the pixel of ``synthesize(...,
   filter=..., jacobian=J)`` whose centre is ``x``: ``J`` (float32) has the
   texel-space steps of one pixel to the right and one pixel down as its
-  columns.
+  columns. That holds wherever ``synthesize`` filters the raster (some
+  pixel's footprint needs more than one lookup of level 0); a raster none of
+  whose pixels needs filtering is the unfiltered raster, and there
+  ``filtered_value`` is ``plane_value`` (``evaluate``) bit for bit, which
+  the raster matches to float32 rounding (docs/renderers.md gives the bound).
 * ``surface_value(noise, x, normal)`` is ``surface_noise(texton, [x],
   [normal], texel_size, ...)`` without tangents: ``x`` in world units,
   ``normal`` of any non-zero length, both float64.
@@ -210,7 +214,10 @@ def pack_filtered(
     FilteredNoise or FilteredNoise1
         A ``@wp.struct``: ``filtered_value(noise, x, J)`` is the pixel of
         ``synthesize(..., filter=filter, jacobian=J)`` centred on ``x``, bit
-        for bit on ``device``.
+        for bit on ``device``, wherever ``synthesize`` filters that raster;
+        where no pixel needs filtering (one lookup at level 0), it is
+        ``evaluate`` at ``x`` bit for bit, and the unfiltered raster agrees
+        to float32 rounding.
 
     Raises
     ------

@@ -45,6 +45,13 @@ CORRELATION_STEPS = 401
 HISTOGRAMS = ("gaussian", "preserve")
 #: Bound of a stored transform's JSON (3 channels of LUT_SIZE numbers take about 70 kB).
 MAX_HISTOGRAM_CHARS = 1 << 20
+#: Largest magnitude of a transform's centre (an example's mean colour): the bound of
+#: image values, ``_checks.MAX_VALUE``.
+MAX_CENTRE = 1.0e10
+#: Largest magnitude of a table entry: a decorrelated colour of an example whose values
+#: lie within ±MAX_CENTRE is at most √3 · 2 · 10¹⁰ from 0. Beyond it the colours, mapped
+#: back in float32 by the kernels and shaders, could overflow to infinity.
+MAX_TABLE_VALUE = 4.0e10
 
 
 def gauss_grid(size: int = LUT_SIZE) -> np.ndarray:
@@ -97,10 +104,10 @@ class HistogramTransform:
         if m.ndim != 2 or m.shape != (c, c) or c not in (1, 3):
             raise TextonError(f"histogram transform: matrix must be (C, C) with C 1 or 3, got {m.shape}",
                               param="histogram")
-        if not np.allclose(m @ m.T, np.eye(c), atol=1e-6):
+        if np.abs(m).max() > 1.0 + 1e-6 or not np.allclose(m @ m.T, np.eye(c), atol=1e-6):
             raise TextonError("histogram transform: the matrix rows must be orthonormal (principal axes)",
                               param="histogram")
-        centre = _finite(self.centre, "centre").ravel()
+        centre = _bounded(_finite(self.centre, "centre").ravel(), "centre", MAX_CENTRE)
         if centre.shape != (c,):
             raise TextonError(f"histogram transform: centre must hold {c} values, got {centre.shape}",
                               param="histogram")
@@ -108,6 +115,7 @@ class HistogramTransform:
         if lut.ndim != 2 or lut.shape[0] != c or lut.shape[1] < 2:
             raise TextonError(f"histogram transform: lut must be ({c}, K) with K >= 2, got {lut.shape}",
                               param="histogram")
+        _bounded(lut, "lut", MAX_TABLE_VALUE)
         if np.any(np.diff(lut, axis=1) < 0):
             raise TextonError("histogram transform: a lookup table decreases somewhere; the inverse CDFs "
                               "must be non-decreasing", param="histogram")
@@ -277,6 +285,14 @@ def _finite(a, name: str) -> np.ndarray:
         raise TextonError(f"histogram transform: {name} must be an array of numbers", param="histogram") from None
     if not np.isfinite(arr).all():
         raise TextonError(f"histogram transform: {name} holds NaN or infinite values", param="histogram")
+    return arr
+
+
+def _bounded(arr: np.ndarray, name: str, bound: float) -> np.ndarray:
+    """``arr`` when its entries lie within ±``bound``; else one TextonError naming ``name``."""
+    if arr.size and float(np.abs(arr).max()) > bound:
+        raise TextonError(f"histogram transform: {name} holds values up to {float(np.abs(arr).max()):.3g}; "
+                          f"accepted: within ±{bound:.3g}", param="histogram")
     return arr
 
 

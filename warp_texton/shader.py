@@ -16,9 +16,9 @@ import json
 from pathlib import Path
 
 from .errors import TextonError
-from .folders import atomic_folder, check_replaceable
+from .folders import atomic_files, check_replaceable
 from .frames import UP
-from .io import atomic_path
+from .io import atomic_path, check_output_name
 from .noise_options import CELL_FACTOR, NoiseOptions
 from .texton import Texton
 
@@ -26,6 +26,11 @@ from .texton import Texton
 LANGUAGES = {"glsl": ("shader_glsl", "glsl_files"), "osl": ("shader_osl", "osl_files")}
 #: The file every export holds, whose "warp_texton" key marks a folder --overwrite may replace.
 META_FILES = ("texton_noise.json", "texton_noise_osl.json")
+#: Every file an export of either language may write: what ``overwrite`` replaces or, when
+#: this export does not write it, removes. Other files in the folder are the user's and stay.
+EXPORT_FILES = frozenset({"texton_noise.glsl", "texton_noise.js", "texton_coeffs.f32", "texton_pyramid.f32",
+                          "texton_colours.f32", "texton_shares.f32", "preview.html", "texton_surface.osl",
+                          "texton_plane.osl", *META_FILES})
 
 
 def _files_of(lang: str):
@@ -43,10 +48,16 @@ def _files_of(lang: str):
 
 
 def _is_export(path: Path) -> bool:
+    """Whether ``path`` holds a marker of an export: a JSON object with a "warp_texton" key.
+    A marker that cannot be read or parsed, or is anything else, is not one."""
     for name in META_FILES:
         meta = path / name
         if meta.is_file() and meta.stat().st_size < (1 << 20):
-            return "warp_texton" in json.loads(meta.read_text(encoding="utf-8"))
+            try:
+                marker = json.loads(meta.read_text(encoding="utf-8"))
+            except (OSError, ValueError, RecursionError):  # unreadable, not UTF-8, not JSON, nested too deep
+                return False
+            return isinstance(marker, dict) and "warp_texton" in marker
     return False
 
 
@@ -112,14 +123,18 @@ def export_shader(texton: Texton, lang: str, out_dir, *, mni: float = 30.0, seed
         (:func:`~warp_texton.tangent_frames`), as in
         :func:`~warp_texton.surface_noise`.
     overwrite : bool
-        Replace ``out_dir`` if it is a folder an earlier export wrote; any
-        other existing path is refused.
+        Write into ``out_dir`` if it is a folder an earlier export wrote (its
+        ``texton_noise.json`` or ``texton_noise_osl.json`` is a JSON object
+        with a ``"warp_texton"`` key): the export's files are replaced (those
+        of the earlier export that this one does not write are removed) and
+        any other file there is kept. Any other existing path is refused.
 
     Returns
     -------
     Path
         ``out_dir``, complete: the files are written into a temporary folder
-        beside it that is renamed when all are written.
+        beside it, which is renamed into place when all are written (into an
+        existing export, each file is renamed over its namesake).
 
     Raises
     ------
@@ -163,7 +178,7 @@ def export_shader(texton: Texton, lang: str, out_dir, *, mni: float = 30.0, seed
      'texton_pyramid.f32']
     """
     make = _files_of(lang)
-    path = Path(out_dir)
+    path = check_output_name(out_dir, "out_dir")
     check_replaceable(path, overwrite, _is_export, "a shader export")  # before any work
     noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
     frame = dict(up=up, side=side)
@@ -178,7 +193,8 @@ def export_shader(texton: Texton, lang: str, out_dir, *, mni: float = 30.0, seed
                               "variant (a renderer antialiases by its samples)", param="filter")
         files = make(texton, texel_size=0.01 if texel_size is None else texel_size, noise=noise, **frame)
         files[META_FILES[1]] = _osl_meta(texton, files, noise, frame, texel_size)
-    with atomic_folder(path, lambda p: check_replaceable(p, overwrite, _is_export, "a shader export")) as tmp:
+    replaceable = lambda p: check_replaceable(p, overwrite, _is_export, "a shader export")  # noqa: E731
+    with atomic_files(path, replaceable, EXPORT_FILES) as tmp:
         for name, content in files.items():
             (tmp / name).write_bytes(content)
     return path
