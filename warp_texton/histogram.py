@@ -161,16 +161,20 @@ class HistogramTransform:
         flat = np.asarray(u, np.float64).reshape(-1, self.channels)
         return ((flat - self.centre) @ self.matrix.T).reshape(np.shape(u)[:2] + (self.channels,))
 
-    def correlation_map(self, c: int) -> tuple[np.ndarray, np.ndarray]:
+    def correlation_map(self, c: int, centred: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """(ρ, R(ρ)): the correlation R of T_c(X), T_c(Y) for standard Gaussians X, Y of
         correlation ρ, T_c the lookup table of channel c; non-decreasing, R(1) = 1.
 
         By Gauss–Hermite quadrature over X and the part of Y independent of X.
+        ``centred``: the table less its median first (the same R in exact
+        arithmetic); a table far from 0 against its spread, as the RGB tables of
+        colours are, would otherwise lose R to the quadrature's rounding.
         """
         x, w = np.polynomial.hermite_e.hermegauss(CORRELATION_NODES)
         w = w / w.sum()
         grid = gauss_grid(self.lut.shape[1])
-        tx = np.interp(x, grid, self.lut[c])
+        table = self.lut[c] - self.lut[c, self.lut.shape[1] // 2] if centred else self.lut[c]
+        tx = np.interp(x, grid, table)
         m = tx @ w
         var = tx ** 2 @ w - m * m
         rho = np.linspace(-1.0, 1.0, CORRELATION_STEPS)
@@ -178,7 +182,7 @@ class HistogramTransform:
             return rho, rho
         ww = w[:, None] * w[None, :]
         r = np.array([np.sum(tx[:, None] * np.interp(q * x[:, None] + np.sqrt(max(1.0 - q * q, 0.0)) * x[None, :],
-                                                      grid, self.lut[c]) * ww) for q in rho])
+                                                      grid, table) * ww) for q in rho])
         return rho, np.maximum.accumulate((r - m * m) / var)
 
     def gaussian_kernel(self, t: np.ndarray, tz: np.ndarray, window: int | None = None) -> np.ndarray:
@@ -237,7 +241,7 @@ class HistogramTransform:
                 continue
             rz = np.fft.ifft2(pz).real
             rg = np.fft.ifft2(pg).real
-            rho, r = self.correlation_map(c)
+            rho, r = self.correlation_map(c, centred=True)
             target = np.interp(rz / rz[0, 0], r, rho) * rg[0, 0]
             s_target = np.maximum(np.fft.fft2(target * win).real, 0.0)
             s_t = np.maximum(np.fft.fft2(rg * win).real, 1e-12 * rg[0, 0])
