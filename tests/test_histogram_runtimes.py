@@ -264,7 +264,10 @@ def test_osl_renders_the_colours(grey, rgb, tmp_path):
     covered = hit & (rep["rgba"][..., 3] == 1.0)
     a = agreement(rep["rgba"], *jitter_box(surface, sphere_scale), covered, 3)
     print(f"sphere, 3 channels, histogram-preserving: {a}")
-    assert covered.sum() == SIZE * SIZE and a["fraction"] >= MIN_AGREEMENT and a["max_outside_jitter"] <= TOLERANCE
+    # the RGB tables are steep in places: where the camera's jitter square spans more than the
+    # tolerance, the value it saw is not known; every pixel lies within its square
+    assert covered.sum() == SIZE * SIZE and a["fraction_unambiguous"] >= MIN_AGREEMENT
+    assert a["max_outside_jitter"] <= TOLERANCE
 
 
 def test_exports_carry_the_transform(rgb, tmp_path):
