@@ -190,8 +190,8 @@ def analyze(
         Shape of the support S.
     histogram : {"gaussian", "preserve"}
         ``"gaussian"``: the noise's values are Gaussian (the papers' model).
-        ``"preserve"``: the example's colours are decorrelated and each
-        channel mapped through its CDF to a Gaussian, that Gaussianised
+        ``"preserve"``: each channel of the example (grey, or R, G and B) is
+        mapped through its CDF to a Gaussian, that Gaussianised
         example is analysed, and the texton keeps the inverse map
         (:class:`~warp_texton.histogram.HistogramTransform`), which every
         output applies after the noise, so that outputs have the example's

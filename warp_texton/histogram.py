@@ -2,8 +2,9 @@
 
 Texton noise is Gaussian; a photograph's colour histogram is not. A
 :class:`HistogramTransform` (Heitz & Neyret 2018, §1.4 "histogram-preserving
-blending"; Deliot & Heitz 2019) decorrelates the colours with a principal
-component analysis, z = (u − centre) Mᵀ, maps each decorrelated channel
+blending"; Deliot & Heitz 2019) rotates the colours onto their axes,
+z = (u − centre) Mᵀ (a principal component analysis, or for ``analyze``'s
+colour transforms the RGB channels themselves: M = I, centre = 0), maps each channel
 through its empirical CDF to a standard Gaussian, and keeps the inverse map as
 a lookup table: ``lut[c, k]`` is the quantile of channel c at the Gaussian
 quantile Φ(g_k) of the grid g_k = −GAUSS_RANGE … GAUSS_RANGE (LUT_SIZE points).
@@ -59,7 +60,8 @@ class HistogramTransform:
     Attributes
     ----------
     matrix : float64 array (C, C)
-        Orthonormal rows: the principal axes of the example's colours
+        Orthonormal rows: the colour axes of the tables, the principal axes
+        of the example's colours or the identity (``fit(..., axes="rgb")``)
         (largest variance first); ``[[1]]`` for grey.
     centre : float64 array (C,)
         The example's mean colour (0 for the RGB axes of ``fit(..., axes="rgb")``).
