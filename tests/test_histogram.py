@@ -380,6 +380,21 @@ def test_exr_holds_the_transform_exactly(texton, tmp_path):
     np.testing.assert_array_equal(synthesize(back, (16, 16), device="cpu"), synthesize(texton, (16, 16), device="cpu"))
 
 
+def test_exr_holds_rgb_tables_and_older_principal_axes(tmp_path):
+    """The RGB tables (identity axes) and the principal axes that colour textons held
+    before both round-trip through the EXR file and map as in memory."""
+    u = colour_example("dark")
+    rgb = analyze(u, size=16, histogram="preserve")
+    older = replace(rgb, histogram=HistogramTransform.fit(u))  # a file written before
+    for n, t in enumerate((rgb, older)):
+        t.save(tmp_path / f"{n}.exr")
+        back = load_texton(tmp_path / f"{n}.exr")
+        for name in ("matrix", "centre", "lut"):
+            np.testing.assert_array_equal(getattr(back.histogram, name), getattr(t.histogram, name))
+        np.testing.assert_array_equal(synthesize(back, (16, 16), device="cpu"), synthesize(t, (16, 16), device="cpu"))
+    assert not np.allclose(older.histogram.matrix, np.eye(3))
+
+
 def test_texton_format_refuses_the_transform(texton, tmp_path):
     with pytest.raises(TextonError, match="cannot hold a histogram transform"):
         texton.save(tmp_path / "t.texton")
