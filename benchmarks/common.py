@@ -59,14 +59,17 @@ def read_openarena(member: str) -> np.ndarray:
 
     from PIL import Image
 
-    with zipfile.ZipFile(openarena_pk3()) as z:
-        try:
-            info = z.getinfo(member)
-        except KeyError:
-            raise OSError(f"{member}: not in the openarena textures archive") from None
-        if info.file_size > PK3_MAX_BYTES:
-            raise ValueError(f"{member}: {info.file_size} bytes, more than {PK3_MAX_BYTES}")
-        data = z.read(info)
+    try:
+        with zipfile.ZipFile(openarena_pk3()) as z:
+            try:
+                info = z.getinfo(member)
+            except KeyError:
+                raise OSError(f"{member}: not in the openarena textures archive") from None
+            if info.file_size > PK3_MAX_BYTES:
+                raise ValueError(f"{member}: {info.file_size} bytes, more than {PK3_MAX_BYTES}")
+            data = z.read(info)
+    except zipfile.BadZipFile as exc:
+        raise ValueError(f"the openarena textures archive is not a zip file: {exc}") from None
     with Image.open(io.BytesIO(data)) as im:
         return np.asarray(im.convert("RGB"), np.float32) / 255.0
 
