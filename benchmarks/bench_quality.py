@@ -47,7 +47,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent))
 
-from common import GIMP_PATTERNS, machine_line, read_gpat, report_header, run_main  # noqa: E402
+from common import GIMP_PATTERNS, machine_line, read_gpat, read_openarena, report_header, run_main  # noqa: E402
 
 from warp_texton import analyze, gaussian_texture, periodic_component, synthesize  # noqa: E402
 from warp_texton.io import atomic_path  # noqa: E402
@@ -194,15 +194,29 @@ def _gimp(path: str) -> Callable[[], np.ndarray]:
     return lambda: read_gpat(GIMP_PATTERNS / path)
 
 
+def _openarena(member: str) -> Callable[[], np.ndarray]:
+    return lambda: read_openarena(member)
+
+
+OA = "openarena-081-textures, 512² RGB, GPL-2+"
 TEXTURES = (
     Texture("grass", "Gaussian-like", "scikit-image, 512² grey, CC0", _skimage("grass")),
     Texture("gravel", "Gaussian-like", "scikit-image, 512² grey, CC0", _skimage("gravel")),
     Texture("walnut", "Gaussian-like", "GIMP Wood/walnut, 128² RGB, GPL-3+", _gimp("Wood/walnut.pat"), True),
     Texture("marble", "Gaussian-like", "GIMP Stone/marble1, grey, GPL-3+", _gimp("Stone/marble1.pat"), True),
     Texture("moonfoot", "Gaussian-like", "GIMP Stone/Moonfoot, grey, GPL-3+", _gimp("Stone/Moonfoot.pat"), True),
+    Texture("sand", "Gaussian-like", f"{OA}: textures/acc_dm5/sand.jpg", _openarena("textures/acc_dm5/sand.jpg"), True),
+    Texture("rock", "Gaussian-like", f"{OA}: textures/cosmo_block/rock01.jpg",
+            _openarena("textures/cosmo_block/rock01.jpg"), True),
+    Texture("lawn", "Gaussian-like", f"{OA}: textures/czest3ctf/grass_lush.tga",
+            _openarena("textures/czest3ctf/grass_lush.tga"), True),
+    Texture("wood", "Gaussian-like", f"{OA}: textures/acc_dm5/wood01.jpg", _openarena("textures/acc_dm5/wood01.jpg"), True),
+    Texture("cliff", "Gaussian-like", f"{OA}: textures/stone/pjrock21.jpg", _openarena("textures/stone/pjrock21.jpg"), True),
     Texture("brick", "structured", "scikit-image, 512² grey, CC0", _skimage("brick")),
     Texture("burlap", "structured", "GIMP Fabric/burlap (a weave), 96² RGB, GPL-3+", _gimp("Fabric/burlap.pat"), True),
     Texture("leaves", "structured", "GIMP Plant/leaves, 50² RGB, GPL-3+", _gimp("Plant/leaves.pat"), True),
+    Texture("tiles", "structured", f"{OA}: textures/clown/stone_tile.jpg",
+            _openarena("textures/clown/stone_tile.jpg"), True),
 )
 QUICK_TEXTURES = ("grass", "brick")
 

@@ -23,6 +23,13 @@ HERE = Path(__file__).resolve().parent
 GIMP_PATTERNS = Path("/usr/share/gimp/2.0/patterns")
 #: GIMP patterns are small; refuse files that claim absurd sizes.
 GPAT_MAX_SIDE = 8192
+#: Debian's openarena-081-textures (GPL-2+, see its copyright file): colour photographs of
+#: ground, rock, wood and tiles, 512² JPEG/TGA files inside one zip archive (a Quake-3 .pk3).
+#: Found installed, at $WARP_TEXTON_OPENARENA_PK3, or unpacked by .ci/run into .ci-data/
+#: (``apt-get download openarena-081-textures`` and ``dpkg-deb -x``; nothing installed).
+OPENARENA_PK3 = "usr/share/games/openarena/baseoa/pak4-textures.pk3"
+#: Largest archive member read (the textures are at most a few MB).
+PK3_MAX_BYTES = 32 << 20
 
 # Channels of the test texture: grass, gravel and brick mixed so that they correlate.
 MIX = np.array([
@@ -30,6 +37,41 @@ MIX = np.array([
     [0.35, 0.45, 0.20],
     [0.20, 0.30, 0.50],
 ])
+
+
+def openarena_pk3() -> Path:
+    """The archive of openarena-081-textures, or OSError saying where it was looked for."""
+    import os
+
+    places = [os.environ.get("WARP_TEXTON_OPENARENA_PK3"), "/" + OPENARENA_PK3,
+              str(HERE.parent / ".ci-data" / "openarena" / OPENARENA_PK3)]
+    for p in places:
+        if p and Path(p).is_file():
+            return Path(p)
+    raise OSError("openarena-081-textures not found (apt-get download openarena-081-textures && "
+                  "dpkg-deb -x openarena-081-textures_*.deb .ci-data/openarena, or set WARP_TEXTON_OPENARENA_PK3)")
+
+
+def read_openarena(member: str) -> np.ndarray:
+    """A texture of openarena-081-textures as a float32 (H, W, 3) image in [0, 1]."""
+    import io
+    import zipfile
+
+    from PIL import Image
+
+    try:
+        with zipfile.ZipFile(openarena_pk3()) as z:
+            try:
+                info = z.getinfo(member)
+            except KeyError:
+                raise OSError(f"{member}: not in the openarena textures archive") from None
+            if info.file_size > PK3_MAX_BYTES:
+                raise ValueError(f"{member}: {info.file_size} bytes, more than {PK3_MAX_BYTES}")
+            data = z.read(info)
+    except zipfile.BadZipFile as exc:
+        raise ValueError(f"the openarena textures archive is not a zip file: {exc}") from None
+    with Image.open(io.BytesIO(data)) as im:
+        return np.asarray(im.convert("RGB"), np.float32) / 255.0
 
 
 def make_texture(side: int) -> np.ndarray:

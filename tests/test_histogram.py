@@ -18,6 +18,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -256,6 +257,84 @@ def test_preserve_keeps_the_histogram_and_the_spectrum(load):
     assert excess.mean() < 2 * se(excess), (p["spectrum"].mean(), g["spectrum"].mean())
 
 
+# ---------------------------------------------------------------- colour examples
+
+
+def _field(rng, side: int, sigma: float) -> np.ndarray:
+    from scipy import ndimage
+
+    g = ndimage.gaussian_filter(rng.standard_normal((side, side)), sigma, mode="wrap")
+    g = g / g.std() + 0.35 * rng.standard_normal((side, side))  # a fine grain, as photographs have
+    return g / g.std()
+
+
+def colour_example(kind: str) -> np.ndarray:
+    """RGB examples whose histograms Gaussian noise cannot keep: "dark" (blue at 0 on
+    about 40 % of the pixels), "saturated" (red at 1 on about 22 %), "low" (a strong
+    component at a scale of 6 pixels' blur under the grain, through exponentials)."""
+    rng = np.random.default_rng(0)
+    side = 256 if kind == "low" else 128
+    a, b = _field(rng, side, 1.5), _field(rng, side, 3.0)
+    if kind == "dark":
+        u = [0.45 + 0.12 * a, 0.35 + 0.1 * (0.8 * a + 0.6 * b), 0.06 * (b + 0.4 * a) + 0.02]
+    elif kind == "saturated":
+        u = [0.88 + 0.15 * a, 0.5 + 0.12 * np.tanh(a + 0.5 * b), 0.25 + 0.08 * b]
+    else:
+        v = _field(rng, side, 6.0) + 0.5 * a
+        u = [0.15 * np.exp(0.5 * v), 0.25 + 0.1 * v, 0.2 * np.exp(0.3 * (v + b))]
+    return np.clip(np.stack(u, -1), 0.0, 1.0).astype(np.float32)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kind", ["dark", "saturated", "low"])
+def test_colour_examples_keep_their_colours_and_their_spectrum(kind):
+    """Issue 29's bounds over six 256² outputs (seeds 1–6), against Gaussian texton noise
+    of the same example: clipped pixels below 1 % by three standard errors; W1 of the
+    pooled histogram above a third of the Gaussian noise's by less than two standard
+    errors of the difference (resampling the seeds); the spectrum distance above 1.15
+    times the Gaussian noise's + 0.02 by less than two standard errors of the paired
+    differences. The
+    strong low-frequency example is held to half the Gaussian W1 only: its skewed
+    tables meet the skewness of texton noise at MNI 30 (docs/histogram.md, "Limits")."""
+    from benchmarks.bench_quality import clipped_fraction, spectrum_distance
+
+    u = colour_example(kind)
+    assert u[..., 2].min() == 0.0 if kind == "dark" else True
+    assert (u[..., 0] == 1.0).mean() > 0.1 if kind == "saturated" else True
+    stats = {}
+    for mode in ("gaussian", "preserve"):
+        t = analyze(u, size=32, seed=0, histogram=mode)
+        outs = [synthesize(t, (256, 256), mni=30, seed=s, device="cpu") for s in range(1, 7)]
+        stats[mode] = {"clipped": np.array([clipped_fraction(o) for o in outs]), "w1": pooled_w1(outs, u),
+                       "spectrum": np.array([spectrum_distance(o, u) for o in outs])}
+    g, p = stats["gaussian"], stats["preserve"]
+
+    def se(x):
+        return x.std(ddof=1) / np.sqrt(len(x))
+
+    assert g["clipped"].mean() > 0.03  # the example is one that Gaussian noise clips
+    assert p["clipped"].mean() + 3 * se(p["clipped"]) < 0.01, p["clipped"]
+    share = 2.0 if kind == "low" else 3.0
+    (w1_p, se_p), (w1_g, se_g) = p["w1"], g["w1"]
+    assert w1_p - w1_g / share < 2 * np.hypot(se_g / share, se_p), (p["w1"], g["w1"])
+    excess = p["spectrum"] - (1.15 * g["spectrum"] + 0.02)
+    assert excess.mean() < 2 * se(excess), (p["spectrum"], g["spectrum"])
+
+
+def test_colour_tables_are_the_rgb_channels():
+    """analyze's colour transform has one table per RGB channel (identity axes, centre 0):
+    the tables stay within each channel's extreme values (their ends within a
+    pixel's interpolation of them), so no output leaves them."""
+    u = colour_example("dark")
+    tr = analyze(u, size=16, histogram="preserve").histogram
+    np.testing.assert_array_equal(tr.matrix, np.eye(3))
+    np.testing.assert_array_equal(tr.centre, np.zeros(3))
+    lo, hi = u.min(axis=(0, 1)), u.max(axis=(0, 1))
+    assert np.all(tr.lut >= lo[:, None]) and np.all(tr.lut <= hi[:, None])
+    np.testing.assert_allclose(tr.lut[:, 0], lo, atol=1e-4)
+    np.testing.assert_allclose(tr.lut[:, -1], hi, atol=1e-4)
+
+
 # ---------------------------------------------------------------- mixing
 
 
@@ -277,8 +356,13 @@ def test_mixing_refuses_what_it_does_not_define(grass, texton):
         mix_textons(texton, grass, [0.5], size=32)
     rgb = np.random.default_rng(0).uniform(size=(64, 64, 3)).astype(np.float32)
     rgb[..., 1] = rgb[..., 0] ** 2
+    # analyze's RGB tables share their axes (the identity); transforms fitted on principal
+    # axes (tiling and blending's, and files written before) may not
     a = analyze(rgb, size=16, histogram="preserve")
     b = analyze(rgb[:, :, ::-1].copy(), size=16, histogram="preserve")
+    assert mix_textons(a, b, [0.5], size=16)[0].histogram is not None
+    a = replace(a, histogram=HistogramTransform.fit(rgb))
+    b = replace(b, histogram=HistogramTransform.fit(rgb[:, :, ::-1]))
     with pytest.raises(TextonError, match="different colour axes"):
         mix_textons(a, b, [0.5], size=16)
     with pytest.raises(TextonError, match="all or none"):
@@ -294,6 +378,21 @@ def test_exr_holds_the_transform_exactly(texton, tmp_path):
     for name in ("matrix", "centre", "lut"):
         np.testing.assert_array_equal(getattr(back.histogram, name), getattr(texton.histogram, name))
     np.testing.assert_array_equal(synthesize(back, (16, 16), device="cpu"), synthesize(texton, (16, 16), device="cpu"))
+
+
+def test_exr_holds_rgb_tables_and_older_principal_axes(tmp_path):
+    """The RGB tables (identity axes) and the principal axes that colour textons held
+    before both round-trip through the EXR file and map as in memory."""
+    u = colour_example("dark")
+    rgb = analyze(u, size=16, histogram="preserve")
+    older = replace(rgb, histogram=HistogramTransform.fit(u))  # a file written before
+    for n, t in enumerate((rgb, older)):
+        t.save(tmp_path / f"{n}.exr")
+        back = load_texton(tmp_path / f"{n}.exr")
+        for name in ("matrix", "centre", "lut"):
+            np.testing.assert_array_equal(getattr(back.histogram, name), getattr(t.histogram, name))
+        np.testing.assert_array_equal(synthesize(back, (16, 16), device="cpu"), synthesize(t, (16, 16), device="cpu"))
+    assert not np.allclose(older.histogram.matrix, np.eye(3))
 
 
 def test_texton_format_refuses_the_transform(texton, tmp_path):

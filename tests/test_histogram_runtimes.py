@@ -39,9 +39,13 @@ def grey():
 
 
 @pytest.fixture(scope="module")
-def rgb(tmp_path_factory):
-    path = small_rgb(tmp_path_factory.mktemp("rgb") / "rgb64.png")
-    return analyze(read_image(path), size=16, order=3, seed=0, histogram="preserve")
+def rgb_example(tmp_path_factory):
+    return read_image(small_rgb(tmp_path_factory.mktemp("rgb") / "rgb64.png"))
+
+
+@pytest.fixture(scope="module")
+def rgb(rgb_example):
+    return analyze(rgb_example, size=16, order=3, seed=0, histogram="preserve")
 
 
 def launch(kernel, n, inputs, device, dtype=wp.vec3):
@@ -96,7 +100,7 @@ def test_plane_colour_is_evaluate(which, request, device):
 
 @pytest.mark.parametrize("options", [FilterOptions("mip"), FilterOptions("anisotropic", max_aniso=4, lod_bias=0.3)],
                          ids=["mip", "anisotropic"])
-def test_filtered_colour_is_filtered_synthesize(rgb, options, device):
+def test_filtered_colour_is_filtered_synthesize(rgb, rgb_example, options, device):
     h, w = 24, 20
     J = np.zeros((h, w, 2, 2))
     J[..., 0, 0] = np.linspace(0.7, 3.0, w)[None, :]
@@ -116,7 +120,7 @@ def test_filtered_colour_is_filtered_synthesize(rgb, options, device):
     same(shares, pixel_shares(rgb, pixels, options), device)
     assert shares.max() > 0.5 and shares.min() == 0.0  # near pixels keep most of the variance, far ones none
     mean = raster[-1].reshape(-1, 3)  # past the kept levels: the example's mean colour (share 0)
-    np.testing.assert_allclose(mean, np.broadcast_to(rgb.histogram.centre, mean.shape), atol=2e-3)
+    np.testing.assert_allclose(mean, np.broadcast_to(rgb_example.mean(axis=(0, 1)), mean.shape), atol=2e-3)
 
 
 def test_surface_colour_is_surface_noise(rgb, device):
@@ -161,7 +165,7 @@ def test_glsl_preview_shows_the_colours(which, place, request, browser, tmp_path
 
 
 @pytest.mark.slow
-def test_glsl_filtered_and_surface_colours(rgb, browser, tmp_path):
+def test_glsl_filtered_and_surface_colours(rgb, rgb_example, browser, tmp_path):
     """The filtered variant with its shares (scales out to past the kept levels: the
     example's mean colour) and the surface variant, against the package."""
     from test_shader_glsl import TOLERANCE, open_preview, pixel_centres
@@ -184,7 +188,7 @@ def test_glsl_filtered_and_surface_colours(rgb, browser, tmp_path):
         got = np.array(page.evaluate("x => window.textonNoise.evaluatePoints('filtered', x)",
                                      inputs.ravel().tolist()), np.float32).reshape(shape + (4,))[..., :3]
         errors[scale] = np.abs(got - ref).max() / float(np.ptp(rgb.histogram.lut))
-    np.testing.assert_allclose(ref.reshape(-1, 3), np.broadcast_to(rgb.histogram.centre, (80, 3)), atol=2e-3)
+    np.testing.assert_allclose(ref.reshape(-1, 3), np.broadcast_to(rgb_example.mean(axis=(0, 1)), (80, 3)), atol=2e-3)
     rng = np.random.default_rng(4)
     normals = rng.normal(size=(200, 3))
     points = 40.0 * normals / np.linalg.norm(normals, axis=1, keepdims=True)
@@ -260,7 +264,10 @@ def test_osl_renders_the_colours(grey, rgb, tmp_path):
     covered = hit & (rep["rgba"][..., 3] == 1.0)
     a = agreement(rep["rgba"], *jitter_box(surface, sphere_scale), covered, 3)
     print(f"sphere, 3 channels, histogram-preserving: {a}")
-    assert covered.sum() == SIZE * SIZE and a["fraction"] >= MIN_AGREEMENT and a["max_outside_jitter"] <= TOLERANCE
+    # the RGB tables are steep in places: where the camera's jitter square spans more than the
+    # tolerance, the value it saw is not known; every pixel lies within its square
+    assert covered.sum() == SIZE * SIZE and a["fraction_unambiguous"] >= MIN_AGREEMENT
+    assert a["max_outside_jitter"] <= TOLERANCE
 
 
 def test_exports_carry_the_transform(rgb, tmp_path):

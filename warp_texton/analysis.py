@@ -184,8 +184,8 @@ def analyze(
         Shape of the support S.
     histogram : {"gaussian", "preserve"}
         ``"gaussian"``: the noise's values are Gaussian (the papers' model).
-        ``"preserve"``: the example's colours are decorrelated and each
-        channel mapped through its CDF to a Gaussian, that Gaussianised
+        ``"preserve"``: each channel of the example (grey, or R, G and B) is
+        mapped through its CDF to a Gaussian, that Gaussianised
         example is analysed, and the texton keeps the inverse map
         (:class:`~warp_texton.histogram.HistogramTransform`), which every
         output applies after the noise, so that outputs have the example's
@@ -246,10 +246,13 @@ def analyze(
     check_analysis_cost((m, n), c, iterations, f"analysing a {n}x{m} image")
     transform = None
     if histogram == "preserve":
-        transform = HistogramTransform.fit(u)
+        # colour: one table per RGB channel, and a correction that keeps the channels
+        # coherent (docs/histogram.md); grey keeps the per-frequency correction
+        colour = c > 1
+        transform = HistogramTransform.fit(u, axes="rgb" if colour else "pca")
         z = transform.decorrelate(u).astype(np.float32)
         mean, t = normalized_kernel(transform.to_gaussian(u).astype(np.float32), periodic=periodic)
-        t = transform.gaussian_kernel(t, normalized_kernel(z, periodic=periodic)[1])
+        t = transform.gaussian_kernel(t, normalized_kernel(z, periodic=periodic)[1], size if colour else None)
     else:
         mean, t = normalized_kernel(u, periodic=periodic)
     t_hat = sfft.rfft2(t, axes=(0, 1), workers=FFT_WORKERS)

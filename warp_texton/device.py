@@ -338,7 +338,7 @@ def pack_colours(texton: Texton, *, device=None) -> ColourMap:
     Returns
     -------
     ColourMap
-        A ``@wp.struct`` holding the principal axes and mean colour, the noise's
+        A ``@wp.struct`` holding the colour axes and centre, the noise's
         mean and standard deviation, the inverse-CDF tables and their versions
         prefiltered per variance share (float32, (33, C, 1024)), and the texton's
         table of footprint shares. The device functions:

@@ -2,8 +2,9 @@
 
 Texton noise is Gaussian; a photograph's colour histogram is not. A
 :class:`HistogramTransform` (Heitz & Neyret 2018, §1.4 "histogram-preserving
-blending"; Deliot & Heitz 2019) decorrelates the colours with a principal
-component analysis, z = (u − centre) Mᵀ, maps each decorrelated channel
+blending"; Deliot & Heitz 2019) rotates the colours onto their axes,
+z = (u − centre) Mᵀ (a principal component analysis, or for ``analyze``'s
+colour transforms the RGB channels themselves: M = I, centre = 0), maps each channel
 through its empirical CDF to a standard Gaussian, and keeps the inverse map as
 a lookup table: ``lut[c, k]`` is the quantile of channel c at the Gaussian
 quantile Φ(g_k) of the grid g_k = −GAUSS_RANGE … GAUSS_RANGE (LUT_SIZE points).
@@ -66,10 +67,11 @@ class HistogramTransform:
     Attributes
     ----------
     matrix : float64 array (C, C)
-        Orthonormal rows: the principal axes of the example's colours
+        Orthonormal rows: the colour axes of the tables, the principal axes
+        of the example's colours or the identity (``fit(..., axes="rgb")``)
         (largest variance first); ``[[1]]`` for grey.
     centre : float64 array (C,)
-        The example's mean colour.
+        The example's mean colour (0 for the RGB axes of ``fit(..., axes="rgb")``).
     lut : float64 array (C, K)
         Non-decreasing quantiles of each decorrelated channel at the Gaussian
         quantiles Φ(g_k), g_k = :func:`gauss_grid` (K).
@@ -129,11 +131,24 @@ class HistogramTransform:
 
     # ------------------------------------------------------------------ fitting
     @classmethod
-    def fit(cls, u: np.ndarray, size: int = LUT_SIZE) -> HistogramTransform:
-        """The transform of an (H, W, C) example (checked by the caller)."""
+    def fit(cls, u: np.ndarray, size: int = LUT_SIZE, axes: str = "pca") -> HistogramTransform:
+        """The transform of an (H, W, C) example (checked by the caller).
+
+        ``axes``: ``"pca"``, the principal axes of the colours (tiling and
+        blending's choice), or ``"rgb"``, the colour channels themselves (the
+        identity matrix): every table then bounds and keeps the marginal of one
+        RGB channel, which is what ``analyze`` uses for colour (docs/histogram.md);
+        its ``centre`` is 0 and its tables hold the colours themselves.
+        """
         flat = np.asarray(u, np.float64).reshape(-1, u.shape[-1])
-        centre = flat.mean(axis=0)
-        matrix = principal_axes(flat - centre)
+        if axes == "pca":
+            centre = flat.mean(axis=0)
+            matrix = principal_axes(flat - centre)
+        else:
+            # centre 0: the tables hold the colours themselves, so that their ends are the
+            # example's extreme values exactly, in float32 too (no rounding past 0 or 1)
+            centre = np.zeros(flat.shape[1])
+            matrix = np.eye(flat.shape[1])
         z = (flat - centre) @ matrix.T
         q = ndtr(gauss_grid(size))
         lut = np.quantile(z, q, axis=0).T  # linear interpolation between order statistics
@@ -156,16 +171,20 @@ class HistogramTransform:
         flat = np.asarray(u, np.float64).reshape(-1, self.channels)
         return ((flat - self.centre) @ self.matrix.T).reshape(np.shape(u)[:2] + (self.channels,))
 
-    def correlation_map(self, c: int) -> tuple[np.ndarray, np.ndarray]:
+    def correlation_map(self, c: int, centred: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """(ρ, R(ρ)): the correlation R of T_c(X), T_c(Y) for standard Gaussians X, Y of
         correlation ρ, T_c the lookup table of channel c; non-decreasing, R(1) = 1.
 
         By Gauss–Hermite quadrature over X and the part of Y independent of X.
+        ``centred``: the table less its median first (the same R in exact
+        arithmetic); a table far from 0 against its spread, as the RGB tables of
+        colours are, would otherwise lose R to the quadrature's rounding.
         """
         x, w = np.polynomial.hermite_e.hermegauss(CORRELATION_NODES)
         w = w / w.sum()
         grid = gauss_grid(self.lut.shape[1])
-        tx = np.interp(x, grid, self.lut[c])
+        table = self.lut[c] - self.lut[c, self.lut.shape[1] // 2] if centred else self.lut[c]
+        tx = np.interp(x, grid, table)
         m = tx @ w
         var = tx ** 2 @ w - m * m
         rho = np.linspace(-1.0, 1.0, CORRELATION_STEPS)
@@ -173,10 +192,10 @@ class HistogramTransform:
             return rho, rho
         ww = w[:, None] * w[None, :]
         r = np.array([np.sum(tx[:, None] * np.interp(q * x[:, None] + np.sqrt(max(1.0 - q * q, 0.0)) * x[None, :],
-                                                      grid, self.lut[c]) * ww) for q in rho])
+                                                      grid, table) * ww) for q in rho])
         return rho, np.maximum.accumulate((r - m * m) / var)
 
-    def gaussian_kernel(self, t: np.ndarray, tz: np.ndarray) -> np.ndarray:
+    def gaussian_kernel(self, t: np.ndarray, tz: np.ndarray, window: int | None = None) -> np.ndarray:
         """The kernel (H, W, C) the Gaussian noise needs so that its colours have the
         example's spectrum: a translation process (Grigoriu 1995).
 
@@ -187,9 +206,21 @@ class HistogramTransform:
         (:meth:`correlation_map`); its spectrum (negative values, which no
         Gaussian field has, set to 0) scaled to the variance of t gives the new
         modulus, and t's phases keep the cross-channel structure.
+
+        ``window`` (colour): instead, each channel of t is filtered by the gain
+        √(S_target / S_t) between the two spectra estimated from their
+        autocorrelations under a separable triangular window of half-width
+        ``window`` (non-negative estimates, smooth at the scale of 1/window):
+        the correction is then a compact filter per channel, and t's channels
+        keep their relation to each other beyond the phases. Replacing each
+        channel's modulus by its own noisy estimate decorrelates the channels
+        frequency by frequency, which a texton of support ``window`` cannot
+        follow (docs/histogram.md, "Spectrum correction").
         """
         th = np.fft.fft2(t, axes=(0, 1))
         tzh = np.fft.fft2(tz, axes=(0, 1))
+        if window is not None:
+            return self._windowed_kernel(th, tzh, window)
         out = th.copy()
         for c in range(self.channels):
             pz = np.abs(tzh[..., c]) ** 2
@@ -204,6 +235,29 @@ class HistogramTransform:
             phase = np.divide(th[..., c], np.abs(th[..., c]), out=np.ones_like(th[..., c]),
                               where=np.abs(th[..., c]) > 0)
             out[..., c] = np.sqrt(sg) * phase
+        return np.fft.ifft2(out, axes=(0, 1)).real.astype(np.float32)
+
+    def _windowed_kernel(self, th: np.ndarray, tzh: np.ndarray, window: int) -> np.ndarray:
+        h, w = th.shape[:2]
+        dy = np.minimum(np.arange(h), h - np.arange(h))
+        dx = np.minimum(np.arange(w), w - np.arange(w))
+        # a triangle's Fourier transform (Fejér) is non-negative: so are the windowed spectra
+        win = np.outer(np.clip(1.0 - dy / window, 0.0, None), np.clip(1.0 - dx / window, 0.0, None))
+        out = th.copy()
+        for c in range(self.channels):
+            pg = np.abs(th[..., c]) ** 2
+            pz = np.abs(tzh[..., c]) ** 2
+            if pz.sum() <= 0 or pg.sum() <= 0:
+                continue
+            rz = np.fft.ifft2(pz).real
+            rg = np.fft.ifft2(pg).real
+            rho, r = self.correlation_map(c, centred=True)
+            target = np.interp(rz / rz[0, 0], r, rho) * rg[0, 0]
+            s_target = np.maximum(np.fft.fft2(target * win).real, 0.0)
+            s_t = np.maximum(np.fft.fft2(rg * win).real, 1e-12 * rg[0, 0])
+            col = th[..., c] * np.sqrt(s_target / s_t)
+            power = np.sum(np.abs(col) ** 2)
+            out[..., c] = col * np.sqrt(pg.sum() / power) if power > 0 else th[..., c]
         return np.fft.ifft2(out, axes=(0, 1)).real.astype(np.float32)
 
     # ------------------------------------------------------------------ applying

@@ -334,7 +334,7 @@ def _mixed_transforms(u, v) -> tuple[HistogramTransform, HistogramTransform] | N
     a, b = tr[0], tr[1]
     assert a is not None and b is not None
     if a.channels != b.channels or a.lut.shape != b.lut.shape or not np.allclose(a.matrix, b.matrix, atol=1e-6):
-        raise TextonError("u, v: their histogram transforms have different colour axes (PCA), so their lookup "
+        raise TextonError("u, v: their histogram transforms have different colour axes (principal axes), so their lookup "
                           "tables cannot be interpolated channel by channel; mix grey textures, textures of the "
                           "same colour axes, or textons without histogram transforms", param="u")
     return a, b
