@@ -6,7 +6,7 @@ or makes a UV atlas with xatlas (the optional extra ``mesh``), then
 
 1. rasterises the UV triangles: each texel centre gets its triangle, its
    barycentric position, the 3-D point and the interpolated normal there
-   (the renderer's rule: the face normal across creases sharper than 30°);
+   (the renderer's: the face's corner normals, split at creases, interpolated);
 2. evaluates the surface noise (CGF §6) there, averaging ``n_x × n_y``
    samples over the texel's footprint on the surface where one texel covers
    more than a texton texel (the supersampling anti-aliases a coarse bake);
@@ -36,7 +36,7 @@ from .errors import TextonError
 from .kernels import bake as KB
 from .limits import check_memory
 from .frames import UP, up_vector
-from .mesh import check_mesh, vertex_normals
+from .mesh import CREASE_ANGLE, check_mesh, check_normals, corner_normals, split_corners
 from .mesh_files import PNG_DTYPES, texture_8bit
 from .render import cast_rays, check_background
 from .surface import (check_method, check_surface_work, evaluate_points, surface_params, surface_setup,
@@ -77,8 +77,6 @@ BYTES_PER_SAMPLE = 120.0
 BYTES_PER_BAKED_TEXEL = 64.0
 #: Refuse mesh UVs when more than this fraction of the covered texels is claimed twice.
 MAX_OVERLAP = 0.02
-#: The crease rule of the renderer: beyond 30° the face normal is used.
-CREASE_COS = 0.866
 
 
 @dataclass(frozen=True)
@@ -88,9 +86,9 @@ class BakedMesh:
     Attributes
     ----------
     mesh : trimesh.Trimesh
-        The mesh with UVs (vertices split along the atlas's seams), the vertex
-        normals the noise was evaluated with (the input's, so smooth across
-        seams) and a PBR material whose base-colour texture is ``texture``
+        The mesh with UVs (vertices split along the atlas's seams and where
+        the corner normals split, at creases), the vertex normals the noise
+        was evaluated with (smooth across seams) and a PBR material whose base-colour texture is ``texture``
         (8-bit sRGB).
     texture : float32 array (RES, RES, C)
         The noise on the texture's texels (row 0 at the top, v = 1), gutter
@@ -177,17 +175,24 @@ def _claimed(uvs: np.ndarray, faces: np.ndarray, res: int, device, name: str):
     return corners, owner, float(np.count_nonzero(cover > 1)) / n_cov
 
 
-def _normals_at(bary: np.ndarray, tri: np.ndarray, vnormals: np.ndarray, fnormals: np.ndarray) -> np.ndarray:
-    """The renderer's normal: vertex normals interpolated, the face normal where they
-    leave it by more than 30° or vanish."""
-    n = (vnormals[tri[:, 0]] * bary[:, :1] + vnormals[tri[:, 1]] * bary[:, 1:2]
-         + vnormals[tri[:, 2]] * bary[:, 2:])
+def _normals_at(bary: np.ndarray, corners: np.ndarray, fnormals: np.ndarray) -> np.ndarray:
+    """The renderer's normal: the face's corner normals (n, 3, 3) interpolated, the face
+    normal where they vanish."""
+    n = corners[:, 0] * bary[:, :1] + corners[:, 1] * bary[:, 1:2] + corners[:, 2] * bary[:, 2:]
     length = np.linalg.norm(n, axis=1)
     ok = length > 1e-6
     n[ok] /= length[ok, None]
-    bad = ~ok | (np.sum(n * fnormals, axis=1) < CREASE_COS)
-    n[bad] = fnormals[bad]
+    n[~ok] = fnormals[~ok]
     return n
+
+
+def _corners_of(cnormals: np.ndarray, faces: np.ndarray, vmap: np.ndarray, new_faces: np.ndarray) -> np.ndarray:
+    """The corner normals of an atlas's faces (``new_faces``, one per input face, in order,
+    indexing ``vmap``'s vertices): each corner takes the input corner of its vertex."""
+    orig = vmap[new_faces]
+    match = orig[:, :, None] == faces[:, None, :]  # corner k of the atlas is corner k' of the input
+    pick = np.where(match.any(axis=2), match.argmax(axis=2), np.arange(3))
+    return np.take_along_axis(cnormals, pick[:, :, None], axis=1)
 
 
 def bake_mesh(
@@ -209,6 +214,8 @@ def bake_mesh(
     charts: str = "normals",
     progress: bool = False,
     dtype: str = "uint8",
+    normals: str = "angle",
+    crease_angle: float = CREASE_ANGLE,
 ) -> BakedMesh:
     """Bake surface texton noise into a ``resolution``² texture on the mesh's UVs.
 
@@ -235,9 +242,7 @@ def bake_mesh(
     device : str, optional
         As in :func:`warp_texton.surface_noise`.
     up : str or (x, y, z)
-        The frame rule's up direction, as in :func:`warp_texton.surface_noise`;
-        the normals are the renderer's (interpolated vertex normals, the face
-        normal across creases).
+        The frame rule's up direction, as in :func:`warp_texton.surface_noise`.
     side : (x, y, z), optional
         The frame rule's second direction, as in :func:`warp_texton.surface_noise`.
     method : {"auto", "blocks", "points"}
@@ -258,6 +263,12 @@ def bake_mesh(
         The PNG sample type :func:`write_baked` writes the texture with (GLB,
         OBJ and the texture alone; 16 bits keep 256 times finer steps, for
         textures that are graded or displaced later).
+    normals : {"angle", "smooth", "flat", "mesh"}
+        The normals the noise sees, as in :func:`warp_texton.render_mesh`
+        (default "angle": split at edges sharper than ``crease_angle``); the
+        baked mesh carries them (its vertices split where they do).
+    crease_angle : float
+        As in :func:`warp_texton.render_mesh` (degrees, default 30).
     supersample : int, optional
         Samples per side of each texel (1: the texel centre only). Default:
         per texel, ``ceil(SAMPLE_DENSITY ×`` texton texels along each side of
@@ -277,7 +288,7 @@ def bake_mesh(
     TextonError
         For the ``mesh`` and ``texton`` errors of
         :func:`warp_texton.texture_mesh`; a ``resolution`` that is not an
-        integer in [1, 16384]; a bad ``uv``, ``charts``, ``dtype`` (a type PNG
+        integer in [1, 16384]; a bad ``normals`` or ``crease_angle``; a bad ``uv``, ``charts``, ``dtype`` (a type PNG
         cannot hold, such as "float32"), ``supersample`` (≥ 1, ≤ 64) or
         ``gutter`` (≥ 0); UVs that cannot hold a bake, naming the mesh and the
         problem with the hint ``uv='atlas'``: not one (u, v) per vertex, NaN
@@ -336,6 +347,7 @@ def bake_mesh(
     supersample, gutter = _check_choices(res, uv, supersample, gutter, charts, dtype)
     seed = check_seed(seed)
     check_method(method)
+    check_normals(normals, crease_angle)
     # the owners, the distance transform of the gutter and each texel's face, map, footprint
     # and sums: about BYTES_PER_TEXEL at the peak (measured: 1.7 GB for 2048²)
     check_memory(res * res * BYTES_PER_TEXEL, f"a {res}x{res} bake", "use a smaller resolution")
@@ -343,7 +355,7 @@ def bake_mesh(
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
     faces = np.asarray(mesh.faces, dtype=np.int64)
     texel_positions(vertices, texel, setup, "the mesh's vertices")
-    vnormals = vertex_normals(mesh, up)
+    cnormals = corner_normals(mesh, normals, crease_angle, up)  # (F, 3 corners, 3)
     own_uv = mesh_uvs(mesh) if uv != "atlas" else None
     if own_uv is None and uv == "mesh":
         raise TextonError(f"{name}: has no UVs (uv='mesh'); use uv='auto' or 'atlas' to make an atlas")
@@ -378,7 +390,8 @@ def bake_mesh(
             vmap, faces, uvs, _ = make_atlas(vertices, np.asarray(mesh.faces, np.int64), res, max(gutter, 1),
                                              charts="xatlas", name=name)
             corners, owner, overlap = _claimed(uvs, faces, res, device, name)
-        vertices, vnormals = vertices[vmap], vnormals[vmap]
+        cnormals = _corners_of(cnormals, np.asarray(mesh.faces, np.int64), vmap, faces)
+        vertices = vertices[vmap]
     covered = owner >= 0
     n_cov = int(covered.sum())
     owner = _extend(owner, covered, gutter)
@@ -393,7 +406,7 @@ def bake_mesh(
     p3 = vertices[tri]  # (n, 3 corners, 3)
     fn = np.cross(p3[:, 1] - p3[:, 0], p3[:, 2] - p3[:, 0])
     fl = np.linalg.norm(fn, axis=1)
-    fn = np.where(fl[:, None] > 0, fn / np.where(fl > 0, fl, 1.0)[:, None], vnormals[tri[:, 0]])
+    fn = np.where(fl[:, None] > 0, fn / np.where(fl > 0, fl, 1.0)[:, None], cnormals[f, 0])
     # d(point)/d(texel x), d(point)/d(texel y) in texton texels: the footprint's sides
     inv = np.stack([np.stack([e2[:, 1], -e2[:, 0]], 1), np.stack([-e1[:, 1], e1[:, 0]], 1)], 1) / det[:, None, None]
     jac = np.einsum("nkc,nkd->ncd", np.stack([p3[:, 1] - p3[:, 0], p3[:, 2] - p3[:, 0]], 1), inv) / texel
@@ -433,7 +446,7 @@ def bake_mesh(
             w12 = np.einsum("nij,nj->ni", inv[k], q)
             bary = np.stack([1.0 - w12[:, 0] - w12[:, 1], w12[:, 0], w12[:, 1]], axis=1)
             pts = np.einsum("nc,ncd->nd", bary, p3[k])
-            nrm = _normals_at(bary, tri[k], vnormals, fn[k])
+            nrm = _normals_at(bary, cnormals[f[k]], fn[k])
             vals = evaluate_points(p, setup, pts / texel, nrm, None, device, method)
             sums[g] += vals.reshape(len(g), len(offsets), 3).sum(axis=1)  # g holds distinct texels
             bar.update()
@@ -443,7 +456,9 @@ def bake_mesh(
     texture = np.empty((res, res, c), np.float32)
     texture[:] = mean_colour(texton)
     texture[rows, cols] = values[:, :c]
-    out = _textured(vertices, faces, uvs, vnormals, texture, trimesh)
+    # one normal per vertex for the file (glTF NORMAL): vertices split where their corners' do
+    vsplit, faces, vnormals = split_corners(faces, cnormals, len(vertices))
+    out = _textured(vertices[vsplit], faces, uvs[vsplit], vnormals, texture, trimesh)
     axis = up_vector(up)
     return BakedMesh(out, texture, covered, per_texel, float(np.sum((nx * ny)[inner])) / n_cov, source,
                      (float(axis[0]), float(axis[1]), float(axis[2])), dtype)

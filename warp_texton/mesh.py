@@ -62,6 +62,178 @@ def vertex_normals(mesh, up=UP) -> np.ndarray:
     return n / np.linalg.norm(n, axis=1)[:, None]
 
 
+#: How :func:`corner_normals` makes the normal of each face corner.
+NORMAL_MODES = ("angle", "smooth", "flat", "mesh")
+#: Default crease angle of ``normals="angle"``, degrees: Blender's auto smooth default.
+CREASE_ANGLE = 30.0
+#: Dot products computed at once when corner normals are split (bounds their memory).
+_PAIRS_PER_ROUND = 1 << 22
+
+
+def check_normals(normals, crease_angle) -> float:
+    """The cosine of the checked ``crease_angle`` (degrees, 0 to 180) after ``normals``
+    (one of :data:`NORMAL_MODES`)."""
+    if not isinstance(normals, str) or normals not in NORMAL_MODES:
+        raise TextonError(f"normals must be one of {', '.join(NORMAL_MODES)}, got {normals!r:.40}", "normals")
+    try:
+        angle = float(crease_angle)
+    except (TypeError, ValueError):
+        angle = math.nan
+    if isinstance(crease_angle, bool) or not 0.0 <= angle <= 180.0:
+        raise TextonError(f"crease_angle must be a number of degrees from 0 to 180, got {crease_angle!r:.40}",
+                          "crease_angle")
+    return math.cos(math.radians(angle))
+
+
+def corner_normals(mesh, normals: str = "angle", crease_angle: float = CREASE_ANGLE, up=UP) -> np.ndarray:
+    """Unit normals of every face corner of ``mesh``: (F, 3, 3) float64, corner k of
+    face f at ``[f, k]``, the normals renders, bakes and vertex colours interpolate.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+    normals : {"angle", "smooth", "flat", "mesh"}
+        "angle" (default): a corner's normal is the mean of the normals of the
+        faces around its vertex that lie within ``crease_angle`` of its own
+        face's normal, weighted by their corner angles (Blender's auto smooth;
+        a face normal never turns further than the crease angle, so flat faces
+        stay flat and curved ones smooth). "smooth": the mean of all the faces
+        around the vertex. "flat": the face's normal. "mesh": the vertex normals
+        the mesh holds (those read from its file, glTF/OBJ/PLY; for a mesh
+        without, trimesh's smooth ones), as they are.
+    crease_angle : float
+        Degrees, 0 to 180 (default 30, ``CREASE_ANGLE``); only "angle" reads it.
+    up : str or (x, y, z)
+        The normal of corners that have none (every face around them has zero
+        area).
+
+    Returns
+    -------
+    float64 array (F, 3, 3)
+
+    Raises
+    ------
+    TextonError
+        For a ``normals`` not in :data:`NORMAL_MODES` and a ``crease_angle``
+        outside [0, 180].
+
+    Notes
+    -----
+    Vertices are joined by position first, so corners split only to carry
+    other attributes (UV seams, a triangle soup read from STL) are smooth
+    across the split. Faces of zero area count for none, and their corners
+    take the mean of the vertex's faces. Where a vertex's faces all lie
+    within the crease angle of each other and no other vertex shares its
+    position, its corners take trimesh's vertex normal (the same mean,
+    summed in trimesh's order), so smooth meshes keep their normals to the bit.
+
+    Examples
+    --------
+    >>> import trimesh
+    >>> from warp_texton.mesh import corner_normals
+    >>> box = trimesh.creation.box()  # 8 vertices, each on 3 faces at 90 degrees
+    >>> n = corner_normals(box)
+    >>> bool((n == box.face_normals[:, None, :]).all())  # flat faces, split at the edges
+    True
+    >>> smooth = corner_normals(box, "smooth")
+    >>> [round(abs(float(c)), 3) for c in smooth[0, 0]]  # along the corner's diagonal
+    [0.577, 0.577, 0.577]
+    """
+    import trimesh
+
+    cos = check_normals(normals, crease_angle)
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    if normals == "mesh":
+        return vertex_normals(mesh, up)[faces]
+    v = np.asarray(mesh.vertices, dtype=np.float64)
+    fn = np.asarray(mesh.face_normals, dtype=np.float64)
+    ok = (fn ** 2).sum(axis=1) > 0.5  # trimesh's own test of a face with a normal
+    angles = np.where(ok[:, None], np.nan_to_num(np.asarray(mesh.face_angles, dtype=np.float64)), 0.0)
+    # trimesh's vertex normals, computed rather than read (a file's normals are "mesh")
+    smooth = _unit_or_up(trimesh.geometry.weighted_vertex_normals(len(v), faces, fn, angles), up)
+    if normals == "flat":
+        out = np.repeat(fn[:, None, :], 3, axis=1)
+        out[~ok] = smooth[faces[~ok]]
+        return out
+    weld = _positions(v)
+    corner = weld[faces.reshape(-1)]
+    face = np.repeat(np.arange(len(faces)), 3)
+    weight = angles.reshape(-1)
+    order = np.argsort(corner, kind="stable")
+    starts = np.flatnonzero(np.r_[True, corner[order][1:] != corner[order][:-1]])
+    sizes = np.diff(np.r_[starts, len(order)])
+    # a position whose faces all lie within half the angle of their mean: no pair is further
+    # apart than the angle, so every corner there takes the full mean (no pairs to test)
+    n_sorted = fn[face[order]]
+    total = np.add.reduceat(n_sorted * weight[order, None], starts)
+    length = np.linalg.norm(total, axis=1)
+    group = np.repeat(np.arange(len(starts)), sizes)
+    if cos <= -1.0:
+        fast = length > 0
+    else:
+        mean = total / np.where(length > 0, length, 1.0)[:, None]
+        within = (np.sum(n_sorted * mean[group], axis=1) >= math.sqrt((1.0 + cos) / 2.0)) | ~ok[face[order]]
+        fast = np.logical_and.reduceat(within, starts) & (length > 0)
+    out = np.empty((len(order), 3))
+    whole = np.zeros(len(order), bool)  # corners whose position is not split: the full mean
+    out[order] = total[group]
+    whole[order] = fast[group]
+    for k in np.unique(sizes[~fast]):
+        groups = starts[(sizes == k) & ~fast]
+        step = max(1, _PAIRS_PER_ROUND // (k * k))
+        for g0 in range(0, len(groups), step):
+            idx = order[groups[g0:g0 + step, None] + np.arange(k)]  # (g, k) corners of g positions
+            n, w = fn[face[idx]], weight[idx]
+            near = np.einsum("gid,gjd->gij", n, n) >= cos
+            near |= ~ok[face[idx]][:, :, None]  # a corner of a zero-area face takes the full mean
+            out[idx] = np.einsum("gij,gj,gjd->gid", near.astype(np.float64), w, n)
+            whole[idx] = near.all(axis=(1, 2))[:, None]
+    length = np.linalg.norm(out, axis=1)
+    good = length > 1e-12
+    out[good] /= length[good, None]
+    out[~good] = up_vector(up)
+    # a vertex alone at its position whose corners are not split: trimesh's normal, to the bit
+    alone = np.bincount(weld, minlength=len(v))[weld] == 1
+    same = whole & alone[faces.reshape(-1)]
+    out[same] = smooth[faces.reshape(-1)[same]]
+    return out.reshape(-1, 3, 3)
+
+
+def _positions(v: np.ndarray) -> np.ndarray:
+    """Each vertex's position index: vertices at equal coordinates share one."""
+    key = np.ascontiguousarray(v + 0.0).view(np.dtype((np.void, 24))).reshape(-1)  # + 0.0: -0.0 is 0.0
+    return np.unique(key, return_inverse=True)[1].reshape(-1)
+
+
+def _unit_or_up(n: np.ndarray, up) -> np.ndarray:
+    n = np.asarray(n, dtype=np.float64).copy()
+    length = np.linalg.norm(n, axis=1)
+    bad = ~np.isfinite(length) | (length < 1e-12)
+    n[bad] = up_vector(up)
+    return n / np.linalg.norm(n, axis=1)[:, None]
+
+
+def split_corners(faces: np.ndarray, normals: np.ndarray, vertex_count: int):
+    """(vertex map, faces, vertex normals): the vertices of ``faces`` split where their
+    corners' ``normals`` (F, 3, 3) differ, so that each output vertex has one normal.
+    ``vertex map`` gives each output vertex's input vertex. Without a split, the
+    input's vertices are kept as they are (the map is the identity, unused vertices
+    included, with the first normal of their corners, or none: zeros)."""
+    faces = np.asarray(faces, dtype=np.int64)
+    flat = faces.reshape(-1)
+    n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+    order = np.lexsort((n[:, 2], n[:, 1], n[:, 0], flat))
+    fs, ns = flat[order], n[order]
+    new = np.r_[True, (fs[1:] != fs[:-1]) | np.any(ns[1:] != ns[:-1], axis=1)]
+    if np.count_nonzero(new) == np.count_nonzero(np.r_[True, fs[1:] != fs[:-1]]):
+        vn = np.zeros((int(vertex_count), 3))  # one normal per used vertex: nothing splits
+        vn[flat] = n
+        return np.arange(int(vertex_count)), faces, vn
+    index = np.empty(len(flat), np.int64)
+    index[order] = np.cumsum(new) - 1
+    return fs[new], index.reshape(-1, 3), ns[new]
+
+
 def srgb_to_linear(v) -> np.ndarray:
     """The sRGB decoding (IEC 61966-2-1) of values in [0, 1]: what glTF's linear
     ``COLOR_0`` holds for a colour an image stores as ``v``.
@@ -97,11 +269,15 @@ def texture_mesh(
     linear: bool = False,
     name: str = "mesh",
     warn: bool = True,
+    normals: str = "angle",
+    crease_angle: float = CREASE_ANGLE,
 ) -> trimesh.Trimesh:
     """A copy of ``mesh`` with per-vertex colours from surface texton noise.
 
     A new mesh with the noise of :func:`surface_noise` at every vertex as
-    8-bit RGBA vertex colours (``mesh.visual.vertex_colors``; grey textons
+    8-bit RGBA vertex colours, its vertices split where their corners'
+    normals differ (:func:`corner_normals`: at the edges of a box, so each
+    face holds the noise of its own plane) (``mesh.visual.vertex_colors``; grey textons
     give three equal channels, alpha 255), ready to export as PLY, OBJ or
     GLB. The input is not modified. Vertex colours hold one value per vertex,
     interpolated across faces: they show the texture only where vertices are
@@ -126,9 +302,8 @@ def texture_mesh(
     device : str, optional
         As in :func:`surface_noise`.
     up : str or (x, y, z)
-        As in :func:`surface_noise`; the normals are the mesh's vertex
-        normals, and a vertex that touches only zero-area faces takes
-        ``up``.
+        As in :func:`surface_noise`; a vertex that touches only zero-area
+        faces has ``up`` for normal.
     side : (x, y, z), optional
         As in :func:`surface_noise`.
     max_faces : int
@@ -141,12 +316,20 @@ def texture_mesh(
     warn : bool
         Whether to warn about vertices further apart than a texel (a batch
         reports it itself).
+    normals : {"angle", "smooth", "flat", "mesh"}
+        The normals the noise sees at the vertices, as in
+        :func:`render_mesh` (default "angle": split at edges sharper than
+        ``crease_angle``).
+    crease_angle : float
+        As in :func:`render_mesh` (degrees, default 30).
 
     Returns
     -------
     trimesh.Trimesh
         With ``visual.vertex_colors`` (N, 4) uint8 RGBA; the subdivided
-        vertices and faces when ``max_edge`` is given, else the input's.
+        vertices and faces when ``max_edge`` is given, else the input's, and
+        a vertex for each normal where the corner normals split one (the
+        faces in their order).
 
     Raises
     ------
@@ -154,7 +337,8 @@ def texture_mesh(
         For a ``mesh`` that is not a ``trimesh.Trimesh``, has no triangles,
         has NaN or infinite vertices or faces that index missing vertices; a
         ``texel_size`` or ``max_edge`` that is not a finite number > 0; a
-        ``max_faces`` that is not an integer ≥ 1; a subdivision estimated
+        ``max_faces`` that is not an integer ≥ 1; a bad ``normals`` or
+        ``crease_angle`` (:func:`corner_normals`); a subdivision estimated
         above ``max_faces``; and the errors of :func:`surface_noise`
         (vertices too far from the origin for ``texel_size`` among them).
 
@@ -199,6 +383,7 @@ def texture_mesh(
     mesh = check_mesh(mesh)
     texel = check_positive(texel_size, "texel_size")
     max_faces = check_int(max_faces, "max_faces", minimum=1)
+    check_normals(normals, crease_angle)
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
     faces = np.asarray(mesh.faces, dtype=np.int64)
     if not isinstance(texton, Texton):
@@ -218,13 +403,20 @@ def texture_mesh(
                 "use a larger max_edge or texel_size"
             )
         vertices, faces = trimesh.remesh.subdivide_to_size(vertices, faces, max_edge=edge, max_iter=64)
+        source = trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
+    else:
+        source = mesh  # its own normals for normals="mesh"
+    # a vertex per normal where the corners around it split: the noise differs on each side of a crease
+    split, faces, vnormals = split_corners(faces, corner_normals(source, normals, crease_angle, up), len(vertices))
+    vertices = vertices[split]
     out = trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
     spacing = vertex_spacing(out, texel)
     if warn and spacing > 1.0:
         warnings.warn(f"{name}: vertices are {spacing:.3g} texels apart (median edge), so vertex colours blur the "
                       "texture; bake a texture (--bake RES) or subdivide (--max-edge 1)", stacklevel=2)
-    colours = surface_noise(texton, vertices, vertex_normals(out, up), texel, mni=mni, seed=seed, device=device, up=up,
-                            side=side)
+    vnormals[~np.any(vnormals, axis=1)] = up_vector(up)  # vertices of no face
+    colours = surface_noise(texton, vertices, vnormals, texel, mni=mni, seed=seed, device=device,
+                            up=up, side=side)
     if colours.shape[1] == 1:
         colours = np.repeat(colours, 3, axis=1)
     colours = np.clip(colours, 0.0, 1.0)
