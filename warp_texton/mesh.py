@@ -10,6 +10,7 @@ any mesh with UVs.
 from __future__ import annotations
 
 import math
+import numbers
 import warnings
 from typing import TYPE_CHECKING
 
@@ -75,11 +76,9 @@ def check_normals(normals, crease_angle) -> float:
     (one of :data:`NORMAL_MODES`)."""
     if not isinstance(normals, str) or normals not in NORMAL_MODES:
         raise TextonError(f"normals must be one of {', '.join(NORMAL_MODES)}, got {normals!r:.40}", "normals")
-    try:
-        angle = float(crease_angle)
-    except (TypeError, ValueError):
-        angle = math.nan
-    if isinstance(crease_angle, bool) or not 0.0 <= angle <= 180.0:
+    real = isinstance(crease_angle, numbers.Real) and not isinstance(crease_angle, bool)
+    angle = float(crease_angle) if real else math.nan
+    if not 0.0 <= angle <= 180.0:
         raise TextonError(f"crease_angle must be a number of degrees from 0 to 180, got {crease_angle!r:.40}",
                           "crease_angle")
     return math.cos(math.radians(angle))
@@ -142,6 +141,8 @@ def corner_normals(mesh, normals: str = "angle", crease_angle: float = CREASE_AN
     import trimesh
 
     cos = check_normals(normals, crease_angle)
+    if normals != "angle":
+        cos = -1.0  # "smooth": every face around the vertex
     faces = np.asarray(mesh.faces, dtype=np.int64)
     if normals == "mesh":
         return vertex_normals(mesh, up)[faces]

@@ -307,7 +307,7 @@ def _cast_box(mesh, shape, camera, up, orbit, fov, light, device, normals=("angl
         points: wp.array = wp.array(vertices - origin, dtype=wp.vec3)
         indices: wp.array = wp.array(faces_np.astype(np.int32).reshape(-1), dtype=wp.int32)
         wmesh = wp.Mesh(points=points, indices=indices)
-        corners: wp.array = wp.array(corner_normals(mesh, *normals, up=up).reshape(-1, 3), dtype=wp.vec3)
+        corners: wp.array = wp.array(corner_normals(mesh, normals[0], normals[1], up).reshape(-1, 3), dtype=wp.vec3)
         outs = [wp.empty((rh, rw), dtype=t) for t in (wp.int32, wp.vec2, wp.vec3, wp.float32)]
 
         def band(a, b):
