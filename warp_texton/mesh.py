@@ -67,8 +67,6 @@ def vertex_normals(mesh, up=UP) -> np.ndarray:
 NORMAL_MODES = ("angle", "smooth", "flat", "mesh")
 #: Default crease angle of ``normals="angle"``, degrees: Blender's auto smooth default.
 CREASE_ANGLE = 30.0
-#: Dot products computed at once when corner normals are split (bounds their memory).
-_PAIRS_PER_ROUND = 1 << 22
 
 
 def check_normals(normals, crease_angle) -> float:
@@ -157,47 +155,62 @@ def corner_normals(mesh, normals: str = "angle", crease_angle: float = CREASE_AN
         out[~ok] = smooth[faces[~ok]]
         return out
     weld = _positions(v)
-    corner = weld[faces.reshape(-1)]
-    face = np.repeat(np.arange(len(faces)), 3)
-    weight = angles.reshape(-1)
-    order = np.argsort(corner, kind="stable")
-    starts = np.flatnonzero(np.r_[True, corner[order][1:] != corner[order][:-1]])
-    sizes = np.diff(np.r_[starts, len(order)])
-    # a position whose faces all lie within half the angle of their mean: no pair is further
-    # apart than the angle, so every corner there takes the full mean (no pairs to test)
-    n_sorted = fn[face[order]]
-    total = np.add.reduceat(n_sorted * weight[order, None], starts)
-    length = np.linalg.norm(total, axis=1)
-    group = np.repeat(np.arange(len(starts)), sizes)
-    if cos <= -1.0:
-        fast = length > 0
-    else:
-        mean = total / np.where(length > 0, length, 1.0)[:, None]
-        within = (np.sum(n_sorted * mean[group], axis=1) >= math.sqrt((1.0 + cos) / 2.0)) | ~ok[face[order]]
-        fast = np.logical_and.reduceat(within, starts) & (length > 0)
-    out = np.empty((len(order), 3))
-    whole = np.zeros(len(order), bool)  # corners whose position is not split: the full mean
-    out[order] = total[group]
-    whole[order] = fast[group]
-    for k in np.unique(sizes[~fast]):
-        groups = starts[(sizes == k) & ~fast]
-        step = max(1, _PAIRS_PER_ROUND // (k * k))
-        for g0 in range(0, len(groups), step):
-            idx = order[groups[g0:g0 + step, None] + np.arange(k)]  # (g, k) corners of g positions
-            n, w = fn[face[idx]], weight[idx]
-            near = np.einsum("gid,gjd->gij", n, n) >= cos
-            near |= ~ok[face[idx]][:, :, None]  # a corner of a zero-area face takes the full mean
-            out[idx] = np.einsum("gij,gj,gjd->gid", near.astype(np.float64), w, n)
-            whole[idx] = near.all(axis=(1, 2))[:, None]
+    corner = weld[faces.reshape(-1)]  # the position of each corner (3 f + k)
+    weighted = np.repeat(fn, 3, axis=0) * angles.reshape(-1, 1)
+    # the full mean at each position: "smooth", and the corners of zero-area faces
+    total = _sums(corner, weighted, len(v))
+    fan = corner if cos <= -1.0 else _fans(corner.reshape(-1, 3), fn, ok, cos)
+    out = _sums(fan, weighted, len(fan))[fan]
+    flat_ok = np.repeat(ok, 3)
+    out[~flat_ok] = total[corner[~flat_ok]]
     length = np.linalg.norm(out, axis=1)
     good = length > 1e-12
     out[good] /= length[good, None]
     out[~good] = up_vector(up)
-    # a vertex alone at its position whose corners are not split: trimesh's normal, to the bit
+    # a vertex alone at its position whose fan holds all its corners: trimesh's normal, to the bit
+    whole = np.bincount(fan)[fan] == np.bincount(corner)[corner]
     alone = np.bincount(weld, minlength=len(v))[weld] == 1
     same = whole & alone[faces.reshape(-1)]
     out[same] = smooth[faces.reshape(-1)[same]]
     return out.reshape(-1, 3, 3)
+
+
+def _sums(index: np.ndarray, values: np.ndarray, count: int) -> np.ndarray:
+    """(count, 3): the rows of ``values`` summed by ``index``."""
+    return np.stack([np.bincount(index, values[:, d], minlength=count) for d in range(3)], axis=1)
+
+
+def _fans(positions: np.ndarray, fn: np.ndarray, ok: np.ndarray, cos: float) -> np.ndarray:
+    """A label per corner (3 f + k) of ``positions`` (F, 3): corners at one position share
+    it when their faces connect through edges that are not sharp (two faces with normals
+    within the angle, ``cos``); boundary edges, edges of three faces or more, and faces
+    without a normal are sharp. Blender's Smooth by Angle splits the same way."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    n = positions.size
+    start = positions.reshape(-1)  # edge k of face f runs from corner 3 f + k ...
+    after = 3 * (np.arange(n) // 3) + (np.arange(n) + 1) % 3  # ... to corner 3 f + (k + 1) % 3
+    end = start[after]
+    lo, hi = np.minimum(start, end), np.maximum(start, end)
+    edges = np.flatnonzero(lo != hi)
+    key = lo[edges] * (int(positions.max()) + 1) + hi[edges]  # the unordered edge as one integer
+    order = np.argsort(key)
+    edges, key = edges[order], key[order]
+    same = key[1:] == key[:-1]
+    # an edge of exactly two faces: equal to the next, and neither the one before nor the one after
+    pair = same & np.r_[True, ~same[:-1]] & np.r_[~same[1:], True]
+    e1, e2 = edges[:-1][pair], edges[1:][pair]
+    f1, f2 = e1 // 3, e2 // 3
+    smooth = ok[f1] & ok[f2] & (np.einsum("nd,nd->n", fn[f1], fn[f2]) >= cos)
+    e1, e2 = e1[smooth], e2[smooth]
+    flipped = start[e1] == start[e2]  # the two faces wind the edge the same way
+    rows = np.r_[e1, after[e1]]
+    cols = np.r_[np.where(flipped, e2, after[e2]), np.where(flipped, after[e2], e2)]
+    graph = coo_matrix((np.ones(len(rows), np.int8), (rows, cols)), shape=(n, n))
+    labels = connected_components(graph, directed=False)[1]
+    # corners at different positions never join: an edge joins corners at its own ends
+    return labels.astype(np.int64)
 
 
 def _positions(v: np.ndarray) -> np.ndarray:
