@@ -91,13 +91,13 @@ def corner_normals(mesh, normals: str = "angle", crease_angle: float = CREASE_AN
     mesh : trimesh.Trimesh
     normals : {"angle", "smooth", "flat", "mesh"}
         "angle" (default): a corner's normal is the mean of the normals of the
-        faces around its vertex that lie within ``crease_angle`` of its own
-        face's normal, weighted by their corner angles (Blender's auto smooth;
-        a face normal never turns further than the crease angle, so flat faces
-        stay flat and curved ones smooth). "smooth": the mean of all the faces
-        around the vertex. "flat": the face's normal. "mesh": the vertex normals
-        the mesh holds (those read from its file, glTF/OBJ/PLY; for a mesh
-        without, trimesh's smooth ones), as they are.
+        faces around its vertex that its face reaches across edges no sharper
+        than ``crease_angle`` (Blender's Smooth by Angle, or auto smooth: flat
+        faces stay flat, curved ones smooth). "smooth": the mean of all the
+        faces around the vertex. "flat": the face's normal. "mesh": the vertex
+        normals the mesh holds (those read from its file, glTF/OBJ/PLY; for a
+        mesh without, trimesh's smooth ones), as they are. The means weight
+        each face by its corner angle at the vertex.
     crease_angle : float
         Degrees, 0 to 180 (default 30, ``CREASE_ANGLE``); only "angle" reads it.
     up : str or (x, y, z)
@@ -116,13 +116,18 @@ def corner_normals(mesh, normals: str = "angle", crease_angle: float = CREASE_AN
 
     Notes
     -----
-    Vertices are joined by position first, so corners split only to carry
+    An edge is sharp where its two faces' normals part by more than the
+    crease angle; boundary edges, edges of three faces or more and edges of
+    zero-area faces are sharp too. Around a vertex, the sharp edges cut the
+    faces into fans, and every corner of a fan takes the fan's mean.
+    Vertices at equal positions count as one, so corners split only to carry
     other attributes (UV seams, a triangle soup read from STL) are smooth
     across the split. Faces of zero area count for none, and their corners
-    take the mean of the vertex's faces. Where a vertex's faces all lie
-    within the crease angle of each other and no other vertex shares its
-    position, its corners take trimesh's vertex normal (the same mean,
-    summed in trimesh's order), so smooth meshes keep their normals to the bit.
+    take the mean of all the faces at the vertex. Where one fan holds all
+    of a vertex's corners and no other vertex shares its position, its
+    corners take trimesh's vertex normal (the same mean, summed in trimesh's
+    order), so smooth meshes keep their normals to the bit. Derivation and
+    measurements against Blender: docs/model.md, "Normals".
 
     Examples
     --------
