@@ -427,11 +427,11 @@ def render_mesh(
     in float64 from the hit face's vertices and its barycentric weights, and
     the noise is evaluated there for all hits at once (in blocks, as
     :func:`surface_noise`), with the frame rule of :func:`tangent_frames`.
-    The normal interpolates the face's corner normals (split at creases
-    sharper than ``crease_angle``: each corner's lies within that angle of
-    its face's normal, so the interpolated one does too, and shared and
-    split vertices render alike); the shading is 0.3 + 0.7 |⟨n, light⟩|. Derivation and measurements: docs/model.md §12,
-    "The renderer".
+    The normal interpolates the face's corner normals (split at edges
+    sharper than ``crease_angle``, as Blender's Smooth by Angle splits them;
+    vertices at one position count as one, so shared and split vertices
+    render alike); the shading is 0.3 + 0.7 |⟨n, light⟩|. Derivation and
+    measurements: docs/model.md §12, "The renderer" and "Normals".
 
     References
     ----------
