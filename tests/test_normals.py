@@ -240,16 +240,19 @@ class TestBakes:
         """Each covered texel holds the noise at its point with its face's normal: what a
         render of the box shows there."""
         pytest.importorskip("xatlas")
-        from warp_texton.bake import _claimed
-
-        b, t = box(), _texton()
-        baked = bake_mesh(b, t, 0.05, resolution=64, supersample=1, gutter=0, device=device)
+        b, t, res = box(), _texton(), 64
+        baked = bake_mesh(b, t, 0.05, resolution=res, supersample=1, gutter=0, device=device)
         m = baked.mesh
-        corners, owner, _ = _claimed(np.asarray(m.visual.uv), np.asarray(m.faces), 64, "cpu", "box")
-        rows, cols = np.nonzero(owner >= 0)
-        f = owner[rows, cols]
-        a, bb, c = corners.reshape(-1, 3, 2)[f].transpose(1, 0, 2)
-        w = np.linalg.solve(np.stack([bb - a, c - a], axis=2), (np.stack([cols + 0.5, rows + 0.5], axis=1) - a)[:, :, None])[:, :, 0]
+        rows, cols = np.nonzero(baked.coverage)
+        # each texel centre's triangle in the atlas and its barycentric weights there (x = u R, y = (1 − v) R)
+        uv = np.asarray(m.visual.uv)[m.faces] * [res, -res] + [0, res]  # (F, 3, 2) texel coordinates
+        centre = np.stack([cols + 0.5, rows + 0.5], axis=1)
+        a, e = uv[:, 0], np.stack([uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]], axis=2)  # (F, 2), (F, 2, 2)
+        w = np.einsum("fij,nfj->nfi", np.linalg.inv(e), centre[:, None, :] - a[None])  # (N, F, 2)
+        inside = (w >= -1e-9).all(axis=2) & (w.sum(axis=2) <= 1 + 1e-9)
+        assert inside.any(axis=1).all()
+        f = inside.argmax(axis=1)
+        w = w[np.arange(len(f)), f]
         bary = np.stack([1 - w[:, 0] - w[:, 1], w[:, 0], w[:, 1]], axis=1)
         pts = np.einsum("nk,nkd->nd", bary, np.asarray(m.vertices)[m.faces[f]])
         want = surface_noise(t, pts, m.face_normals[f], 0.05, device=device)[:, 0]
