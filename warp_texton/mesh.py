@@ -160,23 +160,23 @@ def corner_normals(mesh, normals: str = "angle", crease_angle: float = CREASE_AN
         out[~ok] = smooth[faces[~ok]]
         return out
     weld = _positions(v)
-    corner = weld[faces.reshape(-1)]  # the position of each corner (3 f + k)
-    weighted = np.repeat(fn, 3, axis=0) * angles.reshape(-1, 1)
-    # the full mean at each position: "smooth", and the corners of zero-area faces
-    total = _sums(corner, weighted, len(v))
+    flat = faces.reshape(-1)
+    corner = weld[flat]  # the position of each corner (3 f + k)
+    weighted = (fn[:, None, :] * angles[:, :, None]).reshape(-1, 3)
     fan = corner if cos <= -1.0 else _fans(corner.reshape(-1, 3), fn, ok, cos)
     out = _sums(fan, weighted, len(fan))[fan]
-    flat_ok = np.repeat(ok, 3)
-    out[~flat_ok] = total[corner[~flat_ok]]
-    length = np.linalg.norm(out, axis=1)
+    if not ok.all():  # the corners of zero-area faces: the full mean at their position
+        bad = ~np.repeat(ok, 3)
+        out[bad] = _sums(corner, weighted, len(v))[corner[bad]]
+    length = np.sqrt(np.einsum("nd,nd->n", out, out))
     good = length > 1e-12
-    out[good] /= length[good, None]
-    out[~good] = up_vector(up)
+    out /= np.where(good, length, 1.0)[:, None]
+    if not good.all():
+        out[~good] = up_vector(up)
     # a vertex alone at its position whose fan holds all its corners: trimesh's normal, to the bit
     whole = np.bincount(fan)[fan] == np.bincount(corner)[corner]
-    alone = np.bincount(weld, minlength=len(v))[weld] == 1
-    same = whole & alone[faces.reshape(-1)]
-    out[same] = smooth[faces.reshape(-1)[same]]
+    same = whole & (np.bincount(weld, minlength=len(v))[corner] == 1)
+    out = np.where(same[:, None], smooth[flat], out)
     return out.reshape(-1, 3, 3)
 
 
