@@ -11,11 +11,6 @@ import warp as wp
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
 
-#: cos 30°: where the interpolated normal leaves the face's by more than 30°, the
-#: face normal stands in (a crease: flat faces stay flat, curved ones look smooth).
-CREASE_COS = wp.constant(0.866)
-
-
 @wp.struct
 class Camera:
     origin: wp.vec3  # world units, relative to the mesh's local origin
@@ -30,8 +25,7 @@ class Camera:
 @wp.kernel
 def cast_rays(
     mesh: wp.uint64,
-    vertex_normals: wp.array(dtype=wp.vec3),
-    indices: wp.array(dtype=wp.int32),
+    corner_normals: wp.array(dtype=wp.vec3),
     cam: Camera,
     height: int,
     width: int,
@@ -45,7 +39,9 @@ def cast_rays(
     """Ray-cast one pixel (row0 + i, col0 + j) of a height × width image into
     element (i, j) of the outputs: the face hit (−1 for none), the barycentric
     weights of its first two vertices, the shading normal and the diffuse shade
-    (zeros where nothing is hit). The mesh and the camera are in world units
+    (zeros where nothing is hit). The shading normal interpolates the face's corner
+    normals (corner k of face f at 3 f + k: split at creases on the host,
+    warp_texton/mesh.py ``corner_normals``). The mesh and the camera are in world units
     relative to a local origin (the host adds it back in float64)."""
     i, j = wp.tid()
     sx = (2.0 * (float(j + col0) + 0.5) / float(width) - 1.0) * cam.tan_half_fov * cam.aspect
@@ -59,13 +55,11 @@ def cast_rays(
         shade[i, j] = 0.0
         return
     f = q.face
-    n = (vertex_normals[indices[3 * f]] * q.u + vertex_normals[indices[3 * f + 1]] * q.v
-         + vertex_normals[indices[3 * f + 2]] * (1.0 - q.u - q.v))
+    n = (corner_normals[3 * f] * q.u + corner_normals[3 * f + 1] * q.v
+         + corner_normals[3 * f + 2] * (1.0 - q.u - q.v))
     if wp.length(n) < 1.0e-6:
         n = q.normal
     n = wp.normalize(n)
-    if wp.dot(n, q.normal) < CREASE_COS:
-        n = q.normal
     faces[i, j] = f
     bary[i, j] = wp.vec2(q.u, q.v)
     normals[i, j] = n
@@ -113,4 +107,4 @@ def shade_hits(pixels: wp.array(dtype=wp.int32), values: wp.array(dtype=wp.vec3)
                                                               wp.clamp(g[2], 0.0, 1.0) * s)
 
 
-__all__ = ["CREASE_COS", "Camera", "cast_rays", "fill_image", "hit_points", "shade_hits"]
+__all__ = ["Camera", "cast_rays", "fill_image", "hit_points", "shade_hits"]

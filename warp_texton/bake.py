@@ -37,7 +37,7 @@ from .errors import TextonError
 from .kernels import bake as KB
 from .limits import check_memory, check_work
 from .frames import UP, up_vector
-from .mesh import check_mesh, vertex_normals
+from .mesh import CREASE_ANGLE, check_mesh, check_normals, corner_normals, split_corners
 from .mesh_files import PNG_DTYPES, texture_8bit
 from .render import cast_rays, check_background
 from .surface import (check_method, check_surface_work, evaluate_points, floor_visits, surface_params,
@@ -78,8 +78,6 @@ BYTES_PER_SAMPLE = 120.0
 BYTES_PER_BAKED_TEXEL = 64.0
 #: Refuse mesh UVs when more than this fraction of the covered texels is claimed twice.
 MAX_OVERLAP = 0.02
-#: The crease rule of the renderer: beyond 30° the face normal is used.
-CREASE_COS = 0.866
 
 
 @dataclass(frozen=True)
@@ -89,9 +87,9 @@ class BakedMesh:
     Attributes
     ----------
     mesh : trimesh.Trimesh
-        The mesh with UVs (vertices split along the atlas's seams), the vertex
-        normals the noise was evaluated with (the input's, so smooth across
-        seams) and a PBR material whose base-colour texture is ``texture``
+        The mesh with UVs (vertices split along the atlas's seams and where
+        the corner normals split, at creases), the vertex normals the noise
+        was evaluated with (smooth across seams) and a PBR material whose base-colour texture is ``texture``
         (8-bit sRGB).
     texture : float32 array (RES, RES, C)
         The noise on the texture's texels (row 0 at the top, v = 1), gutter
@@ -178,17 +176,24 @@ def _claimed(uvs: np.ndarray, faces: np.ndarray, res: int, device, name: str):
     return corners, owner, float(np.count_nonzero(cover > 1)) / n_cov
 
 
-def _normals_at(bary: np.ndarray, tri: np.ndarray, vnormals: np.ndarray, fnormals: np.ndarray) -> np.ndarray:
-    """The renderer's normal: vertex normals interpolated, the face normal where they
-    leave it by more than 30° or vanish."""
-    n = (vnormals[tri[:, 0]] * bary[:, :1] + vnormals[tri[:, 1]] * bary[:, 1:2]
-         + vnormals[tri[:, 2]] * bary[:, 2:])
+def _normals_at(bary: np.ndarray, corners: np.ndarray, fnormals: np.ndarray) -> np.ndarray:
+    """The renderer's normal: the face's corner normals (n, 3, 3) interpolated, the face
+    normal where they vanish."""
+    n = corners[:, 0] * bary[:, :1] + corners[:, 1] * bary[:, 1:2] + corners[:, 2] * bary[:, 2:]
     length = np.linalg.norm(n, axis=1)
     ok = length > 1e-6
     n[ok] /= length[ok, None]
-    bad = ~ok | (np.sum(n * fnormals, axis=1) < CREASE_COS)
-    n[bad] = fnormals[bad]
+    n[~ok] = fnormals[~ok]
     return n
+
+
+def _corners_of(cnormals: np.ndarray, faces: np.ndarray, vmap: np.ndarray, new_faces: np.ndarray) -> np.ndarray:
+    """The corner normals of an atlas's faces (``new_faces``, one per input face, in order,
+    indexing ``vmap``'s vertices): each corner takes the input corner of its vertex."""
+    orig = vmap[new_faces]
+    match = orig[:, :, None] == faces[:, None, :]  # corner k of the atlas is corner k' of the input
+    pick = np.where(match.any(axis=2), match.argmax(axis=2), np.arange(3))
+    return np.take_along_axis(cnormals, pick[:, :, None], axis=1)
 
 
 def bake_mesh(
@@ -210,6 +215,8 @@ def bake_mesh(
     charts: str = "normals",
     progress: bool = False,
     dtype: str = "uint8",
+    normals: str = "angle",
+    crease_angle: float = CREASE_ANGLE,
 ) -> BakedMesh:
     """Bake surface texton noise into a ``resolution``² texture on the mesh's UVs.
 
@@ -236,9 +243,7 @@ def bake_mesh(
     device : str, optional
         As in :func:`warp_texton.surface_noise`.
     up : str or (x, y, z)
-        The frame rule's up direction, as in :func:`warp_texton.surface_noise`;
-        the normals are the renderer's (interpolated vertex normals, the face
-        normal across creases).
+        The frame rule's up direction, as in :func:`warp_texton.surface_noise`.
     side : (x, y, z), optional
         The frame rule's second direction, as in :func:`warp_texton.surface_noise`.
     method : {"auto", "blocks", "points"}
@@ -259,6 +264,12 @@ def bake_mesh(
         The PNG sample type :func:`write_baked` writes the texture with (GLB,
         OBJ and the texture alone; 16 bits keep 256 times finer steps, for
         textures that are graded or displaced later).
+    normals : {"angle", "smooth", "flat", "mesh"}
+        The normals the noise sees, as in :func:`warp_texton.render_mesh`
+        (default "angle": split at edges sharper than ``crease_angle``); the
+        baked mesh carries them (its vertices split where they do).
+    crease_angle : float
+        As in :func:`warp_texton.render_mesh` (degrees, default 30).
     supersample : int, optional
         Samples per side of each texel (1: the texel centre only). Default:
         per texel, ``ceil(SAMPLE_DENSITY ×`` texton texels along each side of
@@ -278,7 +289,7 @@ def bake_mesh(
     TextonError
         For the ``mesh`` and ``texton`` errors of
         :func:`warp_texton.texture_mesh`; a ``resolution`` that is not an
-        integer in [1, 16384]; a bad ``uv``, ``charts``, ``dtype`` (a type PNG
+        integer in [1, 16384]; a bad ``normals`` or ``crease_angle``; a bad ``uv``, ``charts``, ``dtype`` (a type PNG
         cannot hold, such as "float32"), ``supersample`` (≥ 1, ≤ 64) or
         ``gutter`` (≥ 0); UVs that cannot hold a bake, naming the mesh and the
         problem with the hint ``uv='atlas'``: not one (u, v) per vertex, NaN
@@ -337,6 +348,7 @@ def bake_mesh(
     supersample, gutter = _check_choices(res, uv, supersample, gutter, charts, dtype)
     seed = check_seed(seed)
     check_method(method)
+    check_normals(normals, crease_angle)
     # the owners, the distance transform of the gutter and each texel's face, map, footprint
     # and sums: about BYTES_PER_TEXEL at the peak (measured: 1.7 GB for 2048²)
     check_memory(res * res * BYTES_PER_TEXEL, f"a {res}x{res} bake", "use a smaller resolution")
@@ -344,7 +356,7 @@ def bake_mesh(
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
     faces = np.asarray(mesh.faces, dtype=np.int64)
     texel_positions(vertices, texel, setup, "the mesh's vertices")
-    vnormals = vertex_normals(mesh, up)
+    cnormals = corner_normals(mesh, normals, crease_angle, up)  # (F, 3 corners, 3)
     try:
         own_uv = mesh_uvs(mesh) if uv != "atlas" else None
     except TextonError as exc:
@@ -360,11 +372,11 @@ def bake_mesh(
                        mentions=("resolution", "supersample", "mni"), early=True, other=res * res * BAKE_TEXEL_OPS)
     device = resolve_device(device)
     bar = progress_bar(progress, 0 if own_uv is not None else 2, "bake", "step")
-    source, vertices, vnormals, faces, uvs, corners, owner = _bake_uvs(
-        mesh, vertices, vnormals, faces, own_uv, res, gutter, charts, device, name, bar)
+    source, vertices, cnormals, faces, uvs, corners, owner = _bake_uvs(
+        mesh, vertices, cnormals, faces, own_uv, res, gutter, charts, device, name, bar)
     covered = owner >= 0
     n_cov = int(covered.sum())
-    tx = _texel_faces(_extend(owner, covered, gutter), covered, faces, corners, vertices, vnormals, texel)
+    tx = _texel_faces(_extend(owner, covered, gutter), covered, faces, corners, vertices, cnormals, texel)
     per_texel = float(np.median(1.0 / np.sqrt(np.maximum(tx.area[tx.inner], 1e-300))))
     nx, ny = _sample_counts(tx, supersample)
     total = int(np.sum(nx * ny))
@@ -376,22 +388,24 @@ def bake_mesh(
                        f"a {res}x{res} bake with {total} samples at MNI {mni:.6g}", work_hint, param="supersample",
                        mentions=("resolution", "supersample", "mni"), other=res * res * BAKE_TEXEL_OPS)
     p = surface_params(texton, setup, seed, "exact", up, side)
-    sums = _sample_sums(p, setup, tx, nx, ny, vnormals, texel, device, method, bar)
+    sums = _sample_sums(p, setup, tx, nx, ny, cnormals, texel, device, method, bar)
     bar.close()
     values = (sums / (nx * ny)[:, None]).astype(np.float32)
     c = texton.channels
     texture = np.empty((res, res, c), np.float32)
     texture[:] = mean_colour(texton)
     texture[tx.rows, tx.cols] = values[:, :c]
-    out = _textured(vertices, faces, uvs, vnormals, texture, trimesh)
+    # one normal per vertex for the file (glTF NORMAL): vertices split where their corners' do
+    vsplit, faces, vnormals = split_corners(faces, cnormals, len(vertices))
+    out = _textured(vertices[vsplit], faces, uvs[vsplit], vnormals, texture, trimesh)
     axis = up_vector(up)
     return BakedMesh(out, texture, covered, per_texel, float(np.sum((nx * ny)[tx.inner])) / n_cov, source,
                      (float(axis[0]), float(axis[1]), float(axis[2])), dtype)
 
 
-def _bake_uvs(mesh, vertices, vnormals, faces, own_uv, res, gutter, charts, device, name, bar):
+def _bake_uvs(mesh, vertices, cnormals, faces, own_uv, res, gutter, charts, device, name, bar):
     """The bake's UVs and the texels their triangles claim: the mesh's own (checked, refused where
-    they overlap), or an atlas. -> (source, vertices, vertex normals, faces, uvs, corners, owner), the
+    they overlap), or an atlas. -> (source, vertices, corner normals, faces, uvs, corners, owner), the
     first four re-indexed by the atlas's vertex map when there is one."""
     if own_uv is not None:
         uvs, notes = _mesh_uvs(own_uv, vertices, faces, name)
@@ -414,8 +428,9 @@ def _bake_uvs(mesh, vertices, vnormals, faces, own_uv, res, gutter, charts, devi
             vmap, faces, uvs, _ = make_atlas(vertices, np.asarray(mesh.faces, np.int64), res, max(gutter, 1),
                                              charts="xatlas", name=name)
             corners, owner, overlap = _claimed(uvs, faces, res, device, name)
-        vertices, vnormals = vertices[vmap], vnormals[vmap]
-    return source, vertices, vnormals, faces, uvs, corners, owner
+        cnormals = _corners_of(cnormals, np.asarray(mesh.faces, np.int64), vmap, faces)
+        vertices = vertices[vmap]
+    return source, vertices, cnormals, faces, uvs, corners, owner
 
 
 @dataclass(frozen=True)
@@ -439,7 +454,7 @@ class _TexelFaces:
     area: np.ndarray
 
 
-def _texel_faces(owner, covered, faces, corners, vertices, vnormals, texel) -> _TexelFaces:
+def _texel_faces(owner, covered, faces, corners, vertices, cnormals, texel) -> _TexelFaces:
     """Each baked texel's face and that face's affine map (texel coordinates → barycentric
     weights, 3-D point), with the texel's footprint on the surface."""
     rows, cols = np.nonzero(owner >= 0)
@@ -453,7 +468,7 @@ def _texel_faces(owner, covered, faces, corners, vertices, vnormals, texel) -> _
     p3 = vertices[tri]  # (n, 3 corners, 3)
     fn = np.cross(p3[:, 1] - p3[:, 0], p3[:, 2] - p3[:, 0])
     fl = np.linalg.norm(fn, axis=1)
-    fn = np.where(fl[:, None] > 0, fn / np.where(fl > 0, fl, 1.0)[:, None], vnormals[tri[:, 0]])
+    fn = np.where(fl[:, None] > 0, fn / np.where(fl > 0, fl, 1.0)[:, None], cnormals[f, 0])
     # d(point)/d(texel x), d(point)/d(texel y) in texton texels: the footprint's sides
     inv = np.stack([np.stack([e2[:, 1], -e2[:, 0]], 1), np.stack([-e1[:, 1], e1[:, 0]], 1)], 1) / det[:, None, None]
     jac = np.einsum("nkc,nkd->ncd", np.stack([p3[:, 1] - p3[:, 0], p3[:, 2] - p3[:, 0]], 1), inv) / texel
@@ -474,7 +489,7 @@ def _sample_counts(tx: _TexelFaces, supersample) -> tuple[np.ndarray, np.ndarray
     return nx, ny
 
 
-def _sample_sums(p, setup, tx: _TexelFaces, nx, ny, vnormals, texel, device, method, bar) -> np.ndarray:
+def _sample_sums(p, setup, tx: _TexelFaces, nx, ny, cnormals, texel, device, method, bar) -> np.ndarray:
     """The sum of the surface noise over each texel's nx × ny samples, in rounds of at most
     SAMPLES_PER_ROUND samples of texels with the same counts."""
     sums = np.zeros((len(tx.f), 3), np.float64)
@@ -495,7 +510,7 @@ def _sample_sums(p, setup, tx: _TexelFaces, nx, ny, vnormals, texel, device, met
             w12 = np.einsum("nij,nj->ni", tx.inv[k], q)
             bary = np.stack([1.0 - w12[:, 0] - w12[:, 1], w12[:, 0], w12[:, 1]], axis=1)
             pts = np.einsum("nc,ncd->nd", bary, tx.p3[k])
-            nrm = _normals_at(bary, tx.tri[k], vnormals, tx.fn[k])
+            nrm = _normals_at(bary, cnormals[tx.f[k]], tx.fn[k])
             vals = evaluate_points(p, setup, pts / texel, nrm, None, device, method)
             sums[g] += vals.reshape(len(g), len(offsets), 3).sum(axis=1)  # g holds distinct texels
             bar.update()

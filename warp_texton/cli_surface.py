@@ -39,6 +39,12 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--supersample", type=int, metavar="N",
                    help="with --bake: N x N samples per texel (default: by each texel's footprint)")
     p.add_argument("--max-edge", type=float, help="subdivide until no edge is longer than this many texels")
+    p.add_argument("--normals", choices=("angle", "smooth", "flat", "mesh"), default="angle",
+                   help="normals of the noise, renders and outputs: split at edges sharper than --crease-angle "
+                        "(angle: Blender's auto smooth; flat faces stay flat, curved ones smooth), never (smooth), "
+                        "always (flat), or the vertex normals the file holds (mesh)")
+    p.add_argument("--crease-angle", type=float, metavar="DEG",
+                   help="with --normals angle: edges sharper than this split the normals (default 30)")
     p.add_argument("--render", metavar="WxH", help="also write a PNG render of this size, e.g. 512x512")
     p.add_argument("--up", choices=("auto", "x", "y", "z"), default="auto",
                    help="the meshes' up axis: auto is the format's convention "
@@ -128,6 +134,11 @@ def _check_options(args):
         check_int(args.supersample, "--supersample", minimum=1)
     if args.exr_linear and args.texture != "exr":
         raise TextonError("--exr-linear applies to --texture exr")
+    if args.crease_angle is not None and args.normals != "angle":
+        raise TextonError(f"--crease-angle applies to --normals angle, not {args.normals}")
+    from .mesh import CREASE_ANGLE, check_normals
+
+    check_normals(args.normals, CREASE_ANGLE if args.crease_angle is None else args.crease_angle)
     orbit = _orbit_angles(args.orbit)
     if args.fov is not None:
         check_positive(args.fov, "--fov")
@@ -187,6 +198,7 @@ def _price_bake(args, texton) -> None:
 def _run_jobs(args, executor, device, render, orbit):
     """(results, interrupted) of the batch's jobs."""
     from .jobs import JobsInterrupted, SurfaceJob, check_unique_outputs, expand_meshes, run_jobs
+    from .mesh import CREASE_ANGLE
 
     texton = _surface_texton(args)
     _price_bake(args, texton)
@@ -198,7 +210,8 @@ def _run_jobs(args, executor, device, render, orbit):
                        texture="png" if args.texture == "png16" else args.texture,
                        dtype="uint16" if args.texture == "png16" else "uint8",
                        exr_linear=args.exr_linear, supersample=args.supersample, up=args.up, orbit=orbit,
-                       fov=args.fov, words=tuple(SURFACE.names.items()), charts=args.charts,
+                       fov=args.fov, words=tuple(SURFACE.names.items()), charts=args.charts, normals=args.normals,
+                       crease_angle=CREASE_ANGLE if args.crease_angle is None else args.crease_angle,
                        progress=not args.quiet and args.jobs == 1 and args.scheduler is None) for m in meshes]
     check_unique_outputs(jobs)
     try:
@@ -249,12 +262,14 @@ SURFACE = Command(
     "others still finish; the exit status is 1 if any failed, 130 if interrupted.",
     _arguments, _surface,
     {**ANALYSIS_NAMES, "mni": "--mni", "texel_size": "--texel-size", "max_edge": "--max-edge", "fov": "--fov",
-     "device": "--device", "supersample": "--supersample", "resolution": "--bake", "shape": "--render"},
+     "device": "--device", "supersample": "--supersample", "resolution": "--bake", "shape": "--render",
+     "normals": "--normals", "crease_angle": "--crease-angle"},
     lambda args: {"u": args.texton},
     epilog="""examples:
   warp-texton surface scans/*.ply --texton wood.exr --out-dir textured --render 512x512
   warp-texton surface scans/*.ply --texton wood.png --out-dir baked --bake 2048 --texture png
   warp-texton surface model.glb --texton wood.exr --out-dir out --bake 1024 --format obj --render 800x600 --orbit 30,20
   warp-texton surface @meshes.txt --texton wood.texton --out-dir out --texel-size 0.002 --format glb --jobs 2
+  warp-texton surface part.stl --texton wood.exr --out-dir out --render 800x600 --crease-angle 45
   warp-texton surface 'scans/*.ply' --texton wood.exr --out-dir out --bake 2048 --scheduler tcp://head:8786
 """)

@@ -129,6 +129,11 @@ class SurfaceJob:
         The render's camera angles, as in :func:`warp_texton.render_mesh`.
     fov : float, optional
         The render's field of view, as in :func:`warp_texton.render_mesh`.
+    normals : {"angle", "smooth", "flat", "mesh"}
+        The normals of the noise, the render and the outputs, as in
+        :func:`warp_texton.render_mesh` (default "angle").
+    crease_angle : float
+        Degrees, with ``normals="angle"``, as in :func:`warp_texton.render_mesh`.
 
     Notes
     -----
@@ -166,6 +171,8 @@ class SurfaceJob:
     charts: str = "normals"  # how a bake's new atlas is charted (see bake_mesh)
     progress: bool = False  # a progress bar over a bake's steps (one job at a time)
     dtype: str = "uint8"  # PNG sample type of a bake's textures: "uint8" or "uint16"
+    normals: str = "angle"  # how corner normals are made (see mesh.corner_normals)
+    crease_angle: float = 30.0  # degrees, with normals="angle" (mesh.CREASE_ANGLE)
 
     def __post_init__(self):
         # the formats documented above, refused when the job is made rather than written in another
@@ -393,13 +400,15 @@ def _run(job: SurfaceJob, outputs: list[Path], notes: list[str]) -> None:
     img = None
     if job.render is not None:  # computed before anything is written: all outputs or none
         img = render_mesh(mesh, texton, job.render, texel_size=texel, mni=job.mni, seed=job.seed,
-                          device=job.device, up=up, orbit=job.orbit, fov=job.fov)
+                          device=job.device, up=up, orbit=job.orbit, fov=job.fov, normals=job.normals,
+                          crease_angle=job.crease_angle)
     # the render is written with the mesh's files, all renamed at the end: all files or none
     render = {} if img is None else {outputs[-1]: lambda tmp: write_image(tmp, img)}
     if job.bake is not None:
         baked = bake_mesh(mesh, texton, texel, resolution=job.bake, mni=job.mni, seed=job.seed, uv=job.uv,
                           supersample=job.supersample, device=job.device, up=up, name=job.mesh, charts=job.charts,
-                          progress=job.progress, dtype=job.dtype)
+                          progress=job.progress, dtype=job.dtype, normals=job.normals,
+                          crease_angle=job.crease_angle)
         write_baked(baked, stem, fmt=job.format, texture=job.texture, linear=job.exr_linear, also=render)
         notes.append(f"{job.mesh}: {job.bake}x{job.bake} texture, {baked.texels_per_texton_texel:.3g} texels per "
                      f"texton texel (median), noise samples per texel: {baked.samples:.3g} (mean), UVs from the "
@@ -407,7 +416,8 @@ def _run(job: SurfaceJob, outputs: list[Path], notes: list[str]) -> None:
     else:
         # glTF's COLOR_0 is linear by definition; PLY and OBJ keep the noise's sRGB-coded values
         textured = texture_mesh(mesh, texton, texel, mni=job.mni, seed=job.seed, max_edge=job.max_edge,
-                                device=job.device, up=up, linear=job.format == "glb", warn=False)
+                                device=job.device, up=up, linear=job.format == "glb", warn=False,
+                                normals=job.normals, crease_angle=job.crease_angle)
         spacing = vertex_spacing(textured, texel)
         if spacing > 1.0:
             notes.append(f"{job.mesh}: vertices are {spacing:.3g} texels apart (median edge), so vertex colours "

@@ -20,7 +20,7 @@ from .errors import TextonError
 from .frames import UP, as_direction, as_point, up_rotation, up_vector
 from .kernels import render as KR
 from .limits import check_memory, check_work
-from .mesh import check_mesh, default_texel_size, vertex_normals
+from .mesh import CREASE_ANGLE, check_mesh, check_normals, corner_normals, default_texel_size
 from .surface import (check_method, evaluate_points, floor_visits, plan_points, surface_params, surface_setup,
                       texel_positions)
 from .texton import Texton
@@ -230,11 +230,11 @@ def screen_box(rel: np.ndarray, forward, right, cam_up, tan_half_fov: float, asp
 
 
 def cast_rays(mesh, shape, camera: Camera | None = None, *, up=UP, orbit=None, fov=None, light=None,
-              device=None) -> RayHits:
-    """Cast one ray per pixel at ``mesh`` (the camera, orbit, fov, up and light of
-    :func:`render_mesh`): the face hit, its barycentric weights, the shading normal
-    (interpolated vertex normals, the face normal across creases over 30°) and the
-    diffuse shade. The BVH holds the vertices in float32 around the centre of their
+              device=None, normals: str = "angle", crease_angle: float = CREASE_ANGLE) -> RayHits:
+    """Cast one ray per pixel at ``mesh`` (the camera, orbit, fov, up, light, normals and
+    crease angle of :func:`render_mesh`): the face hit, its barycentric weights, the
+    shading normal (the face's corner normals interpolated,
+    :func:`warp_texton.mesh.corner_normals`) and the diffuse shade. The BVH holds the vertices in float32 around the centre of their
     bounding box, so meshes far from the origin are hit as precisely as near ones.
     Only the pixels of the mesh's screen box (:func:`screen_box`) cast rays.
 
@@ -243,8 +243,9 @@ def cast_rays(mesh, shape, camera: Camera | None = None, *, up=UP, orbit=None, f
     RayHits
     """
     h, w = check_shape(shape, max_pixels=MAX_RENDER_PIXELS)
+    check_normals(normals, crease_angle)
     box, (face_b, bary_b, nrm_b, shade_b), vertices, faces = _cast_box(mesh, (h, w), camera, up, orbit, fov, light,
-                                                                       device)
+                                                                       device, (normals, crease_angle))
     r0, r1, c0, c1 = box
     face = np.full((h, w), -1, np.int32)
     nrm = np.zeros((h, w, 3), np.float32)
@@ -261,9 +262,10 @@ def cast_rays(mesh, shape, camera: Camera | None = None, *, up=UP, orbit=None, f
     return RayHits(face, weights, nrm, shade, vertices, faces)
 
 
-def _cast_box(mesh, shape, camera, up, orbit, fov, light, device):
+def _cast_box(mesh, shape, camera, up, orbit, fov, light, device, normals=("angle", CREASE_ANGLE)):
     """The ray cast of :func:`cast_rays` over the mesh's screen box only: (box, (face,
-    bary (u, v), normal, shade) of the box's pixels, float64 vertices, int64 faces)."""
+    bary (u, v), normal, shade) of the box's pixels, float64 vertices, int64 faces);
+    ``normals`` is (mode, crease angle) of :func:`warp_texton.mesh.corner_normals`."""
     mesh = check_mesh(mesh)
     h, w = shape
     rot = up_rotation(up)
@@ -305,11 +307,11 @@ def _cast_box(mesh, shape, camera, up, orbit, fov, light, device):
         points: wp.array = wp.array(vertices - origin, dtype=wp.vec3)
         indices: wp.array = wp.array(faces_np.astype(np.int32).reshape(-1), dtype=wp.int32)
         wmesh = wp.Mesh(points=points, indices=indices)
-        normals: wp.array = wp.array(vertex_normals(mesh, up), dtype=wp.vec3)
+        corners: wp.array = wp.array(corner_normals(mesh, normals[0], normals[1], up).reshape(-1, 3), dtype=wp.vec3)
         outs = [wp.empty((rh, rw), dtype=t) for t in (wp.int32, wp.vec2, wp.vec3, wp.float32)]
 
         def band(a, b):
-            wp.launch(KR.cast_rays, dim=(b - a, rw), inputs=[wmesh.id, normals, indices, c, h, w, r0 + a, c0,
+            wp.launch(KR.cast_rays, dim=(b - a, rw), inputs=[wmesh.id, corners, c, h, w, r0 + a, c0,
                                                             *(o[a:b] for o in outs)])
 
         split_launch(device, KR, rh, band)
@@ -333,6 +335,8 @@ def render_mesh(
     orbit=None,
     fov=None,
     method: str = "auto",
+    normals: str = "angle",
+    crease_angle: float = CREASE_ANGLE,
 ) -> np.ndarray:
     """Ray-cast ``mesh`` with surface texton noise and simple diffuse shading.
 
@@ -382,6 +386,15 @@ def render_mesh(
         Vertical field of view of the default camera, degrees (default 35).
     method : {"auto", "blocks", "points"}
         As in :func:`surface_noise` (the same image).
+    normals : {"angle", "smooth", "flat", "mesh"}
+        The normals the noise and the shading see, interpolated across each
+        face from its corners (:func:`warp_texton.mesh.corner_normals`):
+        "angle" (default) splits them at edges sharper than ``crease_angle``,
+        as Blender's auto smooth does, so a box's faces are flat and a
+        sphere is smooth; "smooth" never splits them, "flat" always does;
+        "mesh" takes the vertex normals the mesh holds (a file's).
+    crease_angle : float
+        Degrees, 0 to 180 (default 30: Blender's); with ``normals="angle"``.
 
     Returns
     -------
@@ -394,7 +407,8 @@ def render_mesh(
         For the ``mesh`` and ``texton`` errors of :func:`texture_mesh`; a bad
         ``shape``, ``texel_size``, ``seed``, ``device`` or ``method``; a
         ``camera`` that is not a :class:`Camera` or given together with
-        ``orbit`` or ``fov``; a ``fov`` outside (0, 180); a bad ``orbit`` or
+        ``orbit`` or ``fov``; a ``normals`` or ``crease_angle`` that
+        :func:`warp_texton.mesh.corner_normals` refuses; a ``fov`` outside (0, 180); a bad ``orbit`` or
         ``up``; a zero ``light``; a ``background`` that is not a finite RGB
         triple; the ``mni`` errors of :func:`surface_noise`; a render over
         the memory budget, or over the work budget (the ray cast and the
@@ -413,10 +427,11 @@ def render_mesh(
     in float64 from the hit face's vertices and its barycentric weights, and
     the noise is evaluated there for all hits at once (in blocks, as
     :func:`surface_noise`), with the frame rule of :func:`tangent_frames`.
-    The normal is the interpolated vertex normal, or the face normal where
-    the two differ by more than 30° (creases); the shading is
-    0.3 + 0.7 |⟨n, light⟩|. Derivation and measurements: docs/model.md §12,
-    "The renderer".
+    The normal interpolates the face's corner normals (split at edges
+    sharper than ``crease_angle``, as Blender's Smooth by Angle splits them;
+    vertices at one position count as one, so shared and split vertices
+    render alike); the shading is 0.3 + 0.7 |⟨n, light⟩|. Derivation and
+    measurements: docs/model.md §12, "The renderer" and "Normals".
 
     References
     ----------
@@ -457,6 +472,7 @@ def render_mesh(
     texel = default_texel_size(mesh) if texel_size is None else check_positive(texel_size, "texel_size")
     seed = check_seed(seed)
     check_method(method)
+    check_normals(normals, crease_angle)
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
     setup = surface_setup(texton, mni)
     texel_positions(vertices, texel, setup, "the mesh's vertices")  # refuses far meshes and tiny texels
@@ -467,7 +483,7 @@ def render_mesh(
     device = resolve_device(device)
     p = surface_params(texton, setup, seed, "exact", up, side)
     (r0, r1, c0, c1), (face, bary, nrm, shade), vertices, faces = _cast_box(mesh, (h, w), camera, up, orbit, fov,
-                                                                            light, device)
+                                                                            light, device, (normals, crease_angle))
     cast = (r1 - r0) * (c1 - c0) * CAST_OPS
     hit = face >= 0
     pixels = np.flatnonzero(hit.reshape(-1)).astype(np.int32)
