@@ -18,7 +18,7 @@ import warnings
 
 from ._version import __version__
 from .cli_images import ANALYZE, DEMO, GAUSSIAN, MIX, RENDER_PLANE, SYNTHESIZE
-from .cli_options import Command
+from .cli_options import Command, start_clock
 from .cli_shader import SHADER
 from .cli_surface import SURFACE
 from .cli_view import VIEW
@@ -105,6 +105,7 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def main(argv=None) -> int:
+    start_clock(startup=argv is None)
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command is None:

@@ -14,6 +14,7 @@ stay quick.
 from __future__ import annotations
 
 import argparse
+import os
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -185,19 +186,46 @@ def read_example(path, iterations: int):
 def texton_of(args, path=None):
     """The texton file ``path`` (default: args.input), or the texton of that example
     image, analysed with the analysis options."""
-    from .analysis import analyze
     from .texton import is_texton_path, load_texton
 
     path = args.input if path is None else path
     if is_texton_path(path):
         return load_texton(path)
+    from .analysis import analyze  # SciPy's FFT, only for an image
+
     return analyze(read_example(path, args.iterations), size=args.size, order=args.order, iterations=args.iterations,
                    seed=args.seed, periodic=args.periodic, color_correction=args.color_correction,
                    support=args.support, histogram=args.histogram, progress=not args.quiet)
 
 
+#: perf_counter() minus the seconds the process had run when the command began: set by
+#: :func:`start_clock`, so that summaries give the wall time a user waited, start-up included.
+_started: list[float] = []
+
+
+def process_age() -> float:
+    """Seconds since this process started (Linux: /proc), else 0."""
+    try:
+        with open("/proc/self/stat") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+        with open("/proc/uptime") as f:
+            uptime = float(f.read().split()[0])
+        return max(uptime - int(fields[19]) / os.sysconf("SC_CLK_TCK"), 0.0)
+    except (OSError, ValueError, IndexError, AttributeError):
+        return 0.0
+
+
+def start_clock(startup: bool) -> None:
+    """Start the wall clock of a command: from the process's start when ``startup`` (the
+    ``warp-texton`` program), else from now (``main`` called from Python)."""
+    _started[:] = [time.perf_counter() - (process_age() if startup else 0.0)]
+
+
 def seconds_since(t0: float) -> str:
-    return f"{time.perf_counter() - t0:.2f} s"
+    """The work's seconds since ``t0`` and, once :func:`start_clock` ran, the command's wall time."""
+    now = time.perf_counter()
+    work = f"{now - t0:.2f} s"
+    return f"{work}, {now - _started[0]:.2f} s wall" if _started else work
 
 
 # ------------------------------------------------------------------ errors

@@ -18,7 +18,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import scipy.ndimage as ndi
 
 from ._version import __version__
 from ._checks import CHANNELS, MAX_VALUE, as_real_array, check_path, check_range, check_shape
@@ -159,9 +158,15 @@ class Texton:
         w = kernel_width(self.order)
         mask = self.support_mask
         if w > 1:
-            # Each coefficient covers the w × w unit cells of its ψ support; the
-            # padding keeps the dilation inside the array, so the count is exact.
-            mask = ndi.binary_dilation(np.pad(mask, w - 1), structure=np.ones((w, w), bool))
+            # Each coefficient covers the w × w unit cells of its ψ support: the union
+            # of the mask shifted by 0..w-1 cells each way (a dilation, without SciPy's
+            # import time at every command's start).
+            r, s = mask.shape
+            covered = np.zeros((r + w - 1, s + w - 1), bool)
+            for di in range(w):
+                for dj in range(w):
+                    covered[di:di + r, dj:dj + s] |= mask
+            mask = covered
         return float(np.count_nonzero(mask))
 
     @property
