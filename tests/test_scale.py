@@ -595,7 +595,8 @@ class TestCli:
         assert warp_texton.read_image(png).shape == (12, 16, 3)
 
     def test_progress_bar_on_long_work(self, tmp_path, texton_path, capsys, monkeypatch):
-        monkeypatch.setattr("warp_texton._runtime.PROGRESS_DELAY", 0.0)
+        monkeypatch.setattr("warp_texton.progress.PROGRESS_DELAY", 0.0)
+        monkeypatch.setattr("warp_texton.progress.terminal", lambda: True)  # capsys is no terminal
         monkeypatch.setattr(warp_texton.canvas, "STRIP_WORK", 64 * 8)  # 8 strips
         out = tmp_path / "p.png"
         assert run_cli(["synthesize", texton_path, "-o", out, "--width", 64, "--height", 64, "--device", "cpu"]) == 0

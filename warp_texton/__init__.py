@@ -22,12 +22,13 @@ import importlib
 from typing import TYPE_CHECKING
 
 from ._version import __version__
-from .errors import TextonError
+from .errors import ExampleWarning, TextonError
 
 if TYPE_CHECKING:  # what type checkers and documentation tools see; at run time, __getattr__
     from .analysis import analyze, model_error
     from .bake import BakedMesh, bake_mesh, render_baked
     from .dsn import dsn
+    from .example_checks import downscale
     from .filter_options import FilterOptions
     from .gaussian import gaussian_texture, periodic_component
     from .io import read_image, write_image
@@ -48,6 +49,7 @@ _LAZY = {
     "analyze": "analysis", "model_error": "analysis",
     "BakedMesh": "bake", "bake_mesh": "bake", "render_baked": "bake", "write_baked": "mesh_files",
     "dsn": "dsn",
+    "downscale": "example_checks",
     "FilterOptions": "filter_options",
     "gaussian_texture": "gaussian", "periodic_component": "gaussian",
     "read_image": "io", "write_image": "io",
@@ -66,12 +68,14 @@ __all__ = [
     "Batch",
     "BatchParams",
     "Camera",
+    "ExampleWarning",
     "FilterOptions",
     "Texton",
     "TextonError",
     "__version__",
     "analyze",
     "bake_mesh",
+    "downscale",
     "dsn",
     "evaluate",
     "gaussian_texture",

@@ -26,6 +26,7 @@ import scipy.fft as sfft
 from ._checks import as_image, check_bool, check_int, check_seed
 from .bspline import ORDERS, bhat
 from .errors import TextonError
+from .example_checks import warn_large, warn_unsuited
 from .limits import check_memory, check_work
 from .histogram import HistogramTransform, check_histogram
 from .gaussian import FFT_WORKERS, normalized_kernel, relative_model_error_half
@@ -199,6 +200,17 @@ def analyze(
     progress : bool
         Show a progress bar over the iterations.
 
+    Warns
+    -----
+    ExampleWarning
+        When the example suits a texton badly (docs/photographs.md): larger
+        than 1024² pixels (``LargeExampleWarning``), most of its variance at
+        wavelengths longer than half the texton (``SmoothExampleWarning``), a
+        local mean or contrast that varies across it
+        (``NonStationaryWarning``), a ``size`` past half of it
+        (``LargeTextonWarning``); the classes are in
+        :mod:`warp_texton.example_checks`. The analysis goes on.
+
     Returns
     -------
     Texton
@@ -249,6 +261,7 @@ def analyze(
     m, n, c = u.shape
     check_size_fits(size, (m, n), "u")
     check_analysis_cost((m, n), c, iterations, f"analysing a {n}x{m} image")
+    warn_large((m, n), size)
     transform = None
     if histogram == "preserve":
         transform = HistogramTransform.fit(u)
@@ -258,6 +271,7 @@ def analyze(
     else:
         mean, t = normalized_kernel(u, periodic=periodic)
     t_hat = sfft.rfft2(t, axes=(0, 1), workers=FFT_WORKERS)
+    warn_unsuited(u, t_hat, size)
     flat = t.reshape(-1, c)
     texton = texton_from_spectrum(
         t_hat, n, mean, size, order, iterations, seed,
@@ -305,9 +319,9 @@ def texton_from_spectrum(
 
     bar = None
     if progress:
-        from tqdm.auto import tqdm
+        from .progress import bar as progress_bar
 
-        bar = tqdm(total=iterations, desc="analyze", unit="it", leave=False)
+        bar = progress_bar(total=iterations, desc="analyze", unit="it")
     # CGF Algorithm 1 starts from white noise and projects it: the first iterate
     # is the target with a random phase relative to the target's own phase, so
     # targets that differ by a phase factor (e.g. τ_0 in mixing) give one texton.

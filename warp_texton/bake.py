@@ -30,6 +30,7 @@ import warp as wp
 
 from ._checks import check_int, check_positive, check_seed
 from ._runtime import progress_bar, resolve_device, split_launch
+from .progress import NamedSteps
 from .atlas import CHART_METHODS, check_uvs, make_atlas, mesh_uvs, uv_coverage
 from .colours import mean_colour
 from .errors import TextonError
@@ -355,7 +356,8 @@ def bake_mesh(
                        f"{n:.3g} samples at MNI {mni:.6g}", work_hint, param="supersample",
                        mentions=("resolution", "supersample", "mni"), early=True, other=res * res * BAKE_TEXEL_OPS)
     device = resolve_device(device)
-    bar = progress_bar(progress, 0 if own_uv is not None else 2, "bake", "step")
+    names = ["sampling"] if own_uv is not None else ["charts", "packing", "sampling"]
+    bar = NamedSteps(progress_bar(progress, len(names), "bake", "step"), names, "bake")
     if own_uv is not None:
         try:
             uvs = check_uvs(own_uv, len(vertices))
@@ -371,7 +373,7 @@ def bake_mesh(
         # xatlas keeps charts 2 paddings apart (measured: 9 texels or more on the bunny at 1024² with a
         # padding of 4), so each gutter texel is nearer its own chart than any other
         vmap, faces, uvs, _ = make_atlas(vertices, faces, res, max(gutter, 1), charts=charts, name=name,
-                                         step=bar.update)
+                                         step=bar.step)
         corners, owner, overlap = _claimed(uvs, faces, res, device, name)
         if overlap > MAX_OVERLAP and charts != "xatlas":
             # a chart of normal clusters that overlaps itself (a helix seen along its axis): xatlas's own charts
@@ -418,7 +420,7 @@ def bake_mesh(
     sums = np.zeros((len(f), 3), np.float64)
     kinds = sorted(set(zip(nx.tolist(), ny.tolist())))
     per_kind = [max(1, SAMPLES_PER_ROUND // (sx * sy)) for sx, sy in kinds]
-    bar.total += sum(-(-int(np.count_nonzero((nx == sx) & (ny == sy))) // n) for (sx, sy), n in zip(kinds, per_kind))
+    rounds, done = sum(-(-int(np.count_nonzero((nx == sx) & (ny == sy))) // n) for (sx, sy), n in zip(kinds, per_kind)), 0
     for (sx, sy), per_round in zip(kinds, per_kind):
         group = np.flatnonzero((nx == sx) & (ny == sy))
         ox, oy = np.meshgrid((np.arange(sx) + 0.5) / sx - 0.5, (np.arange(sy) + 0.5) / sy - 0.5)
@@ -436,7 +438,8 @@ def bake_mesh(
             nrm = _normals_at(bary, tri[k], vnormals, fn[k])
             vals = evaluate_points(p, setup, pts / texel, nrm, None, device, method)
             sums[g] += vals.reshape(len(g), len(offsets), 3).sum(axis=1)  # g holds distinct texels
-            bar.update()
+            done += 1
+            bar.round(done, rounds)
     bar.close()
     values = (sums / (nx * ny)[:, None]).astype(np.float32)
     c = texton.channels

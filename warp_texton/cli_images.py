@@ -15,7 +15,7 @@ from pathlib import Path
 from .cli_options import (ANALYSIS_NAMES, FILTER_NAMES, NOISE_IMAGE_NAMES, SHAPE_NAMES, Command,
                           add_analysis_options, add_filter_options, add_format_options, add_noise_image_options,
                           add_placement_options, add_run_options, dtype_of, filter_options, input_file,
-                          seconds_since, texton_of)
+                          seconds_since, show_progress, texton_of)
 from .errors import TextonError
 
 
@@ -37,11 +37,11 @@ def _analyze(args) -> None:
     if args.histogram == "preserve" and out.suffix.lower() == ".texton":
         raise TextonError(f"{out}: the .texton format cannot hold a histogram transform; save it as .exr",
                           param="histogram")
-    u = read_example(args.input, args.iterations)
+    u = read_example(args.input, args.iterations, args.crop, args.downscale)
     t0 = time.perf_counter()
     texton = analyze(u, size=args.size, order=args.order, iterations=args.iterations, seed=args.seed,
                      periodic=args.periodic, color_correction=args.color_correction,
-                     support=args.support, histogram=args.histogram, progress=not args.quiet)
+                     support=args.support, histogram=args.histogram, progress=show_progress(args))
     texton.metadata["source"] = Path(args.input).name
     texton.save(out)
     if not args.quiet:
@@ -124,7 +124,7 @@ def _synthesize(args) -> None:
     texton = texton_of(args)
     noise = synthesize(texton, shape=(args.height, args.width), mni=args.mni, seed=args.seed, scale=args.scale,
                        rotation=args.rotation, offset=tuple(args.offset), period=args.period, device=args.device,
-                       filter=options, progress=not args.quiet)
+                       filter=options, progress=show_progress(args))
     write_image(out, noise, dtype=dtype, compression=args.compression)
     if not args.quiet:
         print(f"{out}: {args.width}x{args.height} texton noise, MNI {args.mni:g} ({seconds_since(t0)})")
@@ -161,7 +161,7 @@ def _synthesize_zarr(args, out: Path, dtype) -> None:
     t0 = time.perf_counter()
     texton = texton_of(args)
     report = write_zarr(out, texton, (h, w), chunks=chunk, dtype=dtype or ZARR_DTYPE, scheduler=args.scheduler,
-                        workers=args.workers, overwrite=args.overwrite, progress=not args.quiet,
+                        workers=args.workers, overwrite=args.overwrite, progress=show_progress(args),
                         mni=args.mni, seed=args.seed, scale=args.scale, rotation=args.rotation,
                         offset=tuple(args.offset), period=args.period, device=args.device,
                         filter=filter_options(args))
@@ -215,7 +215,7 @@ def _render_plane(args) -> None:
     texton = texton_of(args)
     image = render_plane(texton, (args.height, args.width), height=args.camera_height, tilt=args.tilt,
                          fov=args.fov, texel_size=args.texel_size, mni=args.mni, seed=args.seed,
-                         filter=options, device=args.device, progress=not args.quiet)
+                         filter=options, device=args.device, progress=show_progress(args))
     write_image(out, image, dtype=dtype, compression=args.compression)
     if not args.quiet:
         print(f"{out}: {args.width}x{args.height} plane, filter {args.filter}, MNI {args.mni:g} "
@@ -265,7 +265,13 @@ def _mix_input(args, path):
     import numpy as np
 
     x = _load_texture(path)
-    if args.histogram == "gaussian" or not isinstance(x, np.ndarray):
+    if not isinstance(x, np.ndarray):
+        return x
+    if args.crop is not None or args.downscale != 1:
+        from .cli_options import read_example
+
+        x = read_example(path, args.iterations, args.crop, args.downscale)
+    if args.histogram == "gaussian":
         return x
     from .analysis import analyze
 
@@ -318,7 +324,7 @@ def _mix(args) -> None:
     textons = mix_textons(_mix_input(args, args.a), _mix_input(args, args.b), np.linspace(0.0, 1.0, args.steps),
                           size=args.size, order=args.order, seed=args.seed, iterations=args.iterations,
                           periodic=args.periodic, color_correction=args.color_correction,
-                          support=args.support, progress=not args.quiet)
+                          support=args.support, progress=show_progress(args))
     noise = synthesize_mixed(textons, weights, shape, mni=args.mni, seed=args.seed, device=args.device)
     write_image(out, noise)
     if not args.quiet:
@@ -353,7 +359,7 @@ def _demo_arguments(p: argparse.ArgumentParser) -> None:
 def _demo(args) -> None:
     from .demo import run_demo
 
-    for path in run_demo(args.out_dir, seed=args.seed, progress=not args.quiet):
+    for path in run_demo(args.out_dir, seed=args.seed, progress=show_progress(args)):
         if not args.quiet:
             print(path)
 

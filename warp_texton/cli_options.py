@@ -56,7 +56,9 @@ class Command:
 # ------------------------------------------------------------------ option groups
 #: The options of the analysis of an example image, by the argument they set.
 ANALYSIS_NAMES = {"size": "--size", "order": "--order", "iterations": "--iterations", "seed": "--seed",
-                  "support": "--support", "histogram": "--histogram"}
+                  "support": "--support", "histogram": "--histogram", "downscale": "--downscale",
+                  "factor": "--downscale", "crop": "--crop", "crop x": "--crop X", "crop y": "--crop Y",
+                  "crop width": "--crop W", "crop height": "--crop H"}
 
 
 def add_analysis_options(p: argparse.ArgumentParser, seed: bool = True) -> None:
@@ -74,6 +76,11 @@ def add_analysis_options(p: argparse.ArgumentParser, seed: bool = True) -> None:
                    help="skip the colour-covariance correction")
     g.add_argument("--histogram", choices=("gaussian", "preserve"), default="gaussian",
                    help="preserve: keep the example's colour histogram (a transform the texton carries; EXR only)")
+    g.add_argument("--crop", type=int, nargs=4, metavar=("X", "Y", "W", "H"),
+                   help="analyse only the W x H patch whose top-left pixel is (X, Y): an evenly lit part of a photo")
+    g.add_argument("--downscale", type=int, default=1, metavar="F",
+                   help="shrink the example F times (the mean of F x F blocks) before analysing it, after --crop: "
+                        "for a photo whose features are larger than the texton, or too large to analyse quickly")
 
 
 #: The size of an output raster, by the argument it sets.
@@ -170,17 +177,28 @@ def dtype_of(args):
 
 
 # ------------------------------------------------------------------ inputs and timing
-def read_example(path, iterations: int):
-    """An example image, its analysis priced from the file's header before its pixels
-    are decoded (the same estimate as ``analyze``'s)."""
+def read_example(path, iterations: int, crop=None, downscale: int = 1):
+    """An example image, cut to ``crop`` (x, y, width, height) and shrunk ``downscale``
+    times; its analysis priced from the file's header before its pixels are decoded
+    (the same estimate as ``analyze``'s)."""
     from .analysis import check_analysis_cost
+    from .example_checks import crop_box
+    from .example_checks import downscale as shrink
     from .io import image_size, read_image
 
     size = image_size(path)
     if size is not None:
         h, w, c = size
+        if crop is not None:
+            _, _, w, h = crop_box(crop, (h, w))
+        if isinstance(downscale, int) and 1 <= downscale <= min(h, w):
+            h, w = h // downscale, w // downscale
         check_analysis_cost((h, w), c, iterations, f"analysing a {w}x{h} image")
-    return read_image(path)
+    u = read_image(path)
+    if crop is not None:
+        x, y, w, h = crop_box(crop, u.shape)
+        u = u[y:y + h, x:x + w]
+    return u if downscale == 1 else shrink(u, downscale)
 
 
 def texton_of(args, path=None):
@@ -193,9 +211,9 @@ def texton_of(args, path=None):
         return load_texton(path)
     from .analysis import analyze  # SciPy's FFT, only for an image
 
-    return analyze(read_example(path, args.iterations), size=args.size, order=args.order, iterations=args.iterations,
+    return analyze(read_example(path, args.iterations, args.crop, args.downscale), size=args.size, order=args.order, iterations=args.iterations,
                    seed=args.seed, periodic=args.periodic, color_correction=args.color_correction,
-                   support=args.support, histogram=args.histogram, progress=not args.quiet)
+                   support=args.support, histogram=args.histogram, progress=show_progress(args))
 
 
 #: perf_counter() minus the seconds the process had run when the command began: set by
@@ -219,6 +237,13 @@ def start_clock(startup: bool) -> None:
     """Start the wall clock of a command: from the process's start when ``startup`` (the
     ``warp-texton`` program), else from now (``main`` called from Python)."""
     _started[:] = [time.perf_counter() - (process_age() if startup else 0.0)]
+
+
+def show_progress(args: argparse.Namespace) -> bool:
+    """Progress bars for this command: not with -q, and only on a terminal (no escape codes in logs)."""
+    from . import progress
+
+    return not getattr(args, "quiet", False) and progress.terminal()
 
 
 def seconds_since(t0: float) -> str:

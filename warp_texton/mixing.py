@@ -290,9 +290,9 @@ def mix_textons(
     tu_hat, tv_hat = _as_rgb(tu_hat, c), _as_rgb(tv_hat, c)
     rows = range(len(rhos))
     if progress:
-        from tqdm.auto import tqdm
+        from .progress import bar
 
-        rows = tqdm(rows, desc="mix", unit="texton", leave=False)
+        rows = bar(rows, desc="mix", unit="texton")
     out = []
     for k in rows:
         rho = rhos[k]
