@@ -424,7 +424,7 @@ class TestDask:
         t = random_texton(seed=117)
         path = tmp_path / "a.zarr"
         write_zarr(path, t, (10, 10), chunks=5, dtype="float32", seed=1, device="cpu")
-        with pytest.raises(TextonError, match="exists; give --overwrite"):
+        with pytest.raises(TextonError, match="exists; replace it with overwrite"):
             write_zarr(path, t, (10, 10), chunks=5, dtype="float32", seed=2, device="cpu")
         np.testing.assert_array_equal(zarr.open_array(str(path))[:], synthesize(t, (10, 10), seed=1, device="cpu"))
         write_zarr(path, t, (10, 10), chunks=5, dtype="float32", seed=2, device="cpu", overwrite=True)
@@ -553,7 +553,7 @@ class TestCli:
         t = warp_texton.load_texton(texton_path)
         np.testing.assert_array_equal(zarr.open_array(str(out))[:],
                                       synthesize(t, (50, 70), seed=4, rotation=10.0, device="cpu"))
-        one_error_line(capsys, argv, r"big\.zarr: exists; give --overwrite")
+        one_error_line(capsys, argv, r"big\.zarr: exists; (give|replace it with) --overwrite")
         assert run_cli(argv[:-2] + ["--overwrite", "-q", "--half"]) == 0
         assert str(zarr.open_array(str(out)).dtype) == "float16"
 

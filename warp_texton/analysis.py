@@ -51,7 +51,7 @@ def check_size_fits(size: int, grid, name: str, what: str = "the image") -> None
     m, n = grid
     if size > min(m, n):
         raise TextonError(
-            f"{name}: {what} ({m}x{n}) is too small for size {size}; the texton's support must lie inside "
+            f"{name}: {what} ({n}x{m}) is too small for size {size}; the texton's support must lie inside "
             f"the image (choose size <= {min(m, n)})", param=name, mentions=("size",)
         )
 
@@ -366,7 +366,7 @@ def _rme(tu_half: np.ndarray, texton: Texton, n: int) -> float:
     """RME from u's half-plane spectrum (M, N//2 + 1, C) on an M × n grid."""
     shape = (tu_half.shape[0], n)
     if texton.size[0] > shape[0] or texton.size[1] > shape[1]:
-        raise TextonError(f"a {texton.size[0]}x{texton.size[1]} texton does not fit on a {shape[0]}x{shape[1]} grid")
+        raise TextonError(f"a {texton.size[1]}x{texton.size[0]} texton does not fit on a {shape[1]}x{shape[0]} grid")
     return relative_model_error_half(tu_half, texton_half_spectrum(texton, shape), n)
 
 

@@ -357,7 +357,7 @@ def bake_mesh(
                        mentions=("resolution", "supersample", "mni"), early=True, other=res * res * BAKE_TEXEL_OPS)
     device = resolve_device(device)
     names = ["sampling"] if own_uv is not None else ["charts", "packing", "sampling"]
-    bar = NamedSteps(progress_bar(progress, len(names), "bake", "step"), names, "bake")
+    bar = NamedSteps(progress_bar(progress, len(names), f"bake: {names[0]}", "step"), names, "bake")
     if own_uv is not None:
         try:
             uvs = check_uvs(own_uv, len(vertices))

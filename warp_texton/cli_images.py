@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import time
+import warnings
 from pathlib import Path
 
 from .cli_options import (ANALYSIS_NAMES, FILTER_NAMES, NOISE_IMAGE_NAMES, SHAPE_NAMES, Command,
@@ -45,7 +46,7 @@ def _analyze(args) -> None:
     texton.metadata["source"] = Path(args.input).name
     texton.save(out)
     if not args.quiet:
-        print(f"{out}: {texton.size[0]}x{texton.size[1]} texton, order {texton.order}, "
+        print(f"{out}: {texton.size[1]}x{texton.size[0]} texton, order {texton.order}, "
               f"model error {texton.metadata['model_error']:.3f} ({seconds_since(t0)})")
 
 
@@ -70,6 +71,7 @@ def _gaussian_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=0, help="random seed")
     p.add_argument("--no-periodic", dest="periodic", action="store_false",
                    help="model the image itself, not its periodic component")
+    p.add_argument("-q", "--quiet", action="store_true", help="no summary")
 
 
 def _gaussian(args) -> None:
@@ -77,9 +79,13 @@ def _gaussian(args) -> None:
     from .io import check_image_path, read_image, write_image
 
     out = check_image_path(args.output)
+    t0 = time.perf_counter()
     u = read_image(args.input)
     shape = (u.shape[0] if args.height is None else args.height, u.shape[1] if args.width is None else args.width)
     write_image(out, gaussian_texture(u, shape=shape, seed=args.seed, periodic=args.periodic))
+    if not args.quiet:
+        print(f"{out}: {shape[1]}x{shape[0]} Gaussian texture of a {u.shape[1]}x{u.shape[0]} example "
+              f"({seconds_since(t0)})")
 
 
 GAUSSIAN = Command(
@@ -97,7 +103,7 @@ GAUSSIAN = Command(
 def _synthesize_arguments(p: argparse.ArgumentParser) -> None:
     add_noise_image_options(p, "raster", zarr=True)
     add_placement_options(p)
-    add_filter_options(p, default="none")
+    add_filter_options(p, default=None)
     add_run_options(p)
     add_format_options(p, zarr=True)
     add_analysis_options(p, seed=False)
@@ -109,6 +115,7 @@ def _synthesize(args) -> None:
 
     out = Path(args.output)
     dtype = dtype_of(args)
+    _default_filter(args)
     if out.suffix.lower() == ".zarr":
         return _synthesize_zarr(args, out, dtype)
     zarr_only = [name for name, value in (("--chunk", args.chunk), ("--workers", args.workers),
@@ -128,6 +135,22 @@ def _synthesize(args) -> None:
     write_image(out, noise, dtype=dtype, compression=args.compression)
     if not args.quiet:
         print(f"{out}: {args.width}x{args.height} texton noise, MNI {args.mni:g} ({seconds_since(t0)})")
+
+
+#: Below this --scale (pixels per texel) an unfiltered raster aliases visibly.
+ALIAS_SCALE = 0.5
+
+
+def _default_filter(args) -> None:
+    """--filter of synthesize: none unless given (outputs as before), with a warning when
+    --scale zooms out so far that the noise aliases."""
+    if args.filter is not None:
+        return
+    args.filter = "none"
+    if isinstance(args.scale, float) and 0 < args.scale < ALIAS_SCALE:
+        warnings.warn(f"--scale {args.scale:g} puts {1 / args.scale:.3g} texels in a pixel and --filter is none: "
+                      "the noise aliases (grain, moire); add --filter anisotropic (render-plane's default) or "
+                      "--filter mip, or give --filter none to keep it", stacklevel=2)
 
 
 def _zarr_chunk(args, h: int, w: int, default: int) -> tuple[int, int]:
@@ -167,7 +190,7 @@ def _synthesize_zarr(args, out: Path, dtype) -> None:
                         filter=filter_options(args))
     if not args.quiet:
         print(f"{out}: {w}x{h} texton noise, MNI {args.mni:g}, {report['dtype']} Zarr in chunks of "
-              f"{chunk[0]}x{chunk[1]} ({seconds_since(t0)})")
+              f"{chunk[1]}x{chunk[0]} ({seconds_since(t0)})")
 
 
 SYNTHESIZE = Command(
@@ -177,7 +200,8 @@ SYNTHESIZE = Command(
     _synthesize_arguments, _synthesize,
     {**NOISE_IMAGE_NAMES, **FILTER_NAMES, **ANALYSIS_NAMES, "scale": "--scale", "rotation": "--rotation",
      "offset[0]": "--offset X", "offset[1]": "--offset Y", "offset": "--offset",
-     "period[0]": "--period PX", "period[1]": "--period PY", "period": "--period", "chunks": "--chunk"},
+     "period[0]": "--period PX", "period[1]": "--period PY", "period": "--period", "chunks": "--chunk",
+     "overwrite": "--overwrite"},
     input_file,
     epilog="""examples:
   warp-texton synthesize wood.exr -o noise.png --width 1920 --height 1080

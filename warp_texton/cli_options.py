@@ -126,9 +126,11 @@ def filter_help(kinds: Mapping[str, FilterKind]) -> str:
     return "; ".join(f"{k.name}: {k.description}" for k in kinds.values())
 
 
-def add_filter_options(p: argparse.ArgumentParser, default: str) -> None:
+def add_filter_options(p: argparse.ArgumentParser, default: str | None) -> None:
+    """--filter and its settings; ``default`` None: the command chooses (``synthesize``: none)."""
     p.add_argument("--filter", choices=FILTERS, default=default,
-                   help="anti-aliasing for each pixel's footprint. " + filter_help(FILTERS))
+                   help="anti-aliasing for each pixel's footprint. " + filter_help(FILTERS)
+                        + ("" if default is not None else ". Default: none (a warning below --scale 0.5)"))
     p.add_argument("--supersample", type=int, default=SUPERSAMPLE,
                    help="samples per pixel side for --filter supersample")
     p.add_argument("--max-aniso", type=int, default=MAX_ANISO,

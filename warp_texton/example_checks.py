@@ -40,11 +40,14 @@ LARGE_EXAMPLE_PIXELS = 1024 * 1024
 #: which an example is too smooth (textures measured 0.03-0.48, photographs and 4×
 #: upscaled textures 0.62-0.87).
 SMOOTH_SHARE = 0.55
-#: Blocks of a grid of at most 4 × 4, each at least the texton's side: the spread of
+#: Blocks of a grid of at most 4 × 4, each at least the texton's side and 64 px: the spread of
 #: their means (their standard deviation over the example's) past which an example is
 #: not stationary (textures measured 0.03-0.22, photographs and unevenly lit textures
 #: 0.42-0.76) ...
 MEAN_SPREAD = 0.3
+#: The smallest block side: smaller blocks' means vary by chance (the thresholds were
+#: measured on blocks of 64 px and more).
+MIN_BLOCK = 64
 #: ... or the ratio of their largest to their smallest standard deviation (textures
 #: at most 1.7, photographs and lit textures 2-14).
 CONTRAST_RATIO = 2.0
@@ -143,10 +146,10 @@ def low_frequency_share(t_hat: np.ndarray, n: int, size: int) -> float:
 def block_spread(u: np.ndarray, size: int) -> tuple[float, float] | None:
     """(spread of the block means over the example's standard deviation, largest over
     smallest block standard deviation) on a grid of g × g blocks of side at least
-    ``size`` (g from 2 to 4) of the example's luminance (channel mean); None when not even
+    ``size`` and :data:`MIN_BLOCK` (g from 2 to 4) of the example's luminance (channel mean); None when not even
     2 × 2 such blocks fit."""
     m, n = u.shape[:2]
-    g = min(4, min(m, n) // size)
+    g = min(4, min(m, n) // max(size, MIN_BLOCK))
     if g < 2:
         return None
     y = u.mean(axis=2, dtype=np.float64)
@@ -177,7 +180,7 @@ def warn_large(shape, size: int, name: str = "u") -> None:
         warnings.warn(LargeTextonWarning(
             f"size {size} is more than half the {n}x{m} example: the texton models this image's own features "
             f"rather than its texture (docs/limits.md); use size <= {(min(m, n) + 1) // 2}, unless the example "
-            "is a seamless tile", param="size"), stacklevel=3)
+            "is a seamless tile", param="size", mentions=("size",)), stacklevel=3)
 
 
 def warn_unsuited(u: np.ndarray, t_hat: np.ndarray, size: int, name: str = "u") -> None:

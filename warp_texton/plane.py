@@ -316,7 +316,7 @@ def render_plane(
     device = resolve_device(device)
     check_plane_cost(texton, setup, camera, None, options)
     check_memory(result_bytes(1, h, w, texton.channels, device, output) + h * w * 16,
-                 f"a {h}x{w} plane view", "use a smaller shape", mentions=("shape",))
+                 f"a {w}x{h} plane view", "use a smaller shape", mentions=("shape",))
     p = noise_params(texton, setup, seed)
     canvas = Canvas((h, w), device)
     parts = strips(h, w, pixel_cost(options, True))
