@@ -24,6 +24,7 @@ mesh: the worker writes the drawn bytes or builds the mesh, then calls the API.
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 from dataclasses import dataclass, field
@@ -686,7 +687,10 @@ def bake_mesh_of(vertices, faces, **kw):
     return None
 
 
+@functools.cache
 def _small_bake():
+    """One bake per worker process: the write_baked and render_baked properties are about
+    writing and rendering it, and each new atlas would be one more run of xatlas on a loaded machine."""
     import trimesh
 
     from warp_texton import Texton, bake_mesh

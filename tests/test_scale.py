@@ -484,7 +484,7 @@ class TestDask:
     @pytest.mark.parametrize("kw, match", [
         (dict(chunks=0), r"chunks \(rows\) must be at least 1"),
         (dict(chunks=(8, -1)), r"chunks \(columns\) must be at least 1"),
-        (dict(chunks=100), r"chunks 100x100 exceed the 40x50 raster"),
+        (dict(chunks=100), r"chunks 100x100 exceed the 50x40 raster"),
         (dict(shape=(0, 5)), r"shape\[0\] \(height\) must be at least 1"),
         (dict(shape=(2**31, 5)), "each side must be at most 2\\*\\*30"),
         (dict(mni=-1), "mni must be a finite number > 0"),
