@@ -8,7 +8,7 @@ Two rows, from scikit-image's CC0 textures:
 * enlargement: a 128² patch of grass enlarged 4× (bilinear: an upscaled photo,
   or one taken four times closer), analysed as it is and shrunk back with
   ``downscale(u, 4)``, whose noise is drawn at ``scale=4`` so that features keep
-  their size on the page.
+  their size on the page, and at ``scale=1``.
 
 Each analysis's warnings (``ExampleWarning``) are printed. Texton 64² unless
 said, MNI 30, seed 1, 256² panels.
@@ -89,7 +89,9 @@ def main(argv=None) -> int:
     save("zoomed_input", zoomed[:SIDE, :SIDE])
     save("zoomed_noise", synthesize(learn("zoomed", zoomed), **noise))
     small = downscale(zoomed, 4)  # 128²: the grass at its own scale again
-    save("downscaled_noise", synthesize(learn("zoomed, downscale 4", small, size=32), scale=4.0, **noise))
+    texton = learn("zoomed, downscale 4", small, size=32)
+    save("downscaled_noise", synthesize(texton, scale=4.0, **noise))
+    save("downscaled_noise_1x", synthesize(texton, **noise))
     return 0
 
 
