@@ -211,6 +211,12 @@ def analyze_args(draw):
 
 
 @st.composite
+def downscale_args(draw):
+    u = draw(images())
+    return dict(u=u, factor=draw(st.integers(1, min(u.shape[:2]))))
+
+
+@st.composite
 def model_error_args(draw):
     u = draw(images())
     c = 1 if u.ndim == 2 else u.shape[2]
@@ -489,6 +495,12 @@ def check_image(result, kw) -> str | None:
     return _array(result, np.asarray(kw["u"]).shape[:2], _channels(kw["u"]))
 
 
+def check_downscale(result, kw) -> str | None:
+    m, n = np.asarray(kw["u"]).shape[:2]
+    f = kw["factor"]
+    return _array(result, (m // f, n // f), _channels(kw["u"]))
+
+
 def check_gaussian(result, kw) -> str | None:
     shape = kw["shape"] if kw.get("shape") is not None else np.asarray(kw["u"]).shape[:2]
     return _array(result, shape, _channels(kw["u"]))
@@ -759,6 +771,9 @@ ENTRIES: list[Entry] = [
     Entry("model_error", "warp_texton:model_error", model_error_args(),
           {"u": refused_images(), "texton": refused_textons(), "periodic": st.sampled_from(["yes", 1, 0.0])},
           check="check_rme", may_refuse=r"constant|does not fit|memory budget|work budget"),
+    Entry("downscale", "warp_texton:downscale", downscale_args(),
+          {"u": refused_images(), "factor": refused_int(1)},
+          edges={"factor": st.sampled_from([10**9, 2**63])}, check="check_downscale"),
     Entry("periodic_component", "warp_texton:periodic_component", images().map(lambda u: dict(u=u)),
           {"u": refused_images()}, check="check_image"),
     Entry("gaussian_texture", "warp_texton:gaussian_texture", gaussian_args(),
