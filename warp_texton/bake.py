@@ -253,8 +253,9 @@ def bake_mesh(
         a chart would overlap itself); "xatlas": xatlas's own charts, fewer
         seams, about 40× slower (docs/benchmarks.md, "Atlases").
     progress : bool
-        A progress bar over the atlas's charting and packing and the rounds of
-        samples (shown after 2 s).
+        A progress bar of named steps, its total fixed from the start: the
+        atlas's charting and packing (when it makes one) and the sampling,
+        whose rounds show beside the count (shown after 2 s).
     dtype : {"uint8", "uint16"}
         The PNG sample type :func:`write_baked` writes the texture with (GLB,
         OBJ and the texture alone; 16 bits keep 256 times finer steps, for
@@ -420,7 +421,8 @@ def bake_mesh(
     sums = np.zeros((len(f), 3), np.float64)
     kinds = sorted(set(zip(nx.tolist(), ny.tolist())))
     per_kind = [max(1, SAMPLES_PER_ROUND // (sx * sy)) for sx, sy in kinds]
-    rounds, done = sum(-(-int(np.count_nonzero((nx == sx) & (ny == sy))) // n) for (sx, sy), n in zip(kinds, per_kind)), 0
+    rounds = sum(-(-int(np.count_nonzero((nx == sx) & (ny == sy))) // n) for (sx, sy), n in zip(kinds, per_kind))
+    done = 0
     for (sx, sy), per_round in zip(kinds, per_kind):
         group = np.flatnonzero((nx == sx) & (ny == sy))
         ox, oy = np.meshgrid((np.arange(sx) + 0.5) / sx - 0.5, (np.arange(sy) + 0.5) / sy - 0.5)

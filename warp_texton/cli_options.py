@@ -213,7 +213,8 @@ def texton_of(args, path=None):
         return load_texton(path)
     from .analysis import analyze  # SciPy's FFT, only for an image
 
-    return analyze(read_example(path, args.iterations, args.crop, args.downscale), size=args.size, order=args.order, iterations=args.iterations,
+    u = read_example(path, args.iterations, args.crop, args.downscale)
+    return analyze(u, size=args.size, order=args.order, iterations=args.iterations,
                    seed=args.seed, periodic=args.periodic, color_correction=args.color_correction,
                    support=args.support, histogram=args.histogram, progress=show_progress(args))
 
