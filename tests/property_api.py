@@ -24,6 +24,7 @@ mesh: the worker writes the drawn bytes or builds the mesh, then calls the API.
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 from dataclasses import dataclass, field
@@ -218,6 +219,12 @@ def analyze_args(draw):
     return dict(u=u, size=size, order=draw(st.sampled_from([0, 1, 3, 5])), iterations=draw(st.integers(1, 4)),
                 seed=draw(SEEDS), periodic=draw(st.booleans()), color_correction=draw(st.booleans()),
                 support=draw(st.sampled_from(["square", "disk"])))
+
+
+@st.composite
+def downscale_args(draw):
+    u = draw(images())
+    return dict(u=u, factor=draw(st.integers(1, min(u.shape[:2]))))
 
 
 @st.composite
@@ -514,6 +521,12 @@ def check_image(result, kw) -> str | None:
     return _array(result, np.asarray(kw["u"]).shape[:2], _channels(kw["u"]))
 
 
+def check_downscale(result, kw) -> str | None:
+    m, n = np.asarray(kw["u"]).shape[:2]
+    f = kw["factor"]
+    return _array(result, (m // f, n // f), _channels(kw["u"]))
+
+
 def check_gaussian(result, kw) -> str | None:
     shape = kw["shape"] if kw.get("shape") is not None else np.asarray(kw["u"]).shape[:2]
     return _array(result, shape, _channels(kw["u"]))
@@ -743,7 +756,10 @@ def bake_mesh_of(vertices, faces, **kw):
     return None
 
 
+@functools.cache
 def _small_bake():
+    """One bake per worker process: the write_baked and render_baked properties are about
+    writing and rendering it, and each new atlas would be one more run of xatlas on a loaded machine."""
     import trimesh
 
     from warp_texton import Texton, bake_mesh
@@ -812,6 +828,9 @@ ENTRIES: list[Entry] = [
     Entry("model_error", "warp_texton:model_error", model_error_args(),
           {"u": refused_images(), "texton": refused_textons(), "periodic": st.sampled_from(["yes", 1, 0.0])},
           check="check_rme", may_refuse=r"constant|does not fit|memory budget|work budget"),
+    Entry("downscale", "warp_texton:downscale", downscale_args(),
+          {"u": refused_images(), "factor": refused_int(1)},
+          edges={"factor": st.sampled_from([10**9, 2**63])}, check="check_downscale"),
     Entry("periodic_component", "warp_texton:periodic_component", images().map(lambda u: dict(u=u)),
           {"u": refused_images()}, check="check_image"),
     Entry("gaussian_texture", "warp_texton:gaussian_texture", gaussian_args(),

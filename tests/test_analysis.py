@@ -449,7 +449,7 @@ class TestModelError:
             model_error(brick_image[:64, :64], np.zeros((4, 4, 1)))
 
     def test_texton_larger_than_image(self, brick_image, brick_texton):
-        with pytest.raises(TextonError, match="16x16 texton does not fit on a 12x40 grid"):
+        with pytest.raises(TextonError, match="16x16 texton does not fit on a 40x12 grid"):
             model_error(brick_image[:12, :40], brick_texton)
 
     def test_constant_image(self, brick_texton):

@@ -128,6 +128,25 @@ class TestWorker:
             atlas.make_atlas(v, f, 64, 2, name="scan.ply")
         assert time.monotonic() - t0 < 30
 
+    def test_the_time_limit_is_an_option(self, tmp_path, monkeypatch):
+        """WARP_TEXTON_ATLAS_SECONDS sets the base of the limit (a loaded machine may need more
+        than 60 s); the share per face is added; a bad value is one error naming it."""
+        monkeypatch.setenv(atlas.SECONDS_ENV, "1.5")
+        assert atlas.worker_limits(1000, 64)[0] == pytest.approx(1.5 + 1000 * atlas.WORKER_SECONDS_PER_FACE)
+        monkeypatch.setenv(atlas.SECONDS_ENV, "")
+        assert atlas.worker_limits(0, 64)[0] == atlas.WORKER_SECONDS
+        hang = "time.sleep(600)\n"
+        monkeypatch.setattr(atlas, "WORKER", _fake_worker(tmp_path, hang))
+        monkeypatch.setattr(atlas, "WORKER_SECONDS_PER_FACE", 0.0)
+        monkeypatch.setenv(atlas.SECONDS_ENV, "1")
+        v, f = _scan()
+        with pytest.raises(TextonError, match=r"within 1 s and was stopped; .*WARP_TEXTON_ATLAS_SECONDS"):
+            atlas.make_atlas(v, f, 64, 2, name="scan.ply")
+        for bad in ("soon", "-3", "nan", "0"):
+            monkeypatch.setenv(atlas.SECONDS_ENV, bad)
+            with pytest.raises(TextonError, match=r"^WARP_TEXTON_ATLAS_SECONDS: .* seconds > 0"):
+                atlas.worker_limits(10, 64)
+
     def test_the_memory_cap_holds_the_worker(self, monkeypatch):
         # a cap of one byte per face: xatlas cannot allocate its charts (nor start its threads)
         for name, value in (("WORKER_BASE_BYTES", 0), ("WORKER_BYTES_PER_THREAD", 0), ("WORKER_BYTES_PER_FACE", 1.0),

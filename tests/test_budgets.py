@@ -15,7 +15,7 @@ TEXTON = "t = wt.Texton(np.full((8, 8, 1), 0.1), [0.5])"
 
 def test_a_clean_refusal_passes():
     out = run_bomb(api_bomb("wt.synthesize(t, (10**6, 10**6), device='cpu')", TEXTON))
-    assert_refused(out, r"shape 1000000x1000000 is too large")
+    assert_refused(out, r"shape \(1000000, 1000000\), a 1000000x1000000 raster, is too large")
     assert out.peak_bytes is not None and out.peak_bytes < ADDRESS_SPACE
 
 

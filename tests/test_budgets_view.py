@@ -86,7 +86,7 @@ BUDGET = {"WARP_TEXTON_MEMORY_BUDGET": "1536M"}
 def serve_bomb(tmp_path, mode: str, *args: str, texton: int = 16) -> dict:
     out = run_bomb(SERVER, mode, str(tmp_path / "t.exr"), *args, env={**BUDGET, "BOMB_TEXTON": str(texton)})
     assert out.returncode == 0 and "Traceback" not in out.stderr, out.stderr[-1500:]
-    assert out.seconds < 20
+    assert out.cpu_seconds < 20
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 

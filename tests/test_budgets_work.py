@@ -1,6 +1,7 @@
 """Bombs of issue 22 on the work paths: batches, surface noise and bakes, mix, Zarr planning
 and mesh outputs. Each runs in a child process (tests/bombs.py) with a 2 GiB address space
-and a 20 s time-out and must end in one clean refusal, leaving nothing behind."""
+and a 60 s time-out and must end in one clean refusal, leaving nothing behind, within 10 CPU
+seconds: the work done, which a loaded machine does not stretch as it does the wall clock."""
 
 from __future__ import annotations
 
@@ -54,7 +55,7 @@ def _surface_refused(tmp_path, *args: str) -> str:
     """The surface command on a sphere with ``args``: the mesh fails in seconds with one
     error line, nothing is written; returns its stderr."""
     out = run_bomb(_SURFACE, str(tmp_path), *args)
-    assert out.returncode == 1 and out.seconds < 10, (out.returncode, out.stderr[-500:])
+    assert out.returncode == 1 and out.cpu_seconds < 10, (out.returncode, out.stderr[-500:])
     assert "Traceback" not in out.stderr and out.peak_bytes < ADDRESS_SPACE // 2
     assert [line for line in out.error_lines if "error:" in line] == out.error_lines[:1]
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
@@ -140,6 +141,6 @@ def test_long_mesh_names_leave_nothing(tmp_path, extra):
         " '--out-dir', sys.argv[1] + '/out', '--quiet', *sys.argv[2:]]))\n"
     )
     out = run_bomb(code, str(tmp_path), *extra)
-    assert out.returncode == 1 and out.seconds < 15 and "Traceback" not in out.stderr, out.stderr[-500:]
+    assert out.returncode == 1 and out.cpu_seconds < 15 and "Traceback" not in out.stderr, out.stderr[-500:]
     assert "bytes long" in out.stderr
     assert not list((tmp_path / "out").iterdir())

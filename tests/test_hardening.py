@@ -235,7 +235,7 @@ class TestTextonSize:
         out = tmp_path / "t.exr"
         assert run_cli(["analyze", png, "-o", out, "--size", 40, "--iterations", 2, "-q"]) == 0
         assert run_cli(["analyze", png, "-o", tmp_path / "u.exr", "--size", 41, "-q"]) == 2
-        assert "in.png: the image (48x40) is too small for --size 41" in one_error(capsys)
+        assert "in.png: the image (40x48) is too small for --size 41" in one_error(capsys)
 
 
 # ============================================================== memory and work
@@ -566,7 +566,7 @@ class TestOneError:
         (["synthesize", "T", "--width", "0"], "--width must be at least 1"),
         (["render-plane", "T", "--camera-height", "0"], "--camera-height must be a finite number > 0"),
         (["render-plane", "T", "--texel-size", "-1"], "--texel-size must be a finite number > 0"),
-        (["synthesize", "IMG", "--size", "100"], "in.png: the image (48x40) is too small for --size 100"),
+        (["synthesize", "IMG", "--size", "100"], "in.png: the image (40x48) is too small for --size 100"),
         (["analyze", "FLAT", "--size", "8"], "flat.png: the image is constant"),
         (["mix", "IMG", "FLAT", "--size", "8"], "flat.png: the image is constant"),
         (["synthesize", "T", "--device", "tpu"], "--device: unknown device"),

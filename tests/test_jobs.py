@@ -387,7 +387,9 @@ class TestCli:
         assert re.search(r"error: .*nothing\*\.ply: no such file", captured.err), captured.err
         assert sorted(p.name for p in out.iterdir()) == ["ball.ply", "ring.ply"]
 
-    def test_progress_bar_and_summary(self, tmp_path, mesh_dir, texton_path, capsys):
+    def test_progress_bar_and_summary(self, tmp_path, mesh_dir, texton_path, capsys, monkeypatch):
+        monkeypatch.setattr("warp_texton.progress.PROGRESS_DELAY", 0.0)
+        monkeypatch.setattr("warp_texton.progress.terminal", lambda: True)  # capsys is no terminal
         assert surface(mesh_dir, texton_path, tmp_path / "out") == 0
         err = capsys.readouterr().err
         assert "surface" in err and "2/2" in err  # the bar counts meshes
@@ -459,7 +461,10 @@ class TestCli:
         assert status == 2 and "--render" in err, err
         assert not (out / "ball.ply").exists()
 
-    def test_error_lines_go_to_stderr_with_the_progress_bar(self, tmp_path, mesh_dir, texton_path, capsys):
+    def test_error_lines_go_to_stderr_with_the_progress_bar(self, tmp_path, mesh_dir, texton_path, capsys,
+                                                             monkeypatch):
+        monkeypatch.setattr("warp_texton.progress.PROGRESS_DELAY", 0.0)
+        monkeypatch.setattr("warp_texton.progress.terminal", lambda: True)
         status = surface(mesh_dir, texton_path, tmp_path / "out", "ball.ply", "bad.ply")
         captured = capsys.readouterr()
         assert status == 1

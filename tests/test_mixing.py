@@ -718,7 +718,7 @@ class TestErrors:
     @pytest.mark.parametrize(
         "textons, match",
         [
-            ([T8, random_texton((6, 8), seed=1)], r"textons\[1\] is 6x8, order 1, 1 channels, but textons\[0\] is 8x8"),
+            ([T8, random_texton((6, 8), seed=1)], r"textons\[1\] is 8x6, order 1, 1 channels, but textons\[0\] is 8x8"),
             ([T8, T8B, random_texton(order=3, seed=1)], r"textons\[2\] is 8x8, order 3"),
             ([T8, random_texton(channels=3, seed=1)], r"textons\[1\] is 8x8, order 1, 3 channels"),
             ([], "textons must be a non-empty sequence of Texton"),
@@ -798,10 +798,10 @@ class TestErrors:
             mix_textons(u, v, [0.5], **{"size": 8, "iterations": 1, **kw})
 
     def test_too_small_after_cropping(self):
-        # the common size is the smaller of each side: 48 × 20 here
+        # the common size is the smaller of each side: 48 rows × 20 columns here
         u, _ = pair(1, shape=(64, 20))
         _, v = pair(1)
-        with pytest.raises(TextonError, match=r"common grid of both images \(48x20\) is too small for size 21"):
+        with pytest.raises(TextonError, match=r"common grid of both images \(20x48\) is too small for size 21"):
             mix_textons(u, v, [0.5], size=21, iterations=1)
         assert mix_textons(u, v, [0.5], size=20, iterations=1)[0].size == (20, 20)
 

@@ -424,7 +424,7 @@ class TestDask:
         t = random_texton(seed=117)
         path = tmp_path / "a.zarr"
         write_zarr(path, t, (10, 10), chunks=5, dtype="float32", seed=1, device="cpu")
-        with pytest.raises(TextonError, match="exists; give --overwrite"):
+        with pytest.raises(TextonError, match="exists; replace it with overwrite"):
             write_zarr(path, t, (10, 10), chunks=5, dtype="float32", seed=2, device="cpu")
         np.testing.assert_array_equal(zarr.open_array(str(path))[:], synthesize(t, (10, 10), seed=1, device="cpu"))
         write_zarr(path, t, (10, 10), chunks=5, dtype="float32", seed=2, device="cpu", overwrite=True)
@@ -484,7 +484,7 @@ class TestDask:
     @pytest.mark.parametrize("kw, match", [
         (dict(chunks=0), r"chunks \(rows\) must be at least 1"),
         (dict(chunks=(8, -1)), r"chunks \(columns\) must be at least 1"),
-        (dict(chunks=100), r"chunks 100x100 exceed the 40x50 raster"),
+        (dict(chunks=100), r"chunks 100x100 exceed the 50x40 raster"),
         (dict(shape=(0, 5)), r"shape\[0\] \(height\) must be at least 1"),
         (dict(shape=(2**31, 5)), "each side must be at most 2\\*\\*30"),
         (dict(mni=-1), "mni must be a finite number > 0"),
@@ -553,7 +553,7 @@ class TestCli:
         t = warp_texton.load_texton(texton_path)
         np.testing.assert_array_equal(zarr.open_array(str(out))[:],
                                       synthesize(t, (50, 70), seed=4, rotation=10.0, device="cpu"))
-        one_error_line(capsys, argv, r"big\.zarr: exists; give --overwrite")
+        one_error_line(capsys, argv, r"big\.zarr: exists; (give|replace it with) --overwrite")
         assert run_cli(argv[:-2] + ["--overwrite", "-q", "--half"]) == 0
         assert str(zarr.open_array(str(out)).dtype) == "float16"
 
@@ -595,7 +595,8 @@ class TestCli:
         assert warp_texton.read_image(png).shape == (12, 16, 3)
 
     def test_progress_bar_on_long_work(self, tmp_path, texton_path, capsys, monkeypatch):
-        monkeypatch.setattr("warp_texton._runtime.PROGRESS_DELAY", 0.0)
+        monkeypatch.setattr("warp_texton.progress.PROGRESS_DELAY", 0.0)
+        monkeypatch.setattr("warp_texton.progress.terminal", lambda: True)  # capsys is no terminal
         monkeypatch.setattr(warp_texton.canvas, "STRIP_WORK", 64 * 8)  # 8 strips
         out = tmp_path / "p.png"
         assert run_cli(["synthesize", texton_path, "-o", out, "--width", 64, "--height", 64, "--device", "cpu"]) == 0

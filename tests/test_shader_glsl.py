@@ -230,7 +230,7 @@ def test_export_refuses_a_texton_too_large(tmp_path):
 def test_export_refuses_existing_folders(small, tmp_path):
     (tmp_path / "ex").mkdir()
     (tmp_path / "ex" / "mine.txt").write_text("keep")
-    with pytest.raises(TextonError, match="exists; give --overwrite"):
+    with pytest.raises(TextonError, match="exists; replace it with overwrite"):
         export_shader(small, "glsl", tmp_path / "ex")
     with pytest.raises(TextonError, match="not a shader export written by warp-texton"):
         export_shader(small, "glsl", tmp_path / "ex", overwrite=True)
@@ -282,4 +282,4 @@ def test_cli_writes_both(texton_file, tmp_path, capsys):
     assert (tmp_path / "ex" / "texton_noise.glsl").is_file() and 'width="20" height="10"' in \
         (tmp_path / "p.html").read_text()
     assert run_cli(["shader", texton_file, "--lang", "glsl", "-o", tmp_path / "ex"]) == 2
-    assert "exists; give --overwrite" in capsys.readouterr().err
+    assert "exists; replace it with --overwrite" in capsys.readouterr().err

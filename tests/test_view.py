@@ -656,3 +656,14 @@ def test_cli_view_errors_are_one_line(rgb_path, capsys):
     assert main(["view", str(rgb_path), "--port", "70000"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("warp-texton: error: --port must be") and err.count("\n") == 1
+
+
+def test_info_names_the_device(rgb_path):
+    """/api/info says which device the noise runs on, also when none was chosen (issue 33)."""
+    from warp_texton._runtime import resolve_device
+
+    with serve(rgb_path, port=0, size=SIZE) as handle:
+        info = json.loads(Client(handle).request("/api/info")[2])
+    assert info["device"] == str(resolve_device(None)) and info["device"] is not None
+    with serve(rgb_path, port=0, size=SIZE, device="cpu") as handle:
+        assert json.loads(Client(handle).request("/api/info")[2])["device"] == "cpu"

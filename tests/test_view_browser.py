@@ -258,3 +258,18 @@ def test_mixing_mode_with_an_upload(page, tmp_path, rgb_path):
     # rho goes from A (left quarter) to B (right quarter) across the view: the colours change
     left, right = pixels[:, :100].mean(axis=(0, 1)), pixels[:, -100:].mean(axis=(0, 1))
     assert np.abs(left - right).max() > 5
+
+
+def test_size_menu_of_a_small_input(browser, tmp_path):
+    """A 64 × 64 input at the default size 64: the menu offers the sizes up to half the
+    input and the size in use, which it shows (it was empty, issue 33)."""
+    path = small_rgb(tmp_path / "rgb64.png")
+    with serve(path, port=0, size=64, device=DEVICE) as handle:
+        context = browser.new_context(viewport=VIEWPORT, device_scale_factor=1)
+        page = context.new_page()
+        page.goto(handle.url)
+        wait_idle(page)
+        options = page.eval_on_selector_all("#size option", "os => os.map(o => Number(o.value))")
+        value = page.eval_on_selector("#size", "s => s.value")
+        context.close()
+    assert options == [8, 16, 24, 32, 64] and value == "64"

@@ -22,13 +22,14 @@ import importlib
 from typing import TYPE_CHECKING
 
 from ._version import __version__
-from .errors import TextonError
+from .errors import ExampleWarning, TextonError
 
 if TYPE_CHECKING:  # what type checkers and documentation tools see; at run time, __getattr__
     from .analysis import analyze, model_error
     from .bake import BakedMesh, bake_mesh, render_baked
     from .dsn import dsn
     from .analysis_options import AnalysisOptions
+    from .example_checks import downscale
     from .filter_options import FilterOptions
     from .noise_options import NoiseOptions
     from .gaussian import gaussian_texture, periodic_component
@@ -51,6 +52,7 @@ _LAZY = {
     "BakedMesh": "bake", "bake_mesh": "bake", "render_baked": "bake", "write_baked": "mesh_files",
     "dsn": "dsn",
     "FilterOptions": "filter_options", "NoiseOptions": "noise_options", "AnalysisOptions": "analysis_options",
+    "downscale": "example_checks",
     "gaussian_texture": "gaussian", "periodic_component": "gaussian",
     "read_image": "io", "write_image": "io",
     "mix_textons": "mixing", "synthesize_mixed": "mixing",
@@ -69,6 +71,7 @@ __all__ = [
     "Batch",
     "BatchParams",
     "Camera",
+    "ExampleWarning",
     "FilterOptions",
     "NoiseOptions",
     "Texton",
@@ -76,6 +79,7 @@ __all__ = [
     "__version__",
     "analyze",
     "bake_mesh",
+    "downscale",
     "dsn",
     "evaluate",
     "gaussian_texture",

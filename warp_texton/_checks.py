@@ -262,7 +262,7 @@ def check_shape(shape, name: str = "shape", *, max_pixels: int = 1 << 28) -> tup
     w = check_int(w, f"{name}[1] (width)", minimum=1)
     if h * w > max_pixels:
         raise TextonError(
-            f"{name} {h}x{w} is too large: at most {max_pixels} pixels ({h * w} asked)", param=name
+            f"{name} ({h}, {w}), a {w}x{h} raster, is too large: at most {max_pixels} pixels ({h * w} asked)", param=name
         )
     return h, w
 

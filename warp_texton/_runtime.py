@@ -179,10 +179,6 @@ class _NoBar:
         pass
 
 
-#: A progress bar appears once its work has run this many seconds.
-PROGRESS_DELAY = 2.0
-
-
 def progress_bar(enabled: bool, total: int, desc: str, unit: str):
     """A tqdm bar over ``total`` units when ``enabled`` (shown once the work has
     run for PROGRESS_DELAY seconds, so that short calls print nothing), else a
@@ -190,6 +186,8 @@ def progress_bar(enabled: bool, total: int, desc: str, unit: str):
     if not enabled:
         return _NoBar()
     from tqdm.auto import tqdm
+
+    from .progress import PROGRESS_DELAY
 
     class _Bar(tqdm):
         # every strip is a point where an abandoned computation stops

@@ -27,6 +27,7 @@ from ._checks import as_image, check_bool
 from .bspline import bhat
 from .analysis_options import SUPPORTS, AnalysisOptions, check_support  # noqa: F401 - this module's names too
 from .errors import TextonError
+from .example_checks import warn_large, warn_unsuited
 from .limits import check_memory, check_work
 from .histogram import HistogramTransform
 from .gaussian import FFT_WORKERS, normalized_kernel, relative_model_error_half
@@ -43,7 +44,7 @@ def check_size_fits(size: int, grid, name: str, what: str = "the image") -> None
     m, n = grid
     if size > min(m, n):
         raise TextonError(
-            f"{name}: {what} ({m}x{n}) is too small for size {size}; the texton's support must lie inside "
+            f"{name}: {what} ({n}x{m}) is too small for size {size}; the texton's support must lie inside "
             f"the image (choose size <= {min(m, n)})", param=name, mentions=("size",)
         )
 
@@ -198,6 +199,17 @@ def analyze(
         (:class:`~warp_texton.AnalysisOptions`), in place of those keywords,
         which must then keep their defaults.
 
+    Warns
+    -----
+    ExampleWarning
+        When the example suits a texton badly (docs/photographs.md): larger
+        than 1024² pixels (``LargeExampleWarning``), most of its variance at
+        wavelengths longer than half the texton (``SmoothExampleWarning``), a
+        local mean or contrast that varies across it
+        (``NonStationaryWarning``), a ``size`` past half of it
+        (``LargeTextonWarning``); the classes are in
+        :mod:`warp_texton.example_checks`. The analysis goes on.
+
     Returns
     -------
     Texton
@@ -244,6 +256,7 @@ def analyze(
     m, n, c = u.shape
     check_size_fits(size, (m, n), "u")
     check_analysis_cost((m, n), c, iterations, f"analysing a {n}x{m} image")
+    warn_large((m, n), size)
     transform = None
     if histogram == "preserve":
         # colour: one table per RGB channel, and a correction that keeps the channels
@@ -256,6 +269,7 @@ def analyze(
     else:
         mean, t = normalized_kernel(u, periodic=periodic)
     t_hat = sfft.rfft2(t, axes=(0, 1), workers=FFT_WORKERS)
+    warn_unsuited(u, t_hat, size)
     flat = t.reshape(-1, c)
     texton = texton_from_spectrum(
         t_hat, n, mean, size, order, iterations, seed,
@@ -303,9 +317,9 @@ def texton_from_spectrum(
 
     bar = None
     if progress:
-        from tqdm.auto import tqdm
+        from .progress import bar as progress_bar
 
-        bar = tqdm(total=iterations, desc="analyze", unit="it", leave=False)
+        bar = progress_bar(total=iterations, desc="analyze", unit="it")
     # CGF Algorithm 1 starts from white noise and projects it: the first iterate
     # is the target with a random phase relative to the target's own phase, so
     # targets that differ by a phase factor (e.g. τ_0 in mixing) give one texton.
@@ -350,7 +364,7 @@ def _rme(tu_half: np.ndarray, texton: Texton, n: int) -> float:
     """RME from u's half-plane spectrum (M, N//2 + 1, C) on an M × n grid."""
     shape = (tu_half.shape[0], n)
     if texton.size[0] > shape[0] or texton.size[1] > shape[1]:
-        raise TextonError(f"a {texton.size[0]}x{texton.size[1]} texton does not fit on a {shape[0]}x{shape[1]} grid")
+        raise TextonError(f"a {texton.size[1]}x{texton.size[0]} texton does not fit on a {shape[1]}x{shape[0]} grid")
     return relative_model_error_half(tu_half, texton_half_spectrum(texton, shape), n)
 
 

@@ -36,6 +36,7 @@ reach it as infinities.
 from __future__ import annotations
 
 import io
+import math
 import os
 import signal
 import subprocess
@@ -62,6 +63,9 @@ SMOOTHING_ROUNDS = 4
 #: 35-45 s for 100k faces on two shared cores, packing alone under 2 s (docs/benchmarks.md).
 WORKER_SECONDS = 60.0
 WORKER_SECONDS_PER_FACE = 2e-3
+#: The environment variable that sets the base of the time limit instead of WORKER_SECONDS
+#: (seconds; the share per face is added): a loaded machine or a slow one may need more.
+SECONDS_ENV = "WARP_TEXTON_ATLAS_SECONDS"
 #: The worker's memory (its address space): xatlas's peak per face (measured on the bunny's
 #: 100k faces: 1.25 KB per face packing normal charts, 0.9 KB charting by itself; 28 MB without work) with
 #: room, the packer's bit images of the atlas (a few bits per texel), a base for the
@@ -230,9 +234,24 @@ def uv_coverage(uvs, faces: np.ndarray) -> float:
     return min(covered, 1.0) if np.isfinite(covered) else 1.0
 
 
+def worker_base_seconds() -> float:
+    """The base of the worker's time limit: $WARP_TEXTON_ATLAS_SECONDS, else WORKER_SECONDS."""
+    text = os.environ.get(SECONDS_ENV)
+    if text is None or not text.strip():
+        return WORKER_SECONDS
+    try:
+        seconds = float(text)
+    except ValueError:
+        seconds = math.nan
+    if not (math.isfinite(seconds) and seconds > 0):
+        raise TextonError(f"{SECONDS_ENV}: {text!r:.40} is not a number of seconds > 0")
+    return seconds
+
+
 def worker_limits(n_faces: int, resolution: int) -> tuple[float, float]:
-    """(seconds, bytes) that the worker may take for a mesh of ``n_faces`` at ``resolution``²."""
-    seconds = WORKER_SECONDS + WORKER_SECONDS_PER_FACE * n_faces
+    """(seconds, bytes) that the worker may take for a mesh of ``n_faces`` at ``resolution``²:
+    a base (:func:`worker_base_seconds`) plus a share per face, and the memory cap."""
+    seconds = worker_base_seconds() + WORKER_SECONDS_PER_FACE * n_faces
     nbytes = (WORKER_BASE_BYTES + WORKER_BYTES_PER_THREAD * (os.cpu_count() or 1) + WORKER_BYTES_PER_FACE * n_faces
               + WORKER_BYTES_PER_TEXEL * resolution ** 2)
     return seconds, nbytes
@@ -252,7 +271,7 @@ def run_worker(payload: dict, n_faces: int, resolution: int, name: str) -> dict:
                               capture_output=True, timeout=seconds)
     except subprocess.TimeoutExpired:
         raise TextonError(f"{name}: xatlas made no atlas within {seconds:.0f} s and was stopped; give the mesh UVs "
-                          "(--uv mesh) or simplify it") from None
+                          f"(--uv mesh), simplify it, or allow more time ({SECONDS_ENV})") from None
     if proc.returncode < 0:
         sig = signal.Signals(-proc.returncode).name if -proc.returncode in signal.valid_signals() else "a signal"
         raise TextonError(f"{name}: xatlas crashed making the UV atlas ({sig}); give the mesh UVs or try "

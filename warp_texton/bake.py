@@ -31,6 +31,7 @@ import warp as wp
 
 from ._checks import check_int, check_positive, check_seed
 from ._runtime import progress_bar, resolve_device, split_launch
+from .progress import NamedSteps
 from .atlas import CHART_METHODS, check_uvs, make_atlas, mesh_uvs, overlap_note, uv_coverage, uv_face_notes
 from .colours import mean_colour
 from .errors import TextonError
@@ -258,8 +259,9 @@ def bake_mesh(
         a chart would overlap itself); "xatlas": xatlas's own charts, fewer
         seams, about 40× slower (docs/benchmarks.md, "Atlases").
     progress : bool
-        A progress bar over the atlas's charting and packing and the rounds of
-        samples (shown after 2 s).
+        A progress bar of named steps, its total fixed from the start: the
+        atlas's charting and packing (when it makes one) and the sampling,
+        whose rounds show beside the count (shown after 2 s).
     dtype : {"uint8", "uint16"}
         The PNG sample type :func:`write_baked` writes the texture with (GLB,
         OBJ and the texture alone; 16 bits keep 256 times finer steps, for
@@ -371,7 +373,8 @@ def bake_mesh(
                        f"{n:.3g} samples at MNI {mni:.6g}", work_hint, param="supersample",
                        mentions=("resolution", "supersample", "mni"), early=True, other=res * res * BAKE_TEXEL_OPS)
     device = resolve_device(device)
-    bar = progress_bar(progress, 0 if own_uv is not None else 2, "bake", "step")
+    names = ["sampling"] if own_uv is not None else ["charts", "packing", "sampling"]
+    bar = NamedSteps(progress_bar(progress, len(names), f"bake: {names[0]}", "step"), names, "bake")
     source, vertices, cnormals, faces, uvs, corners, owner = _bake_uvs(
         mesh, vertices, cnormals, faces, own_uv, res, gutter, charts, device, name, bar)
     covered = owner >= 0
@@ -421,7 +424,7 @@ def _bake_uvs(mesh, vertices, cnormals, faces, own_uv, res, gutter, charts, devi
         # xatlas keeps charts 2 paddings apart (measured: 9 texels or more on the bunny at 1024² with a
         # padding of 4), so each gutter texel is nearer its own chart than any other
         vmap, faces, uvs, _ = make_atlas(vertices, faces, res, max(gutter, 1), charts=charts, name=name,
-                                         step=bar.update)
+                                         step=bar.step)
         corners, owner, overlap = _claimed(uvs, faces, res, device, name)
         if overlap > MAX_OVERLAP and charts != "xatlas":
             # a chart of normal clusters that overlaps itself (a helix seen along its axis): xatlas's own charts
@@ -495,7 +498,8 @@ def _sample_sums(p, setup, tx: _TexelFaces, nx, ny, cnormals, texel, device, met
     sums = np.zeros((len(tx.f), 3), np.float64)
     kinds = sorted(set(zip(nx.tolist(), ny.tolist())))
     per_kind = [max(1, SAMPLES_PER_ROUND // (sx * sy)) for sx, sy in kinds]
-    bar.total += sum(-(-int(np.count_nonzero((nx == sx) & (ny == sy))) // n) for (sx, sy), n in zip(kinds, per_kind))
+    rounds = sum(-(-int(np.count_nonzero((nx == sx) & (ny == sy))) // n) for (sx, sy), n in zip(kinds, per_kind))
+    done = 0
     for (sx, sy), per_round in zip(kinds, per_kind):
         group = np.flatnonzero((nx == sx) & (ny == sy))
         ox, oy = np.meshgrid((np.arange(sx) + 0.5) / sx - 0.5, (np.arange(sy) + 0.5) / sy - 0.5)
@@ -513,7 +517,8 @@ def _sample_sums(p, setup, tx: _TexelFaces, nx, ny, cnormals, texel, device, met
             nrm = _normals_at(bary, cnormals[tx.f[k]], tx.fn[k])
             vals = evaluate_points(p, setup, pts / texel, nrm, None, device, method)
             sums[g] += vals.reshape(len(g), len(offsets), 3).sum(axis=1)  # g holds distinct texels
-            bar.update()
+            done += 1
+            bar.round(done, rounds)
     return sums
 
 

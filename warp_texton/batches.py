@@ -337,14 +337,14 @@ def synthesize_batch(
     device = resolve_device(device)
     items_bytes = result_bytes(count, h, w, channels, device, output) + count * BATCH_ITEM_BYTES
     # before anything of size count is made (its parameters, its windows): what grows with count alone
-    check_memory(items_bytes, f"a batch of {count} {h}x{w} rasters with {channels} channel(s)",
+    check_memory(items_bytes, f"a batch of {count} {w}x{h} rasters with {channels} channel(s)",
                  "use a smaller count or shape, or make the batch in parts")
     # a lower bound of check_batch_cost's work (every pixel looks up at least MNI impacts on average),
     # checked before the per-item setup, which is itself the cost of a batch of many tiny items; only
     # a refusal reaches check_work here, so work_log keeps one estimate per call, the full one
     bound = count * (BATCH_ITEM_OPS + h * w * mni)
     if not bound <= work_budget():
-        check_work(bound, f"a batch of {count} {h}x{w} rasters at MNI {mni:.6g}",
+        check_work(bound, f"a batch of {count} {w}x{h} rasters at MNI {mni:.6g}",
                    "use a smaller count or shape, or a lower mni, or make the batch in parts", param="count",
                    mentions=("shape", "mni"))
     params = draw_batch_params(len(textons), count, seed, scale, rotation, offset, texton_index)
@@ -409,7 +409,7 @@ def check_batch_cost(textons: list[Texton], setups: list[NoiseSetup], h: int, w:
             if steps.shape[0]:
                 work += filtered_work(t, setup, steps, options, len(steps) * h * w)
     mni = max(s.mni for s in setups)
-    what = f"a batch of {len(windows) + len(filtered)} {h}x{w} rasters at MNI {mni:.6g}"
+    what = f"a batch of {len(windows) + len(filtered)} {w}x{h} rasters at MNI {mni:.6g}"
     if filtered:
         what += f" ({len(filtered)} with filter {options.kind!r})"
     check_raster_cost(items_bytes + nbytes, work, what, "use a smaller count or shape, or make the batch in parts",

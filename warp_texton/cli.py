@@ -18,11 +18,11 @@ import warnings
 
 from ._version import __version__
 from .cli_images import ANALYZE, DEMO, GAUSSIAN, MIX, RENDER_PLANE, SYNTHESIZE
-from .cli_options import Command
+from .cli_options import Command, start_clock
 from .cli_shader import SHADER
 from .cli_surface import SURFACE
 from .cli_view import VIEW
-from .errors import TextonError
+from .errors import ExampleWarning, TextonError
 
 #: The commands, in the order ``--help`` lists them.
 COMMANDS: dict[str, Command] = {c.name: c for c in (ANALYZE, GAUSSIAN, SYNTHESIZE, RENDER_PLANE, MIX, SURFACE,
@@ -73,6 +73,15 @@ def cli_message(error: TextonError, args: argparse.Namespace) -> str:
     return error.in_words({**command.names, **command.files(args)})
 
 
+def warning_words(warning, args: argparse.Namespace) -> str:
+    """A library warning in the words of the command ``args`` ran: an
+    :class:`~warp_texton.errors.ExampleWarning` with its options and files, others as they are."""
+    if isinstance(warning, ExampleWarning):
+        command = COMMANDS[args.command]
+        return warning.in_words({**command.names, **command.files(args)})
+    return str(warning)
+
+
 class _Terminated(SystemExit):
     """SIGTERM, raised as SystemExit: every atomic write in progress removes its temporary file."""
 
@@ -105,13 +114,14 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def main(argv=None) -> int:
+    start_clock(startup=argv is None)
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command is None:
         parser.print_help()
         return 2
     saved_format = warnings.formatwarning
-    warnings.formatwarning = lambda msg, *a, **k: f"warp-texton: warning: {msg}\n"
+    warnings.formatwarning = lambda msg, *a, **k: f"warp-texton: warning: {warning_words(msg, args)}\n"
     saved_term = None
     if threading.current_thread() is threading.main_thread():
         saved_term = signal.signal(signal.SIGTERM, _terminated)

@@ -10,12 +10,13 @@ from __future__ import annotations
 
 import argparse
 import time
+import warnings
 from pathlib import Path
 
 from .cli_options import (ANALYSIS_NAMES, FILTER_NAMES, NOISE_IMAGE_NAMES, SHAPE_NAMES, Command,
                           add_analysis_options, add_filter_options, add_format_options, add_noise_image_options,
                           add_placement_options, add_run_options, analysis_options, dtype_of, filter_options,
-                          input_file, noise_options, seconds_since, texton_of)
+                          input_file, noise_options, seconds_since, show_progress, texton_of)
 from .errors import TextonError
 
 
@@ -37,13 +38,13 @@ def _analyze(args) -> None:
     if args.histogram == "preserve" and out.suffix.lower() == ".texton":
         raise TextonError(f"{out}: the .texton format cannot hold a histogram transform; save it as .exr",
                           param="histogram")
-    u = read_example(args.input, args.iterations)
+    u = read_example(args.input, args.iterations, args.crop, args.downscale)
     t0 = time.perf_counter()
-    texton = analyze(u, options=analysis_options(args), progress=not args.quiet)
+    texton = analyze(u, options=analysis_options(args), progress=show_progress(args))
     texton.metadata["source"] = Path(args.input).name
     texton.save(out)
     if not args.quiet:
-        print(f"{out}: {texton.size[0]}x{texton.size[1]} texton, order {texton.order}, "
+        print(f"{out}: {texton.size[1]}x{texton.size[0]} texton, order {texton.order}, "
               f"model error {texton.metadata['model_error']:.3f} ({seconds_since(t0)})")
 
 
@@ -68,6 +69,7 @@ def _gaussian_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=0, help="random seed")
     p.add_argument("--no-periodic", dest="periodic", action="store_false",
                    help="model the image itself, not its periodic component")
+    p.add_argument("-q", "--quiet", action="store_true", help="no summary")
 
 
 def _gaussian(args) -> None:
@@ -75,9 +77,13 @@ def _gaussian(args) -> None:
     from .io import check_image_path, read_image, write_image
 
     out = check_image_path(args.output)
+    t0 = time.perf_counter()
     u = read_image(args.input)
     shape = (u.shape[0] if args.height is None else args.height, u.shape[1] if args.width is None else args.width)
     write_image(out, gaussian_texture(u, shape=shape, seed=args.seed, periodic=args.periodic))
+    if not args.quiet:
+        print(f"{out}: {shape[1]}x{shape[0]} Gaussian texture of a {u.shape[1]}x{u.shape[0]} example "
+              f"({seconds_since(t0)})")
 
 
 GAUSSIAN = Command(
@@ -95,7 +101,7 @@ GAUSSIAN = Command(
 def _synthesize_arguments(p: argparse.ArgumentParser) -> None:
     add_noise_image_options(p, "raster", zarr=True)
     add_placement_options(p)
-    add_filter_options(p, default="none")
+    add_filter_options(p, default=None)
     add_run_options(p)
     add_format_options(p, zarr=True)
     add_analysis_options(p, seed=False)
@@ -107,6 +113,7 @@ def _synthesize(args) -> None:
 
     out = Path(args.output)
     dtype = dtype_of(args)
+    _default_filter(args)
     if out.suffix.lower() == ".zarr":
         return _synthesize_zarr(args, out, dtype)
     zarr_only = [name for name, value in (("--chunk", args.chunk), ("--workers", args.workers),
@@ -123,10 +130,26 @@ def _synthesize(args) -> None:
     texton = texton_of(args)
     values = synthesize(texton, shape=(args.height, args.width), noise=noise, scale=args.scale,
                         rotation=args.rotation, offset=tuple(args.offset), device=args.device,
-                        filter=options, progress=not args.quiet)
+                        filter=options, progress=show_progress(args))
     write_image(out, values, dtype=dtype, compression=args.compression)
     if not args.quiet:
         print(f"{out}: {args.width}x{args.height} texton noise, MNI {args.mni:g} ({seconds_since(t0)})")
+
+
+#: Below this --scale (pixels per texel) an unfiltered raster aliases visibly.
+ALIAS_SCALE = 0.5
+
+
+def _default_filter(args) -> None:
+    """--filter of synthesize: none unless given (outputs as before), with a warning when
+    --scale zooms out so far that the noise aliases."""
+    if args.filter is not None:
+        return
+    args.filter = "none"
+    if isinstance(args.scale, float) and 0 < args.scale < ALIAS_SCALE:
+        warnings.warn(f"--scale {args.scale:g} puts {1 / args.scale:.3g} texels in a pixel and --filter is none: "
+                      "the noise aliases (grain, moire); add --filter anisotropic (render-plane's default) or "
+                      "--filter mip, or give --filter none to keep it", stacklevel=2)
 
 
 def _zarr_chunk(args, h: int, w: int, default: int) -> tuple[int, int]:
@@ -161,12 +184,12 @@ def _synthesize_zarr(args, out: Path, dtype) -> None:
     t0 = time.perf_counter()
     texton = texton_of(args)
     report = write_zarr(out, texton, (h, w), chunks=chunk, dtype=dtype or ZARR_DTYPE, scheduler=args.scheduler,
-                        workers=args.workers, overwrite=args.overwrite, progress=not args.quiet,
+                        workers=args.workers, overwrite=args.overwrite, progress=show_progress(args),
                         noise=noise, scale=args.scale, rotation=args.rotation,
                         offset=tuple(args.offset), device=args.device, filter=filter_options(args))
     if not args.quiet:
         print(f"{out}: {w}x{h} texton noise, MNI {args.mni:g}, {report['dtype']} Zarr in chunks of "
-              f"{chunk[0]}x{chunk[1]} ({seconds_since(t0)})")
+              f"{chunk[1]}x{chunk[0]} ({seconds_since(t0)})")
 
 
 SYNTHESIZE = Command(
@@ -176,7 +199,8 @@ SYNTHESIZE = Command(
     _synthesize_arguments, _synthesize,
     {**NOISE_IMAGE_NAMES, **FILTER_NAMES, **ANALYSIS_NAMES, "scale": "--scale", "rotation": "--rotation",
      "offset[0]": "--offset X", "offset[1]": "--offset Y", "offset": "--offset",
-     "period[0]": "--period PX", "period[1]": "--period PY", "period": "--period", "chunks": "--chunk"},
+     "period[0]": "--period PX", "period[1]": "--period PY", "period": "--period", "chunks": "--chunk",
+     "overwrite": "--overwrite"},
     input_file,
     epilog="""examples:
   warp-texton synthesize wood.exr -o noise.png --width 1920 --height 1080
@@ -214,7 +238,7 @@ def _render_plane(args) -> None:
     texton = texton_of(args)
     image = render_plane(texton, (args.height, args.width), height=args.camera_height, tilt=args.tilt,
                          fov=args.fov, texel_size=args.texel_size, mni=args.mni, seed=args.seed,
-                         filter=options, device=args.device, progress=not args.quiet)
+                         filter=options, device=args.device, progress=show_progress(args))
     write_image(out, image, dtype=dtype, compression=args.compression)
     if not args.quiet:
         print(f"{out}: {args.width}x{args.height} plane, filter {args.filter}, MNI {args.mni:g} "
@@ -264,7 +288,13 @@ def _mix_input(args, path):
     import numpy as np
 
     x = _load_texture(path)
-    if args.histogram == "gaussian" or not isinstance(x, np.ndarray):
+    if not isinstance(x, np.ndarray):
+        return x
+    if args.crop is not None or args.downscale != 1:
+        from .cli_options import read_example
+
+        x = read_example(path, args.iterations, args.crop, args.downscale)
+    if args.histogram == "gaussian":
         return x
     from .analysis import analyze
 
@@ -313,7 +343,7 @@ def _mix(args) -> None:
     weights, shape = _mix_weights(args)
     t0 = time.perf_counter()
     textons = mix_textons(_mix_input(args, args.a), _mix_input(args, args.b), np.linspace(0.0, 1.0, args.steps),
-                          options=analysis_options(args).replace(histogram="gaussian"), progress=not args.quiet)
+                          options=analysis_options(args).replace(histogram="gaussian"), progress=show_progress(args))
     noise = synthesize_mixed(textons, weights, shape, mni=args.mni, seed=args.seed, device=args.device)
     write_image(out, noise)
     if not args.quiet:
@@ -348,7 +378,7 @@ def _demo_arguments(p: argparse.ArgumentParser) -> None:
 def _demo(args) -> None:
     from .demo import run_demo
 
-    for path in run_demo(args.out_dir, seed=args.seed, progress=not args.quiet):
+    for path in run_demo(args.out_dir, seed=args.seed, progress=show_progress(args)):
         if not args.quiet:
             print(path)
 

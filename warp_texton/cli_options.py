@@ -14,6 +14,7 @@ stay quick.
 from __future__ import annotations
 
 import argparse
+import os
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -55,7 +56,9 @@ class Command:
 # ------------------------------------------------------------------ option groups
 #: The options of the analysis of an example image, by the argument they set.
 ANALYSIS_NAMES = {"size": "--size", "order": "--order", "iterations": "--iterations", "seed": "--seed",
-                  "support": "--support", "histogram": "--histogram"}
+                  "support": "--support", "histogram": "--histogram", "downscale": "--downscale",
+                  "factor": "--downscale", "crop": "--crop", "crop x": "--crop X", "crop y": "--crop Y",
+                  "crop width": "--crop W", "crop height": "--crop H"}
 
 
 def add_analysis_options(p: argparse.ArgumentParser, seed: bool = True) -> None:
@@ -73,6 +76,11 @@ def add_analysis_options(p: argparse.ArgumentParser, seed: bool = True) -> None:
                    help="skip the colour-covariance correction")
     g.add_argument("--histogram", choices=("gaussian", "preserve"), default="gaussian",
                    help="preserve: keep the example's colour histogram (a transform the texton carries; EXR only)")
+    g.add_argument("--crop", type=int, nargs=4, metavar=("X", "Y", "W", "H"),
+                   help="analyse only the W x H patch whose top-left pixel is (X, Y): an evenly lit part of a photo")
+    g.add_argument("--downscale", type=int, default=1, metavar="F",
+                   help="shrink the example F times (the mean of F x F blocks) before analysing it, after --crop: "
+                        "for a photo whose features are larger than the texton, or too large to analyse quickly")
 
 
 #: The size of an output raster, by the argument it sets.
@@ -118,9 +126,11 @@ def filter_help(kinds: Mapping[str, FilterKind]) -> str:
     return "; ".join(f"{k.name}: {k.description}" for k in kinds.values())
 
 
-def add_filter_options(p: argparse.ArgumentParser, default: str) -> None:
+def add_filter_options(p: argparse.ArgumentParser, default: str | None) -> None:
+    """--filter and its settings; ``default`` None: the command chooses (``synthesize``: none)."""
     p.add_argument("--filter", choices=FILTERS, default=default,
-                   help="anti-aliasing for each pixel's footprint. " + filter_help(FILTERS))
+                   help="anti-aliasing for each pixel's footprint. " + filter_help(FILTERS)
+                        + ("" if default is not None else ". Default: none (a warning below --scale 0.5)"))
     p.add_argument("--supersample", type=int, default=SUPERSAMPLE,
                    help="samples per pixel side for --filter supersample")
     p.add_argument("--max-aniso", type=int, default=MAX_ANISO,
@@ -186,33 +196,79 @@ def dtype_of(args):
 
 
 # ------------------------------------------------------------------ inputs and timing
-def read_example(path, iterations: int):
-    """An example image, its analysis priced from the file's header before its pixels
-    are decoded (the same estimate as ``analyze``'s)."""
+def read_example(path, iterations: int, crop=None, downscale: int = 1):
+    """An example image, cut to ``crop`` (x, y, width, height) and shrunk ``downscale``
+    times; its analysis priced from the file's header before its pixels are decoded
+    (the same estimate as ``analyze``'s)."""
     from .analysis import check_analysis_cost
+    from .example_checks import crop_box
+    from .example_checks import downscale as shrink
     from .io import image_size, read_image
 
     size = image_size(path)
     if size is not None:
         h, w, c = size
+        if crop is not None:
+            _, _, w, h = crop_box(crop, (h, w))
+        if isinstance(downscale, int) and 1 <= downscale <= min(h, w):
+            h, w = h // downscale, w // downscale
         check_analysis_cost((h, w), c, iterations, f"analysing a {w}x{h} image")
-    return read_image(path)
+    u = read_image(path)
+    if crop is not None:
+        x, y, w, h = crop_box(crop, u.shape)
+        u = u[y:y + h, x:x + w]
+    return u if downscale == 1 else shrink(u, downscale)
 
 
 def texton_of(args, path=None):
     """The texton file ``path`` (default: args.input), or the texton of that example
     image, analysed with the analysis options."""
-    from .analysis import analyze
     from .texton import is_texton_path, load_texton
 
     path = args.input if path is None else path
     if is_texton_path(path):
         return load_texton(path)
-    return analyze(read_example(path, args.iterations), options=analysis_options(args), progress=not args.quiet)
+    from .analysis import analyze  # SciPy's FFT, only for an image
+
+    u = read_example(path, args.iterations, args.crop, args.downscale)
+    return analyze(u, options=analysis_options(args), progress=show_progress(args))
+
+
+#: perf_counter() minus the seconds the process had run when the command began: set by
+#: :func:`start_clock`, so that summaries give the wall time a user waited, start-up included.
+_started: list[float] = []
+
+
+def process_age() -> float:
+    """Seconds since this process started (Linux: /proc), else 0."""
+    try:
+        with open("/proc/self/stat") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+        with open("/proc/uptime") as f:
+            uptime = float(f.read().split()[0])
+        return max(uptime - int(fields[19]) / os.sysconf("SC_CLK_TCK"), 0.0)
+    except (OSError, ValueError, IndexError, AttributeError):
+        return 0.0
+
+
+def start_clock(startup: bool) -> None:
+    """Start the wall clock of a command: from the process's start when ``startup`` (the
+    ``warp-texton`` program), else from now (``main`` called from Python)."""
+    _started[:] = [time.perf_counter() - (process_age() if startup else 0.0)]
+
+
+def show_progress(args: argparse.Namespace) -> bool:
+    """Progress bars for this command: not with -q, and only on a terminal (no escape codes in logs)."""
+    from . import progress
+
+    return not getattr(args, "quiet", False) and progress.terminal()
 
 
 def seconds_since(t0: float) -> str:
-    return f"{time.perf_counter() - t0:.2f} s"
+    """The work's seconds since ``t0`` and, once :func:`start_clock` ran, the command's wall time."""
+    now = time.perf_counter()
+    work = f"{now - t0:.2f} s"
+    return f"{work}, {now - _started[0]:.2f} s wall" if _started else work
 
 
 # ------------------------------------------------------------------ errors

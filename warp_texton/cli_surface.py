@@ -12,7 +12,7 @@ import contextlib
 import sys
 from pathlib import Path
 
-from .cli_options import ANALYSIS_NAMES, Command, add_analysis_options, add_run_options, texton_of
+from .cli_options import ANALYSIS_NAMES, Command, add_analysis_options, add_run_options, show_progress, texton_of
 from .errors import TextonError
 
 
@@ -212,10 +212,10 @@ def _run_jobs(args, executor, device, render, orbit):
                        exr_linear=args.exr_linear, supersample=args.supersample, up=args.up, orbit=orbit,
                        fov=args.fov, words=tuple(SURFACE.names.items()), charts=args.charts, normals=args.normals,
                        crease_angle=CREASE_ANGLE if args.crease_angle is None else args.crease_angle,
-                       progress=not args.quiet and args.jobs == 1 and args.scheduler is None) for m in meshes]
+                       progress=show_progress(args) and args.jobs == 1 and args.scheduler is None) for m in meshes]
     check_unique_outputs(jobs)
     try:
-        return run_jobs(jobs, executor=executor, jobs_in_parallel=args.jobs, progress=not args.quiet), False
+        return run_jobs(jobs, executor=executor, jobs_in_parallel=args.jobs, progress=show_progress(args)), False
     except JobsInterrupted as exc:
         return exc.results, True
 

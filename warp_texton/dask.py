@@ -83,7 +83,7 @@ def check_big_shape(shape) -> tuple[int, int]:
     h = check_int(h, "shape[0] (height)", minimum=1)
     w = check_int(w, "shape[1] (width)", minimum=1)
     if max(h, w) > MAX_SIDE:
-        raise TextonError(f"shape {h}x{w}: each side must be at most 2**30 pixels")
+        raise TextonError(f"shape ({h}, {w}): each side must be at most 2**30 pixels")
     return h, w
 
 
@@ -100,7 +100,7 @@ def check_chunks(chunks, shape, name: str = "chunks") -> tuple[int, int]:
     cw = check_int(cw, f"{name} (columns)", minimum=1)
     h, w = shape
     if ch > h or cw > w:
-        raise TextonError(f"{name} {ch}x{cw} exceed the {h}x{w} raster; use chunks of at most the raster's size")
+        raise TextonError(f"{name} {cw}x{ch} exceed the {w}x{h} raster; use chunks of at most the raster's size")
     return ch, cw
 
 
@@ -244,7 +244,7 @@ def synthesize_dask(
 
     plan = _Plan(texton, shape, chunks, mni, seed, scale, rotation, offset, period, device, poisson,
                  cell_factor, method, filter, noise)
-    check_memory(plan.chunk_bytes(), f"a {plan.chunks[0]}x{plan.chunks[1]} chunk", "use smaller chunks")
+    check_memory(plan.chunk_bytes(), f"a {plan.chunks[1]}x{plan.chunks[0]} chunk", "use smaller chunks")
     h, w = plan.shape
     ch, cw = plan.chunks
     rows = (ch,) * (h // ch) + ((h % ch,) if h % ch else ())
@@ -295,7 +295,7 @@ def check_store_cost(plan: _Plan) -> None:
     h, w = plan.shape
     ch, cw = plan.chunks
     n = math.ceil(h / ch) * math.ceil(w / cw)
-    what = f"a {w}x{h} store cut into {n} blocks of {ch}x{cw}"
+    what = f"a {w}x{h} store cut into {n} blocks of {cw}x{ch}"
     check_memory(n * CHUNK_TASK_BYTES, what, "use larger chunks or a smaller raster", param="chunks",
                  mentions=("chunks", "shape"))
     check_work(n * CHUNK_TASK_OPS, what, "use larger chunks or a smaller raster", param="chunks",
@@ -421,7 +421,7 @@ def write_zarr(
     n_workers = workers or os.cpu_count() or 1
     in_flight = n_workers if kind != "distributed" else 1
     check_memory(in_flight * plan.chunk_bytes(np.dtype(dtype).itemsize),
-                 f"{in_flight} chunk(s) of {plan.chunks[0]}x{plan.chunks[1]} in memory at once",
+                 f"{in_flight} chunk(s) of {plan.chunks[1]}x{plan.chunks[0]} in memory at once",
                  "use smaller chunks or fewer workers")
     h, w = plan.shape
     c = texton.channels

@@ -1,4 +1,4 @@
-"""The one exception type that user-facing errors raise."""
+"""The one exception type that user-facing errors raise, and the warning about examples."""
 
 from __future__ import annotations
 
@@ -50,20 +50,45 @@ class TextonError(ValueError):
         >>> TextonError("use a lower mni", mentions=("mni",)).in_words({"mni": "--mni"})
         'use a lower --mni'
         """
-        message = str(self)
-        param = self.param
-        if param is not None and param in names and message.startswith(param) and _stands_alone(message, 0, len(param)):
-            message = names[param] + message[len(param):]
-        for name in self.mentions:
-            if name in names:
-                message = _replace_name(message, name, names[name])
-        return message
+        return _in_words(str(self), self.param, self.mentions, names)
 
 
 class OverBudget(TextonError):
     """A :class:`TextonError` refusing a request whose estimated memory or work
     exceeds its budget (:mod:`warp_texton.limits`): the request itself is fine,
     only too large (a server answers 413 rather than 400)."""
+
+
+class ExampleWarning(UserWarning):
+    """An example that a texton may learn badly: too large, too smooth, not stationary
+    (:mod:`warp_texton.example_checks`; docs/photographs.md). The analysis goes on.
+
+    Like :class:`TextonError` it names the argument it is about (``param``) and
+    those its advice speaks of (``mentions``), so that the command line prints it
+    in its own words (``--size``, the file given).
+
+    >>> w = ExampleWarning("u: not stationary; use a smaller size", param="u", mentions=("size",))
+    >>> w.in_words({"u": "photo.jpg", "size": "--size"})
+    'photo.jpg: not stationary; use a smaller --size'
+    """
+
+    def __init__(self, message: str, param: str | None = None, *, mentions: tuple[str, ...] = ()):
+        super().__init__(message)
+        self.param = param
+        self.mentions = tuple(mentions)
+
+    def in_words(self, names: Mapping[str, str]) -> str:
+        """The message with a front end's ``names`` for the library's (:meth:`TextonError.in_words`)."""
+        return _in_words(str(self), self.param, self.mentions, names)
+
+
+def _in_words(message: str, param: str | None, mentions: tuple[str, ...], names: Mapping[str, str]) -> str:
+    if param is not None and param in names and message.startswith(param) and _stands_alone(message, 0, len(param)):
+        message = names[param] + message[len(param):]
+    for name in mentions:
+        if name in names:
+            message = _replace_name(message, name, names[name])
+    return message
 
 
 def _stands_alone(text: str, start: int, end: int) -> bool:

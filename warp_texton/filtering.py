@@ -583,9 +583,9 @@ def supersampled(p, coeffs, pixels: PixelSet, n: int, seed: int, device, limit: 
     per = max(1, SUPERSAMPLE_BATCH // (n * n))
     chunks = range(0, pixels.count, per)
     if progress:
-        from tqdm.auto import tqdm
+        from .progress import bar
 
-        chunks = tqdm(chunks, desc="supersample", unit="batch", leave=False)
+        chunks = bar(chunks, desc="supersample", unit="batch")
     for start in chunks:
         sel = np.arange(start, min(start + per, pixels.count))
         with np.errstate(invalid="ignore"):

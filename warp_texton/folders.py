@@ -23,7 +23,7 @@ def check_replaceable(path: Path, overwrite: bool, is_ours: Callable[[Path], boo
     if not (path.exists() or path.is_symlink()):
         return
     if not overwrite:
-        raise TextonError(f"{path}: exists; give --overwrite (overwrite=True) to replace it")
+        raise TextonError(f"{path}: exists; replace it with overwrite", mentions=("overwrite",))
     try:
         ours = path.is_dir() and not path.is_symlink() and is_ours(path)
     except (OSError, ValueError, TypeError, AttributeError, RecursionError):  # an unreadable marker: not ours
@@ -64,6 +64,11 @@ def atomic_folder(path: Path, replaceable: Callable[[Path], None]):
     replaceable(path)
     tmp = Path(tempfile.mkdtemp(dir=parent, prefix=temp_prefix(path.name), suffix=".part"))
     try:
+        # mkdtemp makes it private (0700): the finished folder gets the user's umask, as
+        # os.mkdir would, so that a web server can serve a shader export
+        mask = os.umask(0o022)
+        os.umask(mask)
+        os.chmod(tmp, 0o777 & ~mask)
         yield tmp
         old = None
         if path.exists():

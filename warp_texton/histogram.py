@@ -26,9 +26,6 @@ import json
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import gaussian_filter1d
-from scipy.special import ndtr, ndtri
-from scipy.stats import rankdata
 
 from .errors import TextonError
 
@@ -58,6 +55,19 @@ MAX_TABLE_VALUE = 4.0e10
 def gauss_grid(size: int = LUT_SIZE) -> np.ndarray:
     """The Gaussian positions g_k of a table of ``size`` entries."""
     return np.linspace(-GAUSS_RANGE, GAUSS_RANGE, size)
+
+
+def mean_ranks(x: np.ndarray) -> np.ndarray:
+    """Ranks 1..n of the values of a 1-D array, ties sharing their mean rank (float64):
+    ``scipy.stats.rankdata``'s default, whose import takes a second."""
+    order = np.argsort(x, kind="mergesort")
+    xs = x[order]
+    new = np.r_[True, xs[1:] != xs[:-1]]
+    group = np.cumsum(new)  # 1-based group of each sorted value
+    starts = np.r_[np.nonzero(new)[0], len(xs)]  # first sorted position of each group, then n
+    ranks = np.empty(len(x), np.float64)
+    ranks[order] = 0.5 * (starts[group] + starts[group - 1] + 1)
+    return ranks
 
 
 @dataclass(frozen=True, eq=False)
@@ -150,6 +160,8 @@ class HistogramTransform:
             centre = np.zeros(flat.shape[1])
             matrix = np.eye(flat.shape[1])
         z = (flat - centre) @ matrix.T
+        from scipy.special import ndtr  # imported here: the command line starts without SciPy
+
         q = ndtr(gauss_grid(size))
         lut = np.quantile(z, q, axis=0).T  # linear interpolation between order statistics
         return cls(matrix, centre, np.maximum.accumulate(lut, axis=1))
@@ -159,10 +171,12 @@ class HistogramTransform:
         empirical CDF to a standard Gaussian (ties share their mean rank), float64."""
         flat = np.asarray(u, np.float64).reshape(-1, self.channels)
         z = (flat - self.centre) @ self.matrix.T
+        from scipy.special import ndtri
+
         n = z.shape[0]
         g = np.empty_like(z)
         for c in range(self.channels):
-            g[:, c] = ndtri((rankdata(z[:, c]) - 0.5) / n)
+            g[:, c] = ndtri((mean_ranks(z[:, c]) - 0.5) / n)
         g /= np.maximum(g.std(axis=0), 1e-12)  # ties shrink the variance a little; the noise is standardised
         return g.reshape(np.shape(u)[:2] + (self.channels,))
 
@@ -265,6 +279,8 @@ class HistogramTransform:
     def prefiltered(self) -> np.ndarray:
         """(SHARE_STEPS, C, K) tables: row i is :attr:`lut` convolved with a Gaussian of
         variance 1 − v_i, v_i = i / (SHARE_STEPS − 1); the last row is :attr:`lut`."""
+        from scipy.ndimage import gaussian_filter1d
+
         step = 2.0 * GAUSS_RANGE / (self.lut.shape[1] - 1)
         out = np.empty((SHARE_STEPS,) + self.lut.shape)
         for i, v in enumerate(np.linspace(0.0, 1.0, SHARE_STEPS)):

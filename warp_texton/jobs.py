@@ -524,9 +524,9 @@ def run_jobs(jobs, *, executor: Executor | None = None, jobs_in_parallel: int = 
         executor = ThreadPoolExecutor(max(1, jobs_in_parallel))
     bar = None
     if progress:
-        from tqdm.auto import tqdm
+        from .progress import bar as progress_bar
 
-        bar = tqdm(total=len(jobs), desc="surface", unit="mesh")
+        bar = progress_bar(total=len(jobs), desc="surface", unit="mesh", leave=True)
     results: list[JobResult | None] = [None] * len(jobs)
     futures = {}
 

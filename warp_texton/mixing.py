@@ -128,7 +128,7 @@ def _model(x, grid, name: str, periodic: bool):
     if isinstance(x, Texton):
         if x.size[0] > grid[0] or x.size[1] > grid[1]:
             raise TextonError(
-                f"{name}: a {x.size[0]}x{x.size[1]} texton does not fit the {grid[0]}x{grid[1]} grid of the "
+                f"{name}: a {x.size[1]}x{x.size[0]} texton does not fit the {grid[1]}x{grid[0]} grid of the "
                 "other image; mix it with a larger image, or with a texton", param=name
             )
         t_hat = texton_half_spectrum(x, grid)
@@ -299,9 +299,9 @@ def mix_textons(
     tu_hat, tv_hat = _as_rgb(tu_hat, c), _as_rgb(tv_hat, c)
     rows = range(len(rhos))
     if progress:
-        from tqdm.auto import tqdm
+        from .progress import bar
 
-        rows = tqdm(rows, desc="mix", unit="texton", leave=False)
+        rows = bar(rows, desc="mix", unit="texton")
     out = []
     for k in rows:
         rho = rhos[k]
@@ -356,8 +356,8 @@ def _check_textons(textons) -> list[Texton]:
     for k, t in enumerate(textons[1:], 1):
         if (t.size, t.order, t.channels) != (first.size, first.order, first.channels):
             raise TextonError(
-                f"textons[{k}] is {t.size[0]}x{t.size[1]}, order {t.order}, {t.channels} channels, but "
-                f"textons[0] is {first.size[0]}x{first.size[1]}, order {first.order}, {first.channels} "
+                f"textons[{k}] is {t.size[1]}x{t.size[0]}, order {t.order}, {t.channels} channels, but "
+                f"textons[0] is {first.size[1]}x{first.size[0]}, order {first.order}, {first.channels} "
                 "channels; mixed noise needs textons of one size, order and channel count"
             )
     return textons

@@ -317,7 +317,7 @@ def render_plane(
     check_plane_cost(texton, setup, camera, None, options)
     lanes = lanes_for([texton])  # a grey texton's view: one float a pixel through the kernels
     check_memory(result_bytes(1, h, w, texton.channels, device, output, lanes) + h * w * 16,
-                 f"a {h}x{w} plane view", "use a smaller shape", mentions=("shape",))
+                 f"a {w}x{h} plane view", "use a smaller shape", mentions=("shape",))
     p = noise_params(texton, setup, seed)
     canvas = Canvas((h, w), device, lanes)
     parts = strips(h, w, pixel_cost(options, True))

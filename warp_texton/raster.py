@@ -166,7 +166,7 @@ def window_block(win: RasterWindow, shape):
     ncx, ncy = math.floor(x1 / cw) - cx0 + 1, math.floor(y1 / ch) - cy0 + 1
     if ncx * ncy > MAX_CELLS:
         raise TextonError(
-            f"scale {win.scale} makes this {h}x{w} raster cover {ncx * ncy} noise cells "
+            f"scale {win.scale} makes this {w}x{h} raster cover {ncx * ncy} noise cells "
             f"(at most {MAX_CELLS}); use a larger scale or a smaller raster", param="scale", mentions=("scale",)
         )
     return cx0, cy0, ncx, ncy

@@ -18,7 +18,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import scipy.ndimage as ndi
 
 from ._version import __version__
 from ._checks import CHANNELS, MAX_TEXTON_SIDE, MAX_VALUE, as_real_array, check_path, check_range, check_shape
@@ -105,7 +104,7 @@ class Texton:
                 f"texton coefficients must have shape (r, s, 1) or (r, s, 3), got {a.shape}"
             )
         if max(a.shape[:2]) > MAX_TEXTON_SIDE:
-            raise TextonError(f"texton coefficients: {a.shape[0]}x{a.shape[1]}; at most {MAX_TEXTON_SIDE} "
+            raise TextonError(f"texton coefficients: {a.shape[1]}x{a.shape[0]}; at most {MAX_TEXTON_SIDE} "
                               "per side (textons are small by design)")
         check_range(a, "texton coefficients", MAX_VALUE, "values")
         a = np.ascontiguousarray(a, dtype=np.float32)
@@ -157,9 +156,15 @@ class Texton:
         w = kernel_width(self.order)
         mask = self.support_mask
         if w > 1:
-            # Each coefficient covers the w × w unit cells of its ψ support; the
-            # padding keeps the dilation inside the array, so the count is exact.
-            mask = ndi.binary_dilation(np.pad(mask, w - 1), structure=np.ones((w, w), bool))
+            # Each coefficient covers the w × w unit cells of its ψ support: the union
+            # of the mask shifted by 0..w-1 cells each way (a dilation, without SciPy's
+            # import time at every command's start).
+            r, s = mask.shape
+            covered = np.zeros((r + w - 1, s + w - 1), bool)
+            for di in range(w):
+                for dj in range(w):
+                    covered[di:di + r, dj:dj + s] |= mask
+            mask = covered
         return float(np.count_nonzero(mask))
 
     @property
@@ -183,10 +188,10 @@ class Texton:
         from .bspline import bhat
 
         m, n = check_shape(shape)
-        check_memory(40.0 * m * n * self.channels, f"the spectrum of a texton on a {m}x{n} grid", "use a smaller grid")
+        check_memory(40.0 * m * n * self.channels, f"the spectrum of a texton on a {n}x{m} grid", "use a smaller grid")
         r, s = self.size
         if r > m or s > n:
-            raise TextonError(f"a {r}x{s} texton does not fit on a {m}x{n} grid")
+            raise TextonError(f"a {s}x{r} texton does not fit on a {n}x{m} grid")
         a_hat = np.fft.fft2(self.coeffs.astype(np.float64), s=(m, n), axes=(0, 1))
         return a_hat * np.sqrt(bhat((m, n), self.order))[:, :, None]
 
@@ -233,7 +238,7 @@ class Texton:
     def __repr__(self) -> str:
         r, s = self.size
         extra = "" if self.histogram is None else ", histogram=preserve"
-        return (f"Texton({r}x{s}, channels={self.channels}, order={self.order}, "
+        return (f"Texton({s}x{r}, channels={self.channels}, order={self.order}, "
                 f"mean={[round(float(v), 4) for v in self.mean]}{extra})")
 
 

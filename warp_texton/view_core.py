@@ -30,6 +30,7 @@ from typing import cast
 
 import numpy as np
 
+from ._runtime import resolve_device
 from ._version import __version__
 from .analysis import analyze
 from .filter_options import FILTERS
@@ -435,7 +436,7 @@ class Viewer:
             "version": __version__, "src": self.src, "name": self.source.name, "kind": self.source.kind,
             "channels": self.source.channels,
             "input_size": None if image is None else [image.shape[1], image.shape[0]],
-            "device": self.device,
+            "device": str(resolve_device(self.device)),  # the one the noise runs on, also when not chosen
             "defaults": {"size": analysis.size, "order": analysis.order, "cc": analysis.color_correction,
                          "seed": noise.seed, "mni": noise.mni, "filter": noise.filter},
             "bounds": {"zoom_min": ZOOM_MIN, "zoom_max": ZOOM_MAX, "enlarge": ENLARGE, "mix_zoom": list(MIX_ZOOM),

@@ -478,8 +478,11 @@
     $("filter").value = state.filter;
     const sizes = $("size");
     const largest = info.input_size ? Math.floor((Math.min(...info.input_size) + 1) / 2) : info.bounds.texton_size[1];
-    for (const v of [8, 16, 24, 32, 48, 64, 96, 128, state.size].filter((v, i, a) => a.indexOf(v) === i).sort((a, b) => a - b)) {
-      if (v >= info.bounds.texton_size[0] && v <= Math.min(largest, info.bounds.texton_size[1])) sizes.add(new Option(`${v}×${v}`, v));
+    // half the input at most (docs/limits.md), and always the size in use, however large
+    for (const v of [8, 16, 24, 32, 48, 64, 96, 128, largest, state.size].filter((v, i, a) => a.indexOf(v) === i).sort((a, b) => a - b)) {
+      if (v === state.size || (v >= info.bounds.texton_size[0] && v <= Math.min(largest, info.bounds.texton_size[1]))) {
+        sizes.add(new Option(`${v}×${v}`, v));
+      }
     }
     sizes.value = state.size;
     $("order").value = state.order;
