@@ -77,8 +77,10 @@ def bilinear3(img: wp.array2d(dtype=wp.vec3), q: wp.vec2):
     tx = fx - x0
     ty = fy - y0
     j0 = wp.clamp(int(x0), 0, cols - 1)
-    j1 = wp.clamp(int(x0) + 1, 0, cols - 1)
     i0 = wp.clamp(int(y0), 0, rows - 1)
+    if tx == 0.0 and ty == 0.0:  # on a texel centre (scale 1): the texel itself, the same value as below
+        return img[i0, j0]
+    j1 = wp.clamp(int(x0) + 1, 0, cols - 1)
     i1 = wp.clamp(int(y0) + 1, 0, rows - 1)
     top = img[i0, j0] * (1.0 - tx) + img[i0, j1] * tx
     bottom = img[i1, j0] * (1.0 - tx) + img[i1, j1] * tx
@@ -96,8 +98,10 @@ def bilinear1(img: wp.array2d(dtype=float), q: wp.vec2):
     tx = fx - x0
     ty = fy - y0
     j0 = wp.clamp(int(x0), 0, cols - 1)
-    j1 = wp.clamp(int(x0) + 1, 0, cols - 1)
     i0 = wp.clamp(int(y0), 0, rows - 1)
+    if tx == 0.0 and ty == 0.0:  # on a texel centre (scale 1): the texel itself, the same value as below
+        return img[i0, j0]
+    j1 = wp.clamp(int(x0) + 1, 0, cols - 1)
     i1 = wp.clamp(int(y0) + 1, 0, rows - 1)
     top = img[i0, j0] * (1.0 - tx) + img[i0, j1] * tx
     bottom = img[i1, j0] * (1.0 - tx) + img[i1, j1] * tx
@@ -125,6 +129,14 @@ def triangle_of(t: Tiling, x: wp.vec2d):
     u = float(sx - fa)
     v = float(sy - fb)
     return int(fa), int(fb), u, v
+
+
+@wp.func
+def sharpened(w: float, sharpness: float, log_guide: float):
+    # w^sharpness · exp(log_guide) as exp(sharpness ln w + log_guide); 0 for w ≤ 0
+    if w <= 0.0:
+        return 0.0
+    return wp.exp(sharpness * wp.log(w) + log_guide)
 
 
 @wp.func
@@ -158,9 +170,9 @@ def tiling_value(t: Tiling, x: wp.vec2d):
         g1 = bilinear1(t.guide, q1)
         g2 = bilinear1(t.guide, q2)
     gm = wp.max(g0, wp.max(g1, g2))
-    k0 = wp.pow(wp.max(w0, 0.0), t.sharpness) * wp.exp(t.guide_weight * (g0 - gm))
-    k1 = wp.pow(wp.max(w1, 0.0), t.sharpness) * wp.exp(t.guide_weight * (g1 - gm))
-    k2 = wp.pow(wp.max(w2, 0.0), t.sharpness) * wp.exp(t.guide_weight * (g2 - gm))
+    k0 = sharpened(w0, t.sharpness, t.guide_weight * (g0 - gm))
+    k1 = sharpened(w1, t.sharpness, t.guide_weight * (g1 - gm))
+    k2 = sharpened(w2, t.sharpness, t.guide_weight * (g2 - gm))
     total = k0 + k1 + k2
     return (v0 * k0 + v1 * k1 + v2 * k2) / total
 

@@ -24,6 +24,7 @@ import numpy as np
 import scipy.fft as sfft
 
 from ._checks import as_image, check_bool, check_int, check_seed
+from .tiling import TILING_KIND, TilingModel, fit_tiling
 from .bspline import ORDERS, bhat
 from .errors import TextonError
 from .limits import check_memory, check_work
@@ -32,6 +33,8 @@ from .gaussian import FFT_WORKERS, normalized_kernel, relative_model_error_half
 from .texton import MAX_TEXTON_SIDE, Texton, lag0_covariance
 
 SUPPORTS = ("square", "disk")
+#: The methods of `analyze`: the Gaussian texton model (the default), tiling and blending.
+METHODS = ("texton", TILING_KIND)
 #: Bytes per image value (pixel × channel) that the analysis holds at its peak:
 #: the periodic component and the kernel in float64, their spectra (complex128
 #: and complex64 half-planes), the target and its conjugate, the iterates.
@@ -146,7 +149,7 @@ def correct_colors(alpha: np.ndarray, order: int, covariance: np.ndarray) -> np.
 def analyze(
     u,
     *,
-    size: int = 64,
+    size: int | None = None,
     order: int = 1,
     iterations: int = 50,
     seed: int = 0,
@@ -155,7 +158,8 @@ def analyze(
     support: str = "square",
     histogram: str = "gaussian",
     progress: bool = False,
-) -> Texton:
+    method: str = "texton",
+) -> Texton | TilingModel:
     """Compute the texton of a Gaussian texture example.
 
     Parameters
@@ -198,10 +202,21 @@ def analyze(
         colour histogram (docs/histogram.md).
     progress : bool
         Show a progress bar over the iterations.
+    method : {"texton", "tiling"}
+        ``"texton"`` (the default): the Gaussian texton model, for textures
+        without shapes (docs/model.md). ``"tiling"``: tiling and blending of
+        the example itself (:class:`~warp_texton.tiling.TilingModel`,
+        docs/tiling.md), for structured textures (bricks, tiles, paving);
+        ``size`` is then the side of its triangles (default a quarter of the
+        example's smaller side), ``seed`` that of the structure score, and the
+        texton-only options (``order``, ``iterations``, ``periodic``,
+        ``color_correction``, ``support``, ``histogram``) must keep their
+        defaults. Its ``metadata["structure"]`` is the measured structure
+        score (:func:`~warp_texton.tiling.structure_score`).
 
     Returns
     -------
-    Texton
+    Texton or TilingModel
         ``coeffs`` (size, size, C), ``mean`` of u, ``order``; ``metadata`` holds
         the parameters and ``metadata["model_error"]``, the relative model
         error of the texton against u (:func:`model_error`).
@@ -236,6 +251,20 @@ def analyze(
     >>> round(t.metadata["model_error"], 3)
     0.449
     """
+    if method not in METHODS:
+        raise TextonError(f"method must be one of {', '.join(METHODS)}, got {method!r:.60}", param="method")
+    if method == TILING_KIND:
+        changed = [name for name, value, default in (
+            ("order", order, 1), ("iterations", iterations, 50), ("periodic", periodic, True),
+            ("color_correction", color_correction, True), ("support", support, "square"),
+            ("histogram", histogram, "gaussian")) if not (type(value) is type(default) and value == default)]
+        if changed:
+            raise TextonError(f"{', '.join(changed)} apply to method 'texton' only, not to method 'tiling'",
+                              param=changed[0])
+        side = None if size is None else check_int(size, "size", minimum=2)
+        return fit_tiling(as_image(u), side=side, seed=check_seed(seed))
+    if size is None:
+        size = 64
     u = as_image(u)
     size = check_int(size, "size", minimum=2, maximum=MAX_TEXTON_SIDE)
     order = check_int(order, "order", choices=ORDERS)

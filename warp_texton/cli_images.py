@@ -29,7 +29,8 @@ def _analyze_arguments(p: argparse.ArgumentParser) -> None:
 
 def _analyze(args) -> None:
     from .analysis import analyze
-    from .cli_options import read_example
+    from .cli_options import analysis_kwargs, read_example
+    from .tiling import STRUCTURE_THRESHOLD, TilingModel, structure_score, suggest_method
 
     out = Path(args.output)
     if out.suffix.lower() not in (".exr", ".texton"):
@@ -37,16 +38,28 @@ def _analyze(args) -> None:
     if args.histogram == "preserve" and out.suffix.lower() == ".texton":
         raise TextonError(f"{out}: the .texton format cannot hold a histogram transform; save it as .exr",
                           param="histogram")
+    if args.method == "tiling" and out.suffix.lower() != ".exr":
+        raise TextonError(f"{out}: a tiling model is saved as .exr only", param="output")
     u = read_example(args.input, args.iterations)
     t0 = time.perf_counter()
-    texton = analyze(u, size=args.size, order=args.order, iterations=args.iterations, seed=args.seed,
-                     periodic=args.periodic, color_correction=args.color_correction,
-                     support=args.support, histogram=args.histogram, progress=not args.quiet)
+    texton = analyze(u, **analysis_kwargs(args), progress=not args.quiet)
     texton.metadata["source"] = Path(args.input).name
     texton.save(out)
-    if not args.quiet:
+    if args.quiet:
+        return
+    if isinstance(texton, TilingModel):
+        h, w = texton.example.shape[:2]
+        print(f"{out}: tiling model of a {w}x{h} example, triangle side {texton.side:g} ({seconds_since(t0)})")
+        score = texton.structure
+    else:
         print(f"{out}: {texton.size[0]}x{texton.size[1]} texton, order {texton.order}, "
               f"model error {texton.metadata['model_error']:.3f} ({seconds_since(t0)})")
+        score = structure_score(u, seed=args.seed)
+    if score is not None:
+        fits = suggest_method(score)
+        advice = "fits" if fits == args.method else f"try --method {fits}"
+        print(f"structure score {score:.2f} (1: Gaussian-like; above {STRUCTURE_THRESHOLD:g}: shapes that "
+              f"texton noise loses): method {fits!r} fits the example; {advice}")
 
 
 ANALYZE = Command(
@@ -122,12 +135,17 @@ def _synthesize(args) -> None:
     options = filter_options(args)
     t0 = time.perf_counter()
     texton = texton_of(args)
-    noise = synthesize(texton, shape=(args.height, args.width), mni=args.mni, seed=args.seed, scale=args.scale,
-                       rotation=args.rotation, offset=tuple(args.offset), period=args.period, device=args.device,
-                       filter=options, progress=not args.quiet)
+    texton_only = {}
+    if getattr(texton, "kind", "texton") == "texton" or args.period is not None or options.kind != "none":
+        texton_only = {"mni": args.mni, "period": args.period, "filter": options}
+    noise = synthesize(texton, shape=(args.height, args.width), seed=args.seed, scale=args.scale,
+                       rotation=args.rotation, offset=tuple(args.offset), device=args.device,
+                       progress=not args.quiet, **texton_only)
     write_image(out, noise, dtype=dtype, compression=args.compression)
     if not args.quiet:
-        print(f"{out}: {args.width}x{args.height} texton noise, MNI {args.mni:g} ({seconds_since(t0)})")
+        what = f"texton noise, MNI {args.mni:g}" if texton_only or getattr(texton, "kind", "") != "tiling" \
+            else "tiling and blending"
+        print(f"{out}: {args.width}x{args.height} {what} ({seconds_since(t0)})")
 
 
 def _zarr_chunk(args, h: int, w: int, default: int) -> tuple[int, int]:

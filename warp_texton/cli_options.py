@@ -55,12 +55,18 @@ class Command:
 # ------------------------------------------------------------------ option groups
 #: The options of the analysis of an example image, by the argument they set.
 ANALYSIS_NAMES = {"size": "--size", "order": "--order", "iterations": "--iterations", "seed": "--seed",
-                  "support": "--support", "histogram": "--histogram"}
+                  "support": "--support", "histogram": "--histogram", "method": "--method"}
 
 
 def add_analysis_options(p: argparse.ArgumentParser, seed: bool = True) -> None:
     g = p.add_argument_group("analysis options" + ("" if seed else " (when INPUT is an image)"))
+    g.add_argument("--method", choices=("texton", "tiling"), default="texton",
+                   help="texton: Gaussian texton noise (default); tiling: tiling and blending of the example, for "
+                        "structured textures (bricks, tiles; docs/tiling.md)")
     g.add_argument("--size", type=int, default=64, help="texton side (square) or diameter (disk), in texels")
+    g.add_argument("--side", type=int, default=None,
+                   help="with --method tiling: the side of the blend triangles, in texels (default a quarter "
+                        "of the example's smaller side)")
     g.add_argument("--order", type=int, default=1, choices=(0, 1, 3, 5),
                    help="interpolation order: 0 nearest (EUSIPCO SOT), 1 bilinear (CGF), 3/5 B-spline")
     g.add_argument("--iterations", type=int, default=50, help="alternating projections")
@@ -191,9 +197,26 @@ def texton_of(args, path=None):
     path = args.input if path is None else path
     if is_texton_path(path):
         return load_texton(path)
-    return analyze(read_example(path, args.iterations), size=args.size, order=args.order, iterations=args.iterations,
-                   seed=args.seed, periodic=args.periodic, color_correction=args.color_correction,
-                   support=args.support, histogram=args.histogram, progress=not args.quiet)
+    return analyze(read_example(path, args.iterations), **analysis_kwargs(args), progress=not args.quiet)
+
+
+def analysis_kwargs(args) -> dict:
+    """``analyze``'s keyword arguments from the analysis options (``--method tiling``: its own)."""
+    method = getattr(args, "method", "texton")
+    if getattr(args, "side", None) is not None and method != "tiling":
+        raise TextonError("--side applies to --method tiling only", param="side")
+    if method == "tiling":
+        texton_only = [flag for flag, value, default in (
+            ("--size", args.size, 64), ("--order", args.order, 1), ("--iterations", args.iterations, 50),
+            ("--support", args.support, "square"), ("--no-periodic", args.periodic, True),
+            ("--no-color-correction", args.color_correction, True), ("--histogram", args.histogram, "gaussian"))
+            if value != default]
+        if texton_only:
+            raise TextonError(f"{', '.join(texton_only)} apply to --method texton only", param="method")
+        return {"method": "tiling", "size": args.side, "seed": args.seed}
+    return {"size": args.size, "order": args.order, "iterations": args.iterations, "seed": args.seed,
+            "periodic": args.periodic, "color_correction": args.color_correction, "support": args.support,
+            "histogram": args.histogram}
 
 
 def seconds_since(t0: float) -> str:

@@ -25,6 +25,7 @@ from ._checks import CHANNELS, MAX_VALUE, as_real_array, check_path, check_range
 from .bspline import ORDERS, kernel_width, sampled_autocorrelation
 from .errors import TextonError
 from .histogram import HistogramTransform
+from .tiling import TilingModel, is_tiling_header, load_tiling
 from .limits import check_memory
 from .io import EXR, atomic_path, check_output_name, is_texton_header, read_exr, read_exr_header, write_exr
 
@@ -457,7 +458,7 @@ def _parse_metadata(path: Path, raw: str):
         raise TextonError(f"{path}: malformed texton EXR: metadata is not JSON") from None
 
 
-def load_texton(path) -> Texton:
+def load_texton(path) -> Texton | TilingModel:
     """Read a texton from ``.exr`` (written by :meth:`Texton.save`) or ``.texton``.
 
     ``.texton`` files from the authors' reference viewer are accepted: their
@@ -470,7 +471,10 @@ def load_texton(path) -> Texton:
 
     Returns
     -------
-    Texton
+    Texton or TilingModel
+        A :class:`~warp_texton.tiling.TilingModel` for an EXR whose attribute
+        ``texton_kind`` is ``"tiling"`` (``TilingModel.save``); files without
+        the attribute are textons, as before.
 
     Raises
     ------
@@ -498,6 +502,8 @@ def load_texton(path) -> Texton:
         raise TextonError(f"{path}: no such file")
     ext = path.suffix.lower()
     if ext == EXR:
+        if is_tiling_header(read_exr_header(path)):
+            return load_tiling(path)
         return _load_exr_texton(path)
     if ext == TEXTON_EXT:
         return _parse_texton_text(path)
