@@ -20,7 +20,6 @@ import math
 import numbers
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -166,8 +165,9 @@ class TilingModel:
 
     def save(self, path) -> None:
         """Write the model as an EXR: the example as pixels (float32), the rest as header attributes."""
-        path = check_path(path, "path")
-        check_output_name(path, (EXR,), "tiling model")
+        path = check_output_name(path, "path")
+        if path.suffix.lower() != EXR:
+            raise TextonError(f"{path}: a tiling model is saved as .exr only", param="path")
         attributes: dict[str, Any] = {
             KIND_ATTRIBUTE: TILING_KIND,
             "tiling_side": float(self.side),
@@ -276,6 +276,7 @@ def half_distance(u, *, seed: int = 0) -> float:
 def phase_randomised(u: np.ndarray, seed: int = 0) -> np.ndarray:
     """u with its Fourier phases replaced by those of white noise: the Gaussian model's version of u."""
     a = np.asarray(u, np.float64)
+    a = a[:, :, None] if a.ndim == 2 else a
     mean = a.mean(axis=(0, 1))
     rng = np.random.default_rng(seed)
     phase = np.fft.fft2(rng.normal(size=a.shape[:2]))
