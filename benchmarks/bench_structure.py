@@ -66,10 +66,10 @@ def methods(u, device, mni):
     tb = TilingBlending(u)
     out["tiling and blending (benchmark)"] = (lambda s: tb(SHAPE, seed=s), peer_weights(tb, SHAPE, tb.side), True)
     base = analyze(u, method="tiling")
-    for sharp in (1.0, 4.0, 8.0, 16.0):
-        m = TilingModel(base.example, base.side, sharp, 0.0, base.metadata)
-        out[f"tiling s={sharp:g}"] = (lambda s, m=m: synthesize(m, SHAPE, seed=s, device=device),
-                                      tiling_weights(m, SHAPE), False)
+    for sharp, blend in ((8, "linear"), (16, "linear"), (16, "variance")):
+        m = TilingModel(base.example, base.side, sharp, 0.0, base.metadata, blend)
+        out[f"tiling s={sharp} {blend}"] = (lambda s, m=m: synthesize(m, SHAPE, seed=s, device=device),
+                                            tiling_weights(m, SHAPE), False)
     t = analyze(u, size=min(64, *u.shape[:2]), seed=0)
     out[f"texton noise MNI {mni:g}"] = (lambda s: synthesize(t, SHAPE, mni=mni, seed=s, device=device), None, False)
     return out, base.structure

@@ -24,6 +24,8 @@ wp.set_module_options({"enable_backward": False, "optimization_level": 3})
 #: Mixed into the seed, so that the tiling's vertex stream is independent of the impacts' cells.
 TILING_TAG = wp.constant(wp.uint32(0x2C1B3C6D))
 SQRT3_2 = wp.constant(wp.float64(0.8660254037844386))
+#: Blend weights below this fraction of the largest are zero (their patches are not read).
+CUTOFF = wp.constant(1.0e-4)
 
 
 @wp.struct
@@ -32,8 +34,10 @@ class Tiling:
     guide: wp.array2d(dtype=float)  # the standardised luminance, same shape
     side: float  # the triangles' side, noise units
     margin: int  # c(a, b) ∈ [margin, size − 1 − margin] per axis, texel indices
-    sharpness: float  # exponent on the barycentric coordinates
+    squarings: int  # the weights' exponent is 2^squarings (sharpness 1, 2, 4, ... 64)
     guide_weight: float  # β of the guide term; 0 = barycentric only
+    variance_preserving: int  # 1: (Σ k (v − mean)) / √(Σ k²) + mean; 0: Σ k v
+    mean: wp.vec3  # the example's mean colour (float32)
     seed: wp.uint32
 
 
@@ -132,49 +136,86 @@ def triangle_of(t: Tiling, x: wp.vec2d):
 
 
 @wp.func
-def sharpened(w: float, sharpness: float, log_guide: float):
-    # w^sharpness · exp(log_guide) as exp(sharpness ln w + log_guide); 0 for w ≤ 0
+def power(w: float, squarings: int):
+    # w^(2^squarings) by repeated squaring: the same float32 products in every runtime
+    r = w
+    for i in range(squarings):
+        r = r * r
+    return r
+
+
+@wp.func
+def sharpened(w: float, squarings: int, guide_weight: float, dg: float):
+    # the unnormalised weight w^(2^squarings) · exp(guide_weight · dg); 0 for w ≤ 0
     if w <= 0.0:
         return 0.0
-    return wp.exp(sharpness * wp.log(w) + log_guide)
+    k = power(w, squarings)
+    if guide_weight != 0.0:
+        k = k * wp.exp(guide_weight * dg)
+    return k
 
 
 @wp.func
 def tiling_value(t: Tiling, x: wp.vec2d):
-    # the tiling's value at x (noise units): three patches blended
+    # the tiling's value at x (noise units): the patches of the three vertices of x's triangle, blended
     a, b, u, v = triangle_of(t, x)
-    # the triangle's vertices and barycentric coordinates, vertex order fixed
+    # the triangle's vertices (fixed order) and barycentric coordinates
     a0 = a
     b0 = b
     w0 = 1.0 - u - v
+    w1 = u
+    w2 = v
     if u + v > 1.0:
         a0 = a + 1
         b0 = b + 1
         w0 = u + v - 1.0
-    w1 = u
-    w2 = v
-    if u + v > 1.0:
         w1 = 1.0 - v
         w2 = 1.0 - u
-    q0 = patch_point(t, x, a0, b0)
-    q1 = patch_point(t, x, a + 1, b)
-    q2 = patch_point(t, x, a, b + 1)
-    v0 = bilinear3(t.example, q0)
-    v1 = bilinear3(t.example, q1)
-    v2 = bilinear3(t.example, q2)
+    q0 = wp.vec2(0.0)
+    q1 = wp.vec2(0.0)
+    q2 = wp.vec2(0.0)
     g0 = 0.0
     g1 = 0.0
     g2 = 0.0
     if t.guide_weight != 0.0:
+        q0 = patch_point(t, x, a0, b0)
+        q1 = patch_point(t, x, a + 1, b)
+        q2 = patch_point(t, x, a, b + 1)
         g0 = bilinear1(t.guide, q0)
         g1 = bilinear1(t.guide, q1)
         g2 = bilinear1(t.guide, q2)
     gm = wp.max(g0, wp.max(g1, g2))
-    k0 = sharpened(w0, t.sharpness, t.guide_weight * (g0 - gm))
-    k1 = sharpened(w1, t.sharpness, t.guide_weight * (g1 - gm))
-    k2 = sharpened(w2, t.sharpness, t.guide_weight * (g2 - gm))
+    k0 = sharpened(w0, t.squarings, t.guide_weight, g0 - gm)
+    k1 = sharpened(w1, t.squarings, t.guide_weight, g1 - gm)
+    k2 = sharpened(w2, t.squarings, t.guide_weight, g2 - gm)
+    # weights below CUTOFF × the largest are dropped (their patches are not read)
+    km = wp.max(k0, wp.max(k1, k2)) * CUTOFF
+    if k0 < km:
+        k0 = 0.0
+    if k1 < km:
+        k1 = 0.0
+    if k2 < km:
+        k2 = 0.0
     total = k0 + k1 + k2
-    return (v0 * k0 + v1 * k1 + v2 * k2) / total
+    k0 = k0 / total
+    k1 = k1 / total
+    k2 = k2 / total
+    acc = wp.vec3(0.0)
+    if k0 > 0.0:
+        if t.guide_weight == 0.0:
+            q0 = patch_point(t, x, a0, b0)
+        acc = acc + (bilinear3(t.example, q0) - t.mean) * k0
+    if k1 > 0.0:
+        if t.guide_weight == 0.0:
+            q1 = patch_point(t, x, a + 1, b)
+        acc = acc + (bilinear3(t.example, q1) - t.mean) * k1
+    if k2 > 0.0:
+        if t.guide_weight == 0.0:
+            q2 = patch_point(t, x, a, b + 1)
+        acc = acc + (bilinear3(t.example, q2) - t.mean) * k2
+    if t.variance_preserving != 0:
+        acc = acc / wp.sqrt(k0 * k0 + k1 * k1 + k2 * k2)
+    return t.mean + acc
 
 
 @wp.kernel

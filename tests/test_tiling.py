@@ -33,7 +33,7 @@ def test_blend_keeps_the_mean():
     # example's interior; over many independent vertices the sample mean matches within its sampling error
     rng = np.random.default_rng(1)
     u = rng.random((64, 64, 1)).astype(np.float32)
-    m = TilingModel(u, side=8.0, sharpness=4.0)
+    m = TilingModel(u, side=8.0, sharpness=4)
     inner = u[m.margin:64 - m.margin, m.margin:64 - m.margin, 0]
     pts = np.stack([rng.uniform(-1e5, 1e5, 20000), rng.uniform(-1e5, 1e5, 20000)], 1)
     v = evaluate(m, pts, seed=2, device="cpu")[:, 0]
@@ -75,7 +75,8 @@ def test_structure_score_separates_bricks_from_noise():
     (lambda m: synthesize(m, (8, 8), filter="mip", device="cpu"), "filter"),
     (lambda m: evaluate(m, [[0.0, 0.0]], poisson="gaussian", device="cpu"), "poisson"),
     (lambda m: TilingModel(m.example, side=200.0), "side"),
-    (lambda m: TilingModel(m.example, side=8.0, sharpness=0.5), "sharpness"),
+    (lambda m: TilingModel(m.example, side=8.0, sharpness=3), "sharpness"),
+    (lambda m: TilingModel(m.example, side=8.0, blend="hpg"), "blend"),
     (lambda m: TilingModel(m.example[..., :2], side=8.0), "example"),
     (lambda m: analyze(m.example, method="tiles"), "method"),
     (lambda m: analyze(m.example, method="tiling", order=3), "order"),
@@ -84,3 +85,24 @@ def test_bad_models_and_options(model, call, param):
     with pytest.raises(TextonError) as info:
         call(model)
     assert info.value.param == param
+
+
+def test_variance_preserving_blend_keeps_mean_and_variance():
+    # the variance-preserving blend of independent patches keeps the example's mean and variance (HPG 2018 eq. 4);
+    # the linear blend lowers the variance in blend zones
+    rng = np.random.default_rng(3)
+    u = rng.random((64, 64, 1)).astype(np.float32)
+    # texel centres, so that the bilinear lookups read single texels (interpolation would lower the variance)
+    pts = rng.integers(-100000, 100000, (40000, 2)) + 0.5
+    vp = TilingModel(u, side=8.0, sharpness=1, blend="variance")
+    lin = TilingModel(u, side=8.0, sharpness=1)
+    inner = u[vp.margin:64 - vp.margin, vp.margin:64 - vp.margin, 0].astype(np.float64)
+    a = evaluate(vp, pts, seed=4, device="cpu")[:, 0].astype(np.float64)
+    b = evaluate(lin, pts, seed=4, device="cpu")[:, 0].astype(np.float64)
+    # the example's mean over all texels (the blend's centre) vs its interior's: both within sampling error
+    n = a.size
+    var = inner.var()
+    assert abs(a.mean() - inner.mean()) < 4 * np.sqrt(var / n) + abs(u.mean() - inner.mean())
+    # sample variance: relative standard error √(2/n) for near-Gaussian blends; uniform values, so 4 · √(2/n) suffices
+    assert abs(a.var() / var - 1.0) < 4 * np.sqrt(2.0 / n) + 0.02
+    assert b.var() < 0.9 * var

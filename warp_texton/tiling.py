@@ -18,6 +18,7 @@ from __future__ import annotations
 import json
 import math
 import numbers
+import weakref
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -25,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from ._checks import CHANNELS, MAX_VALUE, as_image, as_real_array, check_path, check_range
-from ._runtime import init_warp, resolve_device, split_launch
+from ._runtime import init_warp, is_cpu, resolve_device, split_launch
 from ._version import __version__
 from .errors import TextonError
 from .kernels import tiling as K
@@ -39,7 +40,11 @@ __all__ = ["TilingModel", "TILING_KIND", "KIND_ATTRIBUTE", "fit_tiling", "guide_
 KIND_ATTRIBUTE = "texton_kind"
 TILING_KIND = "tiling"
 #: Default exponent on the barycentric weights (measured in benchmarks/bench_structure.py).
-SHARPNESS = 8.0
+SHARPNESS = 16
+#: The exponents on the barycentric weights: powers of two, applied by repeated squaring.
+SHARPNESSES = (1, 2, 4, 8, 16, 32, 64)
+#: The blends: the weighted mean, or the variance-preserving blend of Heitz & Neyret 2018 eq. (4).
+BLENDS = ("linear", "variance")
 #: Default triangle side as a fraction of the example's smaller side.
 SIDE_FRACTION = 0.25
 #: Smallest example side (a triangle of at least 4 texels inside a margin).
@@ -80,8 +85,8 @@ class TilingModel:
         scale 1). Each vertex's patch is seen up to ``side`` from it; the
         example must be wider than 2 (⌈side⌉ + 1) + 1 texels on each axis so
         that patches never cross its border.
-    sharpness : float
-        Exponent on the barycentric weights (≥ 1): 1 is the classic linear
+    sharpness : int
+        Exponent on the barycentric weights, a power of two from 1 to 64: 1 is the classic linear
         blend, larger values narrow the blend zones (Mikkelsen 2022's contrast
         sharpening, in power form).
     guide_weight : float
@@ -99,9 +104,10 @@ class TilingModel:
 
     example: np.ndarray
     side: float
-    sharpness: float = SHARPNESS
+    sharpness: int = SHARPNESS
     guide_weight: float = 0.0
     metadata: dict = field(default_factory=dict)
+    blend: str = "linear"
 
     def __post_init__(self):
         a = as_real_array(self.example, "example", "an array (H, W) or (H, W, C) of numbers")
@@ -119,8 +125,14 @@ class TilingModel:
         if min(a.shape[:2]) <= need:
             raise TextonError(f"side {side:g} needs an example larger than {need}x{need} texels (patches stay "
                               f"inside it), got {a.shape[1]}x{a.shape[0]}; use a smaller side", param="side")
-        sharp = _number(self.sharpness, "sharpness", 1.0, 64.0)
+        if isinstance(self.sharpness, (bool, np.bool_)) or not isinstance(self.sharpness, numbers.Integral) \
+                or self.sharpness not in SHARPNESSES:
+            raise TextonError(f"sharpness must be one of {', '.join(map(str, SHARPNESSES))} (a power of two), "
+                              f"got {self.sharpness!r:.60}", param="sharpness")
+        sharp = int(self.sharpness)
         beta = _number(self.guide_weight, "guide_weight", 0.0, 32.0)
+        if self.blend not in BLENDS:
+            raise TextonError(f"blend must be one of {', '.join(BLENDS)}, got {self.blend!r:.60}", param="blend")
         if not isinstance(self.metadata, Mapping) or not all(isinstance(k, str) for k in self.metadata):
             raise TextonError(f"metadata must be a dict with string keys, got {self.metadata!r:.80}",
                               param="metadata")
@@ -131,6 +143,10 @@ class TilingModel:
         object.__setattr__(self, "sharpness", sharp)
         object.__setattr__(self, "guide_weight", beta)
         object.__setattr__(self, "metadata", dict(self.metadata))
+        m3 = np.zeros(3, np.float32)
+        m3[:a.shape[2]] = a.mean(axis=(0, 1), dtype=np.float64)
+        m3.setflags(write=False)
+        object.__setattr__(self, "_mean3", m3)
 
     @property
     def channels(self) -> int:
@@ -158,6 +174,11 @@ class TilingModel:
         return self.example.mean(axis=(0, 1), dtype=np.float64)
 
     @property
+    def mean3(self) -> np.ndarray:
+        """The example's mean colour as the kernels hold it: float32 (3,), zeros past its channels."""
+        return self._mean3
+
+    @property
     def structure(self) -> float | None:
         """The structure score measured by ``analyze`` (``metadata["structure"]``), or None."""
         s = self.metadata.get("structure")
@@ -171,8 +192,9 @@ class TilingModel:
         attributes: dict[str, Any] = {
             KIND_ATTRIBUTE: TILING_KIND,
             "tiling_side": float(self.side),
-            "tiling_sharpness": float(self.sharpness),
+            "tiling_sharpness": int(self.sharpness),
             "tiling_guide_weight": float(self.guide_weight),
+            "tiling_blend": self.blend,
             "texton_metadata": json.dumps({**self.metadata, "warp_texton_version": __version__}),
         }
         write_exr(path, self.example, **attributes)
@@ -180,7 +202,7 @@ class TilingModel:
     def __repr__(self) -> str:
         h, w, c = self.example.shape
         return (f"TilingModel(example {w}x{h}x{c}, side={self.side:g}, sharpness={self.sharpness:g}, "
-                f"guide_weight={self.guide_weight:g})")
+                f"guide_weight={self.guide_weight:g}, blend={self.blend!r})")
 
 
 def _number(value, name: str, lo: float, hi: float | None) -> float:
@@ -212,7 +234,7 @@ def load_tiling(path) -> TilingModel:
         if not isinstance(metadata, dict):
             raise ValueError("metadata is not a JSON object")
         metadata.pop("warp_texton_version", None)
-        return TilingModel(example, side, sharp, beta, metadata)
+        return TilingModel(example, side, sharp, beta, metadata, header.get("tiling_blend", "linear"))
     except (KeyError, ValueError, TypeError, TextonError) as exc:
         raise TextonError(f"{path}: malformed tiling model EXR: {exc}", param="path") from None
 
@@ -303,7 +325,7 @@ def suggest_method(score: float) -> str:
     return TILING_KIND if score > STRUCTURE_THRESHOLD else "texton"
 
 
-def fit_tiling(u, *, side: float | None = None, sharpness: float = SHARPNESS, guide_weight: float = 0.0,
+def fit_tiling(u, *, side: float | None = None, sharpness: int = SHARPNESS, guide_weight: float = 0.0,
                score: bool = True, seed: int = 0, source: str | None = None) -> TilingModel:
     """The :class:`TilingModel` of an example image (``analyze(u, method="tiling")``)."""
     a = as_image(u, "u")
@@ -326,18 +348,28 @@ def fit_tiling(u, *, side: float | None = None, sharpness: float = SHARPNESS, gu
 # ---------------------------------------------------------------- evaluation
 
 
+#: The device arrays of each model, per device (models are immutable).
+_ARRAYS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
 def tiling_struct(model: TilingModel, seed: int, device: str):
     """The kernels' ``Tiling`` struct of a model and a seed, its arrays on ``device``."""
     wp = init_warp()
-    ex = model.example
-    rgb = ex if ex.shape[2] == 3 else np.concatenate([ex, np.zeros(ex.shape[:2] + (2,), np.float32)], axis=2)
+    per_device = _ARRAYS.setdefault(model, {})
+    if device not in per_device:
+        ex = model.example
+        rgb = ex if ex.shape[2] == 3 else np.concatenate([ex, np.zeros(ex.shape[:2] + (2,), np.float32)], axis=2)
+        guide = model.guide if model.guide_weight != 0.0 else np.zeros((1, 1), np.float32)
+        per_device[device] = (wp.array(np.ascontiguousarray(rgb), dtype=wp.vec3, device=device),
+                              wp.array(guide, dtype=float, device=device))
     t = K.Tiling()
-    t.example = wp.array(np.ascontiguousarray(rgb), dtype=wp.vec3, device=device)
-    t.guide = wp.array(model.guide, dtype=float, device=device)
+    t.example, t.guide = per_device[device]
     t.side = float(model.side)
     t.margin = int(model.margin)
-    t.sharpness = float(model.sharpness)
+    t.squarings = int(model.sharpness).bit_length() - 1
     t.guide_weight = float(model.guide_weight)
+    t.variance_preserving = int(model.blend == "variance")
+    t.mean = wp.vec3(*model.mean3.tolist())
     t.seed = wp.uint32(seed & 0xFFFFFFFF)
     return t
 
@@ -349,7 +381,9 @@ def tiling_pixels(model: TilingModel, shape, origin, step, first, seed: int, dev
     device = resolve_device(device)
     h, w = shape
     t = tiling_struct(model, seed, device)
-    out = wp.empty((h, w), dtype=wp.vec3, device=device)
+    host = np.empty((h, w, 3), np.float32) if is_cpu(device) else None
+    out = wp.array(host, dtype=wp.vec3, copy=False) if host is not None else wp.empty((h, w), dtype=wp.vec3,
+                                                                                         device=device)
     o = wp.vec2d(float(origin[0]), float(origin[1]))
     sx = wp.vec2d(float(step[0, 0]), float(step[1, 0]))
     sy = wp.vec2d(float(step[0, 1]), float(step[1, 1]))
@@ -360,8 +394,8 @@ def tiling_pixels(model: TilingModel, shape, origin, step, first, seed: int, dev
             wp.launch(K.tiling_raster, dim=(r1 - r0, w), inputs=[t, o, sx, sy, at, out[r0:r1]], device=device)
 
     split_launch(device, K, h, launch)
-    values = out.numpy()
-    return np.ascontiguousarray(values[..., :model.channels])
+    values = host if host is not None else out.numpy()
+    return values if model.channels == 3 else np.ascontiguousarray(values[..., :model.channels])
 
 
 def tiling_at(model: TilingModel, points: np.ndarray, seed: int, device) -> np.ndarray:
