@@ -18,6 +18,7 @@ complex128 full-grid version.
 from __future__ import annotations
 
 import math
+from typing import Literal, overload
 from dataclasses import replace
 
 import numpy as np
@@ -144,6 +145,57 @@ def correct_colors(alpha: np.ndarray, order: int, covariance: np.ndarray) -> np.
 
     c = sqrt_psd(covariance) @ sqrt_psd(a_cov, inverse=True)
     return (alpha.astype(np.float64) @ c.T).astype(np.float32)
+
+
+@overload
+def analyze(
+    u,
+    *,
+    size: int | None = None,
+    order: int = 1,
+    iterations: int = 50,
+    seed: int = 0,
+    periodic: bool = True,
+    color_correction: bool = True,
+    support: str = "square",
+    histogram: str = "gaussian",
+    progress: bool = False,
+    method: Literal["texton"] = "texton",
+) -> Texton: ...
+
+
+@overload
+def analyze(
+    u,
+    *,
+    size: int | None = None,
+    order: int = 1,
+    iterations: int = 50,
+    seed: int = 0,
+    periodic: bool = True,
+    color_correction: bool = True,
+    support: str = "square",
+    histogram: str = "gaussian",
+    progress: bool = False,
+    method: Literal["tiling"],
+) -> TilingModel: ...
+
+
+@overload
+def analyze(
+    u,
+    *,
+    size: int | None = None,
+    order: int = 1,
+    iterations: int = 50,
+    seed: int = 0,
+    periodic: bool = True,
+    color_correction: bool = True,
+    support: str = "square",
+    histogram: str = "gaussian",
+    progress: bool = False,
+    method: str = "texton",
+) -> Texton | TilingModel: ...
 
 
 def analyze(

@@ -522,3 +522,11 @@ def is_texton_path(path) -> bool:
         except TextonError:
             return False
     return False
+
+
+def as_texton(model, what: str) -> Texton:
+    """``model`` when it is a :class:`Texton`; a tiling model is refused with one clear error naming ``what``."""
+    if isinstance(model, TilingModel):
+        raise TextonError(f"{what} takes a texton; tiling models (method 'tiling') work with synthesize and "
+                          "evaluate only so far (docs/tiling.md)", param="texton")
+    return model

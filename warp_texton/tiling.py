@@ -176,7 +176,7 @@ class TilingModel:
     @property
     def mean3(self) -> np.ndarray:
         """The example's mean colour as the kernels hold it: float32 (3,), zeros past its channels."""
-        return self._mean3
+        return self._mean3  # type: ignore[attr-defined]
 
     @property
     def structure(self) -> float | None:
@@ -206,8 +206,8 @@ class TilingModel:
 
 
 def _number(value, name: str, lo: float, hi: float | None) -> float:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real) or not math.isfinite(value) \
-            or value < lo or (hi is not None and value > hi):
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real) \
+            or not math.isfinite(float(value)) or float(value) < lo or (hi is not None and float(value) > hi):
         bound = f"in [{lo:g}, {hi:g}]" if hi is not None else f"≥ {lo:g}"
         raise TextonError(f"{name} must be a finite number {bound}, got {value!r:.60}", param=name)
     return float(value)
