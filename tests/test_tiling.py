@@ -106,3 +106,21 @@ def test_variance_preserving_blend_keeps_mean_and_variance():
     # sample variance: relative standard error √(2/n) for near-Gaussian blends; uniform values, so 4 · √(2/n) suffices
     assert abs(a.var() / var - 1.0) < 4 * np.sqrt(2.0 / n) + 0.02
     assert b.var() < 0.9 * var
+
+
+def test_cli_analyze_and_synthesize_a_tiling_model(tmp_path, capsys):
+    from skimage import data
+
+    from warp_texton.cli import main
+    from warp_texton.io import read_image, write_image
+
+    src = tmp_path / "brick.png"
+    write_image(src, data.brick()[:128, :128].astype(np.float32)[..., None] / 255.0)
+    model = tmp_path / "m.exr"
+    assert main(["analyze", str(src), "--method", "tiling", "-o", str(model)]) in (0, None)
+    printed = capsys.readouterr().out
+    assert "structure score" in printed and "method" in printed
+    out = tmp_path / "out.exr"
+    assert main(["synthesize", str(model), "-o", str(out), "--width", "40", "--height", "30", "--seed", "2"]) in (0, None)
+    expected = synthesize(load_texton(model), (30, 40), seed=2, device="cpu")
+    assert np.allclose(read_image(out), expected, atol=1e-6)

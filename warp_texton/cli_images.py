@@ -30,7 +30,7 @@ def _analyze_arguments(p: argparse.ArgumentParser) -> None:
 def _analyze(args) -> None:
     from .analysis import analyze
     from .cli_options import analysis_kwargs, read_example
-    from .tiling import STRUCTURE_THRESHOLD, TilingModel, structure_score, suggest_method
+    from .tiling import STRUCTURE_THRESHOLD, TilingModel, scorable, structure_score, suggest_method
 
     out = Path(args.output)
     if out.suffix.lower() not in (".exr", ".texton"):
@@ -54,7 +54,7 @@ def _analyze(args) -> None:
     else:
         print(f"{out}: {texton.size[0]}x{texton.size[1]} texton, order {texton.order}, "
               f"model error {texton.metadata['model_error']:.3f} ({seconds_since(t0)})")
-        score = structure_score(u, seed=args.seed)
+        score = structure_score(u, seed=args.seed) if scorable(u.shape) else None
     if score is not None:
         fits = suggest_method(score)
         advice = "fits" if fits == args.method else f"try --method {fits}"

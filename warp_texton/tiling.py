@@ -33,7 +33,7 @@ from .kernels import tiling as K
 from .io import EXR, check_output_name, read_exr, read_exr_header, write_exr
 
 __all__ = ["TilingModel", "TILING_KIND", "KIND_ATTRIBUTE", "fit_tiling", "guide_of", "structure_score",
-           "patch_distance", "half_distance", "suggest_method", "is_tiling_header", "load_tiling",
+           "patch_distance", "half_distance", "suggest_method", "scorable", "is_tiling_header", "load_tiling",
            "SHARPNESS", "STRUCTURE_THRESHOLD"]
 
 #: The EXR attribute naming a model's kind; absent in texton files (kind "texton").
@@ -307,6 +307,13 @@ def phase_randomised(u: np.ndarray, seed: int = 0) -> np.ndarray:
     return np.real(np.fft.ifft2(f, axes=(0, 1))) + mean
 
 
+def scorable(shape) -> bool:
+    """True when an image of ``shape`` (H, W[, C]) is large enough for :func:`structure_score`."""
+    h, w = shape[:2]
+    need = PATCH * 2 ** (SCALES - 1)
+    return min(h, w) >= need and max(h, w) >= 2 * need
+
+
 def structure_score(u, *, seed: int = 0) -> float:
     """How far a Gaussian model of u is from u, in units of u's own half-to-half patch distance.
 
@@ -315,6 +322,10 @@ def structure_score(u, *, seed: int = 0) -> float:
     mush. Above :data:`STRUCTURE_THRESHOLD` the tiling model fits better.
     """
     a = as_image(u, "u")
+    if not scorable(a.shape):
+        need = PATCH * 2 ** (SCALES - 1)
+        raise TextonError(f"the structure score needs an image of at least {need}x{2 * need} pixels, got "
+                          f"{a.shape[1]}x{a.shape[0]}", param="u")
     floor = half_distance(a, seed=seed)
     d = patch_distance(phase_randomised(a, seed), a, seed=seed)
     return float(d / max(floor, 1e-12))
@@ -326,7 +337,8 @@ def suggest_method(score: float) -> str:
 
 
 def fit_tiling(u, *, side: float | None = None, sharpness: int = SHARPNESS, guide_weight: float = 0.0,
-               score: bool = True, seed: int = 0, source: str | None = None) -> TilingModel:
+               blend: str = "variance", score: bool = True, seed: int = 0,
+               source: str | None = None) -> TilingModel:
     """The :class:`TilingModel` of an example image (``analyze(u, method="tiling")``)."""
     a = as_image(u, "u")
     small = min(a.shape[:2])
@@ -340,9 +352,9 @@ def fit_tiling(u, *, side: float | None = None, sharpness: int = SHARPNESS, guid
     metadata: dict[str, Any] = {"method": TILING_KIND}
     if source is not None:
         metadata["source"] = source
-    if score:
+    if score and scorable(a.shape):
         metadata["structure"] = structure_score(a, seed=seed)
-    return TilingModel(a, side, sharpness, guide_weight, metadata)
+    return TilingModel(a, side, sharpness, guide_weight, metadata, blend)
 
 
 # ---------------------------------------------------------------- evaluation
