@@ -11,7 +11,7 @@ from warp_texton.tiling import TilingModel
 def model():
     rng = np.random.default_rng(0)
     u = rng.random((96, 80, 3)).astype(np.float32)
-    return analyze(u, method="tiling", size=16)
+    return analyze(u, method="tiling", side=16)
 
 
 def test_any_window_is_the_same_noise(model):

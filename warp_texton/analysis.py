@@ -151,7 +151,7 @@ def correct_colors(alpha: np.ndarray, order: int, covariance: np.ndarray) -> np.
 def analyze(
     u,
     *,
-    size: int | None = None,
+    size: int = 64,
     order: int = 1,
     iterations: int = 50,
     seed: int = 0,
@@ -161,6 +161,7 @@ def analyze(
     histogram: str = "gaussian",
     progress: bool = False,
     method: Literal["texton"] = "texton",
+    side: int | None = None,
 ) -> Texton: ...
 
 
@@ -168,7 +169,7 @@ def analyze(
 def analyze(
     u,
     *,
-    size: int | None = None,
+    size: int = 64,
     order: int = 1,
     iterations: int = 50,
     seed: int = 0,
@@ -178,6 +179,7 @@ def analyze(
     histogram: str = "gaussian",
     progress: bool = False,
     method: Literal["tiling"],
+    side: int | None = None,
 ) -> TilingModel: ...
 
 
@@ -185,7 +187,7 @@ def analyze(
 def analyze(
     u,
     *,
-    size: int | None = None,
+    size: int = 64,
     order: int = 1,
     iterations: int = 50,
     seed: int = 0,
@@ -195,13 +197,14 @@ def analyze(
     histogram: str = "gaussian",
     progress: bool = False,
     method: str = "texton",
+    side: int | None = None,
 ) -> Texton | TilingModel: ...
 
 
 def analyze(
     u,
     *,
-    size: int | None = None,
+    size: int = 64,
     order: int = 1,
     iterations: int = 50,
     seed: int = 0,
@@ -211,6 +214,7 @@ def analyze(
     histogram: str = "gaussian",
     progress: bool = False,
     method: str = "texton",
+    side: int | None = None,
 ) -> Texton | TilingModel:
     """Compute the texton of a Gaussian texture example.
 
@@ -259,12 +263,14 @@ def analyze(
         without shapes (docs/model.md). ``"tiling"``: tiling and blending of
         the example itself (:class:`~warp_texton.tiling.TilingModel`,
         docs/tiling.md), for structured textures (bricks, tiles, paving);
-        ``size`` is then the side of its triangles (default a quarter of the
-        example's smaller side), ``seed`` that of the structure score, and the
-        texton-only options (``order``, ``iterations``, ``periodic``,
+        ``seed`` is then that of the structure score, and the
+        texton-only options (``size``, ``order``, ``iterations``, ``periodic``,
         ``color_correction``, ``support``, ``histogram``) must keep their
         defaults. Its ``metadata["structure"]`` is the measured structure
         score (:func:`~warp_texton.tiling.structure_score`).
+    side : int, optional
+        With ``method="tiling"``: the side of the blend triangles in texels
+        (default a quarter of the example's smaller side).
 
     Returns
     -------
@@ -307,16 +313,16 @@ def analyze(
         raise TextonError(f"method must be one of {', '.join(METHODS)}, got {method!r:.60}", param="method")
     if method == TILING_KIND:
         changed = [name for name, value, default in (
-            ("order", order, 1), ("iterations", iterations, 50), ("periodic", periodic, True),
+            ("size", size, 64), ("order", order, 1), ("iterations", iterations, 50), ("periodic", periodic, True),
             ("color_correction", color_correction, True), ("support", support, "square"),
             ("histogram", histogram, "gaussian")) if not (type(value) is type(default) and value == default)]
         if changed:
             raise TextonError(f"{', '.join(changed)} apply to method 'texton' only, not to method 'tiling'",
                               param=changed[0])
-        side = None if size is None else check_int(size, "size", minimum=2)
+        side = None if side is None else check_int(side, "side", minimum=2)
         return fit_tiling(as_image(u), side=side, seed=check_seed(seed))
-    if size is None:
-        size = 64
+    if side is not None:
+        raise TextonError("side applies to method 'tiling' only", param="side")
     u = as_image(u)
     size = check_int(size, "size", minimum=2, maximum=MAX_TEXTON_SIDE)
     order = check_int(order, "order", choices=ORDERS)

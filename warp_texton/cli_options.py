@@ -213,7 +213,7 @@ def analysis_kwargs(args) -> dict:
             if value != default]
         if texton_only:
             raise TextonError(f"{', '.join(texton_only)} apply to --method texton only", param="method")
-        return {"method": "tiling", "size": args.side, "seed": args.seed}
+        return {"method": "tiling", "side": args.side, "seed": args.seed}
     return {"size": args.size, "order": args.order, "iterations": args.iterations, "seed": args.seed,
             "periodic": args.periodic, "color_correction": args.color_correction, "support": args.support,
             "histogram": args.histogram}
