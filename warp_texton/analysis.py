@@ -18,12 +18,14 @@ complex128 full-grid version.
 from __future__ import annotations
 
 import math
+from typing import Literal, overload
 from dataclasses import replace
 
 import numpy as np
 import scipy.fft as sfft
 
-from ._checks import as_image, check_bool
+from ._checks import as_image, check_bool, check_int, check_seed
+from .tiling import TILING_KIND, TilingModel, fit_tiling
 from .bspline import bhat
 from .analysis_options import SUPPORTS, AnalysisOptions, check_support  # noqa: F401 - this module's names too
 from .errors import TextonError
@@ -32,6 +34,9 @@ from .limits import check_memory, check_work
 from .histogram import HistogramTransform
 from .gaussian import FFT_WORKERS, normalized_kernel, relative_model_error_half
 from .texton import Texton, lag0_covariance
+
+#: The methods of `analyze`: the Gaussian texton model (the default), tiling and blending.
+METHODS = ("texton", TILING_KIND)
 
 #: Bytes per image value (pixel × channel) that the analysis holds at its peak:
 #: the periodic component and the kernel in float64, their spectra (complex128
@@ -137,6 +142,7 @@ def correct_colors(alpha: np.ndarray, order: int, covariance: np.ndarray) -> np.
     return (alpha.astype(np.float64) @ c.T).astype(np.float32)
 
 
+@overload
 def analyze(
     u,
     *,
@@ -150,7 +156,65 @@ def analyze(
     histogram: str = "gaussian",
     progress: bool = False,
     options: AnalysisOptions | None = None,
-) -> Texton:
+    method: Literal["texton"] = "texton",
+    side: int | None = None,
+) -> Texton: ...
+
+
+@overload
+def analyze(
+    u,
+    *,
+    size: int = 64,
+    order: int = 1,
+    iterations: int = 50,
+    seed: int = 0,
+    periodic: bool = True,
+    color_correction: bool = True,
+    support: str = "square",
+    histogram: str = "gaussian",
+    progress: bool = False,
+    options: AnalysisOptions | None = None,
+    method: Literal["tiling"],
+    side: int | None = None,
+) -> TilingModel: ...
+
+
+@overload
+def analyze(
+    u,
+    *,
+    size: int = 64,
+    order: int = 1,
+    iterations: int = 50,
+    seed: int = 0,
+    periodic: bool = True,
+    color_correction: bool = True,
+    support: str = "square",
+    histogram: str = "gaussian",
+    progress: bool = False,
+    options: AnalysisOptions | None = None,
+    method: str = "texton",
+    side: int | None = None,
+) -> Texton | TilingModel: ...
+
+
+def analyze(
+    u,
+    *,
+    size: int = 64,
+    order: int = 1,
+    iterations: int = 50,
+    seed: int = 0,
+    periodic: bool = True,
+    color_correction: bool = True,
+    support: str = "square",
+    histogram: str = "gaussian",
+    progress: bool = False,
+    options: AnalysisOptions | None = None,
+    method: str = "texton",
+    side: int | None = None,
+) -> Texton | TilingModel:
     """Compute the texton of a Gaussian texture example.
 
     Parameters
@@ -209,10 +273,24 @@ def analyze(
         (``NonStationaryWarning``), a ``size`` past half of it
         (``LargeTextonWarning``); the classes are in
         :mod:`warp_texton.example_checks`. The analysis goes on.
+    method : {"texton", "tiling"}
+        ``"texton"`` (the default): the Gaussian texton model, for textures
+        without shapes (docs/model.md). ``"tiling"``: tiling and blending of
+        the example itself (:class:`~warp_texton.tiling.TilingModel`,
+        docs/tiling.md), for structured textures (bricks, tiles, paving);
+        ``seed`` is then that of the structure score, and the
+        texton-only options (``size``, ``order``, ``iterations``, ``periodic``,
+        ``color_correction``, ``support``, ``histogram``) must keep their
+        defaults. Its ``metadata["structure"]`` is the measured structure
+        score (:func:`~warp_texton.tiling.structure_score`).
+    side : int, optional
+        With ``method="tiling"``: the side of the blend triangles in texels
+        (default a quarter of the example's smaller side).
+
 
     Returns
     -------
-    Texton
+    Texton or TilingModel
         ``coeffs`` (size, size, C), ``mean`` of u, ``order``; ``metadata`` holds
         the parameters and ``metadata["model_error"]``, the relative model
         error of the texton against u (:func:`model_error`).
@@ -247,6 +325,22 @@ def analyze(
     >>> round(t.metadata["model_error"], 3)
     0.449
     """
+    if method not in METHODS:
+        raise TextonError(f"method must be one of {', '.join(METHODS)}, got {method!r:.60}", param="method")
+    if method == TILING_KIND:
+        changed = [name for name, value, default in (
+            ("size", size, 64), ("order", order, 1), ("iterations", iterations, 50), ("periodic", periodic, True),
+            ("color_correction", color_correction, True), ("support", support, "square"),
+            ("histogram", histogram, "gaussian")) if not (type(value) is type(default) and value == default)]
+        if options is not None:
+            changed.insert(0, "options")
+        if changed:
+            raise TextonError(f"{', '.join(changed)} apply to method 'texton' only, not to method 'tiling'",
+                              param=changed[0])
+        side = None if side is None else check_int(side, "side", minimum=2)
+        return fit_tiling(as_image(u), side=side, seed=check_seed(seed))
+    if side is not None:
+        raise TextonError("side applies to method 'tiling' only", param="side")
     u = as_image(u)
     o = AnalysisOptions.given(options, size=size, order=order, iterations=iterations, seed=seed, periodic=periodic,
                               color_correction=color_correction, support=support, histogram=histogram)

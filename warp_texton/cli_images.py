@@ -30,7 +30,8 @@ def _analyze_arguments(p: argparse.ArgumentParser) -> None:
 
 def _analyze(args) -> None:
     from .analysis import analyze
-    from .cli_options import read_example
+    from .cli_options import analysis_kwargs, read_example
+    from .tiling import STRUCTURE_THRESHOLD, TilingModel, scorable, structure_score, suggest_method
 
     out = Path(args.output)
     if out.suffix.lower() not in (".exr", ".texton"):
@@ -38,14 +39,28 @@ def _analyze(args) -> None:
     if args.histogram == "preserve" and out.suffix.lower() == ".texton":
         raise TextonError(f"{out}: the .texton format cannot hold a histogram transform; save it as .exr",
                           param="histogram")
+    if args.method == "tiling" and out.suffix.lower() != ".exr":
+        raise TextonError(f"{out}: a tiling model is saved as .exr only", param="output")
     u = read_example(args.input, args.iterations, args.crop, args.downscale)
     t0 = time.perf_counter()
-    texton = analyze(u, options=analysis_options(args), progress=show_progress(args))
+    texton = analyze(u, **analysis_kwargs(args), progress=show_progress(args))
     texton.metadata["source"] = Path(args.input).name
     texton.save(out)
-    if not args.quiet:
+    if args.quiet:
+        return
+    if isinstance(texton, TilingModel):
+        h, w = texton.example.shape[:2]
+        print(f"{out}: tiling model of a {w}x{h} example, triangle side {texton.side:g} ({seconds_since(t0)})")
+        score = texton.structure
+    else:
         print(f"{out}: {texton.size[1]}x{texton.size[0]} texton, order {texton.order}, "
               f"model error {texton.metadata['model_error']:.3f} ({seconds_since(t0)})")
+        score = structure_score(u, seed=args.seed) if scorable(u.shape) else None
+    if score is not None:
+        fits = suggest_method(score)
+        advice = "fits" if fits == args.method else f"try --method {fits}"
+        print(f"structure score {score:.2f} (1: Gaussian-like; above {STRUCTURE_THRESHOLD:g}: shapes that "
+              f"texton noise loses): method {fits!r} fits the example; {advice}")
 
 
 ANALYZE = Command(
@@ -128,12 +143,19 @@ def _synthesize(args) -> None:
     noise = noise_options(args)
     t0 = time.perf_counter()
     texton = texton_of(args)
-    values = synthesize(texton, shape=(args.height, args.width), noise=noise, scale=args.scale,
+    texton_only: dict = {}
+    if getattr(texton, "kind", "texton") == "texton" or args.period is not None or options.kind != "none":
+        texton_only = {"noise": noise, "filter": options}
+    if not texton_only:
+        texton_only = {"seed": args.seed}
+    values = synthesize(texton, shape=(args.height, args.width), scale=args.scale,
                         rotation=args.rotation, offset=tuple(args.offset), device=args.device,
-                        filter=options, progress=show_progress(args))
+                        progress=show_progress(args), **texton_only)
     write_image(out, values, dtype=dtype, compression=args.compression)
     if not args.quiet:
-        print(f"{out}: {args.width}x{args.height} texton noise, MNI {args.mni:g} ({seconds_since(t0)})")
+        what = f"texton noise, MNI {args.mni:g}" if "noise" in texton_only or getattr(texton, "kind", "") != "tiling" \
+            else "tiling and blending"
+        print(f"{out}: {args.width}x{args.height} {what} ({seconds_since(t0)})")
 
 
 #: Below this --scale (pixels per texel) an unfiltered raster aliases visibly.

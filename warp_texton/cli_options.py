@@ -58,12 +58,19 @@ class Command:
 ANALYSIS_NAMES = {"size": "--size", "order": "--order", "iterations": "--iterations", "seed": "--seed",
                   "support": "--support", "histogram": "--histogram", "downscale": "--downscale",
                   "factor": "--downscale", "crop": "--crop", "crop x": "--crop X", "crop y": "--crop Y",
-                  "crop width": "--crop W", "crop height": "--crop H"}
+                  "crop width": "--crop W", "crop height": "--crop H", "method": "--method",
+                  "side": "--side"}
 
 
 def add_analysis_options(p: argparse.ArgumentParser, seed: bool = True) -> None:
     g = p.add_argument_group("analysis options" + ("" if seed else " (when INPUT is an image)"))
+    g.add_argument("--method", choices=("texton", "tiling"), default="texton",
+                   help="texton: Gaussian texton noise (default); tiling: tiling and blending of the example, for "
+                        "structured textures (bricks, tiles; docs/tiling.md)")
     g.add_argument("--size", type=int, default=64, help="texton side (square) or diameter (disk), in texels")
+    g.add_argument("--side", type=int, default=None,
+                   help="with --method tiling: the side of the blend triangles, in texels (default a quarter "
+                        "of the example's smaller side)")
     g.add_argument("--order", type=int, default=1, choices=(0, 1, 3, 5),
                    help="interpolation order: 0 nearest (EUSIPCO SOT), 1 bilinear (CGF), 3/5 B-spline")
     g.add_argument("--iterations", type=int, default=50, help="alternating projections")
@@ -220,6 +227,23 @@ def read_example(path, iterations: int, crop=None, downscale: int = 1):
     return u if downscale == 1 else shrink(u, downscale)
 
 
+def analysis_kwargs(args) -> dict:
+    """``analyze``'s keyword arguments from the analysis options (``--method tiling``: its own)."""
+    method = getattr(args, "method", "texton")
+    if getattr(args, "side", None) is not None and method != "tiling":
+        raise TextonError("--side applies to --method tiling only", param="side")
+    if method == "tiling":
+        texton_only = [flag for flag, value, default in (
+            ("--size", args.size, 64), ("--order", args.order, 1), ("--iterations", args.iterations, 50),
+            ("--support", args.support, "square"), ("--no-periodic", args.periodic, True),
+            ("--no-color-correction", args.color_correction, True), ("--histogram", args.histogram, "gaussian"))
+            if value != default]
+        if texton_only:
+            raise TextonError(f"{', '.join(texton_only)} apply to --method texton only", param="method")
+        return {"method": "tiling", "side": args.side, "seed": args.seed}
+    return {"options": analysis_options(args)}
+
+
 def texton_of(args, path=None):
     """The texton file ``path`` (default: args.input), or the texton of that example
     image, analysed with the analysis options."""
@@ -231,7 +255,7 @@ def texton_of(args, path=None):
     from .analysis import analyze  # SciPy's FFT, only for an image
 
     u = read_example(path, args.iterations, args.crop, args.downscale)
-    return analyze(u, options=analysis_options(args), progress=show_progress(args))
+    return analyze(u, **analysis_kwargs(args), progress=show_progress(args))
 
 
 #: perf_counter() minus the seconds the process had run when the command began: set by

@@ -187,11 +187,11 @@ def _price_bake(args, texton) -> None:
     """A --bake priced from the options alone, before any mesh is read or any job starts:
     one line and exit 2 for a bake no mesh could make within the budgets."""
     from .bake import check_bake_arguments
-    from .texton import Texton, load_texton
+    from .texton import Texton, as_texton, load_texton
 
     if args.bake is None:
         return
-    t = texton if isinstance(texton, Texton) else load_texton(texton)
+    t = as_texton(texton if isinstance(texton, Texton) else load_texton(texton), "surface --bake")
     check_bake_arguments(t, args.bake, mni=args.mni, supersample=args.supersample, uv=args.uv)
 
 

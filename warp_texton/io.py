@@ -334,7 +334,7 @@ def read_exr(path, max_side: int | None = None, what: str = "image") -> tuple[np
 
 def is_texton_header(header: dict) -> bool:
     """True when EXR header attributes are those of a texton written by this package."""
-    return "texton_order" in header
+    return "texton_order" in header or header.get("texton_kind") == "tiling"
 
 
 def read_image(path) -> np.ndarray:

@@ -386,12 +386,12 @@ def _run(job: SurfaceJob, outputs: list[Path], notes: list[str]) -> None:
     from .io import check_output_name
     from .mesh_files import check_surface, export_mesh, write_baked, write_set
     from .render import render_mesh
-    from .texton import load_texton
+    from .texton import as_texton, load_texton
 
     Path(job.out_dir).mkdir(parents=True, exist_ok=True)  # on a cluster worker too
     for path in outputs:  # names that cannot be written are refused before any work
         check_output_name(path)
-    texton = job.texton if isinstance(job.texton, Texton) else load_texton(job.texton)
+    texton = job.texton if isinstance(job.texton, Texton) else as_texton(load_texton(job.texton), "a surface job")
     up = resolve_up(job.up, job.mesh)
     mesh = _load_mesh(job.mesh)
     check_surface(mesh, job.mesh)

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ._checks import as_real_array, check_shape
+from ._checks import as_real_array, check_seed, check_shape
 from ._runtime import progress_bar, resolve_device
 from .canvas import Canvas, check_output, lanes_for, result_bytes, strips
 from .errors import TextonError
@@ -32,6 +32,7 @@ from .noise_options import NoiseOptions
 from .raster import (RasterWindow, TextonStack, check_method, check_raster_cost, raster_cost, raster_geometry,
                      raster_reach, rasters, resolve_method, window_block)
 from .texton import Texton
+from .tiling import TilingModel, tiling_at, tiling_pixels
 
 if TYPE_CHECKING:
     import warp as wp
@@ -57,7 +58,7 @@ def check_pixel_offset(pixel_offset) -> tuple[int, int]:
 
 
 def synthesize(
-    texton: Texton,
+    texton: Texton | TilingModel,
     shape=(512, 512),
     *,
     mni: float = 30.0,
@@ -312,6 +313,13 @@ def synthesize(
     method must be one of auto, splat, gather, got 'fast'
     filter must be one of none, mip, anisotropic, supersample, got 'box'
     """
+    if isinstance(texton, TilingModel):
+        return _synthesize_tiling(texton, shape, seed=seed, scale=scale, rotation=rotation, offset=offset,
+                                  device=device, pixel_offset=pixel_offset, output=output,
+                                  texton_only=dict(mni=(mni, 30.0), period=(period, None),
+                                                   poisson=(poisson, "exact"), cell_factor=(cell_factor, CELL_FACTOR),
+                                                   method=(method, "auto"), jacobian=(jacobian, None),
+                                                   filter=(filter, "none"), noise=(noise, None)))
     h, w = check_shape(shape)
     noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
     seed = noise.seed
@@ -373,7 +381,7 @@ def synthesize(
 
 
 def evaluate(
-    texton: Texton,
+    texton: Texton | TilingModel,
     points,
     *,
     mni: float = 30.0,
@@ -464,6 +472,13 @@ def evaluate(
         raise TextonError(f"points must have shape (N, 2), got {pts.shape}")
     if not np.isfinite(pts).all():
         raise TextonError(f"points contain {int((~np.isfinite(pts)).sum())} NaN or infinite values")
+    if isinstance(texton, TilingModel):
+        _refuse_texton_options(dict(mni=(mni, 30.0), period=(period, None), poisson=(poisson, "exact"),
+                                    cell_factor=(cell_factor, CELL_FACTOR), noise=(noise, None)))
+        seed = check_seed(seed)
+        output = check_output(output)
+        check_tiling_reach(pts)
+        return _tiling_output(tiling_at(texton, np.ascontiguousarray(pts), seed, device), output, device)
     noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
     output = check_output(output)
     setup = noise_setup(texton, noise.mni, noise.period, noise.cell_factor)
@@ -487,3 +502,54 @@ def filtered_work(texton: Texton, setup: NoiseSetup, J: np.ndarray, options: Fil
     sample = J[np.linspace(0, len(J) - 1, min(len(J), COST_SAMPLES)).astype(np.int64)]
     return count * filter_work(texton, setup, sample, options)
 
+
+# ---------------------------------------------------------------- tiling models
+
+#: Tiling models place points with float64 lattice indices in int32: positions stay within ±2³⁰ texels.
+MAX_TILING_REACH = float(1 << 30)
+
+
+def _refuse_texton_options(options: dict) -> None:
+    """One error naming the texton-noise options given to a tiling model."""
+    def same(value, default):
+        if value is default:
+            return True
+        if isinstance(value, bool) or isinstance(default, bool) or default is None:
+            return False
+        return isinstance(value, (str, numbers.Real)) and type(value) is not bool and value == default
+
+    given = [name for name, (value, default) in options.items() if not same(value, default)]
+    if given:
+        raise TextonError(f"{', '.join(given)} do not apply to a tiling model (method 'tiling'); "
+                          "they are texton-noise options", param=given[0])
+
+
+def check_tiling_reach(pts: np.ndarray) -> None:
+    if pts.size and np.abs(pts).max() > MAX_TILING_REACH:
+        raise TextonError(f"points reach {np.abs(pts).max():.3g} texels from the origin; a tiling model is "
+                          f"defined within ±{MAX_TILING_REACH:.3g} texels", param="points")
+
+
+def _tiling_output(values: np.ndarray, output: str, device):
+    if output == "numpy":
+        return values
+    import warp as wp
+
+    return wp.array(values, dtype=float, device=resolve_device(device))
+
+
+def _synthesize_tiling(model: TilingModel, shape, *, seed, scale, rotation, offset, device, pixel_offset, output,
+                       texton_only):
+    """``synthesize`` for a :class:`TilingModel`: any window, offset, scale and rotation; no filters or periods."""
+    _refuse_texton_options(texton_only)
+    h, w = check_shape(shape)
+    seed = check_seed(seed)
+    first = check_pixel_offset(pixel_offset)
+    output = check_output(output)
+    origin, step = raster_geometry((h, w), scale, rotation, offset)
+    corners = origin[:, None] + step @ np.array([[first[1], first[1] + w, first[1], first[1] + w],
+                                                 [first[0], first[0], first[0] + h, first[0] + h]], np.float64)
+    check_tiling_reach(corners.T)
+    device = resolve_device(device)
+    values = tiling_pixels(model, (h, w), origin, step, first, seed, device)
+    return _tiling_output(values, output, device)

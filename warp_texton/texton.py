@@ -24,6 +24,7 @@ from ._checks import CHANNELS, MAX_TEXTON_SIDE, MAX_VALUE, as_real_array, check_
 from .bspline import ORDERS, kernel_width, sampled_autocorrelation
 from .errors import TextonError
 from .histogram import HistogramTransform
+from .tiling import TilingModel, is_tiling_header, load_tiling
 from .limits import check_memory
 from .io import EXR, atomic_path, check_output_name, is_texton_header, read_exr, read_exr_header, write_exr
 
@@ -460,7 +461,7 @@ def _parse_metadata(path: Path, raw: str):
         raise TextonError(f"{path}: malformed texton EXR: metadata is not JSON") from None
 
 
-def load_texton(path) -> Texton:
+def load_texton(path) -> Texton | TilingModel:
     """Read a texton from ``.exr`` (written by :meth:`Texton.save`) or ``.texton``.
 
     ``.texton`` files from the authors' reference viewer are accepted: their
@@ -473,7 +474,10 @@ def load_texton(path) -> Texton:
 
     Returns
     -------
-    Texton
+    Texton or TilingModel
+        A :class:`~warp_texton.tiling.TilingModel` for an EXR whose attribute
+        ``texton_kind`` is ``"tiling"`` (``TilingModel.save``); files without
+        the attribute are textons, as before.
 
     Raises
     ------
@@ -501,6 +505,8 @@ def load_texton(path) -> Texton:
         raise TextonError(f"{path}: no such file")
     ext = path.suffix.lower()
     if ext == EXR:
+        if is_tiling_header(read_exr_header(path)):
+            return load_tiling(path)
         return _load_exr_texton(path)
     if ext == TEXTON_EXT:
         return _parse_texton_text(path)
@@ -519,3 +525,11 @@ def is_texton_path(path) -> bool:
         except TextonError:
             return False
     return False
+
+
+def as_texton(model, what: str) -> Texton:
+    """``model`` when it is a :class:`Texton`; a tiling model is refused with one clear error naming ``what``."""
+    if isinstance(model, TilingModel):
+        raise TextonError(f"{what} takes a texton; tiling models (method 'tiling') work with synthesize and "
+                          "evaluate only so far (docs/tiling.md)", param="texton")
+    return model

@@ -16,7 +16,7 @@ import numpy as np
 from .errors import TextonError
 from .io import read_image
 from .limits import check_memory
-from .texton import Texton, load_texton
+from .texton import Texton, as_texton, load_texton
 from .view_query import BadRequest
 
 #: Uploaded second inputs (mixing): bytes, pixels, how many are kept.
@@ -87,7 +87,7 @@ def load_source(input, what: str = "input") -> Source:
         key = digest(f.read())
     resolved = str(path.resolve())
     if _is_texton_file(path):
-        return Source(path.name, resolved, None, load_texton(path), key)
+        return Source(path.name, resolved, None, as_texton(load_texton(path), "the viewer"), key)
     return Source(path.name, resolved, read_image(path), None, key)
 
 

@@ -1,0 +1,134 @@
+"""Benchmark: structured textures — the tiling model against the benchmark's tiling and blending and texton noise.
+
+For each structured texture of ``structured_textures.STRUCTURED`` that loads here
+and each seed, every method makes a 512² output; measured against the example:
+
+* **patch** — :func:`warp_texton.tiling.patch_distance` (multi-scale 7 × 7 patch
+  sliced Wasserstein) over the example's half-to-half distance (the floor);
+* **blend zone** — :func:`structure.blend_zone_energy` (ln HF energy in the blend
+  zones over the example's; whole output for methods without a blend);
+* **repetition** — ``bench_quality.repetition``;
+* **ms** — milliseconds per output on ``--device`` (the NumPy peer on the host),
+  best of the seeds, methods interleaved.
+
+    python benchmarks/bench_structure.py            # → results/structure.{json,md}
+    python benchmarks/bench_structure.py --quick    # brick only, one seed
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+sys.path.insert(0, str(HERE.parent))
+
+from bench_quality import repetition  # noqa: E402
+from common import machine_line, report_header, run_main  # noqa: E402
+from structure import blend_zone_energy  # noqa: E402
+from structured_textures import STRUCTURED  # noqa: E402
+
+from warp_texton import analyze, synthesize  # noqa: E402
+from warp_texton.tiling import TilingModel, half_distance, patch_distance  # noqa: E402
+
+SHAPE = (512, 512)
+SEEDS = (1, 2, 3)
+
+
+def peer_weights(tb, shape, side):
+    """The largest barycentric weight of the peer's triangle grid at each pixel."""
+    from benchmarks.peers import triangle_grid
+
+    h, w = shape
+    yy, xx = np.meshgrid(np.arange(h) + 0.5, np.arange(w) + 0.5, indexing="ij")
+    return triangle_grid(np.stack([xx, yy], -1), side)[1].max(axis=0)
+
+
+def tiling_weights(model: TilingModel, shape):
+    """The largest blend weight of the tiling model at each pixel (scale 1, guide ignored)."""
+    from benchmarks.peers import triangle_grid
+
+    h, w = shape
+    yy, xx = np.meshgrid(np.arange(h) + 0.5, np.arange(w) + 0.5, indexing="ij")
+    b = triangle_grid(np.stack([xx, yy], -1), model.side)[1] ** model.sharpness
+    return (b / b.sum(axis=0)).max(axis=0)
+
+
+def methods(u, device, mni):
+    """name → (sample(seed), max_weight map or None, host-only)."""
+    from benchmarks.peers import TilingBlending
+
+    out = {}
+    tb = TilingBlending(u)
+    out["tiling and blending (benchmark)"] = (lambda s: tb(SHAPE, seed=s), peer_weights(tb, SHAPE, tb.side), True)
+    base = analyze(u, method="tiling")
+    for sharp, blend in ((8, "linear"), (16, "linear"), (16, "variance")):
+        m = TilingModel(base.example, base.side, sharp, 0.0, base.metadata, blend)
+        out[f"tiling s={sharp} {blend}"] = (lambda s, m=m: synthesize(m, SHAPE, seed=s, device=device),
+                                            tiling_weights(m, SHAPE), False)
+    t = analyze(u, size=min(64, *u.shape[:2]), seed=0)
+    out[f"texton noise MNI {mni:g}"] = (lambda s: synthesize(t, SHAPE, mni=mni, seed=s, device=device), None, False)
+    return out, base.structure
+
+
+def run(args) -> dict:
+    names = ["brick"] if args.quick else list(STRUCTURED)
+    seeds = SEEDS[:1] if args.quick else SEEDS
+    rows, skipped = [], []
+    for name in names:
+        source, load = STRUCTURED[name]
+        try:
+            u = load()
+        except OSError as exc:
+            skipped.append({"case": f"texture {name}", "reason": str(exc)})
+            continue
+        u = u[:, :, None] if u.ndim == 2 else u
+        floor = half_distance(u)
+        ms, score = methods(u, args.device, args.mni)
+        for fn, _, _ in ms.values():
+            fn(0)  # warm up (compiles)
+        acc: dict[str, dict[str, list[float]]] = {k: {"patch": [], "blend": [], "rep": [], "s": []} for k in ms}
+        for seed in seeds:
+            for key, (fn, weights, _) in ms.items():
+                t0 = time.perf_counter()
+                o = fn(seed)
+                acc[key]["s"].append(time.perf_counter() - t0)
+                acc[key]["patch"].append(patch_distance(o, u, seed=seed) / floor)
+                acc[key]["blend"].append(blend_zone_energy(u, o, weights))
+                acc[key]["rep"].append(repetition(o))
+        for key, a in acc.items():
+            row = {"texture": name, "source": source, "structure": score, "method": key,
+                   "device": "host" if ms[key][2] else args.device, "patch": float(np.mean(a["patch"])),
+                   "patch_seeds": a["patch"], "blend_zone": float(np.mean(a["blend"])),
+                   "repetition": float(np.mean(a["rep"])), "ms": 1e3 * min(a["s"])}
+            rows.append(row)
+            print(f"  {name:12s} {key:34s} patch {row['patch']:.3f}  blend {row['blend_zone']:+.3f}  "
+                  f"rep {row['repetition']:.3f}  {row['ms']:.0f} ms", flush=True)
+    return {**report_header("structure", args.device),
+            "parameters": {"shape": list(SHAPE), "seeds": list(seeds), "mni": args.mni},
+            "results": rows, "skipped": skipped}
+
+
+def markdown(report: dict) -> str:
+    lines = [f"# Structured textures ({report['date']})", "", machine_line(report),
+             "patch: multi-scale 7×7 patch sliced-Wasserstein distance to the example over the example's "
+             "half-to-half distance, mean of the seeds; blend zone: ln HF energy in blend zones over the example's; "
+             "ms: best of the seeds.", "",
+             "| texture | structure | method | patch | blend zone | repetition | ms |",
+             "|---|---:|---|---:|---:|---:|---:|"]
+    for r in report["results"]:
+        lines.append(f"| {r['texture']} | {r['structure']:.2f} | {r['method']} | {r['patch']:.3f} | "
+                     f"{r['blend_zone']:+.3f} | {r['repetition']:.3f} | {r['ms']:.0f} |")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None) -> int:
+    return run_main(__doc__, "structure", run, markdown, argv, repeat=1)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
