@@ -46,4 +46,5 @@ def main() -> None:
         json.dump(out, f)
 
 
-main()
+if __name__ == "__main__":
+    main()
