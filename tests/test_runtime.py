@@ -123,7 +123,7 @@ def test_package_names_are_imported_on_first_use():
     tree = ast.parse(Path(warp_texton.__file__).read_text())
     typed = {a.asname or a.name: node.module for stmt in tree.body if isinstance(stmt, ast.If)
              and ast.unparse(stmt.test) == "TYPE_CHECKING" for node in stmt.body for a in node.names}
-    assert set(typed) | {"TextonError", "__version__"} == set(warp_texton.__all__)
+    assert set(typed) | {"TextonError", "ExampleWarning", "__version__"} == set(warp_texton.__all__)
     for name, module in typed.items():
         assert getattr(warp_texton, name) is getattr(importlib.import_module(f"warp_texton.{module}"), name), name
     assert set(warp_texton.__all__) <= set(dir(warp_texton))

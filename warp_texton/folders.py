@@ -55,6 +55,14 @@ def _parent_of(path: Path) -> Path:
     return parent
 
 
+def _public(tmp: Path) -> None:
+    """mkdtemp makes a folder private (0700): a finished folder gets the user's umask, as
+    os.mkdir would, so that a web server can serve a shader export."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    os.chmod(tmp, 0o777 & ~mask)
+
+
 @contextlib.contextmanager
 def atomic_folder(path: Path, replaceable: Callable[[Path], None]):
     """Yield a temporary folder beside ``path``; on success it replaces ``path`` (an
@@ -64,11 +72,7 @@ def atomic_folder(path: Path, replaceable: Callable[[Path], None]):
     replaceable(path)
     tmp = Path(tempfile.mkdtemp(dir=parent, prefix=temp_prefix(path.name), suffix=".part"))
     try:
-        # mkdtemp makes it private (0700): the finished folder gets the user's umask, as
-        # os.mkdir would, so that a web server can serve a shader export
-        mask = os.umask(0o022)
-        os.umask(mask)
-        os.chmod(tmp, 0o777 & ~mask)
+        _public(tmp)
         yield tmp
         old = None
         if path.exists():
@@ -94,6 +98,7 @@ def atomic_files(path: Path, replaceable: Callable[[Path], None], owned: Collect
     replaceable(path)
     tmp = Path(tempfile.mkdtemp(dir=parent, prefix=temp_prefix(path.name), suffix=".part"))
     try:
+        _public(tmp)
         yield tmp
         if not (path.exists() or path.is_symlink()):
             os.replace(tmp, path)
