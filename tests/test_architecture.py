@@ -31,7 +31,7 @@ LAYERS = {
     "_checks": 2, "image_readers": 2, "atlas": 2, "_runtime": 2,
     "io": 3, "filter_options": 3, "noise_options": 3, "folders": 3, "histogram": 3, "example_checks": 3,
     "texton": 4, "analysis_options": 4,
-    "tiling": 3.5,
+    "tiling": 3.5, "tiling_noise": 9,
     "gaussian": 5, "dsn": 5, "view_query": 5, "view_cache": 5, "view_images": 5, "colours": 5,
     "analysis": 6, "view_inputs": 6,
     "view_commands": 7,

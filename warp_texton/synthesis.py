@@ -32,7 +32,8 @@ from .noise_options import NoiseOptions
 from .raster import (RasterWindow, TextonStack, check_method, check_raster_cost, raster_cost, raster_geometry,
                      raster_reach, rasters, resolve_method, window_block)
 from .texton import Texton
-from .tiling import TilingModel, tiling_at, tiling_pixels
+from .tiling import TilingModel
+from .tiling_noise import tiling_at, tiling_pixels
 
 if TYPE_CHECKING:
     import warp as wp
