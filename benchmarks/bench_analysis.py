@@ -9,7 +9,7 @@ they compute:
 * baseline (this file): complex128 ``np.fft.fft2`` / ``np.fft.ifft2`` of the
   full M × N × C grid at every iteration, the phase as ``exp(1j·angle(·))``;
 * package: ``warp_texton.analyze``, float32 real FFTs that skip the rows and
-  columns outside the support (see ``warp_texton/analysis.py``).
+  columns outside the support (see ``warp_texton/model/analysis.py``).
 
 The script checks that the two model errors agree within 0.01, prints a
 Markdown table and writes ``analysis.json`` and ``analysis.md`` (or
@@ -32,9 +32,9 @@ from pathlib import Path
 import numpy as np
 
 from warp_texton import Texton, analyze
-from warp_texton.analysis import correct_colors, initial_phase
-from warp_texton.bspline import bhat
-from warp_texton.gaussian import normalized_kernel, relative_model_error
+from warp_texton.model.analysis import correct_colors, initial_phase
+from warp_texton.model.bspline import bhat
+from warp_texton.model.gaussian import normalized_kernel, relative_model_error
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import git_commit, git_dirty, machine_info, make_texture, write_atomic  # noqa: E402

@@ -33,8 +33,8 @@ from common import machine_line, make_texture, report_header, run_main  # noqa: 
 import trimesh  # noqa: E402
 
 from warp_texton import analyze, bake_mesh  # noqa: E402
-from warp_texton.mesh import default_texel_size  # noqa: E402
-from warp_texton._runtime import resolve_device  # noqa: E402
+from warp_texton.surface.mesh import default_texel_size  # noqa: E402
+from warp_texton.core.runtime import resolve_device  # noqa: E402
 
 
 def bunny():

@@ -1,7 +1,7 @@
 """Benchmark: the device API in a user's kernel against the package's own calls, same points, same run.
 
 A user's ``@wp.kernel`` (this file) calling ``plane_value``, ``filtered_value``
-and ``surface_value`` of ``warp_texton.device``, one launch over all points,
+and ``surface_value`` of ``warp_texton.runtimes.warp_api``, one launch over all points,
 against ``evaluate``, the filtered ``synthesize`` and ``surface_noise`` (walk and
 blocks) at the same points, interleaved so that all see the same machine load.
 The values are checked equal (bit for bit) before timing. On the CPU one Warp
@@ -29,10 +29,10 @@ import trimesh  # noqa: E402
 import warp as wp  # noqa: E402
 
 from warp_texton import analyze, evaluate, surface_noise, synthesize  # noqa: E402
-from warp_texton import device as td  # noqa: E402
-from warp_texton._runtime import cpu_threads, resolve_device  # noqa: E402
-from warp_texton.filtering import RasterPixels  # noqa: E402
-from warp_texton.raster import raster_geometry  # noqa: E402
+from warp_texton.runtimes import warp_api as td  # noqa: E402
+from warp_texton.core.runtime import cpu_threads, resolve_device  # noqa: E402
+from warp_texton.noise.filtering import RasterPixels  # noqa: E402
+from warp_texton.noise.raster import raster_geometry  # noqa: E402
 
 
 @wp.kernel
@@ -129,7 +129,7 @@ def colour_maps(args, device) -> dict:
     user's kernel (``colour_value``), the package's host mapping (``colours.to_colours``, the
     same function launched on the CPU) and the float64 NumPy lookup of
     ``HistogramTransform.to_colours`` (the transform's reference), interleaved."""
-    from warp_texton.colours import noise_moments, to_colours
+    from warp_texton.noise.colours import noise_moments, to_colours
 
     texton = analyze(make_texture(128), size=args.size, seed=0, histogram="preserve")
     n = 1 << (14 if args.quick else 20)

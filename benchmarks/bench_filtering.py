@@ -36,9 +36,9 @@ sys.path.insert(0, str(HERE))
 from common import machine_line, make_texture, report_header, run_main  # noqa: E402
 
 from warp_texton import FilterOptions, analyze  # noqa: E402
-from warp_texton.filtering import FADE_ENERGY, LOD_BIAS, MAX_ANISO, kept_levels, level_energies  # noqa: E402
-from warp_texton.plane import PlaneCamera, plane_pixels  # noqa: E402
-from warp_texton._runtime import resolve_device  # noqa: E402
+from warp_texton.noise.filtering import FADE_ENERGY, LOD_BIAS, MAX_ANISO, kept_levels, level_energies  # noqa: E402
+from warp_texton.noise.ground_plane import PlaneCamera, plane_pixels  # noqa: E402
+from warp_texton.core.runtime import resolve_device  # noqa: E402
 
 #: The view: camera height, tilt and field of view (degrees), texel size at 1024 rows.
 VIEW = {"height": 1.0, "tilt": 70.0, "fov": 40.0, "texel_1024": 0.0011}

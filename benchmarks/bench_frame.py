@@ -41,7 +41,7 @@ from common import machine_line, make_texture, report_header, run_main  # noqa: 
 
 import warp as wp  # noqa: E402
 
-import warp_texton.raster as raster_module  # noqa: E402
+import warp_texton.noise.raster as raster_module  # noqa: E402
 from warp_texton import analyze, synthesize  # noqa: E402
 
 #: Floating-point operations of one (pixel, channel, impact) term of a grid splat:
@@ -75,7 +75,7 @@ def interleaved(methods: dict, repeat: int) -> dict:
 
 
 class KernelClock:
-    """Thread CPU time of each kernel launched by warp_texton.raster (one launch runs on one thread)."""
+    """Thread CPU time of each kernel launched by warp_texton.noise.raster (one launch runs on one thread)."""
 
     def __init__(self):
         self.seconds: dict = collections.defaultdict(float)

@@ -2,7 +2,7 @@
 
 Every function whose running time grows with its arguments estimates the
 operations it will do and refuses beyond ``WARP_TEXTON_WORK_BUDGET``
-(``warp_texton.limits``). This script runs one workload per path, reads the
+(``warp_texton.core.limits``). This script runs one workload per path, reads the
 estimate each call checked (``limits.work_log``), times the call (best of N,
 median in brackets) and reports operations per second and the time the default
 budget stands for on this machine. It is how ``noise.WALK_COST`` (a point
@@ -29,8 +29,8 @@ from common import machine_line, make_texture, report_header, run_main  # noqa: 
 
 from warp_texton import (FilterOptions, analyze, bake_mesh, dsn, evaluate, gaussian_texture,  # noqa: E402
                          mix_textons, render_mesh, render_plane, surface_noise, synthesize, synthesize_mixed)
-from warp_texton._runtime import resolve_device  # noqa: E402
-from warp_texton.limits import DEFAULT_WORK_BUDGET, work_log  # noqa: E402
+from warp_texton.core.runtime import resolve_device  # noqa: E402
+from warp_texton.core.limits import DEFAULT_WORK_BUDGET, work_log  # noqa: E402
 
 
 def workloads(texton, u, device, quick: bool, mni: float):

@@ -24,7 +24,7 @@ sys.path.insert(0, str(HERE))
 from common import machine_line, make_texture, report_header, run_main  # noqa: E402
 
 from warp_texton import mix_textons, synthesize, synthesize_mixed  # noqa: E402
-from warp_texton._runtime import resolve_device  # noqa: E402
+from warp_texton.core.runtime import resolve_device  # noqa: E402
 
 
 def run(args) -> dict:

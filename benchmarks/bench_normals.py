@@ -1,4 +1,4 @@
-"""Benchmark: corner normals split by angle (``warp_texton.mesh.corner_normals``) against
+"""Benchmark: corner normals split by angle (``warp_texton.surface.mesh.corner_normals``) against
 the render they feed and against trimesh's vertex normals.
 
 Meshes: tori of about 16k and 262k faces (smooth: no edge sharper than 30°) and a
@@ -28,8 +28,8 @@ import numpy as np  # noqa: E402
 import trimesh  # noqa: E402
 
 from warp_texton import Texton, render_mesh  # noqa: E402
-from warp_texton.mesh import corner_normals  # noqa: E402
-from warp_texton._runtime import resolve_device  # noqa: E402
+from warp_texton.surface.mesh import corner_normals  # noqa: E402
+from warp_texton.core.runtime import resolve_device  # noqa: E402
 
 SHAPE = (384, 512)
 

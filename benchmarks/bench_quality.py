@@ -50,7 +50,7 @@ sys.path.insert(0, str(HERE.parent))
 from common import GIMP_PATTERNS, machine_line, read_gpat, read_openarena, report_header, run_main  # noqa: E402
 
 from warp_texton import analyze, gaussian_texture, periodic_component, synthesize  # noqa: E402
-from warp_texton.io import atomic_path  # noqa: E402
+from warp_texton.files.images import atomic_path  # noqa: E402
 
 GRID = HERE.parent / "docs" / "images" / "quality" / "grid.png"
 #: Side of a panel of the image grid, in pixels of the outputs (shown 1:1).

@@ -37,7 +37,7 @@ sys.path.insert(0, str(HERE))
 from common import machine_line, report_header, run_main  # noqa: E402
 
 from warp_texton import Texton, synthesize, synthesize_batch  # noqa: E402
-from warp_texton._runtime import resolve_device  # noqa: E402
+from warp_texton.core.runtime import resolve_device  # noqa: E402
 
 VARIANTS = {"scale 1, no rotation": {}, "scale 0.8-1.25, any rotation": {"scale": (0.8, 1.25), "rotation": (0, 360)}}
 
@@ -108,7 +108,7 @@ ZARR_SCRIPT = r"""
 import json, resource, sys, time
 import numpy as np
 from warp_texton import Texton, synthesize
-from warp_texton.dask import write_zarr
+from warp_texton.noise.dask_arrays import write_zarr
 path, side, chunk, dtype, size, mni, workers = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4], int(sys.argv[5]), float(sys.argv[6]), int(sys.argv[7])
 rng = np.random.default_rng(0)
 t = Texton(0.007 * rng.standard_normal((size, size, 3)) + 0.0004, [0.5] * 3)
@@ -126,7 +126,7 @@ import json, resource, sys, time
 import numpy as np
 from distributed import Client, LocalCluster
 from warp_texton import Texton
-from warp_texton.dask import write_zarr
+from warp_texton.noise.dask_arrays import write_zarr
 path, side, chunk, dtype, size, mni, workers = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4], int(sys.argv[5]), float(sys.argv[6]), int(sys.argv[7])
 rng = np.random.default_rng(0)
 t = Texton(0.007 * rng.standard_normal((size, size, 3)) + 0.0004, [0.5] * 3)

@@ -1,7 +1,7 @@
 """Benchmark: the block path's CPU loops (kernels/surface_native.py), vector form against plain C++.
 
 ``surface_noise`` at the vertices of the torus of bench_surface.py (about 1M
-vertices, MNI 60, RGB 64² texton) with ``warp_texton.blocks.SIMD`` on and
+vertices, MNI 60, RGB 64² texton) with ``warp_texton.surface.blocks.SIMD`` on and
 off, interleaved in one run:
 
 * in this process, built for this CPU (Warp's ``-march=native``);
@@ -42,7 +42,7 @@ import trimesh  # noqa: E402
 from bench_surface import interleaved  # noqa: E402
 from common import machine_line, make_texture, report_header, run_main  # noqa: E402
 
-import warp_texton.blocks as S  # noqa: E402
+import warp_texton.surface.blocks as S  # noqa: E402
 from warp_texton import analyze, surface_noise  # noqa: E402
 
 #: Warp's default CPU flags without AVX-512.

@@ -32,7 +32,7 @@ from common import machine_line, report_header, run_main  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-CLI = "import sys; from warp_texton.cli import main; sys.exit(main())"  # what the console script runs
+CLI = "import sys; from warp_texton.cli.parser import main; sys.exit(main())"  # what the console script runs
 
 
 def commands(folder: Path) -> dict[str, list[str]]:

@@ -3,7 +3,7 @@
 For each structured texture of ``structured_textures.STRUCTURED`` that loads here
 and each seed, every method makes a 512² output; measured against the example:
 
-* **patch** — :func:`warp_texton.tiling.patch_distance` (multi-scale 7 × 7 patch
+* **patch** — :func:`warp_texton.model.tiling.patch_distance` (multi-scale 7 × 7 patch
   sliced Wasserstein) over the example's half-to-half distance (the floor);
 * **blend zone** — :func:`structure.blend_zone_energy` (ln HF energy in the blend
   zones over the example's; whole output for methods without a blend);
@@ -33,7 +33,7 @@ from structure import blend_zone_energy  # noqa: E402
 from structured_textures import STRUCTURED  # noqa: E402
 
 from warp_texton import analyze, synthesize  # noqa: E402
-from warp_texton.tiling import TilingModel, half_distance, patch_distance  # noqa: E402
+from warp_texton.model.tiling import TilingModel, half_distance, patch_distance  # noqa: E402
 
 SHAPE = (512, 512)
 SEEDS = (1, 2, 3)

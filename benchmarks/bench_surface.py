@@ -35,8 +35,8 @@ import numpy as np  # noqa: E402
 import trimesh  # noqa: E402
 
 from warp_texton import analyze, bake_mesh, render_mesh, surface_noise, synthesize  # noqa: E402
-from warp_texton._runtime import resolve_device  # noqa: E402
-from warp_texton.blocks import simd_loops  # noqa: E402
+from warp_texton.core.runtime import resolve_device  # noqa: E402
+from warp_texton.surface.blocks import simd_loops  # noqa: E402
 
 
 def interleaved(methods: dict, repeat: int, clock=time.perf_counter) -> dict:

@@ -28,8 +28,8 @@ sys.path.insert(0, str(HERE))
 from common import machine_line, make_texture, report_header, run_main  # noqa: E402
 
 from warp_texton import analyze, evaluate, synthesize  # noqa: E402
-from warp_texton.bspline import bhat  # noqa: E402
-from warp_texton._runtime import resolve_device  # noqa: E402
+from warp_texton.model.bspline import bhat  # noqa: E402
+from warp_texton.core.runtime import resolve_device  # noqa: E402
 
 
 class FFTSample:

@@ -1,7 +1,7 @@
 """Benchmark: the viewer's tile latency and the time to fill a view (``warp-texton view``).
 
 Serves an RGB test texture (scikit-image's grass, gravel and brick mixed; 64² texton,
-MNI 30) with ``warp_texton.view.serve`` on this machine and measures, over HTTP on
+MNI 30) with ``warp_texton.view.server.serve`` on this machine and measures, over HTTP on
 the loopback interface:
 
 * tile latency: from sending a request to having read the last byte of its PNG,
@@ -40,8 +40,8 @@ sys.path.insert(0, str(HERE))
 from common import machine_line, make_texture, report_header, run_main  # noqa: E402
 
 from warp_texton import synthesize, write_image  # noqa: E402
-from warp_texton.view import serve  # noqa: E402
-from warp_texton.view_images import PNG_LEVEL, png_bytes, to_8bit  # noqa: E402
+from warp_texton.view.server import serve  # noqa: E402
+from warp_texton.view.images import PNG_LEVEL, png_bytes, to_8bit  # noqa: E402
 
 VIEW = (1280, 720)
 TILE = 256

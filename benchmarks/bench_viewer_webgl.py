@@ -2,7 +2,7 @@
 
 Serves an RGB test texture (scikit-image's grass, gravel and brick mixed; 64²
 texton, MNI 30, the anisotropic filter: the viewer's defaults) with
-``warp_texton.view.serve`` and opens the page in headless Chromium (Debian's
+``warp_texton.view.server.serve`` and opens the page in headless Chromium (Debian's
 ``chromium`` through Playwright) with a 1280 × 720 canvas, then measures in the
 same run:
 
@@ -35,7 +35,7 @@ if str(HERE) not in sys.path:
 from common import machine_line, make_texture, report_header, run_main  # noqa: E402
 
 from warp_texton import write_image  # noqa: E402
-from warp_texton.view import serve  # noqa: E402
+from warp_texton.view.server import serve  # noqa: E402
 
 VIEW = (1280, 720)
 QUICK_VIEW = (320, 180)

@@ -16,7 +16,7 @@ import numpy as np
 import scipy
 
 import warp_texton
-from warp_texton.io import atomic_path
+from warp_texton.files.images import atomic_path
 
 HERE = Path(__file__).resolve().parent
 #: Debian's gimp-data (GPL-3+): small seamless patterns, read by read_gpat

@@ -28,7 +28,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import warp as wp
 from warp_texton import dsn, evaluate, synthesize
-from warp_texton.histogram import HistogramTransform
+from warp_texton.model.histogram import HistogramTransform
 
 from .bench_synthesis import FFTSample
 
@@ -58,7 +58,7 @@ def cpu_threads() -> int:
 
 
 def row_bands(h: int, threads: int) -> list[tuple[int, int]]:
-    """Two bands of rows per thread, like ``warp_texton.synthesis``."""
+    """Two bands of rows per thread, like ``warp_texton.noise.synthesis``."""
     edges = np.linspace(0, h, min(h, 2 * threads) + 1).astype(int)
     return [(r0, r1) for r0, r1 in zip(edges[:-1], edges[1:]) if r1 > r0]
 
@@ -214,7 +214,7 @@ class TilingBlending:
     grid shows the example translated by a random offset (a hash of the vertex and
     the seed); the three patches are blended with the pixel's barycentric weights by
     the variance-preserving operator in the example's Gaussianised space, then mapped
-    back (the package's :class:`warp_texton.histogram.HistogramTransform`, which
+    back (the package's :class:`warp_texton.model.histogram.HistogramTransform`, which
     histogram-preserving texton noise uses too). Nearest-pixel lookups: a pixel whose weight
     is 1 for one vertex is that patch's pixel.
 

@@ -52,7 +52,7 @@ from pathlib import Path
 
 import numpy as np
 
-from warp_texton.io import atomic_path
+from warp_texton.files.images import atomic_path
 
 from .common import git_commit, git_dirty, machine_info, make_texture, write_atomic
 
@@ -165,7 +165,7 @@ def interleaved(methods: dict, repeat: int, caps: dict | None = None, cpu: bool 
 
 def resolve_devices(spec: str) -> list[str]:
     """``all`` → the CPU and every CUDA device present; else one checked device name."""
-    from warp_texton._runtime import init_warp, resolve_device
+    from warp_texton.core.runtime import init_warp, resolve_device
 
     if spec != "all":
         return [resolve_device(spec)]
@@ -174,7 +174,7 @@ def resolve_devices(spec: str) -> list[str]:
 
 
 def device_info(device: str) -> dict:
-    from warp_texton._runtime import cpu_threads, init_warp
+    from warp_texton.core.runtime import cpu_threads, init_warp
 
     d = init_warp().get_device(device)
     info = {"name": device, "description": getattr(d, "name", device)}
@@ -327,7 +327,7 @@ def filtering_case(suite: Suite, textons: dict, device: str, report: Report) -> 
     from .bench_filtering import far_half_sample, plane_view
 
     from warp_texton import FilterOptions
-    from warp_texton.plane import plane_pixels
+    from warp_texton.noise.ground_plane import plane_pixels
 
     texton = textons[suite.ref_texton]
     side = suite.ref_shape[0]

@@ -16,7 +16,7 @@
   a weight above 0.8) over the example's mean: 0 when the blend adds no speckle and
   removes no detail, > 0 for speckle, < 0 for ghosting/blur.
 
-The patch distance and its floor are the package's own (``warp_texton.tiling``,
+The patch distance and its floor are the package's own (``warp_texton.model.tiling``,
 which also uses them for ``structure_score``), re-exported here.
 """
 
@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import gaussian_laplace
 
-from warp_texton.tiling import PATCH, SCALES, half_distance, patch_distance
+from warp_texton.model.tiling import PATCH, SCALES, half_distance, patch_distance
 
 __all__ = ["patch_distance", "half_distance", "blend_zone_energy", "hf_energy", "PATCH", "SCALES"]
 

@@ -25,7 +25,7 @@ import trimesh
 from PIL import Image, ImageDraw
 
 from warp_texton import analyze, bake_mesh, render_baked, write_baked
-from warp_texton.mesh import default_texel_size
+from warp_texton.surface.mesh import default_texel_size
 
 OUT = Path(__file__).resolve().parent / "images" / "surface"
 SIDE = 448  # each panel's side in pixels

@@ -27,7 +27,7 @@ from bench_filtering import plane_view  # noqa: E402
 from common import make_texture  # noqa: E402
 
 from warp_texton import FilterOptions, analyze, write_image  # noqa: E402
-from warp_texton.plane import plane_pixels  # noqa: E402
+from warp_texton.noise.ground_plane import plane_pixels  # noqa: E402
 
 OUT = ROOT / "docs" / "images" / "filtering"
 FILTERS = ("none", "mip", "anisotropic", "supersample")

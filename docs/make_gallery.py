@@ -28,7 +28,7 @@ import numpy as np
 from warp_texton import (analyze, gaussian_texture, mix_textons, synthesize, synthesize_mixed,
                          write_image)
 from warp_texton.demo import texton_preview
-from warp_texton.io import atomic_path
+from warp_texton.files.images import atomic_path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 from common import GIMP_PATTERNS, read_gpat  # noqa: E402  (one GPAT reader, shared with the benchmarks)
@@ -157,9 +157,9 @@ def mixing_panels(by_name: dict) -> list[tuple[str, str]]:
 
 
 def surface_panel(by_name: dict):
-    """A torus without UVs rendered with surface texton noise; None without ``warp_texton.surface``."""
-    if importlib.util.find_spec("warp_texton.surface") is None:
-        print("skipping the surface render: warp_texton.surface does not exist")
+    """A torus without UVs rendered with surface texton noise; None without ``warp_texton.surface.points``."""
+    if importlib.util.find_spec("warp_texton.surface.points") is None:
+        print("skipping the surface render: warp_texton.surface.points does not exist")
         return None
     import trimesh
 
@@ -225,7 +225,7 @@ def page(sources: list[dict], mixing, surface) -> str:
     if surface:
         lines += [image(surface), "", surface[0]]
     else:
-        lines += ["Not in this build: `warp_texton.surface` is absent."]
+        lines += ["Not in this build: `warp_texton.surface.points` is absent."]
     lines += ["", "## Mixing", "", image(mixing[0]), "", mixing[0][0], "",
               "| ρ map | mixed noise |", "|---|---|",
               f"| {image(mixing[1])} | {image(mixing[2])} |", "", f"Left: {mixing[1][0]} Right: {mixing[2][0]}"]

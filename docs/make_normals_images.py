@@ -27,8 +27,8 @@ from PIL import Image, ImageDraw
 
 from warp_texton import Camera, analyze, read_image, render_mesh, surface_noise
 from warp_texton.demo import demo_texture_path
-from warp_texton.frames import up_rotation
-from warp_texton.render import LIGHT, cast_rays
+from warp_texton.surface.frames import up_rotation
+from warp_texton.surface.render import LIGHT, cast_rays
 
 OUT = Path(__file__).resolve().parent / "images" / "surface"
 SHAPE = (288, 384)

@@ -20,7 +20,7 @@ from pathlib import Path
 from PIL import Image
 
 from warp_texton.demo import run_demo
-from warp_texton.io import atomic_path
+from warp_texton.files.images import atomic_path
 
 PANEL = 192  # height of every panel, a multiple of the texton side
 NOISE_WIDTH = 2 * PANEL  # the noise panel is wider: the noise has any size

@@ -23,8 +23,8 @@ from pathlib import Path
 import numpy as np
 
 from warp_texton import read_image, write_image
-from warp_texton.io import atomic_path
-from warp_texton.view import serve
+from warp_texton.files.images import atomic_path
+from warp_texton.view.server import serve
 
 HERE = Path(__file__).resolve().parent
 WALNUT = HERE / "images" / "gallery" / "walnut_input.png"

@@ -14,6 +14,8 @@ with :func:`cell_walk` (plane) or :func:`cell_walk3` (space) from a
 the point minus the impact and ``ctx`` any struct the kernel fills. The walk
 visits the cells, draws the impacts and calls the contribution for those in
 the box [lo, hi] (plane) or the given extent (space); the loop exists once.
+
+Driven by: ``warp_texton.surface.blocks``, ``warp_texton.surface.points``.
 """
 
 from typing import Any
@@ -196,7 +198,7 @@ def cell_walk3(contribution, name: str):
     box y ± ext, with d = y − q (the contribution tests its own support).
 
     Cubes are visited in z, y, x order and the impacts of a cube in the order
-    they are drawn; a path that shares impacts between points (``kernels/surface.py``,
+    they are drawn; a path that shares impacts between points (``kernels/surface_points.py``,
     the block gather) keeps this order, so the two sum the same terms in the same order.
     """
 

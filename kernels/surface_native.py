@@ -1,4 +1,4 @@
-"""Native C++ inner loops of the surface block path (kernels/surface.py).
+"""Native C++ inner loops of the surface block path (kernels/surface_points.py).
 
 Two loops dominate the block path of surface noise on the CPU: listing the
 impacts of a cube that may reach a cluster of points (``scan_cube``), and
@@ -36,7 +36,7 @@ references (``blocks_*`` in tests/test_reference.py) check their values.
 
 import warp as wp
 
-from .noise2d import PAD
+from .noise_raster import PAD
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
 
@@ -77,7 +77,7 @@ _VECTOR_TYPES = r"""
     };
 """
 
-#: slab_term's order-1 term (kernels/surface.py) for one lookup: the texel rows
+#: slab_term's order-1 term (kernels/surface_points.py) for one lookup: the texel rows
 #: c00, c01 (j, j + 1 of row i) and c10, c11 (row i + 1) weighed by the bilinear
 #: weights and the slab weight w, added to acc. One channel with float lanes, the
 #: three at once with 4-float vectors: the same operations in the same order, each

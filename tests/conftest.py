@@ -42,7 +42,7 @@ def pytest_addoption(parser):
 
 def pytest_configure(config):
     from warp_texton import TextonError
-    from warp_texton._runtime import resolve_device
+    from warp_texton.core.runtime import resolve_device
 
     try:
         config.device = resolve_device(config.getoption("--device"))

@@ -1,4 +1,4 @@
-"""A user's Warp kernels, written only from the public device API (warp_texton.device).
+"""A user's Warp kernels, written only from the public device API (warp_texton.runtimes.warp_api).
 
 They live in a module of their own, as a user's kernels do: Warp compiles the
 device API's functions into this module. tests/test_device_api.py launches them.
@@ -6,7 +6,7 @@ device API's functions into this module. tests/test_device_api.py launches them.
 
 import warp as wp
 
-from warp_texton import device as td
+from warp_texton.runtimes import warp_api as td
 
 
 @wp.kernel

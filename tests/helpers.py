@@ -75,7 +75,7 @@ def assert_same_noise(a, b, texton, rtol=1e-4, max_flips=0.0):
 
 def run_cli(argv):
     """``warp-texton`` with ``argv`` -> exit status, whether it returns or exits through argparse."""
-    from warp_texton.cli import main
+    from warp_texton.cli.parser import main
 
     try:
         return main([str(a) for a in argv])
@@ -112,6 +112,6 @@ def raw_exr(path, channels, **attributes):
 
 def cuda_devices() -> list[str]:
     """The CUDA devices Warp sees (initialised quietly, as the package does)."""
-    from warp_texton._runtime import init_warp
+    from warp_texton.core.runtime import init_warp
 
     return [str(d) for d in init_warp().get_devices() if str(d).startswith("cuda")]

@@ -644,7 +644,7 @@ def write_image_to(folder, name, img, **options):
 def serve_and_close(**settings):
     """``serve`` a small texton on a free port with ``settings``, then stop it."""
     from warp_texton import Texton
-    from warp_texton.view import serve
+    from warp_texton.view.server import serve
 
     texton = Texton(np.full((4, 4, 1), 0.1), [0.5])
     with serve(texton, port=0, device="cpu", **settings):
@@ -652,7 +652,7 @@ def serve_and_close(**settings):
 
 
 def atomic_write(folder, name, data):
-    from warp_texton.io import atomic_path
+    from warp_texton.files.images import atomic_path
 
     with atomic_path(Path(folder) / name) as tmp:
         Path(tmp).write_bytes(data)
@@ -660,7 +660,7 @@ def atomic_write(folder, name, data):
 
 def with_budget(setter, value):
     """set_memory_budget / set_work_budget with ``value``, then back to the default."""
-    from warp_texton import limits
+    from warp_texton.core import limits
 
     fn = getattr(limits, setter)
     try:
@@ -712,7 +712,7 @@ def synthesize_batch_of(**kw):
 def pack_of(packer, **kw):
     """A device API packer (``pack_plane``, ``pack_filtered``, ``pack_surface``): its struct
     stays in the worker (a Warp struct does not pickle)."""
-    from warp_texton import device
+    from warp_texton.runtimes import warp_api as device
 
     getattr(device, packer)(**kw)
     return None
@@ -787,7 +787,7 @@ def render_baked_of(**kw):
 
 
 def synthesize_dask_of(**kw):
-    from warp_texton.dask import synthesize_dask
+    from warp_texton.noise.dask_arrays import synthesize_dask
 
     arr = synthesize_dask(**kw)
     img = arr.compute(scheduler="synchronous")
@@ -967,7 +967,7 @@ ENTRIES: list[Entry] = [
               lambda v: dict(setter="set_work_budget", value=v)),
           {"value": st.sampled_from([0, -5, True, "x", [1], NAN, INF, -INF, np.array([4, 4]), "-1", "inf"])},
           names={"value": "budget"}),
-    Entry("is_texton_path", "warp_texton.texton:is_texton_path",
+    Entry("is_texton_path", "warp_texton.model.texton:is_texton_path",
           st.sampled_from(["a.texton", "b.exr", "c.png", "d"]).map(lambda p: dict(path=p)),
           {"path": st.sampled_from([None, 5, b"x.exr", ["a"]])}),
     # ---- meshes
@@ -994,9 +994,9 @@ ENTRIES: list[Entry] = [
     Entry("Camera", "property_api:camera_framing", camera_args(),
           {"fov": st.one_of(refused_number(), st.sampled_from([0.0, 180.0, -1.0])), "up": refused_directions()},
           may_refuse=r"parallel"),
-    Entry("run_jobs", "warp_texton.jobs:run_jobs", st.just(dict(jobs=[])),
+    Entry("run_jobs", "warp_texton.surface.jobs:run_jobs", st.just(dict(jobs=[])),
           {"jobs": st.sampled_from([None, 3, "a.ply", INF, b"x"])}),
-    Entry("expand_meshes", "warp_texton.jobs:expand_meshes",
+    Entry("expand_meshes", "warp_texton.surface.jobs:expand_meshes",
           st.lists(st.sampled_from(["a.ply", "b/*.obj", "c.glb"]), max_size=3).map(lambda a: dict(args=a)),
           {"args": st.sampled_from([[None], [5], None, [b"x"], 7])}),
     Entry("synthesize_batch", "property_api:synthesize_batch_of", batch_args(),
@@ -1112,7 +1112,7 @@ def run_cli(folder, command, inputs, output, options):
     import io
 
     from warp_texton import Texton
-    from warp_texton.cli import main
+    from warp_texton.cli.parser import main
 
     folder = Path(folder)
     rng = np.random.default_rng(1)

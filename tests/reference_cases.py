@@ -157,7 +157,7 @@ def _block_path(points, normals, simd, texel_size=0.05, **kw):
 
     At texel_size 0.05 the torus puts about ten points in each cluster cell (the
     cluster loops); the sparse cases, at 0.01, leave single points (the walk fallback)."""
-    from warp_texton import blocks as B
+    from warp_texton.surface import blocks as B
 
     before = B.SIMD
     B.SIMD = simd

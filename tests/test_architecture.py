@@ -24,62 +24,120 @@ ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "warp_texton"
 KERNELS = ROOT / "kernels"
 
-#: The layers of docs/architecture.md: a module may import modules of lower layers only.
-LAYERS = {
-    "errors": 0, "_version": 0, "bspline": 0, "atlas_worker": 0,
-    "limits": 1, "progress": 1,
-    "_checks": 2, "image_readers": 2, "atlas": 2, "_runtime": 2,
-    "io": 3, "filter_options": 3, "noise_options": 3, "folders": 3, "histogram": 3, "example_checks": 3,
-    "texton": 4, "analysis_options": 4,
-    "tiling": 3.5, "tiling_noise": 9,
-    "gaussian": 5, "dsn": 5, "view_query": 5, "view_cache": 5, "view_images": 5, "colours": 5,
-    "analysis": 6, "view_inputs": 6,
-    "view_commands": 7,
-    "noise": 8, "canvas": 8, "frames": 8, "blocks": 8,
-    "filtering": 9, "raster": 9,
-    "synthesis": 10, "plane": 10,
-    "mixing": 11, "surface": 11, "dask": 11, "batches": 11,
-    "mesh": 12, "shader_glsl": 12, "shader_osl": 12, "device": 12,
-    "render": 13, "mesh_files": 13, "shader": 13, "view_webgl": 13,
-    "bake": 14, "demo": 14, "view_core": 14, "cli_options": 14,
-    "jobs": 15, "view": 15,
-    "cli_images": 16, "cli_surface": 16, "cli_view": 16, "cli_shader": 16,
-    "cli": 17,
-    "__init__": 18,
+#: The rooms of docs/architecture.md, lowest first: a module imports modules of lower rooms, and of
+#: lower layers of its own room (ROOM_LAYERS), only. Top-level modules are rooms of their own.
+ROOMS = ["_version", "core", "files", "model", "noise", "surface", "runtimes", "view", "demo", "cli", "__init__"]
+#: The layers inside each room (a room's ``__init__``, its face, sits above them all).
+ROOM_LAYERS = {
+    "core": {"errors": 0, "progress": 0, "limits": 1, "checks": 2, "runtime": 3},
+    "files": {"readers": 0, "folders": 0, "images": 1},
+    "model": {"bspline": 0, "histogram": 0, "tiling": 0, "example_checks": 0, "texton": 1, "analysis_options": 1,
+              "gaussian": 2, "spot_noise": 2, "analysis": 3},
+    "noise": {"filter_options": 0, "noise_options": 0, "tiling": 0, "engine": 1, "colours": 1, "canvas": 2, "filtering": 3, "raster": 3,
+              "synthesis": 4, "ground_plane": 4, "mixing": 4, "dask_arrays": 5, "batches": 5},
+    "surface": {"frames": 0, "atlas": 0, "atlas_worker": 0, "blocks": 0, "points": 1, "mesh": 2, "mesh_files": 3,
+                "render": 3, "bake": 4, "jobs": 5},
+    "runtimes": {"glsl": 0, "osl": 0, "warp_api": 0, "export": 1},
+    "view": {"static": 0, "queries": 0, "cache": 0, "images": 0, "webgl": 0, "inputs": 1, "commands": 2,
+             "viewer": 3, "server": 4},
+    "cli": {"options": 0, "images": 1, "surface": 1, "shader": 1, "view": 1, "parser": 2},
 }
+#: Package data with an ``__init__`` (no code): outside the rooms' order.
+DATA_PACKAGES = {"data", "view.static"}
+TOP_LEVEL_LIMIT = 8
+ROOM_SIZE = (3, 14)
+
+
+def module_name(path: Path) -> str:
+    """``core.limits`` for warp_texton/core/limits.py, ``core`` for its __init__, ``demo`` for demo.py."""
+    parts = list(path.relative_to(PACKAGE).with_suffix("").parts)
+    if parts[-1] == "__init__" and len(parts) > 1:
+        parts = parts[:-1]
+    return ".".join(parts)
 
 
 def host_modules() -> dict[str, ast.Module]:
-    return {p.stem: ast.parse(p.read_text(), str(p)) for p in PACKAGE.glob("*.py")}
+    return {module_name(p): ast.parse(p.read_text(), str(p)) for p in sorted(PACKAGE.rglob("*.py"))
+            if module_name(p) not in DATA_PACKAGES}
+
+
+def is_package(name: str) -> bool:
+    return name == "__init__" or (PACKAGE / name.replace(".", "/") / "__init__.py").is_file()
+
+
+def rank(name: str) -> tuple[int, int]:
+    """(room, layer in the room) of a module; a room's face (its __init__) above its layers."""
+    room, _, leaf = name.partition(".")
+    layers = ROOM_LAYERS.get(room, {})
+    return ROOMS.index(room), (layers[leaf] if leaf else max(layers.values(), default=0) + 1)
 
 
 def package_imports(name: str, tree: ast.Module):
     """(imported module, imported names) for every relative import of a package module."""
+    here = [] if name == "__init__" else name.split(".")
+    if not is_package(name):
+        here = here[:-1]
     for node in ast.walk(tree):
-        if isinstance(node, ast.ImportFrom) and node.level == 1:
-            target = (node.module or "").split(".")[0]
-            if target == "kernels":
-                continue
-            if target:
-                yield target, [a.name for a in node.names]
-            else:  # from . import x
-                for a in node.names:
-                    yield a.name, []
+        if not (isinstance(node, ast.ImportFrom) and node.level >= 1):
+            continue
+        base = here[: len(here) - (node.level - 1)]
+        target = ".".join(base + ([node.module] if node.module else []))
+        if target.split(".")[0] == "kernels":
+            continue
+        if node.module:
+            yield _module_of(target), [a.name for a in node.names]
+        else:  # from . import x
+            for a in node.names:
+                yield _module_of(".".join(base + [a.name])), []
+
+
+def _module_of(dotted: str) -> str:
+    """The module a dotted path names: itself, or its package when the tail is a name inside it."""
+    parts = dotted.split(".")
+    while parts and not ((PACKAGE / "/".join(parts)).with_suffix(".py").is_file() or is_package(".".join(parts))):
+        parts.pop()
+    return ".".join(parts) or "__init__"
 
 
 def is_private(name: str) -> bool:
     return name.startswith("_") and not name.startswith("__")
 
 
-def test_every_module_has_a_layer():
-    assert set(host_modules()) == set(LAYERS), "add new modules to LAYERS and to docs/architecture.md"
+def test_every_module_has_a_room_and_a_layer():
+    missing = []
+    for name in host_modules():
+        room, _, leaf = name.partition(".")
+        if room not in ROOMS or (leaf and leaf not in ROOM_LAYERS.get(room, {})):
+            missing.append(name)
+    assert not missing, f"add {missing} to ROOMS/ROOM_LAYERS and to docs/architecture.md"
 
 
-def test_imports_go_down_the_layers():
-    wrong = [f"{name} (layer {LAYERS[name]}) imports {target} (layer {LAYERS[target]})"
-             for name, tree in host_modules().items() for target, _ in package_imports(name, tree)
-             if LAYERS[target] >= LAYERS[name]]
+def test_rooms_have_the_documented_sizes():
+    top = sorted(p.stem for p in PACKAGE.glob("*.py"))
+    assert len(top) <= TOP_LEVEL_LIMIT, top
+    for room in ROOM_LAYERS:
+        modules = [p for p in (PACKAGE / room).glob("*.py") if p.stem != "__init__"]
+        assert ROOM_SIZE[0] <= len(modules) <= ROOM_SIZE[1], (room, sorted(p.stem for p in modules))
+
+
+def test_imports_go_down_the_rooms_and_layers():
+    wrong = []
+    for name, tree in host_modules().items():
+        for target, _ in package_imports(name, tree):
+            if target == name or target in DATA_PACKAGES:
+                continue
+            inside_face = is_package(name) and target.startswith(name + ".")  # a room's face imports its rooms
+            if not inside_face and rank(target) >= rank(name):
+                wrong.append(f"{name} {rank(name)} imports {target} {rank(target)}")
     assert not wrong, wrong
+
+
+def test_the_rule_sees_an_import_that_runs_back_up():
+    """The check above catches a low module importing a higher one: it is not vacuous."""
+    tree = ast.parse("from ..noise.synthesis import synthesize\nfrom .limits import check_work")
+    targets = [t for t, _ in package_imports("core.errors", tree)]
+    assert targets == ["noise.synthesis", "core.limits"]
+    assert all(rank(t) > rank("core.errors") for t in targets)
 
 
 def _private_uses(tree: ast.Module, own: str | None = None):
@@ -99,7 +157,7 @@ def _private_uses(tree: ast.Module, own: str | None = None):
 
 
 def test_no_private_names_across_package_modules():
-    wrong = {name: list(_private_uses(tree, name)) for name, tree in host_modules().items()}
+    wrong = {name: list(_private_uses(tree, name.split(".")[-1])) for name, tree in host_modules().items()}
     assert not {k: v for k, v in wrong.items() if v}
 
 
@@ -143,7 +201,7 @@ def test_kernels_compile_for_cuda(arch):
     Modules of functions only (kernels/impacts.py) are compiled inside the
     modules that call them.
     """
-    from warp_texton._runtime import init_warp
+    from warp_texton.core.runtime import init_warp
 
     wp = init_warp()
     if arch not in wp.get_cuda_supported_archs():
@@ -159,4 +217,4 @@ def test_kernels_compile_for_cuda(arch):
                 files = [str(f) for f in Path(d).glob(f"*.sm{arch}.cubin")]
             assert files and all(Path(f).is_file() and Path(f).stat().st_size > 0 for f in files), module.__name__
             compiled.append(module.__name__.rsplit(".", 1)[-1])
-    assert {"noise2d", "filter2d", "surface", "blocks", "render"} <= set(compiled)
+    assert {"noise_raster", "noise_filter", "surface_points", "surface_blocks", "surface_render"} <= set(compiled)

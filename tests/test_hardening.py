@@ -25,13 +25,14 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from warp_texton import (FilterOptions, Texton, TextonError, analyze, dsn, evaluate, gaussian_texture, limits,
+from warp_texton import (FilterOptions, Texton, TextonError, analyze, dsn, evaluate, gaussian_texture,
                          mix_textons, model_error, periodic_component, read_image, render_plane, synthesize,
                          synthesize_mixed, write_image)
-from warp_texton._checks import MAX_VALUE, MIN_MNI
-from warp_texton.io import atomic_path, remove_leftovers
-from warp_texton.noise import MAX_CELL_INDEX, noise_setup
-from warp_texton.texton import MAX_TEXTON_SIDE
+from warp_texton.core import limits
+from warp_texton.core.checks import MAX_VALUE, MIN_MNI
+from warp_texton.files.images import atomic_path, remove_leftovers
+from warp_texton.noise.engine import MAX_CELL_INDEX, noise_setup
+from warp_texton.model.texton import MAX_TEXTON_SIDE
 from helpers import assert_nothing_written, parts, random_texton, raw_exr, run_cli
 
 @pytest.fixture(autouse=True)
@@ -331,7 +332,7 @@ class TestBudgets:
 # ============================================================== interrupts, disks and files
 SLOW_WRITE = textwrap.dedent("""
     import sys, time
-    import warp_texton.io as io
+    import warp_texton.files.images as io
     def slow(path, img, **attributes):  # a write that takes its time, as a large EXR does
         with io.atomic_path(path) as tmp:
             with open(tmp, "wb") as f:
@@ -339,7 +340,7 @@ SLOW_WRITE = textwrap.dedent("""
             print("writing", flush=True)
             time.sleep(60)
     io.write_exr = slow
-    from warp_texton.cli import main
+    from warp_texton.cli.parser import main
     sys.exit(main(sys.argv[1:]))
 """)
 
@@ -376,7 +377,7 @@ class TestInterrupts:
         out = tmp_path / "n.png"
         dead = subprocess.Popen([sys.executable, "-c", "pass"])
         dead.wait()
-        from warp_texton.io import host_tag
+        from warp_texton.files.images import host_tag
 
         host = host_tag()
         killed = tmp_path / f".n.png.{dead.pid}-{host}.abcd1234.part"
@@ -591,7 +592,7 @@ class TestOneError:
 # ============================================================== meshes
 @pytest.mark.parametrize("content", [b"\x89PNG\r\n\x1a\n\x00\xff\xfe", "SELF"])
 def test_mesh_lists_binary_or_self_including(tmp_path, content):
-    from warp_texton.jobs import expand_meshes
+    from warp_texton.surface.jobs import expand_meshes
 
     listing = tmp_path / "list.txt"
     listing.write_bytes(f"@{listing}\n".encode() if content == "SELF" else content)
@@ -605,7 +606,7 @@ def test_mesh_functions_raise_texton_error(call):
     import trimesh
 
     from warp_texton import render_mesh, surface_noise, texture_mesh
-    from warp_texton.jobs import expand_meshes
+    from warp_texton.surface.jobs import expand_meshes
 
     t = random_texton((4, 4), seed=9)
     mesh = trimesh.creation.icosphere(0)

@@ -34,18 +34,19 @@ from hypothesis import strategies as st
 
 import device_kernels as user
 from helpers import parts, random_texton, run_cli
-from warp_texton import Texton, TextonError, analyze, bake_mesh, evaluate, export_shader, limits, load_texton, synthesize
-from warp_texton import device as td
-from warp_texton._checks import MAX_POSITIVE, MIN_POSITIVE, check_positive
-from warp_texton.bake import check_bake_arguments
+from warp_texton import Texton, TextonError, analyze, bake_mesh, evaluate, export_shader, load_texton, synthesize
+from warp_texton.core import limits
+from warp_texton.runtimes import warp_api as td
+from warp_texton.core.checks import MAX_POSITIVE, MIN_POSITIVE, check_positive
+from warp_texton.surface.bake import check_bake_arguments
 from warp_texton import FilterOptions
-from warp_texton.filtering import RasterPixels, needs_filtering
-from warp_texton.histogram import MAX_CENTRE, MAX_TABLE_VALUE, HistogramTransform, gauss_grid
-from warp_texton.io import write_exr
-from warp_texton.noise import noise_setup
-from warp_texton.raster import raster_geometry
-from warp_texton.shader import EXPORT_FILES
-from warp_texton.texton import EXR_TEXTON_VERSION
+from warp_texton.noise.filtering import RasterPixels, needs_filtering
+from warp_texton.model.histogram import MAX_CENTRE, MAX_TABLE_VALUE, HistogramTransform, gauss_grid
+from warp_texton.files.images import write_exr
+from warp_texton.noise.engine import noise_setup
+from warp_texton.noise.raster import raster_geometry
+from warp_texton.runtimes.export import EXPORT_FILES
+from warp_texton.model.texton import EXR_TEXTON_VERSION
 
 EPS32 = float(np.finfo(np.float32).eps)
 

@@ -13,7 +13,7 @@ import scipy.ndimage as ndi
 import scipy.signal as sps
 
 from warp_texton import Texton
-from warp_texton.bspline import bspline, sampled_autocorrelation
+from warp_texton.model.bspline import bspline, sampled_autocorrelation
 
 def model_covariance(texton: Texton) -> np.ndarray:
     """C[a, b][dy, dx] = E[(g_a(x) − m_a)(g_b(x + τ) − m_b)] on integer lags τ = (dx, dy).

@@ -19,50 +19,54 @@ Forum 2017.
 from __future__ import annotations
 
 import importlib
+import importlib.abc
+import importlib.util
+import sys
+import warnings
 from typing import TYPE_CHECKING
 
 from ._version import __version__
-from .errors import ExampleWarning, TextonError
+from .core.errors import ExampleWarning, TextonError
 
 if TYPE_CHECKING:  # what type checkers and documentation tools see; at run time, __getattr__
-    from .analysis import analyze, model_error
-    from .bake import BakedMesh, bake_mesh, render_baked
-    from .dsn import dsn
-    from .analysis_options import AnalysisOptions
-    from .example_checks import downscale
-    from .filter_options import FilterOptions
-    from .noise_options import NoiseOptions
-    from .gaussian import gaussian_texture, periodic_component
-    from .io import read_image, write_image
-    from .mixing import mix_textons, synthesize_mixed
-    from .plane import render_plane
-    from .batches import Batch, BatchParams, synthesize_batch
-    from .frames import tangent_frames
-    from .mesh import texture_mesh
-    from .mesh_files import write_baked
-    from .render import Camera, render_mesh
-    from .surface import surface_noise
-    from .synthesis import evaluate, synthesize
-    from .texton import Texton, load_texton
-    from .shader import export_shader
+    from .model.analysis import analyze, model_error
+    from .surface.bake import BakedMesh, bake_mesh, render_baked
+    from .model.spot_noise import dsn
+    from .model.analysis_options import AnalysisOptions
+    from .model.example_checks import downscale
+    from .noise.filter_options import FilterOptions
+    from .noise.noise_options import NoiseOptions
+    from .model.gaussian import gaussian_texture, periodic_component
+    from .files.images import read_image, write_image
+    from .noise.mixing import mix_textons, synthesize_mixed
+    from .noise.ground_plane import render_plane
+    from .noise.batches import Batch, BatchParams, synthesize_batch
+    from .surface.frames import tangent_frames
+    from .surface.mesh import texture_mesh
+    from .surface.mesh_files import write_baked
+    from .surface.render import Camera, render_mesh
+    from .surface.points import surface_noise
+    from .noise.synthesis import evaluate, synthesize
+    from .model.texton import Texton, load_texton
+    from .runtimes.export import export_shader
 
 #: The module of each public name that is imported on first use.
 _LAZY = {
-    "analyze": "analysis", "model_error": "analysis",
-    "BakedMesh": "bake", "bake_mesh": "bake", "render_baked": "bake", "write_baked": "mesh_files",
-    "dsn": "dsn",
-    "FilterOptions": "filter_options", "NoiseOptions": "noise_options", "AnalysisOptions": "analysis_options",
-    "downscale": "example_checks",
-    "gaussian_texture": "gaussian", "periodic_component": "gaussian",
-    "read_image": "io", "write_image": "io",
-    "mix_textons": "mixing", "synthesize_mixed": "mixing",
-    "render_plane": "plane",
-    "Camera": "render", "render_mesh": "render", "surface_noise": "surface", "tangent_frames": "frames",
-    "texture_mesh": "mesh",
-    "Batch": "batches", "BatchParams": "batches", "synthesize_batch": "batches",
-    "evaluate": "synthesis", "synthesize": "synthesis",
-    "Texton": "texton", "load_texton": "texton",
-    "export_shader": "shader",
+    "analyze": "model.analysis", "model_error": "model.analysis",
+    "BakedMesh": "surface.bake", "bake_mesh": "surface.bake", "render_baked": "surface.bake", "write_baked": "surface.mesh_files",
+    "dsn": "model.spot_noise",
+    "FilterOptions": "noise.filter_options", "NoiseOptions": "noise.noise_options", "AnalysisOptions": "model.analysis_options",
+    "downscale": "model.example_checks",
+    "gaussian_texture": "model.gaussian", "periodic_component": "model.gaussian",
+    "read_image": "files.images", "write_image": "files.images",
+    "mix_textons": "noise.mixing", "synthesize_mixed": "noise.mixing",
+    "render_plane": "noise.ground_plane",
+    "Camera": "surface.render", "render_mesh": "surface.render", "surface_noise": "surface.points", "tangent_frames": "surface.frames",
+    "texture_mesh": "surface.mesh",
+    "Batch": "noise.batches", "BatchParams": "noise.batches", "synthesize_batch": "noise.batches",
+    "evaluate": "noise.synthesis", "synthesize": "noise.synthesis",
+    "Texton": "model.texton", "load_texton": "model.texton",
+    "export_shader": "runtimes.export",
 }
 
 __all__ = [
@@ -114,3 +118,96 @@ def __getattr__(name: str):
 
 def __dir__() -> list[str]:
     return sorted(set(globals()) | set(__all__))
+
+
+#: Module paths of 0.2 (one flat folder) and where they live now; importing an old path still
+#: works for one release, with a DeprecationWarning naming the new one (docs/architecture.md).
+MOVED_MODULES = {
+    "warp_texton.errors": "warp_texton.core.errors",
+    "warp_texton.limits": "warp_texton.core.limits",
+    "warp_texton._checks": "warp_texton.core.checks",
+    "warp_texton._runtime": "warp_texton.core.runtime",
+    "warp_texton.io": "warp_texton.files.images",
+    "warp_texton.image_readers": "warp_texton.files.readers",
+    "warp_texton.folders": "warp_texton.files.folders",
+    "warp_texton.texton": "warp_texton.model.texton",
+    "warp_texton.analysis": "warp_texton.model.analysis",
+    "warp_texton.gaussian": "warp_texton.model.gaussian",
+    "warp_texton.histogram": "warp_texton.model.histogram",
+    "warp_texton.bspline": "warp_texton.model.bspline",
+    "warp_texton.canvas": "warp_texton.noise.canvas",
+    "warp_texton.raster": "warp_texton.noise.raster",
+    "warp_texton.filter_options": "warp_texton.noise.filter_options",
+    "warp_texton.filtering": "warp_texton.noise.filtering",
+    "warp_texton.colours": "warp_texton.noise.colours",
+    "warp_texton.synthesis": "warp_texton.noise.synthesis",
+    "warp_texton.plane": "warp_texton.noise.ground_plane",
+    "warp_texton.mixing": "warp_texton.noise.mixing",
+    "warp_texton.batches": "warp_texton.noise.batches",
+    "warp_texton.dask": "warp_texton.noise.dask_arrays",
+    "warp_texton.frames": "warp_texton.surface.frames",
+    "warp_texton.blocks": "warp_texton.surface.blocks",
+    "warp_texton.mesh": "warp_texton.surface.mesh",
+    "warp_texton.mesh_files": "warp_texton.surface.mesh_files",
+    "warp_texton.atlas": "warp_texton.surface.atlas",
+    "warp_texton.render": "warp_texton.surface.render",
+    "warp_texton.bake": "warp_texton.surface.bake",
+    "warp_texton.jobs": "warp_texton.surface.jobs",
+    "warp_texton.device": "warp_texton.runtimes.warp_api",
+    "warp_texton.shader": "warp_texton.runtimes.export",
+    "warp_texton.shader_glsl": "warp_texton.runtimes.glsl",
+    "warp_texton.shader_osl": "warp_texton.runtimes.osl",
+    "warp_texton.view_core": "warp_texton.view.viewer",
+    "warp_texton.view_query": "warp_texton.view.queries",
+    "warp_texton.view_cache": "warp_texton.view.cache",
+    "warp_texton.view_images": "warp_texton.view.images",
+    "warp_texton.view_inputs": "warp_texton.view.inputs",
+    "warp_texton.view_commands": "warp_texton.view.commands",
+    "warp_texton.view_webgl": "warp_texton.view.webgl",
+    "warp_texton.cli_options": "warp_texton.cli.options",
+    "warp_texton.cli_images": "warp_texton.cli.images",
+    "warp_texton.cli_surface": "warp_texton.cli.surface",
+    "warp_texton.cli_shader": "warp_texton.cli.shader",
+    "warp_texton.cli_view": "warp_texton.cli.view",
+    "warp_texton.tiling": "warp_texton.model.tiling",
+    "warp_texton.tiling_noise": "warp_texton.noise.tiling",
+    "warp_texton.example_checks": "warp_texton.model.example_checks",
+    "warp_texton.analysis_options": "warp_texton.model.analysis_options",
+    "warp_texton.noise_options": "warp_texton.noise.noise_options",
+    "warp_texton.progress": "warp_texton.core.progress",
+    "warp_texton.kernels.noise2d": "warp_texton.kernels.noise_raster",
+    "warp_texton.kernels.filter2d": "warp_texton.kernels.noise_filter",
+    "warp_texton.kernels.colours": "warp_texton.kernels.noise_colours",
+    "warp_texton.kernels.surface": "warp_texton.kernels.surface_points",
+    "warp_texton.kernels.blocks": "warp_texton.kernels.surface_blocks",
+    "warp_texton.kernels.render": "warp_texton.kernels.surface_render",
+    "warp_texton.kernels.bake": "warp_texton.kernels.surface_bake",
+    "warp_texton.kernels.tiling": "warp_texton.kernels.noise_tiling",
+}
+
+
+class _MovedModule(importlib.abc.Loader):
+    """Imports an old module path as the module at its new path, with a DeprecationWarning."""
+
+    def create_module(self, spec):
+        return None
+
+    def exec_module(self, module) -> None:
+        new = MOVED_MODULES[module.__name__]
+        warnings.warn(f"{module.__name__} moved to {new}; the old path goes in the next release",
+                      DeprecationWarning, stacklevel=2)
+        target = importlib.import_module(new)
+        module.__getattr__ = lambda name: getattr(target, name)
+        module.__all__ = getattr(target, "__all__", [n for n in vars(target) if not n.startswith("_")])
+        module.__doc__ = target.__doc__
+
+
+class _MovedFinder(importlib.abc.MetaPathFinder):
+    def find_spec(self, fullname, path=None, target=None):
+        if fullname in MOVED_MODULES:
+            return importlib.util.spec_from_loader(fullname, _MovedModule())
+        return None
+
+
+if not any(isinstance(f, _MovedFinder) for f in sys.meta_path):
+    sys.meta_path.append(_MovedFinder())

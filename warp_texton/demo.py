@@ -5,12 +5,12 @@ from __future__ import annotations
 from importlib import resources
 from pathlib import Path
 
-from .analysis import analyze
-from .gaussian import gaussian_texture
-from .io import read_image, write_image
-from .plane import render_plane
-from .synthesis import synthesize
-from .texton import Texton
+from .model.analysis import analyze
+from .model.gaussian import gaussian_texture
+from .files.images import read_image, write_image
+from .noise.ground_plane import render_plane
+from .noise.synthesis import synthesize
+from .model.texton import Texton
 
 DEMO_TEXTURE = "grass_256.png"
 

@@ -1,7 +1,7 @@
 """Texton noise in your own Warp kernel: a heightfield displaced by it.
 
 A grid of vertices is raised by texton noise, evaluated inside a Warp kernel
-of this file through the device API of warp-texton (``warp_texton.device``):
+of this file through the device API of warp-texton (``warp_texton.runtimes.warp_api``):
 the host packs the texton and the noise settings once (``pack_plane``), the
 kernel calls ``plane_value`` at each vertex. The values are those of
 ``warp_texton.evaluate`` at the same texel points, bit for bit on the same
@@ -30,7 +30,7 @@ import trimesh
 import warp as wp
 
 from warp_texton import analyze, load_texton, read_image
-from warp_texton import device as td
+from warp_texton.runtimes import warp_api as td
 from warp_texton.demo import demo_texture_path
 
 

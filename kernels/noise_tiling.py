@@ -1,0 +1,237 @@
+"""Tiling and blending by example: the evaluation of a :class:`warp_texton.model.tiling.TilingModel`.
+
+The plane is cut into equilateral triangles of side ``side`` (noise units). Each
+vertex (a, b) of the triangle lattice, at p(a, b) = side · (a + b/2, b √3/2),
+shows the example translated so that a random texel centre c(a, b) of the
+example (a hash of the vertex and the seed, kept at least ``margin`` from the
+example's border) lies on the vertex, rounded to whole texels. A point x sees
+the three vertices of its triangle; their patches are blended with weights
+w_k ∝ β_k^sharpness · exp(guide_weight · (g_k − max g)), β_k the barycentric
+coordinates and g_k the guide (the example's standardised luminance) read
+from each patch at x. docs/tiling.md is the exact specification; GLSL, OSL and
+users' Warp kernels reproduce it from ``tiling_value``.
+
+One implementation: ``tiling_value`` is called by the raster-window kernel
+``tiling_raster`` and by the points kernel ``tiling_points``.
+
+Driven by: ``warp_texton.noise.tiling``.
+"""
+
+import warp as wp
+
+from .impacts import GOLDEN, avalanche
+
+wp.set_module_options({"enable_backward": False, "optimization_level": 3})
+
+#: Mixed into the seed, so that the tiling's vertex stream is independent of the impacts' cells.
+TILING_TAG = wp.constant(wp.uint32(0x2C1B3C6D))
+SQRT3_2 = wp.constant(wp.float64(0.8660254037844386))
+#: Blend weights below this fraction of the largest are zero (their patches are not read).
+CUTOFF = wp.constant(1.0e-4)
+
+
+@wp.struct
+class Tiling:
+    example: wp.array2d(dtype=wp.vec3)  # (rows, columns) texels; grey examples in channel 0
+    guide: wp.array2d(dtype=float)  # the standardised luminance, same shape
+    side: float  # the triangles' side, noise units
+    margin: int  # c(a, b) ∈ [margin, size − 1 − margin] per axis, texel indices
+    squarings: int  # the weights' exponent is 2^squarings (sharpness 1, 2, 4, ... 64)
+    guide_weight: float  # β of the guide term; 0 = barycentric only
+    variance_preserving: int  # 1: (Σ k (v − mean)) / √(Σ k²) + mean; 0: Σ k v
+    mean: wp.vec3  # the example's mean colour (float32)
+    seed: wp.uint32
+
+
+@wp.func
+def vertex_centre(t: Tiling, a: int, b: int):
+    # the example texel (column, row) that vertex (a, b) shows on itself: a hash of
+    # the seed and the vertex, then two PCG uniforms (column first)
+    h = avalanche((t.seed ^ TILING_TAG) + GOLDEN)
+    h = avalanche(h ^ wp.uint32(a))
+    h = avalanche(h ^ wp.uint32(b))
+    s = h
+    ux = wp.randf(s)
+    uy = wp.randf(s)
+    rows = t.example.shape[0]
+    cols = t.example.shape[1]
+    nx = cols - 2 * t.margin
+    ny = rows - 2 * t.margin
+    cx = t.margin + wp.min(int(wp.floor(ux * float(nx))), nx - 1)
+    cy = t.margin + wp.min(int(wp.floor(uy * float(ny))), ny - 1)
+    return wp.vec2i(cx, cy)
+
+
+@wp.func
+def vertex_position(t: Tiling, a: int, b: int):
+    # p(a, b) rounded to whole texels (float64, so far points are exact)
+    s = wp.float64(t.side)
+    px = s * (wp.float64(a) + wp.float64(b) * wp.float64(0.5))
+    py = s * wp.float64(b) * SQRT3_2
+    return wp.vec2d(wp.floor(px + wp.float64(0.5)), wp.floor(py + wp.float64(0.5)))
+
+
+@wp.func
+def bilinear3(img: wp.array2d(dtype=wp.vec3), q: wp.vec2):
+    # the example at q = (x, y) in texel units (texel (i, j) centred at (j + ½, i + ½)), clamped to its edge
+    rows = img.shape[0]
+    cols = img.shape[1]
+    fx = q[0] - 0.5
+    fy = q[1] - 0.5
+    x0 = wp.floor(fx)
+    y0 = wp.floor(fy)
+    tx = fx - x0
+    ty = fy - y0
+    j0 = wp.clamp(int(x0), 0, cols - 1)
+    i0 = wp.clamp(int(y0), 0, rows - 1)
+    if tx == 0.0 and ty == 0.0:  # on a texel centre (scale 1): the texel itself, the same value as below
+        return img[i0, j0]
+    j1 = wp.clamp(int(x0) + 1, 0, cols - 1)
+    i1 = wp.clamp(int(y0) + 1, 0, rows - 1)
+    top = img[i0, j0] * (1.0 - tx) + img[i0, j1] * tx
+    bottom = img[i1, j0] * (1.0 - tx) + img[i1, j1] * tx
+    return top * (1.0 - ty) + bottom * ty
+
+
+@wp.func
+def bilinear1(img: wp.array2d(dtype=float), q: wp.vec2):
+    rows = img.shape[0]
+    cols = img.shape[1]
+    fx = q[0] - 0.5
+    fy = q[1] - 0.5
+    x0 = wp.floor(fx)
+    y0 = wp.floor(fy)
+    tx = fx - x0
+    ty = fy - y0
+    j0 = wp.clamp(int(x0), 0, cols - 1)
+    i0 = wp.clamp(int(y0), 0, rows - 1)
+    if tx == 0.0 and ty == 0.0:  # on a texel centre (scale 1): the texel itself, the same value as below
+        return img[i0, j0]
+    j1 = wp.clamp(int(x0) + 1, 0, cols - 1)
+    i1 = wp.clamp(int(y0) + 1, 0, rows - 1)
+    top = img[i0, j0] * (1.0 - tx) + img[i0, j1] * tx
+    bottom = img[i1, j0] * (1.0 - tx) + img[i1, j1] * tx
+    return top * (1.0 - ty) + bottom * ty
+
+
+@wp.func
+def patch_point(t: Tiling, x: wp.vec2d, a: int, b: int):
+    # where vertex (a, b)'s patch reads the example for the point x: c + (x − round(p))
+    c = vertex_centre(t, a, b)
+    p = vertex_position(t, a, b)
+    return wp.vec2(float(c[0]) + float(x[0] - p[0]), float(c[1]) + float(x[1] - p[1]))
+
+
+@wp.func
+def triangle_of(t: Tiling, x: wp.vec2d):
+    # (a, b, upper) of the lower-left vertex cell and barycentric coordinates (float32) of x
+    s = wp.float64(t.side)
+    qx = x[0] / s
+    qy = x[1] / s
+    sy = qy / SQRT3_2  # skewed coordinates: the lattice's vertices on Z²
+    sx = qx - sy * wp.float64(0.5)
+    fa = wp.floor(sx)
+    fb = wp.floor(sy)
+    u = float(sx - fa)
+    v = float(sy - fb)
+    return int(fa), int(fb), u, v
+
+
+@wp.func
+def power(w: float, squarings: int):
+    # w^(2^squarings) by repeated squaring: the same float32 products in every runtime
+    r = w
+    for i in range(squarings):
+        r = r * r
+    return r
+
+
+@wp.func
+def sharpened(w: float, squarings: int, guide_weight: float, dg: float):
+    # the unnormalised weight w^(2^squarings) · exp(guide_weight · dg); 0 for w ≤ 0
+    if w <= 0.0:
+        return 0.0
+    k = power(w, squarings)
+    if guide_weight != 0.0:
+        k = k * wp.exp(guide_weight * dg)
+    return k
+
+
+@wp.func
+def tiling_value(t: Tiling, x: wp.vec2d):
+    # the tiling's value at x (noise units): the patches of the three vertices of x's triangle, blended
+    a, b, u, v = triangle_of(t, x)
+    # the triangle's vertices (fixed order) and barycentric coordinates
+    a0 = a
+    b0 = b
+    w0 = 1.0 - u - v
+    w1 = u
+    w2 = v
+    if u + v > 1.0:
+        a0 = a + 1
+        b0 = b + 1
+        w0 = u + v - 1.0
+        w1 = 1.0 - v
+        w2 = 1.0 - u
+    q0 = wp.vec2(0.0)
+    q1 = wp.vec2(0.0)
+    q2 = wp.vec2(0.0)
+    g0 = 0.0
+    g1 = 0.0
+    g2 = 0.0
+    if t.guide_weight != 0.0:
+        q0 = patch_point(t, x, a0, b0)
+        q1 = patch_point(t, x, a + 1, b)
+        q2 = patch_point(t, x, a, b + 1)
+        g0 = bilinear1(t.guide, q0)
+        g1 = bilinear1(t.guide, q1)
+        g2 = bilinear1(t.guide, q2)
+    gm = wp.max(g0, wp.max(g1, g2))
+    k0 = sharpened(w0, t.squarings, t.guide_weight, g0 - gm)
+    k1 = sharpened(w1, t.squarings, t.guide_weight, g1 - gm)
+    k2 = sharpened(w2, t.squarings, t.guide_weight, g2 - gm)
+    # weights below CUTOFF × the largest are dropped (their patches are not read)
+    km = wp.max(k0, wp.max(k1, k2)) * CUTOFF
+    if k0 < km:
+        k0 = 0.0
+    if k1 < km:
+        k1 = 0.0
+    if k2 < km:
+        k2 = 0.0
+    total = k0 + k1 + k2
+    k0 = k0 / total
+    k1 = k1 / total
+    k2 = k2 / total
+    acc = wp.vec3(0.0)
+    if k0 > 0.0:
+        if t.guide_weight == 0.0:
+            q0 = patch_point(t, x, a0, b0)
+        acc = acc + (bilinear3(t.example, q0) - t.mean) * k0
+    if k1 > 0.0:
+        if t.guide_weight == 0.0:
+            q1 = patch_point(t, x, a + 1, b)
+        acc = acc + (bilinear3(t.example, q1) - t.mean) * k1
+    if k2 > 0.0:
+        if t.guide_weight == 0.0:
+            q2 = patch_point(t, x, a, b + 1)
+        acc = acc + (bilinear3(t.example, q2) - t.mean) * k2
+    if t.variance_preserving != 0:
+        acc = acc / wp.sqrt(k0 * k0 + k1 * k1 + k2 * k2)
+    return t.mean + acc
+
+
+@wp.kernel
+def tiling_raster(t: Tiling, origin: wp.vec2d, step_x: wp.vec2d, step_y: wp.vec2d, first: wp.vec2i,
+                  out: wp.array2d(dtype=wp.vec3)):
+    # pixel (i, j) of a window whose pixel (0, 0) is (first[0], first[1]) of the global raster
+    i, j = wp.tid()
+    I = wp.float64(first[0] + i) + wp.float64(0.5)
+    J = wp.float64(first[1] + j) + wp.float64(0.5)
+    x = origin + step_x * J + step_y * I
+    out[i, j] = tiling_value(t, x)
+
+
+@wp.kernel
+def tiling_points(t: Tiling, points: wp.array(dtype=wp.vec2d), out: wp.array(dtype=wp.vec3)):
+    k = wp.tid()
+    out[k] = tiling_value(t, points[k])

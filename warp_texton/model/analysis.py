@@ -1,0 +1,529 @@
+"""Texton analysis: alternating projections from an example image.
+
+One algorithm serves every order: EUSIPCO Algorithm 2 (order 0, the discrete
+synthesis-oriented texton) is CGF Algorithm 1 with b̂ = 1. From a random-phase
+start it alternates the projection onto the target spectrum |t̂_u|/√b̂
+(EUSIPCO eq. (2), with the colour phase of CGF §4.3) and the restriction to
+the support S. A 3 × 3 colour correction then restores the input's colour
+covariance (CGF §4.3, EUSIPCO §4).
+
+Speed: α lives on S (size × size) while the spectral projection needs the
+whole M × N grid. The forward transform therefore runs real FFTs over the
+``size`` non-zero rows only before the column FFTs, and the inverse keeps only
+the ``size`` rows it needs before the last real FFTs; everything is float32.
+See ``benchmarks/bench_analysis.py`` for the comparison with the plain
+complex128 full-grid version.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Literal, overload
+from dataclasses import replace
+
+import numpy as np
+import scipy.fft as sfft
+
+from ..core.checks import as_image, check_bool, check_int, check_seed
+from .tiling import TILING_KIND, TilingModel, fit_tiling
+from .bspline import bhat
+from .analysis_options import SUPPORTS, AnalysisOptions, check_support  # noqa: F401 - this module's names too
+from ..core.errors import TextonError
+from .example_checks import warn_large, warn_unsuited
+from ..core.limits import check_memory, check_work
+from .histogram import HistogramTransform
+from .gaussian import FFT_WORKERS, normalized_kernel, relative_model_error_half
+from .texton import Texton, lag0_covariance
+
+#: The methods of `analyze`: the Gaussian texton model (the default), tiling and blending.
+METHODS = ("texton", TILING_KIND)
+
+#: Bytes per image value (pixel × channel) that the analysis holds at its peak:
+#: the periodic component and the kernel in float64, their spectra (complex128
+#: and complex64 half-planes), the target and its conjugate, the iterates.
+ANALYSIS_BYTES_PER_VALUE = 96
+
+
+def check_size_fits(size: int, grid, name: str, what: str = "the image") -> None:
+    """The support must lie inside the image (CGF Algorithm 1: S ⊂ Ω)."""
+    m, n = grid
+    if size > min(m, n):
+        raise TextonError(
+            f"{name}: {what} ({n}x{m}) is too small for size {size}; the texton's support must lie inside "
+            f"the image (choose size <= {min(m, n)})", param=name, mentions=("size",)
+        )
+
+
+def analysis_work(grid, channels: int, iterations: int) -> float:
+    """Operations of the alternating projections on an M × N grid: per iteration
+    and channel, a forward and an inverse 2-D FFT (M N log2(M N) each)."""
+    m, n = grid
+    return 2.0 * iterations * channels * m * n * math.log2(max(m * n, 2))
+
+
+def check_analysis_cost(grid, channels: int, iterations: int, what: str, textons: int = 1, size: int = 0) -> None:
+    """Refuse an analysis (``textons`` of them, ``size`` × ``size``, on one grid) beyond
+    the memory or work budget."""
+    m, n = grid
+    nbytes = ANALYSIS_BYTES_PER_VALUE * float(m) * n * channels + 8.0 * textons * size * size * channels
+    check_memory(nbytes, what, "use a smaller image" + (" or fewer rhos" if textons > 1 else ""), mentions=("rhos",))
+    check_work(textons * analysis_work(grid, channels, iterations), what + f" with {iterations} iterations",
+               "use fewer iterations or a smaller image" + (" or fewer rhos" if textons > 1 else ""),
+               mentions=("iterations", "rhos"))
+
+
+def support_mask(size: int, support: str = "square") -> np.ndarray:
+    """Boolean (size, size) mask of the texton support S.
+
+    "square" is the full square; "disk" keeps the coefficients whose centre is
+    within size/2 of the square's centre (the circular supports of EUSIPCO Fig. 5).
+    """
+    if support == "square":
+        return np.ones((size, size), dtype=bool)
+    if support == "disk":
+        c = (size - 1) / 2.0
+        i, j = np.mgrid[:size, :size]
+        return (i - c) ** 2 + (j - c) ** 2 <= (size / 2.0) ** 2
+    raise TextonError(f"support must be one of {', '.join(SUPPORTS)}, got {support!r}")
+
+
+def initial_phase(shape: tuple[int, int], seed: int) -> np.ndarray:
+    """Random phase e^{iψ} on the rfft half-plane of an M × N grid.
+
+    ψ is the phase of the DFT of a standard white noise drawn from ``seed``:
+    uniform and Hermitian-symmetric. The alternating projections start by
+    projecting this noise (the same in every channel) onto the target, as
+    CGF Algorithm 1 does; its result is the target modulus with a uniform
+    random phase, EUSIPCO Algorithm 2's start. Same (shape, seed), same start.
+    """
+    w = np.random.default_rng(seed).standard_normal(shape)
+    w_hat = sfft.rfft2(w, workers=FFT_WORKERS)
+    mag = np.abs(w_hat)
+    return np.divide(w_hat, mag, out=np.zeros_like(w_hat), where=mag > 0)
+
+
+def unit_phase(z: np.ndarray) -> np.ndarray:
+    """z / |z|, and 0 where z = 0 (the indicator of EUSIPCO eq. (2))."""
+    mag = np.abs(z)
+    return np.divide(z, mag, out=np.zeros_like(z), where=mag > 0)
+
+
+def _spectral_projection(a_hat: np.ndarray, target: np.ndarray, target_conj: np.ndarray) -> np.ndarray:
+    """EUSIPCO eq. (2) per frequency: rotate the target onto a_hat's phase.
+
+    Arrays are channel-first (C, M, Nc). The phase is that of the Hermitian
+    product t̂*·â over channels, so colour channels keep their relative phases.
+    """
+    cross = a_hat[0] * target_conj[0]
+    for c in range(1, a_hat.shape[0]):
+        cross += a_hat[c] * target_conj[c]
+    return target * unit_phase(cross)[None]
+
+
+def correct_colors(alpha: np.ndarray, order: int, covariance: np.ndarray) -> np.ndarray:
+    """Apply the 3 × 3 (or 1 × 1) map C = B^{1/2} A^{-1/2} to the coefficients.
+
+    A = ∫ h hᵀ is the noise's lag-0 covariance for ``alpha`` and B the target,
+    so that the corrected texton has ∫ h hᵀ = B (CGF §4.3). Directions where A
+    vanishes are left at zero instead of being inverted.
+    """
+    a_cov = lag0_covariance(alpha.astype(np.float64), order)
+
+    def sqrt_psd(m, inverse=False):
+        w, v = np.linalg.eigh(0.5 * (m + m.T))
+        tol = max(w.max(), 0.0) * 1e-10
+        if inverse:
+            d = np.where(w > tol, 1.0 / np.sqrt(np.maximum(w, tol)), 0.0)
+        else:
+            d = np.sqrt(np.clip(w, 0.0, None))
+        return (v * d) @ v.T
+
+    c = sqrt_psd(covariance) @ sqrt_psd(a_cov, inverse=True)
+    return (alpha.astype(np.float64) @ c.T).astype(np.float32)
+
+
+@overload
+def analyze(
+    u,
+    *,
+    size: int = 64,
+    order: int = 1,
+    iterations: int = 50,
+    seed: int = 0,
+    periodic: bool = True,
+    color_correction: bool = True,
+    support: str = "square",
+    histogram: str = "gaussian",
+    progress: bool = False,
+    options: AnalysisOptions | None = None,
+    method: Literal["texton"] = "texton",
+    side: int | None = None,
+) -> Texton: ...
+
+
+@overload
+def analyze(
+    u,
+    *,
+    size: int = 64,
+    order: int = 1,
+    iterations: int = 50,
+    seed: int = 0,
+    periodic: bool = True,
+    color_correction: bool = True,
+    support: str = "square",
+    histogram: str = "gaussian",
+    progress: bool = False,
+    options: AnalysisOptions | None = None,
+    method: Literal["tiling"],
+    side: int | None = None,
+) -> TilingModel: ...
+
+
+@overload
+def analyze(
+    u,
+    *,
+    size: int = 64,
+    order: int = 1,
+    iterations: int = 50,
+    seed: int = 0,
+    periodic: bool = True,
+    color_correction: bool = True,
+    support: str = "square",
+    histogram: str = "gaussian",
+    progress: bool = False,
+    options: AnalysisOptions | None = None,
+    method: str = "texton",
+    side: int | None = None,
+) -> Texton | TilingModel: ...
+
+
+def analyze(
+    u,
+    *,
+    size: int = 64,
+    order: int = 1,
+    iterations: int = 50,
+    seed: int = 0,
+    periodic: bool = True,
+    color_correction: bool = True,
+    support: str = "square",
+    histogram: str = "gaussian",
+    progress: bool = False,
+    options: AnalysisOptions | None = None,
+    method: str = "texton",
+    side: int | None = None,
+) -> Texton | TilingModel:
+    """Compute the texton of a Gaussian texture example.
+
+    Parameters
+    ----------
+    u : array (H, W) or (H, W, C), C in {1, 3}
+        Example texture. An integer array is scaled by its dtype's range
+        (``uint8`` / 255...), as image files are; values must lie within
+        ±1e10 (docs/limits.md).
+    size : int
+        Side of the square support, or diameter of the disk support: from 2
+        to the image's smaller side (the support must lie inside the image,
+        CGF Algorithm 1) and at most 4096. Textons larger than about half the
+        image (past ``(min(H, W) + 1) // 2``, where the covariance support
+        S − S no longer fits in the image, the assumption of EUSIPCO §3) model
+        the image's own periodogram: its estimation noise and its large
+        features, which the noise then repeats (see docs/limits.md).
+    order : {0, 1, 3, 5}
+        Interpolation order: 0 gives the discrete synthesis-oriented texton of
+        EUSIPCO Algorithm 2, 1 the bilinear texton of CGF Algorithm 1, 3 and 5
+        B-spline textons (CGF §10). The target modulus is |t̂_u| / √b̂.
+    iterations : int
+        Number of alternating projections (≥ 1; 50 suffice, EUSIPCO Fig. 2).
+    seed : int
+        Seed of the random initial phase; the texton is a deterministic
+        function of (u, parameters, seed).
+    periodic : bool
+        Analyse the periodic component of u (CGF §4.2) rather than u itself.
+    color_correction : bool
+        Apply the linear colour map that makes the noise's lag-0 colour
+        covariance equal to the input's (for grey: its variance).
+    support : {"square", "disk"}
+        Shape of the support S.
+    histogram : {"gaussian", "preserve"}
+        ``"gaussian"``: the noise's values are Gaussian (the papers' model).
+        ``"preserve"``: each channel of the example (grey, or R, G and B) is
+        mapped through its CDF to a Gaussian, that Gaussianised
+        example is analysed, and the texton keeps the inverse map
+        (:class:`~warp_texton.model.histogram.HistogramTransform`), which every
+        output applies after the noise, so that outputs have the example's
+        colour histogram (docs/histogram.md).
+    progress : bool
+        Show a progress bar over the iterations.
+    options : AnalysisOptions, optional
+        ``size``, ``order``, ``iterations``, ``seed``, ``periodic``,
+        ``color_correction``, ``support`` and ``histogram`` as one value
+        (:class:`~warp_texton.AnalysisOptions`), in place of those keywords,
+        which must then keep their defaults.
+
+    Warns
+    -----
+    ExampleWarning
+        When the example suits a texton badly (docs/photographs.md): larger
+        than 1024² pixels (``LargeExampleWarning``), most of its variance at
+        wavelengths longer than half the texton (``SmoothExampleWarning``), a
+        local mean or contrast that varies across it
+        (``NonStationaryWarning``), a ``size`` past half of it
+        (``LargeTextonWarning``); the classes are in
+        :mod:`warp_texton.model.example_checks`. The analysis goes on.
+    method : {"texton", "tiling"}
+        ``"texton"`` (the default): the Gaussian texton model, for textures
+        without shapes (docs/model.md). ``"tiling"``: tiling and blending of
+        the example itself (:class:`~warp_texton.model.tiling.TilingModel`,
+        docs/tiling.md), for structured textures (bricks, tiles, paving);
+        ``seed`` is then that of the structure score, and the
+        texton-only options (``size``, ``order``, ``iterations``, ``periodic``,
+        ``color_correction``, ``support``, ``histogram``) must keep their
+        defaults. Its ``metadata["structure"]`` is the measured structure
+        score (:func:`~warp_texton.model.tiling.structure_score`).
+    side : int, optional
+        With ``method="tiling"``: the side of the blend triangles in texels
+        (default a quarter of the example's smaller side).
+
+
+    Returns
+    -------
+    Texton or TilingModel
+        ``coeffs`` (size, size, C), ``mean`` of u, ``order``; ``metadata`` holds
+        the parameters and ``metadata["model_error"]``, the relative model
+        error of the texton against u (:func:`model_error`).
+
+    Raises
+    ------
+    TextonError
+        For an image that is not a numeric (H, W[, C]) array with C in
+        {1, 3, 4} (an alpha channel is dropped with a warning), holds NaN or
+        infinite values or is constant; a ``size`` outside [2, min(H, W)] or
+        above 4096; an ``order`` other than 0, 1, 3, 5; ``iterations`` < 1; a
+        ``seed`` outside [0, 2**32); an unknown ``support`` or ``histogram``;
+        and an analysis over the memory or work budget (docs/limits.md).
+
+    Notes
+    -----
+    The algorithm, with the derivation of the target modulus and the colour
+    correction, is in docs/model.md §5–§7. 50 iterations are plenty.
+
+    References
+    ----------
+    EUSIPCO Algorithm 2 and eq. (2); CGF §4.2 Algorithm 1, §4.3, §10.
+
+    Examples
+    --------
+    >>> from warp_texton import read_image, analyze
+    >>> from warp_texton.demo import demo_texture_path
+    >>> u = read_image(demo_texture_path())
+    >>> t = analyze(u, size=64, order=1, seed=0)
+    >>> t
+    Texton(64x64, channels=1, order=1, mean=[0.4664])
+    >>> round(t.metadata["model_error"], 3)
+    0.449
+    """
+    if method not in METHODS:
+        raise TextonError(f"method must be one of {', '.join(METHODS)}, got {method!r:.60}", param="method")
+    if method == TILING_KIND:
+        changed = [name for name, value, default in (
+            ("size", size, 64), ("order", order, 1), ("iterations", iterations, 50), ("periodic", periodic, True),
+            ("color_correction", color_correction, True), ("support", support, "square"),
+            ("histogram", histogram, "gaussian")) if not (type(value) is type(default) and value == default)]
+        if options is not None:
+            changed.insert(0, "options")
+        if changed:
+            raise TextonError(f"{', '.join(changed)} apply to method 'texton' only, not to method 'tiling'",
+                              param=changed[0])
+        side = None if side is None else check_int(side, "side", minimum=2)
+        return fit_tiling(as_image(u), side=side, seed=check_seed(seed))
+    if side is not None:
+        raise TextonError("side applies to method 'tiling' only", param="side")
+    u = as_image(u)
+    o = AnalysisOptions.given(options, size=size, order=order, iterations=iterations, seed=seed, periodic=periodic,
+                              color_correction=color_correction, support=support, histogram=histogram)
+    progress = check_bool(progress, "progress")
+    size, order, iterations, seed = o.size, o.order, o.iterations, o.seed
+    periodic, color_correction, support, histogram = o.periodic, o.color_correction, o.support, o.histogram
+    m, n, c = u.shape
+    check_size_fits(size, (m, n), "u")
+    check_analysis_cost((m, n), c, iterations, f"analysing a {n}x{m} image")
+    warn_large((m, n), size)
+    transform = None
+    if histogram == "preserve":
+        # colour: one table per RGB channel, and a correction that keeps the channels
+        # coherent (docs/histogram.md); grey keeps the per-frequency correction
+        colour = c > 1
+        transform = HistogramTransform.fit(u, axes="rgb" if colour else "pca")
+        z = transform.decorrelate(u).astype(np.float32)
+        mean, t = normalized_kernel(transform.to_gaussian(u).astype(np.float32), periodic=periodic)
+        t = transform.gaussian_kernel(t, normalized_kernel(z, periodic=periodic)[1], size if colour else None)
+    else:
+        mean, t = normalized_kernel(u, periodic=periodic)
+    t_hat = sfft.rfft2(t, axes=(0, 1), workers=FFT_WORKERS)
+    warn_unsuited(u, t_hat, size)
+    flat = t.reshape(-1, c)
+    texton = texton_from_spectrum(
+        t_hat, n, mean, size, order, iterations, seed,
+        covariance=flat.T @ flat if color_correction else None, support=support, progress=progress,
+    )
+    texton.metadata.update(periodic=bool(periodic))
+    if transform is None:
+        return texton
+    texton.metadata.update(histogram=histogram)
+    return replace(texton, histogram=transform)
+
+
+def texton_from_spectrum(
+    t_hat: np.ndarray,
+    n: int,
+    mean,
+    size: int,
+    order: int,
+    iterations: int,
+    seed: int,
+    covariance: np.ndarray | None = None,
+    support: str = "square",
+    progress: bool = False,
+) -> Texton:
+    """The alternating projections for a model given by its kernel spectrum.
+
+    ``t_hat`` is the rfft half-plane (M, n//2 + 1, C) of a real kernel t on an
+    M × n grid (for an image, t_u); the texton's model |α̂|² b̂ approaches |t̂|²
+    on that grid. ``covariance`` (C × C), when given, is the lag-0 colour
+    covariance the colour correction enforces. Arguments are trusted: the
+    public entry points check them.
+    """
+    m = t_hat.shape[0]
+    mask = support_mask(size, support)
+    nc = n // 2 + 1
+    t_cf = np.ascontiguousarray(t_hat.transpose(2, 0, 1))  # channel-first (C, M, Nc)
+    target = (t_cf / np.sqrt(bhat((m, n), order))[None, :, :nc]).astype(np.complex64)
+    target_conj = np.conj(target)
+    mask_f = mask.astype(np.float32)
+
+    def restrict(a_hat: np.ndarray) -> np.ndarray:
+        # inverse transform, keeping only the `size` rows and columns of S
+        rows = sfft.ifft(a_hat, axis=-2, workers=FFT_WORKERS, overwrite_x=True)[:, :size]
+        return sfft.irfft(rows, n=n, axis=-1, workers=FFT_WORKERS)[:, :, :size] * mask_f
+
+    bar = None
+    if progress:
+        from ..core.progress import bar as progress_bar
+
+        bar = progress_bar(total=iterations, desc="analyze", unit="it")
+    # CGF Algorithm 1 starts from white noise and projects it: the first iterate
+    # is the target with a random phase relative to the target's own phase, so
+    # targets that differ by a phase factor (e.g. τ_0 in mixing) give one texton.
+    noise = np.broadcast_to(initial_phase((m, n), seed).astype(np.complex64)[None], target.shape)
+    alpha = restrict(_spectral_projection(noise, target, target_conj))
+    if bar is not None:
+        bar.update()
+    for _ in range(iterations - 1):
+        rows = sfft.rfft(alpha, n=n, axis=-1, workers=FFT_WORKERS)
+        a_hat = sfft.fft(rows, n=m, axis=-2, workers=FFT_WORKERS, overwrite_x=True)
+        alpha = restrict(_spectral_projection(a_hat, target, target_conj))
+        if bar is not None:
+            bar.update()
+    if bar is not None:
+        bar.close()
+
+    alpha = np.ascontiguousarray(alpha.transpose(1, 2, 0), dtype=np.float32)
+    if covariance is not None:
+        alpha = correct_colors(alpha, order, covariance) * mask[:, :, None]
+    metadata = {
+        "source_shape": [m, n],
+        "size": size,
+        "order": order,
+        "iterations": iterations,
+        "seed": seed,
+        "color_correction": covariance is not None,
+        "support": support,
+    }
+    texton = Texton(alpha, np.asarray(mean, dtype=np.float32), order, metadata)
+    texton.metadata["model_error"] = _rme(t_hat, texton, n)
+    return texton
+
+
+def texton_half_spectrum(texton: Texton, shape: tuple[int, int]) -> np.ndarray:
+    """α̂ √b̂ on the rfft half-plane of an M × N grid, (M, N//2 + 1, C)."""
+    m, n = shape
+    a_hat = sfft.rfft2(texton.coeffs.astype(np.float64), s=shape, axes=(0, 1), workers=FFT_WORKERS)
+    return a_hat * np.sqrt(bhat(shape, texton.order))[:, : n // 2 + 1, None]
+
+
+def _rme(tu_half: np.ndarray, texton: Texton, n: int) -> float:
+    """RME from u's half-plane spectrum (M, N//2 + 1, C) on an M × n grid."""
+    shape = (tu_half.shape[0], n)
+    if texton.size[0] > shape[0] or texton.size[1] > shape[1]:
+        raise TextonError(f"a {texton.size[1]}x{texton.size[0]} texton does not fit on a {shape[1]}x{shape[0]} grid")
+    return relative_model_error_half(tu_half, texton_half_spectrum(texton, shape), n)
+
+
+def model_error(u, texton: Texton, *, periodic: bool | None = None) -> float:
+    """Relative model error (RME) between the Gaussian model of u and a texton's.
+
+    RME² = Σ_{ξ≠0} (|t̂_u|² + |t̂|² − 2|t̂_u* t̂|) / Σ_{ξ≠0} |t̂_u|² on u's grid,
+    where |t̂|² = |α̂|² b̂ is the sampled spectrum the texton implies (CGF eq. (4)).
+    0 is a perfect model; real textures with a 64² texton score 0.3–0.7.
+
+    Even the exact model of a texture scores about 0.46–0.48 against a single
+    sample of it (docs/model.md §3, "why a perfect model scores about
+    0.46–0.48 against one sample"), so compare the RMEs of textons of the same
+    image rather than reading one alone.
+
+    Parameters
+    ----------
+    u : array (H, W) or (H, W, C)
+    texton : Texton
+        With as many channels as u and no larger than u.
+    periodic : bool, optional
+        Model the periodic component of u; by default (``None``) as the
+        texton was analysed.
+
+    Returns
+    -------
+    float
+        The RME, ≥ 0.
+
+    Raises
+    ------
+    TextonError
+        For a ``texton`` that is not a :class:`Texton`, an image it cannot be
+        compared with (another channel count, smaller than the texton, not a
+        finite numeric array) and a computation over the memory budget.
+
+    References
+    ----------
+    EUSIPCO §3.2 (with the factor 2 of eq. (1) in the numerator).
+
+    Examples
+    --------
+    Larger textons fit better:
+
+    >>> from warp_texton import read_image, analyze, model_error
+    >>> from warp_texton.demo import demo_texture_path
+    >>> u = read_image(demo_texture_path())
+    >>> for size in (16, 32, 64):
+    ...     t = analyze(u, size=size, iterations=30)
+    ...     print(size, round(model_error(u, t), 3))
+    16 0.485
+    32 0.477
+    64 0.453
+    """
+    if not isinstance(texton, Texton):
+        raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
+    if periodic is None:
+        periodic = bool(texton.metadata.get("periodic", True))
+    periodic = check_bool(periodic, "periodic")
+    u = as_image(u)
+    check_memory(ANALYSIS_BYTES_PER_VALUE * float(u.size), f"the model error of a {u.shape[1]}x{u.shape[0]} image",
+                 "use a smaller image")
+    _, t = normalized_kernel(u, periodic=periodic)
+    if t.shape[2] != texton.channels:
+        raise TextonError(
+            f"u has {t.shape[2]} channels but the texton has {texton.channels}; they must match"
+        )
+    return _rme(sfft.rfft2(t, axes=(0, 1), workers=FFT_WORKERS), texton, t.shape[1])

@@ -1,0 +1,357 @@
+"""Tiling and blending by example: the model for structured (non-Gaussian) textures.
+
+A :class:`TilingModel` holds the example itself and the few numbers of the
+blend; the noise at x is three patches of the example blended over a triangle
+grid (``kernels/noise_tiling.py``, specified in docs/tiling.md). It keeps shapes —
+bricks, mortar lines, cracks — that the Gaussian texton model cannot. Files:
+EXR, the example as pixels and the parameters as header attributes
+(``texton_kind = "tiling"``); :func:`warp_texton.load_texton` reads them.
+
+:func:`structure_score` measures how much an example needs this model: the
+multi-scale 7 × 7 patch sliced-Wasserstein distance between the example and its
+own phase-randomised version (what a Gaussian model keeps of it), over that
+between the example's two halves (:func:`patch_distance`, :func:`half_distance`).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import numbers
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..core.checks import CHANNELS, MAX_VALUE, as_image, as_real_array, check_path, check_range
+from .._version import __version__
+from ..core.errors import TextonError
+from ..files.images import EXR, check_output_name, read_exr, read_exr_header, write_exr
+
+__all__ = ["TilingModel", "TILING_KIND", "KIND_ATTRIBUTE", "fit_tiling", "guide_of", "structure_score",
+           "patch_distance", "half_distance", "suggest_method", "scorable", "is_tiling_header", "load_tiling",
+           "SHARPNESS", "STRUCTURE_THRESHOLD"]
+
+#: The EXR attribute naming a model's kind; absent in texton files (kind "texton").
+KIND_ATTRIBUTE = "texton_kind"
+TILING_KIND = "tiling"
+#: Default exponent on the barycentric weights (measured in benchmarks/bench_structure.py).
+SHARPNESS = 16
+#: The exponents on the barycentric weights: powers of two, applied by repeated squaring.
+SHARPNESSES = (1, 2, 4, 8, 16, 32, 64)
+#: The blends: the weighted mean, or the variance-preserving blend of Heitz & Neyret 2018 eq. (4).
+BLENDS = ("linear", "variance")
+#: Default triangle side as a fraction of the example's smaller side.
+SIDE_FRACTION = 0.25
+#: Smallest example side (a triangle of at least 4 texels inside a margin).
+MIN_SIDE = 16
+#: Largest example side read from a file or accepted.
+MAX_EXAMPLE_SIDE = 8192
+#: Above this structure score the tiling model fits better than texton noise.
+STRUCTURE_THRESHOLD = 1.6
+#: Patch side and scales of :func:`patch_distance`.
+PATCH = 7
+SCALES = 3
+SAMPLES = 16384
+DIRECTIONS = 64
+
+
+def guide_of(example: np.ndarray) -> np.ndarray:
+    """The blend guide: the example's luminance (channel mean), standardised; float32 (H, W)."""
+    lum = np.asarray(example, np.float64).mean(axis=2)
+    sd = lum.std()
+    return ((lum - lum.mean()) / (sd if sd > 0 else 1.0)).astype(np.float32)
+
+
+def margin_of(side: float) -> int:
+    """Texels kept between a vertex's centre and the example's border: ⌈side⌉ + 1."""
+    return int(math.ceil(side)) + 1
+
+
+@dataclass(frozen=True, eq=False)
+class TilingModel:
+    """Tiling and blending of an example: what the structured method needs besides a seed.
+
+    Attributes
+    ----------
+    example : float32 array (H, W, C), C in {1, 3}
+        The example texture, read with bilinear interpolation.
+    side : float
+        Side of the triangles of the blend grid, in noise units (texels at
+        scale 1). Each vertex's patch is seen up to ``side`` from it; the
+        example must be wider than 2 (⌈side⌉ + 1) + 1 texels on each axis so
+        that patches never cross its border.
+    sharpness : int
+        Exponent on the barycentric weights, a power of two from 1 to 64: 1 is the classic linear
+        blend, larger values narrow the blend zones (Mikkelsen 2022's contrast
+        sharpening, in power form).
+    guide_weight : float
+        Weight β ≥ 0 of the luminance guide: weights × exp(β (g − max g)). 0
+        (the default) blends by position only.
+    metadata : dict
+        Provenance and the measured structure score; JSON values.
+
+    Raises
+    ------
+    TextonError
+        For an example that is not an (H, W) or (H, W, 1|3) array of finite
+        numbers, too small for its ``side``, or parameters out of range.
+    """
+
+    example: np.ndarray
+    side: float
+    sharpness: int = SHARPNESS
+    guide_weight: float = 0.0
+    metadata: dict = field(default_factory=dict)
+    blend: str = "linear"
+
+    def __post_init__(self):
+        a = as_real_array(self.example, "example", "an array (H, W) or (H, W, C) of numbers")
+        if a.ndim == 2:
+            a = a[:, :, None]
+        if a.ndim != 3 or a.shape[2] not in CHANNELS:
+            raise TextonError(f"example must have shape (H, W), (H, W, 1) or (H, W, 3), got {a.shape}",
+                              param="example")
+        if max(a.shape[:2]) > MAX_EXAMPLE_SIDE:
+            raise TextonError(f"example: {a.shape[0]}x{a.shape[1]}; at most {MAX_EXAMPLE_SIDE} per side",
+                              param="example")
+        check_range(a, "example", MAX_VALUE, "values")
+        side = _number(self.side, "side", 2.0, None)
+        need = 2 * margin_of(side) + 1
+        if min(a.shape[:2]) <= need:
+            raise TextonError(f"side {side:g} needs an example larger than {need}x{need} texels (patches stay "
+                              f"inside it), got {a.shape[1]}x{a.shape[0]}; use a smaller side", param="side")
+        if isinstance(self.sharpness, (bool, np.bool_)) or not isinstance(self.sharpness, numbers.Integral) \
+                or self.sharpness not in SHARPNESSES:
+            raise TextonError(f"sharpness must be one of {', '.join(map(str, SHARPNESSES))} (a power of two), "
+                              f"got {self.sharpness!r:.60}", param="sharpness")
+        sharp = int(self.sharpness)
+        beta = _number(self.guide_weight, "guide_weight", 0.0, 32.0)
+        if self.blend not in BLENDS:
+            raise TextonError(f"blend must be one of {', '.join(BLENDS)}, got {self.blend!r:.60}", param="blend")
+        if not isinstance(self.metadata, Mapping) or not all(isinstance(k, str) for k in self.metadata):
+            raise TextonError(f"metadata must be a dict with string keys, got {self.metadata!r:.80}",
+                              param="metadata")
+        a = np.ascontiguousarray(a, dtype=np.float32)
+        a.setflags(write=False)
+        object.__setattr__(self, "example", a)
+        object.__setattr__(self, "side", side)
+        object.__setattr__(self, "sharpness", sharp)
+        object.__setattr__(self, "guide_weight", beta)
+        object.__setattr__(self, "metadata", dict(self.metadata))
+        m3 = np.zeros(3, np.float32)
+        m3[:a.shape[2]] = a.mean(axis=(0, 1), dtype=np.float64)
+        m3.setflags(write=False)
+        object.__setattr__(self, "_mean3", m3)
+
+    @property
+    def channels(self) -> int:
+        """C: 1 (grey) or 3 (RGB)."""
+        return int(self.example.shape[2])
+
+    @property
+    def kind(self) -> str:
+        """The model's kind: ``"tiling"`` (a :class:`~warp_texton.Texton` is ``"texton"``)."""
+        return TILING_KIND
+
+    @property
+    def margin(self) -> int:
+        """Texels between any vertex's centre and the example's border."""
+        return margin_of(self.side)
+
+    @property
+    def guide(self) -> np.ndarray:
+        """The blend guide (:func:`guide_of`), float32 (H, W)."""
+        return guide_of(self.example)
+
+    @property
+    def mean(self) -> np.ndarray:
+        """The example's mean colour, float64 (C,)."""
+        return self.example.mean(axis=(0, 1), dtype=np.float64)
+
+    @property
+    def mean3(self) -> np.ndarray:
+        """The example's mean colour as the kernels hold it: float32 (3,), zeros past its channels."""
+        return self._mean3  # type: ignore[attr-defined]
+
+    @property
+    def structure(self) -> float | None:
+        """The structure score measured by ``analyze`` (``metadata["structure"]``), or None."""
+        s = self.metadata.get("structure")
+        return float(s) if isinstance(s, (int, float)) else None
+
+    def save(self, path) -> None:
+        """Write the model as an EXR: the example as pixels (float32), the rest as header attributes."""
+        path = check_output_name(path, "path")
+        if path.suffix.lower() != EXR:
+            raise TextonError(f"{path}: a tiling model is saved as .exr only", param="path")
+        attributes: dict[str, Any] = {
+            KIND_ATTRIBUTE: TILING_KIND,
+            "tiling_side": float(self.side),
+            "tiling_sharpness": int(self.sharpness),
+            "tiling_guide_weight": float(self.guide_weight),
+            "tiling_blend": self.blend,
+            "texton_metadata": json.dumps({**self.metadata, "warp_texton_version": __version__}),
+        }
+        write_exr(path, self.example, **attributes)
+
+    def __repr__(self) -> str:
+        h, w, c = self.example.shape
+        return (f"TilingModel(example {w}x{h}x{c}, side={self.side:g}, sharpness={self.sharpness:g}, "
+                f"guide_weight={self.guide_weight:g}, blend={self.blend!r})")
+
+
+def _number(value, name: str, lo: float, hi: float | None) -> float:
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real) \
+            or not math.isfinite(float(value)) or float(value) < lo or (hi is not None and float(value) > hi):
+        bound = f"in [{lo:g}, {hi:g}]" if hi is not None else f"≥ {lo:g}"
+        raise TextonError(f"{name} must be a finite number {bound}, got {value!r:.60}", param=name)
+    return float(value)
+
+
+def is_tiling_header(header: dict) -> bool:
+    """True when EXR header attributes are those of a tiling model."""
+    return header.get(KIND_ATTRIBUTE) == TILING_KIND
+
+
+def load_tiling(path) -> TilingModel:
+    """Read a :class:`TilingModel` written by :meth:`TilingModel.save`."""
+    path = check_path(path, "path")
+    if not path.is_file():
+        raise TextonError(f"{path}: no such file", param="path")
+    if not is_tiling_header(read_exr_header(path)):
+        raise TextonError(f"{path}: not a tiling model EXR (attribute {KIND_ATTRIBUTE} is not {TILING_KIND!r})",
+                          param="path")
+    example, header = read_exr(path, max_side=MAX_EXAMPLE_SIDE, what="tiling model")
+    try:
+        side, sharp, beta = (header[k] for k in ("tiling_side", "tiling_sharpness", "tiling_guide_weight"))
+        raw = header.get("texton_metadata", "{}")
+        metadata = json.loads(raw) if isinstance(raw, str) else {}
+        if not isinstance(metadata, dict):
+            raise ValueError("metadata is not a JSON object")
+        metadata.pop("warp_texton_version", None)
+        return TilingModel(example, side, sharp, beta, metadata, header.get("tiling_blend", "linear"))
+    except (KeyError, ValueError, TypeError, TextonError) as exc:
+        raise TextonError(f"{path}: malformed tiling model EXR: {exc}", param="path") from None
+
+
+# ---------------------------------------------------------------- measures
+
+
+def _patches(u: np.ndarray, rng: np.random.Generator, n: int) -> np.ndarray:
+    h, w, _ = u.shape
+    ys = rng.integers(0, h - PATCH + 1, n)
+    xs = rng.integers(0, w - PATCH + 1, n)
+    dy, dx = np.meshgrid(np.arange(PATCH), np.arange(PATCH), indexing="ij")
+    return u[ys[:, None, None] + dy, xs[:, None, None] + dx].reshape(n, -1)
+
+
+def _halve(u: np.ndarray) -> np.ndarray:
+    h, w = (u.shape[0] // 2) * 2, (u.shape[1] // 2) * 2
+    u = u[:h, :w]
+    return 0.25 * (u[0::2, 0::2] + u[1::2, 0::2] + u[0::2, 1::2] + u[1::2, 1::2])
+
+
+def patch_distance(u, v, *, seed: int = 0, scales: int = SCALES) -> float:
+    """The multi-scale 7 × 7 patch sliced-Wasserstein distance between images u and v.
+
+    At each scale (the images, then halved by 2 × 2 box averages) 16384 patches
+    of each image (all channels) are projected on the same 64 random unit
+    directions; the mean |difference| of the sorted projections (the 1-D
+    Wasserstein-1 distance) is averaged over directions and scales. Both images
+    (H, W) or (H, W, C) with the same C and sides ≥ 7 · 2^(scales − 1).
+    Deterministic for a given ``seed``.
+    """
+    a = np.asarray(u, np.float64)
+    b = np.asarray(v, np.float64)
+    a = a[:, :, None] if a.ndim == 2 else a
+    b = b[:, :, None] if b.ndim == 2 else b
+    if a.shape[2] != b.shape[2]:
+        raise TextonError(f"channels differ: {a.shape[2]} and {b.shape[2]}", param="v")
+    if min(*a.shape[:2], *b.shape[:2]) < PATCH * 2 ** (scales - 1):
+        raise TextonError(f"images must be at least {PATCH * 2 ** (scales - 1)} pixels on each side", param="u")
+    rng = np.random.default_rng(seed)
+    total = 0.0
+    for _ in range(scales):
+        pa, pb = _patches(a, rng, SAMPLES), _patches(b, rng, SAMPLES)
+        d = rng.normal(size=(pa.shape[1], DIRECTIONS))
+        d /= np.linalg.norm(d, axis=0)
+        total += float(np.mean(np.abs(np.sort(pa @ d, axis=0) - np.sort(pb @ d, axis=0))))
+        a, b = _halve(a), _halve(b)
+    return total / scales
+
+
+def half_distance(u, *, seed: int = 0) -> float:
+    """:func:`patch_distance` between the two halves of u cut across its longer side: the floor."""
+    a = np.asarray(u, np.float64)
+    a = a[:, :, None] if a.ndim == 2 else a
+    h, w = a.shape[:2]
+    if w >= h:
+        return patch_distance(a[:, :w // 2], a[:, w // 2:], seed=seed)
+    return patch_distance(a[:h // 2], a[h // 2:], seed=seed)
+
+
+def phase_randomised(u: np.ndarray, seed: int = 0) -> np.ndarray:
+    """u with its Fourier phases replaced by those of white noise: the Gaussian model's version of u."""
+    a = np.asarray(u, np.float64)
+    a = a[:, :, None] if a.ndim == 2 else a
+    mean = a.mean(axis=(0, 1))
+    rng = np.random.default_rng(seed)
+    phase = np.fft.fft2(rng.normal(size=a.shape[:2]))
+    phase /= np.maximum(np.abs(phase), 1e-30)
+    f = np.fft.fft2(a - mean, axes=(0, 1)) * phase[..., None]
+    return np.real(np.fft.ifft2(f, axes=(0, 1))) + mean
+
+
+def scorable(shape) -> bool:
+    """True when an image of ``shape`` (H, W[, C]) is large enough for :func:`structure_score`."""
+    h, w = shape[:2]
+    need = PATCH * 2 ** (SCALES - 1)
+    return min(h, w) >= need and max(h, w) >= 2 * need
+
+
+def structure_score(u, *, seed: int = 0) -> float:
+    """How far a Gaussian model of u is from u, in units of u's own half-to-half patch distance.
+
+    About 1 for a Gaussian-like texture (grass, gravel, marble); 2 to 5 for
+    textures with shapes (bricks, tiles, leaves), which texton noise turns into
+    mush. Above :data:`STRUCTURE_THRESHOLD` the tiling model fits better.
+    """
+    a = as_image(u, "u")
+    if not scorable(a.shape):
+        need = PATCH * 2 ** (SCALES - 1)
+        raise TextonError(f"the structure score needs an image of at least {need}x{2 * need} pixels, got "
+                          f"{a.shape[1]}x{a.shape[0]}", param="u")
+    floor = half_distance(a, seed=seed)
+    d = patch_distance(phase_randomised(a, seed), a, seed=seed)
+    return float(d / max(floor, 1e-12))
+
+
+def suggest_method(score: float) -> str:
+    """The method that fits a texture of this structure score: ``"tiling"`` or ``"texton"``."""
+    return TILING_KIND if score > STRUCTURE_THRESHOLD else "texton"
+
+
+def fit_tiling(u, *, side: float | None = None, sharpness: int = SHARPNESS, guide_weight: float = 0.0,
+               blend: str = "variance", score: bool = True, seed: int = 0,
+               source: str | None = None) -> TilingModel:
+    """The :class:`TilingModel` of an example image (``analyze(u, method="tiling")``)."""
+    a = as_image(u, "u")
+    small = min(a.shape[:2])
+    if small < MIN_SIDE:
+        raise TextonError(f"the example must be at least {MIN_SIDE} pixels on each side for method 'tiling', "
+                          f"got {a.shape[1]}x{a.shape[0]}", param="u")
+    if side is None:
+        side = max(2.0, float(math.floor(small * SIDE_FRACTION)))
+        while min(a.shape[:2]) <= 2 * margin_of(side) + 1 and side > 2.0:
+            side -= 1.0
+    metadata: dict[str, Any] = {"method": TILING_KIND}
+    if source is not None:
+        metadata["source"] = source
+    if score and scorable(a.shape):
+        metadata["structure"] = structure_score(a, seed=seed)
+    return TilingModel(a, side, sharpness, guide_weight, metadata, blend)
+
+
+# ---------------------------------------------------------------- evaluation

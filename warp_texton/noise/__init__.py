@@ -1,0 +1,53 @@
+"""Texton noise on the plane: the engine (``engine``: setup, parameters, points), windows of
+the global raster (``raster``, ``canvas``), filtered footprints (``filtering``), the front ends
+``synthesize``/``evaluate`` (``synthesis``), the ground plane (``ground_plane``), mixing,
+batches and Dask arrays. Kernels: ``warp_texton.kernels.noise_*``.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from .synthesis import synthesize, evaluate
+    from .filter_options import FilterOptions
+    from .ground_plane import render_plane, PlaneCamera
+    from .mixing import mix_textons, synthesize_mixed
+    from .batches import Batch, BatchParams, synthesize_batch
+    from .dask_arrays import synthesize_dask, write_zarr
+    from .colours import to_colours
+    from .noise_options import NoiseOptions
+
+#: The module of each name of this room's face, imported on first use (PEP 562).
+_LAZY = {
+    "synthesize": "synthesis",
+    "evaluate": "synthesis",
+    "FilterOptions": "filter_options",
+    "render_plane": "ground_plane",
+    "PlaneCamera": "ground_plane",
+    "mix_textons": "mixing",
+    "synthesize_mixed": "mixing",
+    "Batch": "batches",
+    "BatchParams": "batches",
+    "synthesize_batch": "batches",
+    "synthesize_dask": "dask_arrays",
+    "write_zarr": "dask_arrays",
+    "to_colours": "colours",
+    "NoiseOptions": "noise_options",
+}
+
+__all__ = ["Batch", "BatchParams", "FilterOptions", "NoiseOptions", "PlaneCamera", "evaluate", "mix_textons", "render_plane", "synthesize", "synthesize_batch", "synthesize_dask", "synthesize_mixed", "to_colours", "write_zarr"]
+
+
+def __getattr__(name: str):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

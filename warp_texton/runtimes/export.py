@@ -1,0 +1,234 @@
+"""Texton noise for other runtimes: shader exports that draw the same impacts as the kernels.
+
+:func:`export_shader` writes a folder with the noise as shader code for a
+language (``"glsl"``: WebGL2 and desktop OpenGL; ``"osl"``: Open Shading
+Language, for Cycles, Arnold, RenderMan, V-Ray) plus the texton as textures;
+:func:`write_shader_preview` writes one self-contained HTML page that draws a
+window of the noise with WebGL2. Each language's files come from its module
+(:mod:`warp_texton.runtimes.glsl`, ``warp_texton.runtimes.osl``), whose constants
+come from the same host code as the Warp kernels' parameters.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from ..core.errors import TextonError
+from ..files.folders import atomic_files, check_replaceable
+from ..surface.frames import UP
+from . import glsl, osl
+from ..files.images import atomic_path, check_output_name
+from ..noise.noise_options import CELL_FACTOR, NoiseOptions
+from ..model.texton import Texton
+
+#: The shader languages, each with the function that makes its files.
+LANGUAGES = {"glsl": glsl.glsl_files, "osl": osl.osl_files}
+#: The file every export holds, whose "warp_texton" key marks a folder --overwrite may replace.
+META_FILES = ("texton_noise.json", "texton_noise_osl.json")
+#: Every file an export of either language may write: what ``overwrite`` replaces or, when
+#: this export does not write it, removes. Other files in the folder are the user's and stay.
+EXPORT_FILES = frozenset({"texton_noise.glsl", "texton_noise.js", "texton_coeffs.f32", "texton_pyramid.f32",
+                          "texton_colours.f32", "texton_shares.f32", "preview.html", "texton_surface.osl",
+                          "texton_plane.osl", *META_FILES})
+
+
+def _files_of(lang: str):
+    if not isinstance(lang, str) or lang not in LANGUAGES:
+        raise TextonError(f"lang must be one of {', '.join(LANGUAGES)}, got {lang!r:.60}", param="lang")
+    return LANGUAGES[lang]
+
+
+def _is_export(path: Path) -> bool:
+    """Whether ``path`` holds a marker of an export: a JSON object with a "warp_texton" key.
+    A marker that cannot be read or parsed, or is anything else, is not one."""
+    for name in META_FILES:
+        meta = path / name
+        if meta.is_file() and meta.stat().st_size < (1 << 20):
+            try:
+                marker = json.loads(meta.read_text(encoding="utf-8"))
+            except (OSError, ValueError, RecursionError):  # unreadable, not UTF-8, not JSON, nested too deep
+                return False
+            return isinstance(marker, dict) and "warp_texton" in marker
+    return False
+
+
+def _osl_meta(texton: Texton, files: dict, noise: NoiseOptions, frame: dict, texel_size) -> bytes:
+    """The description of an OSL export: its files and settings, marked as the package's."""
+    from .._version import __version__
+
+    values = {"mni": noise.mni, "seed": noise.seed, "period": noise.period, "poisson": noise.poisson,
+              "cell_factor": noise.cell_factor, **frame}
+    settings = {k: (None if v is None else (v if isinstance(v, (int, float, str)) else [float(x) for x in v]))
+                for k, v in values.items()}
+    settings["texel_size"] = 0.01 if texel_size is None else float(texel_size)
+    meta = {"warp_texton": __version__, "language": "osl", "shaders": sorted(files), "order": texton.order,
+            "channels": texton.channels, "settings": settings}
+    return (json.dumps(meta, indent=2) + "\n").encode()
+
+
+def export_shader(texton: Texton, lang: str, out_dir, *, mni: float = 30.0, seed: int = 0, period=None,
+                  poisson: str = "exact", cell_factor: float = CELL_FACTOR, filter=None, texel_size=None,
+                  up=UP, side=None, overwrite: bool = False, noise: NoiseOptions | None = None) -> Path:
+    """Write texton noise as shader code for ``lang`` into the folder ``out_dir``.
+
+    The shader evaluates the noise where it is used, with no stored image: the
+    same impacts as :func:`~warp_texton.evaluate` (plane),
+    :func:`~warp_texton.synthesize` (rasters) and
+    :func:`~warp_texton.surface_noise` (surfaces), because the cell hash, the
+    random stream and the Poisson sampler are reproduced in 32-bit integer
+    arithmetic and the constants are the kernels' own values. Float steps may
+    differ by rounding (docs/renderers.md gives the measured agreement).
+
+    Parameters
+    ----------
+    texton : Texton
+    lang : {"glsl", "osl"}
+        ``"glsl"``: a library valid as GLSL ES 3.00 (WebGL2) and, with its
+        version line changed, GLSL 3.30+, with ``texton_noise(x)``, a
+        filtered variant taking the footprint, and ``texton_surface_noise(y,
+        n)``; the files are listed in Notes. ``"osl"``: Open Shading
+        Language shaders (Cycles, Arnold, RenderMan, V-Ray) with a colour
+        output: surface noise on ``P`` and ``N`` (no UVs) and plane noise on
+        object coordinates or UVs, the texton embedded in the source.
+    out_dir : str or Path
+        The folder to create; its parent must exist.
+    mni, seed, period, poisson, cell_factor
+        The noise, as in :func:`~warp_texton.synthesize`. The surface variant
+        uses the same ``mni`` (:func:`~warp_texton.surface_noise` defaults
+        to 60).
+    noise : NoiseOptions, optional
+        Those five as one value (:class:`~warp_texton.NoiseOptions`), in
+        place of the keywords, which must then keep their defaults.
+    filter : str or FilterOptions, optional
+        GLSL only: the filter of the filtered variant, "none", "mip" or
+        "anisotropic" (the default) with their settings
+        (:class:`~warp_texton.FilterOptions`); "supersample" is not offered.
+        The OSL shaders have no filtered variant (a renderer antialiases by
+        its own samples).
+    texel_size : float, optional
+        OSL only: the default of the shaders' ``texel_size`` parameter,
+        shading-space units per texel (default 0.01). GLSL's functions take
+        positions in texels.
+    up, side
+        The surface frame rule's directions
+        (:func:`~warp_texton.tangent_frames`), as in
+        :func:`~warp_texton.surface_noise`.
+    overwrite : bool
+        Write into ``out_dir`` if it is a folder an earlier export wrote (its
+        ``texton_noise.json`` or ``texton_noise_osl.json`` is a JSON object
+        with a ``"warp_texton"`` key): the export's files are replaced (those
+        of the earlier export that this one does not write are removed) and
+        any other file there is kept. Any other existing path is refused.
+
+    Returns
+    -------
+    Path
+        ``out_dir``, complete: the files are written into a temporary folder
+        beside it, which is renamed into place when all are written (into an
+        existing export, each file is renamed over its namesake).
+
+    Raises
+    ------
+    TextonError
+        For a ``lang`` other than "glsl" or "osl" (or a language module this
+        installation lacks); a texton too large for the target (GLSL: a
+        texture side over 2048 texels, the size WebGL2 guarantees); an order
+        or a filter the target does not offer; an ``out_dir`` that exists
+        without ``overwrite``, or that no export wrote; a missing parent
+        folder; and the noise errors of :func:`~warp_texton.synthesize`.
+
+    Notes
+    -----
+    A GLSL export holds ``texton_noise.glsl`` (the library),
+    ``texton_noise.js`` (builds programs and uploads the textures in
+    WebGL2), ``texton_coeffs.f32`` and ``texton_pyramid.f32`` (RGBA32F
+    textures, raw little-endian float32, top row first),
+    ``texton_noise.json`` (their sizes and the settings) and
+    ``preview.html`` (a 512 × 512 window at scale 1). An OSL export holds
+    ``texton_surface.osl``, ``texton_plane.osl`` and
+    ``texton_noise_osl.json`` (the settings).
+
+    A texton with a histogram transform (``analyze(...,
+    histogram="preserve")``) is exported with it, so the shaders return the
+    example's colours as the package's outputs do: GLSL adds
+    ``texton_colours.f32`` (the inverse-CDF tables, one row per variance
+    share) and ``texton_shares.f32`` (the footprint shares of the filtered
+    variant), and keeps the Gaussian values as ``texton_gaussian_noise`` and
+    its variants; OSL embeds the unfiltered table in both shaders
+    (docs/renderers.md).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from warp_texton import analyze, read_image, export_shader
+    >>> from warp_texton.demo import demo_texture_path
+    >>> texton = analyze(read_image(demo_texture_path()), size=32, seed=0)
+    >>> out = export_shader(texton, "glsl", pathlib.Path(tempfile.mkdtemp()) / "wood", mni=30, seed=1)
+    >>> sorted(p.name for p in out.iterdir())  # doctest: +NORMALIZE_WHITESPACE
+    ['preview.html', 'texton_coeffs.f32', 'texton_noise.glsl', 'texton_noise.js', 'texton_noise.json',
+     'texton_pyramid.f32']
+    """
+    make = _files_of(lang)
+    path = check_output_name(out_dir, "out_dir")
+    check_replaceable(path, overwrite, _is_export, "a shader export")  # before any work
+    noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
+    frame = dict(up=up, side=side)
+    if lang == "glsl":
+        if texel_size is not None:
+            raise TextonError("texel_size is an option of the osl export; the glsl functions take positions in "
+                              "texels", param="texel_size")
+        files = make(texton, filter="anisotropic" if filter is None else filter, noise=noise, **frame)
+    else:
+        if filter is not None:
+            raise TextonError(f"filter is an option of the glsl export; the {lang} shaders have no filtered "
+                              "variant (a renderer antialiases by its samples)", param="filter")
+        files = make(texton, texel_size=0.01 if texel_size is None else texel_size, noise=noise, **frame)
+        files[META_FILES[1]] = _osl_meta(texton, files, noise, frame, texel_size)
+    replaceable = lambda p: check_replaceable(p, overwrite, _is_export, "a shader export")  # noqa: E731
+    with atomic_files(path, replaceable, EXPORT_FILES) as tmp:
+        for name, content in files.items():
+            (tmp / name).write_bytes(content)
+    return path
+
+
+def write_shader_preview(texton: Texton, path, shape=(512, 512), *, mni: float = 30.0, seed: int = 0,
+                         scale: float = 1.0, rotation: float = 0.0, offset=(0.0, 0.0), period=None,
+                         poisson: str = "exact", cell_factor: float = CELL_FACTOR,
+                         noise: NoiseOptions | None = None) -> Path:
+    """Write one self-contained HTML page that draws a window of the noise with WebGL2.
+
+    The page (no network: the GLSL, its JavaScript and the texton are inlined)
+    draws on a canvas with id ``noise`` the window that
+    ``synthesize(texton, shape, ...)`` gives with the same arguments, and
+    offers ``window.textonNoise.readFloat()`` (the float32 values, RGBA per
+    pixel, top row first) and ``readImpacts()`` (per pixel: the impacts in
+    the texton's support and the sum of their offsets).
+
+    Parameters
+    ----------
+    texton : Texton
+    path : str or Path
+        The HTML file, written atomically.
+    shape : (height, width)
+        At most 2048 pixels a side.
+    mni, seed, scale, rotation, offset, period, poisson, cell_factor, noise
+        As in :func:`~warp_texton.synthesize`.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    TextonError
+        For a side over 2048 pixels, a texton too large for WebGL2, and the
+        errors of :func:`~warp_texton.synthesize` for these arguments.
+    """
+    from .glsl import preview_html
+
+    noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
+    html = preview_html(texton, shape, scale=scale, rotation=rotation, offset=offset, noise=noise)
+    with atomic_path(path) as tmp:
+        Path(tmp).write_text(html, encoding="utf-8")
+    return Path(path)

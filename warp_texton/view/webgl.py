@@ -1,0 +1,89 @@
+"""The viewer's WebGL2 mode: what the page needs to draw the noise itself.
+
+The page (``static/viewer_webgl.js``) draws the view with the exported GLSL
+library (:mod:`warp_texton.runtimes.glsl`, the same source, constants and
+textures as ``export_shader``), so pan, zoom, rotation and the noise settings
+redraw without a request. Only the texton travels: one request per analysis
+setting (:func:`shader_payload`).
+
+The exported library holds every setting as a constant; here the ones the
+page's controls change are turned into uniforms (:data:`VIEW_UNIFORMS`): the
+seed, the values that follow from the MNI (the cell's mean impact count, the
+Poisson sampler's constants, λ and √λ) and the filter's mode and level bias.
+The page computes them from the MNI as the exporter does in float32
+(``shader_glsl.poisson_constants``; the viewer's WebGL test compares both),
+from the cell size and the texton's support area given here.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+
+from ..noise.filter_options import FilterOptions
+from ..noise.engine import CELL_FACTOR, MAX_CELL_MEAN
+from ..noise.noise_options import NoiseOptions
+from ..runtimes.glsl import FILTER_MODES, glsl_noise, texture_data
+from ..model.texton import Texton
+
+#: The library's constants the page sets as uniforms, with their GLSL types.
+VIEW_UNIFORMS = {"TN_SEED": "uint", "TN_MEAN_COUNT": "float", "TN_SQRT_MEAN_COUNT": "float",
+                 "TN_EXP_NEG_MEAN": "float", "TN_PTRS": "vec4", "TN_PTRS2": "vec2", "TN_LAM": "float",
+                 "TN_SQRT_LAM": "float", "TN_FILTER_MODE": "int", "TN_LOD_BIAS": "float"}
+
+#: The page's main(): pixel (i, j) of the view (top row first) is the noise at
+#: tn_base · cell + tn_origin + tn_step_x (j + ½) + tn_step_y (i + ½), as a
+#: ``synthesize`` raster places it, filtered for the footprint of the steps.
+VIEW_MAIN = """
+uniform ivec2 tn_base;
+uniform vec2 tn_origin;
+uniform vec2 tn_step_x;
+uniform vec2 tn_step_y;
+uniform int tn_height;
+out vec4 tn_colour;
+void main() {
+  int j = int(gl_FragCoord.x);
+  int i = tn_height - 1 - int(gl_FragCoord.y);
+  vec2 rel = tn_origin + tn_step_x * (float(j) + 0.5) + tn_step_y * (float(i) + 0.5);
+  vec3 v = texton_noise_filtered_at(tn_base, rel, tn_step_x, tn_step_y);
+  if (TN_CHANNELS == 1) v = vec3(v.r);
+  tn_colour = vec4(v, 1.0);
+}
+"""
+
+
+def with_uniforms(source: str, names=VIEW_UNIFORMS) -> str:
+    """``source`` with the constants ``names`` declared as uniforms instead."""
+    for name, kind in names.items():
+        source, n = re.subn(rf"^const {kind} {name} = [^;\n]*;$", f"uniform {kind} {name};", source, flags=re.M)
+        if n != 1:
+            raise ValueError(f"the GLSL library declares {name} {n} times as a const {kind}")
+    return source
+
+
+def shader_payload(texton: Texton, *, filters, cell_factor: float = CELL_FACTOR) -> dict:
+    """The page's WebGL2 program for ``texton``: the library with :data:`VIEW_UNIFORMS`,
+    its main, the textures (base64 float32) and what the uniforms are computed from.
+
+    ``filters`` are the names the page offers, each with its mode and level bias.
+    The unperiodic plane and exact Poisson counts, as the viewer's tiles.
+    """
+    # the MNI only sets constants that become uniforms: one that every texton's cells accept
+    g = glsl_noise(texton, filter="anisotropic", noise=NoiseOptions(mni=1.0, cell_factor=cell_factor))
+    cw, ch = g.cell
+    options = {name: FilterOptions.of(name) for name in filters}
+    return {
+        "library": with_uniforms(g.source),
+        "main": VIEW_MAIN,
+        "textures": texture_data(g.textures),
+        "channels": g.channels,
+        # λ = mni / area (float64), a cell's mean count λ · cw · ch: noise_setup's arithmetic
+        "area": float(texton.support_area),
+        "cell": [cw, ch],
+        "max_mean_count": MAX_CELL_MEAN,  # more is refused (noise_setup): the page shows tiles, which say why
+        "filters": {name: {"mode": FILTER_MODES[o.kind],
+                           "bias": float(np.float32(o.bias if o.spec.footprint else 0.0))}
+                    for name, o in options.items()},
+        "texton": f"{texton.size[1]}×{texton.size[0]}, order {texton.order}",
+    }

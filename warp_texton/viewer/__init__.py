@@ -1,1 +1,0 @@
-"""The viewer page (HTML, JavaScript, CSS) served by :mod:`warp_texton.view`; package data only."""
