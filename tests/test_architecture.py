@@ -29,7 +29,7 @@ KERNELS = ROOT / "kernels"
 ROOMS = ["_version", "core", "files", "model", "noise", "surface", "runtimes", "view", "demo", "cli", "__init__"]
 #: The layers inside each room (a room's ``__init__``, its face, sits above them all).
 ROOM_LAYERS = {
-    "core": {"errors": 0, "progress": 0, "limits": 1, "checks": 2, "runtime": 3},
+    "core": {"errors": 0, "progress": 0, "lazy": 0, "limits": 1, "checks": 2, "runtime": 3},
     "files": {"readers": 0, "folders": 0, "images": 1},
     "model": {"bspline": 0, "histogram": 0, "tiling": 0, "example_checks": 0, "texton": 1, "analysis_options": 1,
               "gaussian": 2, "spot_noise": 2, "analysis": 3},

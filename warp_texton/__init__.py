@@ -25,6 +25,8 @@ import sys
 import warnings
 from typing import TYPE_CHECKING
 
+from .core.lazy import lazy_names
+
 from ._version import __version__
 from .core.errors import ExampleWarning, TextonError
 
@@ -107,17 +109,7 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(f".{module}", __name__), name)
-    globals()[name] = value  # once: later lookups do not come here
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_names(__name__, _LAZY)
 
 
 #: Module paths of 0.2 (one flat folder) and where they live now; importing an old path still

@@ -7,8 +7,9 @@ the CPU thread split). Imports nothing else of the package.
 
 from __future__ import annotations
 
-import importlib
 from typing import TYPE_CHECKING
+
+from .lazy import lazy_names
 
 if TYPE_CHECKING:
     from .errors import TextonError, ExampleWarning
@@ -35,14 +36,4 @@ _LAZY = {
 __all__ = ["Cancelled", "ExampleWarning", "TextonError", "cancellable", "check_memory", "check_work", "checkpoint", "memory_budget", "resolve_device", "scoped_budget", "set_memory_budget", "set_work_budget", "work_budget"]
 
 
-def __getattr__(name: str):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(f".{module}", __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_names(__name__, _LAZY)

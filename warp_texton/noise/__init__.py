@@ -6,8 +6,9 @@ batches and Dask arrays. Kernels: ``warp_texton.kernels.noise_*``.
 
 from __future__ import annotations
 
-import importlib
 from typing import TYPE_CHECKING
+
+from ..core.lazy import lazy_names
 
 if TYPE_CHECKING:
     from .synthesis import synthesize, evaluate
@@ -40,14 +41,4 @@ _LAZY = {
 __all__ = ["Batch", "BatchParams", "FilterOptions", "NoiseOptions", "PlaneCamera", "evaluate", "mix_textons", "render_plane", "synthesize", "synthesize_batch", "synthesize_dask", "synthesize_mixed", "to_colours", "write_zarr"]
 
 
-def __getattr__(name: str):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(f".{module}", __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_names(__name__, _LAZY)

@@ -5,8 +5,9 @@ Kernels: ``warp_texton.kernels.surface_*``.
 
 from __future__ import annotations
 
-import importlib
 from typing import TYPE_CHECKING
+
+from ..core.lazy import lazy_names
 
 if TYPE_CHECKING:
     from .points import surface_noise
@@ -35,14 +36,4 @@ _LAZY = {
 __all__ = ["BakedMesh", "Camera", "SurfaceJob", "bake_mesh", "render_baked", "render_mesh", "run_surface_job", "surface_noise", "tangent_frames", "texture_mesh", "write_baked"]
 
 
-def __getattr__(name: str):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(f".{module}", __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_names(__name__, _LAZY)

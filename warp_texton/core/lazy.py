@@ -1,0 +1,40 @@
+"""Names imported on first use (PEP 562): the one mechanism behind the package's and each room's face.
+
+A face lists its public names with the module that holds each (``_LAZY``);
+:func:`lazy_names` makes the module-level ``__getattr__`` and ``__dir__`` that import
+a name's module only when the name is first reached, so that importing a room (or
+``warp_texton`` itself, for ``--help``) starts no Warp and loads no SciPy.
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+from collections.abc import Callable, Mapping
+
+
+def lazy_names(package: str, names: Mapping[str, str]) -> tuple[Callable[[str], object], Callable[[], list[str]]]:
+    """(``__getattr__``, ``__dir__``) for ``package``, whose ``names`` map each name to
+    the module (relative to ``package``) that defines it.
+
+    >>> getattr_, dir_ = lazy_names("warp_texton.core", {"TextonError": "errors"})
+    >>> getattr_("TextonError").__name__
+    'TextonError'
+    >>> getattr_("nothing")
+    Traceback (most recent call last):
+    ...
+    AttributeError: module 'warp_texton.core' has no attribute 'nothing'
+    """
+
+    def __getattr__(name: str):
+        module = names.get(name)
+        if module is None:
+            raise AttributeError(f"module {package!r} has no attribute {name!r}")
+        value = getattr(importlib.import_module(f".{module}", package), name)
+        vars(sys.modules[package])[name] = value  # once: later lookups do not come here
+        return value
+
+    def __dir__() -> list[str]:
+        return sorted(set(vars(sys.modules[package])) | set(names))
+
+    return __getattr__, __dir__
