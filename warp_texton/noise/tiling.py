@@ -51,7 +51,7 @@ def tiling_pixels(model: TilingModel, shape, origin, step, first, seed: int, dev
     h, w = shape
     t = tiling_struct(model, seed, device)
     host = np.empty((h, w, 3), np.float32) if is_cpu(device) else None
-    out = wp.array(host, dtype=wp.vec3, copy=False) if host is not None else wp.empty((h, w), dtype=wp.vec3,
+    out = wp.array(host, dtype=wp.vec3, copy=False, device=device) if host is not None else wp.empty((h, w), dtype=wp.vec3,
                                                                                          device=device)
     o = wp.vec2d(float(origin[0]), float(origin[1]))
     sx = wp.vec2d(float(step[0, 0]), float(step[1, 0]))

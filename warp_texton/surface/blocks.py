@@ -234,7 +234,7 @@ def gather_blocks(p: surface_points.SurfaceParams, coeffs, pos: np.ndarray, nrm:
     sorted_tan = np.take(tan, pts.order, axis=0).astype(np.float32) if tan is not None else None
     # values go straight to the points' own rows (dest = order), in place on the CPU
     out = np.empty((n, 3), np.float32)
-    res = wp.array(out, dtype=wp.vec3, copy=False) if on_cpu else wp.empty(n, dtype=wp.vec3)
+    res = wp.array(out, dtype=wp.vec3, copy=False, device=device) if on_cpu else wp.empty(n, dtype=wp.vec3, device=device)
     lists = None if by_cluster else ClusterLists(min(len(pts.clusters), CLUSTERS_PER_ROUND))
     for b0, b1 in block_rounds(cubes):
         blocks = draw_cubes(p.cells, pts.lo[b0:b1], dims[b0:b1], device)
