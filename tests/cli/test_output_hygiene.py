@@ -53,11 +53,12 @@ class TestProgress:
         monkeypatch.setattr("warp_texton.core.progress.terminal", lambda: True)
         assert run_cli(["analyze", demo_texture_path(), "-o", tmp_path / "t.exr", "--size", 16,
                         "--iterations", 3]) == 0
-        assert capsys.readouterr().err == ""
+        # (the example's own warnings may reach stderr, depending on the warning filters in force)
+        assert "analyze:" not in capsys.readouterr().err
         monkeypatch.setattr("warp_texton.core.progress.PROGRESS_DELAY", 0.0)
         assert run_cli(["analyze", demo_texture_path(), "-o", tmp_path / "t.exr", "--size", 16,
                         "--iterations", 3]) == 0
-        assert "analyze" in capsys.readouterr().err
+        assert "analyze:" in capsys.readouterr().err  # the bar: "analyze:   0%|"
 
     def test_bake_bar_names_its_steps_with_a_fixed_total(self, monkeypatch):
         pytest.importorskip("xatlas")
