@@ -397,12 +397,18 @@ def _page(g: GlslNoise, shape, placement: dict) -> str:
     data = {"library": g.source, "main": _PREVIEW_MAIN, "width": w, "height": h, "channels": g.channels,
             "placement": placement, "caption": caption,
             "textures": texture_data(g.textures)}
+    return page_html(f"warp-texton: texton noise ({w} x {h})", w, h, data, _PREVIEW_BOOT)
+
+
+def page_html(title: str, w: int, h: int, data: dict, boot: str) -> str:
+    """A self-contained preview page: a w × h canvas ``#noise``, ``data`` as JSON in the
+    script element ``#texton-noise-data``, the shared JavaScript and the page's ``boot`` script."""
     blob = json.dumps(data).replace("</", "<\\/")  # no "</script>" inside the script element
     return f"""<!DOCTYPE html>
 <html lang="en">
 <head>
 <meta charset="utf-8">
-<title>warp-texton: texton noise ({w} x {h})</title>
+<title>{title}</title>
 <style>body {{ background: #222; color: #ddd; font: 14px sans-serif; margin: 16px; }}
 canvas {{ display: block; image-rendering: pixelated; }}</style>
 </head>
@@ -411,7 +417,7 @@ canvas {{ display: block; image-rendering: pixelated; }}</style>
 <p id="status">drawing...</p>
 <script type="application/json" id="texton-noise-data">{blob}</script>
 <script>{_source(JS_FILE)}</script>
-<script>{_PREVIEW_BOOT}</script>
+<script>{boot}</script>
 </body>
 </html>
 """
@@ -421,7 +427,20 @@ def preview_html(texton: Texton, shape=(512, 512), *, mni: float = 30.0, seed: i
                  rotation: float = 0.0, offset=(0.0, 0.0), period=None, poisson: str = "exact",
                  cell_factor: float = CELL_FACTOR, filter="anisotropic", noise: NoiseOptions | None = None) -> str:
     """One self-contained HTML page that draws the window ``synthesize`` gives with the
-    same arguments, with WebGL2 on a canvas ``#noise`` (see the module)."""
+    same arguments, with WebGL2 on a canvas ``#noise`` (see the module). A tiling model
+    (:class:`~warp_texton.model.tiling.TilingModel`) gets its own page
+    (:func:`~warp_texton.runtimes.tiling_shaders.tiling_preview_html`)."""
+    from ..model.tiling import TilingModel
+
+    if isinstance(texton, TilingModel):
+        from . import tiling_shaders
+
+        noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson,
+                                   cell_factor=cell_factor)
+        fseed = tiling_shaders.refuse_texton_options(noise, filter=None if filter in (None, "none", "anisotropic")
+                                                     else filter)
+        return tiling_shaders.tiling_preview_html(texton, shape, seed=fseed, scale=scale, rotation=rotation,
+                                                  offset=offset)
     h, w = check_shape(shape)
     if max(h, w) > MAX_PREVIEW_SIDE:
         raise TextonError(f"a preview is at most {MAX_PREVIEW_SIDE} pixels a side (the largest render target "
