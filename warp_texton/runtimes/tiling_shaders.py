@@ -313,7 +313,7 @@ def tiling_osl_files(model: TilingModel, seed: int = 0, texel_size: float = 0.01
         "GUIDE_WEIGHT": _osl_float(model.guide_weight), "VARIANCE": "1" if model.blend == "variance" else "0",
         "MEAN": f"color({', '.join(_osl_float(v) for v in mean)})", "CUTOFF": _osl_float(CUTOFF),
         "M1": str(_i32(0x7FEB352D)), "M2": str(_i32(0x846CA68B)), "GOLDEN": str(_i32(GOLDEN)),
-        "TAG": str(_i32(int(TILING_TAG.value) if hasattr(TILING_TAG, "value") else 0x2C1B3C6D)),
+        "TAG": str(_i32(int(TILING_TAG))),
         "PCG_MUL": str(_i32(747796405)), "PCG_INC": str(_i32(2891336453)), "PCG_OUT": str(_i32(277803737)),
         "TEXEL": "color(T[k], T[k + 1], T[k + 2])" if c == 3 else "color(T[k], 0.0, 0.0)",
         "GUIDE": f"T[k + {c}]" if guide else "0.0",
