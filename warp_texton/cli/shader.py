@@ -54,8 +54,7 @@ def _check_page(page, output) -> None:
 
 def _shader(args) -> None:
     from ..files.images import atomic_path
-    from ..runtimes.export import export_shader
-    from ..runtimes.glsl import preview_html
+    from ..runtimes.export import export_shader, preview_page
 
     if args.output is None and args.html is None:
         raise TextonError("give -o DIR (the export folder), --html PAGE (the preview), or both")
@@ -68,7 +67,7 @@ def _shader(args) -> None:
     noise = noise_options(args)
     what = "a tiling model" if getattr(texton, "kind", "texton") == "tiling" else "texton noise"
     # the page is made (and its options checked) before the folder is written: all outputs or none
-    html = None if args.html is None else preview_html(
+    html = None if args.html is None else preview_page(
         texton, (args.height, args.width), scale=args.scale, rotation=args.rotation, offset=tuple(args.offset),
         noise=noise)
     if args.output is not None:

@@ -19,7 +19,7 @@ import numpy as np
 from ..core.errors import TextonError
 from ..files.folders import atomic_files, check_replaceable
 from ..surface.frames import UP
-from . import glsl, osl
+from . import glsl, osl, tiling_shaders
 from ..files.images import atomic_path, check_output_name
 from ..noise.noise_options import CELL_FACTOR, NoiseOptions
 from ..model.texton import Texton
@@ -85,8 +85,6 @@ def _tiling_files(model: TilingModel, lang: str, noise: NoiseOptions | None, fil
                   side) -> dict:
     """The files of a tiling model's export (:mod:`warp_texton.runtimes.tiling_shaders`): the
     unfiltered plane tiling; the texton-noise, filter and surface options are refused."""
-    from . import tiling_shaders
-
     seed = tiling_shaders.refuse_texton_options(noise, filter=None if filter in (None, "none") else filter,
                                                 up=None if _default_up(up) else up, side=side)
     if lang == "glsl":
@@ -259,10 +257,21 @@ def write_shader_preview(texton: Texton | TilingModel, path, shape=(512, 512), *
         For a side over 2048 pixels, a texton too large for WebGL2, and the
         errors of :func:`~warp_texton.synthesize` for these arguments.
     """
-    from .glsl import preview_html
-
     noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
-    html = preview_html(texton, shape, scale=scale, rotation=rotation, offset=offset, noise=noise)
+    html = preview_page(texton, shape, scale=scale, rotation=rotation, offset=offset, noise=noise)
     with atomic_path(path) as tmp:
         Path(tmp).write_text(html, encoding="utf-8")
     return Path(path)
+
+
+def preview_page(texton: Texton | TilingModel, shape, *, scale: float = 1.0, rotation: float = 0.0,
+                 offset=(0.0, 0.0), noise: NoiseOptions | None = None) -> str:
+    """The HTML of :func:`write_shader_preview` (``noise`` default: ``NoiseOptions()``): a texton's
+    page (:func:`warp_texton.runtimes.glsl.preview_html`) or a tiling model's
+    (:func:`warp_texton.runtimes.tiling_shaders.tiling_preview_html`; of ``noise`` only the seed
+    applies, the other options are refused)."""
+    if isinstance(texton, TilingModel):
+        seed = tiling_shaders.refuse_texton_options(noise)
+        return tiling_shaders.tiling_preview_html(texton, shape, seed=seed, scale=scale, rotation=rotation,
+                                                  offset=offset)
+    return glsl.preview_html(texton, shape, scale=scale, rotation=rotation, offset=offset, noise=noise)

@@ -427,20 +427,7 @@ def preview_html(texton: Texton, shape=(512, 512), *, mni: float = 30.0, seed: i
                  rotation: float = 0.0, offset=(0.0, 0.0), period=None, poisson: str = "exact",
                  cell_factor: float = CELL_FACTOR, filter="anisotropic", noise: NoiseOptions | None = None) -> str:
     """One self-contained HTML page that draws the window ``synthesize`` gives with the
-    same arguments, with WebGL2 on a canvas ``#noise`` (see the module). A tiling model
-    (:class:`~warp_texton.model.tiling.TilingModel`) gets its own page
-    (:func:`~warp_texton.runtimes.tiling_shaders.tiling_preview_html`)."""
-    from ..model.tiling import TilingModel
-
-    if isinstance(texton, TilingModel):
-        from . import tiling_shaders
-
-        noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson,
-                                   cell_factor=cell_factor)
-        fseed = tiling_shaders.refuse_texton_options(noise, filter=None if filter in (None, "none", "anisotropic")
-                                                     else filter)
-        return tiling_shaders.tiling_preview_html(texton, shape, seed=fseed, scale=scale, rotation=rotation,
-                                                  offset=offset)
+    same arguments, with WebGL2 on a canvas ``#noise`` (see the module)."""
     h, w = check_shape(shape)
     if max(h, w) > MAX_PREVIEW_SIDE:
         raise TextonError(f"a preview is at most {MAX_PREVIEW_SIDE} pixels a side (the largest render target "
