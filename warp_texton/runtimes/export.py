@@ -112,7 +112,12 @@ def export_shader(texton: Texton | TilingModel, lang: str, out_dir, *, mni: floa
 
     Parameters
     ----------
-    texton : Texton
+    texton : Texton or TilingModel
+        A tiling model (``analyze(..., method="tiling")``) exports its own files:
+        ``tiling_noise.glsl`` with ``tiling_example.f32`` (GLSL) or
+        ``tiling_plane.osl`` (OSL), the unfiltered plane tiling with ``seed``;
+        the texton-noise options, ``filter`` (other than "none"), ``up`` and
+        ``side`` are refused for it (docs/tiling.md, "Runtimes").
     lang : {"glsl", "osl"}
         ``"glsl"``: a library valid as GLSL ES 3.00 (WebGL2) and, with its
         version line changed, GLSL 3.30+, with ``texton_noise(x)``, a
@@ -239,7 +244,9 @@ def write_shader_preview(texton: Texton | TilingModel, path, shape=(512, 512), *
 
     Parameters
     ----------
-    texton : Texton
+    texton : Texton or TilingModel
+        A tiling model's page draws ``synthesize(model, shape, seed=seed, scale=...,
+        rotation=..., offset=...)``; its other noise options are refused.
     path : str or Path
         The HTML file, written atomically.
     shape : (height, width)
