@@ -120,3 +120,19 @@ def test_files_and_refusals(tmp_path):
     with pytest.raises(TextonError, match="texel_size"):
         export_shader(model, "osl", tmp_path / "t", texel_size=0)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["osl"]
+
+
+def test_cli_writes_the_osl_export(tmp_path, capsys):
+    from helpers import run_cli
+
+    model = TilingModel(brick(1, 8), 12.0)
+    model.save(tmp_path / "m.exr")
+    assert run_cli(["shader", tmp_path / "m.exr", "--lang", "osl", "-o", tmp_path / "osl", "--seed", "6",
+                    "--texel-size", "0.02"]) == 0
+    want = ts.tiling_osl_files(model, 6, 0.02)[ts.OSL_FILE]
+    assert (tmp_path / "osl" / ts.OSL_FILE).read_bytes() == want
+    assert "osl export of a tiling model" in capsys.readouterr().out
+    assert run_cli(["shader", tmp_path / "m.exr", "--lang", "osl", "-o", tmp_path / "bad", "--period", "8", "8"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "--period" in err, err
+    assert not (tmp_path / "bad").exists()
