@@ -95,6 +95,25 @@ def test_preview_equals_synthesize(case, models, browser, tmp_path, record_prope
         assert np.array_equal(got[..., 0], got[..., 1])
 
 
+@pytest.mark.slow
+def test_float32_positions_from_the_origin(models, browser, tmp_path):
+    """What tiling_noise(x) keeps without an anchor (x in float32 from the origin, as the OSL
+    port and a shader of one's own compute it), 10⁴ texels from the origin: the issue's bound
+    still holds; the anchored page at 10⁶ texels keeps float rounding only."""
+    model = models["guide"]
+    kw = dict(seed=3, scale=0.8, rotation=20.0)
+    for anchored, dist, bound in ((False, 1.0e4, TOLERANCE), (True, 1.0e6, 1e-4)):
+        html = ts.tiling_preview_html(model, SHAPE, offset=(dist, -dist), anchored=anchored, **kw)
+        (tmp_path / "p.html").write_text(html)
+        page = open_page(browser, tmp_path / "p.html")
+        got = np.array(page.evaluate("window.textonNoise.readFloat()"), np.float32).reshape(*SHAPE, 4)[..., :3]
+        ref = synthesize(model, SHAPE, device="cpu", offset=(dist, -dist), **kw)
+        err = np.abs(got - ref).max(axis=-1)
+        print(f"{'anchored' if anchored else 'tiling_noise(x)'} at {dist:g} texels: "
+              f"{np.mean(err <= TOLERANCE):.4f} within 2/255, max {err.max():.2e}")
+        assert np.mean(err <= bound) >= MIN_AGREEMENT
+
+
 def test_anchor_is_the_kernels_grid(models):
     """tiling_anchor's vertex and rounding are those of kernels/noise_tiling.py: x − rel is the
     whole-texel position P of the anchor, and p − P = frac lies in [−½, ½)."""

@@ -233,9 +233,10 @@ _PREVIEW_BOOT = """
 """
 
 
-def _placement(model: TilingModel, shape, scale, rotation, offset) -> dict:
+def _placement(model: TilingModel, shape, scale, rotation, offset, anchored: bool = True) -> dict:
     """The window's centre as (anchor, frac, rel) of :func:`tiling_anchor` (float64, then
-    float32) and its steps per pixel (float32)."""
+    float32) and its steps per pixel (float32); not ``anchored``: the anchor (0, 0), so that
+    the page computes ``tiling_noise(x)`` with x in float32 from the origin."""
     h, w = shape
     origin, step = raster_geometry(shape, scale, rotation, offset)
     corners = origin[:, None] + step @ np.array([[0, w, 0, w], [0, 0, h, h]], np.float64)
@@ -244,26 +245,29 @@ def _placement(model: TilingModel, shape, scale, rotation, offset) -> dict:
         raise TextonError(f"the window reaches {reach:.3g} texels from the origin; a tiling model is defined "
                           f"within ±{MAX_TILING_REACH:.3g} texels", param="offset")
     centre = origin + step @ np.array([w / 2, h / 2])
-    (a, b), frac, rel = tiling_anchor(model, centre)
+    (a, b), frac, rel = tiling_anchor(model, centre) if anchored else ((0, 0), np.zeros(2), centre)
     f32 = lambda v: [float(np.float32(x)) for x in v]  # noqa: E731
     return {"anchor": [a, b], "frac": f32(frac), "centre": f32(rel), "step_x": f32(step[:, 0]),
             "step_y": f32(step[:, 1])}
 
 
-def _preview(model, seed, source, tex, shape, scale, rotation, offset) -> str:
+def _preview(model, seed, source, tex, shape, scale, rotation, offset, anchored: bool = True) -> str:
     h, w = shape
     caption = (f"tiling model, {w} x {h} pixels: example {model.example.shape[1]} x {model.example.shape[0]}, "
                f"side {model.side:g}, sharpness {model.sharpness}, seed {seed}")
     data = {"library": source, "main": _PREVIEW_MAIN, "width": w, "height": h, "channels": model.channels,
-            "placement": _placement(model, shape, scale, rotation, offset), "caption": caption,
+            "placement": _placement(model, shape, scale, rotation, offset, anchored), "caption": caption,
             "textures": texture_data({EXAMPLE_TEXTURE: tex})}
     return page_html(f"warp-texton: tiling model ({w} x {h})", w, h, data, _PREVIEW_BOOT)
 
 
 def tiling_preview_html(model: TilingModel, shape=(512, 512), *, seed: int = 0, scale: float = 1.0,
-                        rotation: float = 0.0, offset=(0.0, 0.0)) -> str:
+                        rotation: float = 0.0, offset=(0.0, 0.0), anchored: bool = True) -> str:
     """One self-contained HTML page that draws, with WebGL2 on a canvas ``#noise``, the
-    window ``synthesize(model, shape, seed=seed, scale=..., rotation=..., offset=...)`` gives."""
+    window ``synthesize(model, shape, seed=seed, scale=..., rotation=..., offset=...)`` gives.
+
+    ``anchored=False`` draws it with ``tiling_noise(x)``, x in float32 from the origin (as a
+    shader without an anchor, and the OSL port, compute it), to measure what float32 keeps."""
     model = check_model(model)
     h, w = check_shape(shape)
     if max(h, w) > MAX_PREVIEW_SIDE:
@@ -271,7 +275,7 @@ def tiling_preview_html(model: TilingModel, shape=(512, 512), *, seed: int = 0, 
                           f"WebGL2 guarantees), got {w} x {h}", param="shape")
     seed = check_seed(seed)
     source = glsl_source(model, seed)
-    return _preview(model, seed, source, example_texture(model), (h, w), scale, rotation, offset)
+    return _preview(model, seed, source, example_texture(model), (h, w), scale, rotation, offset, anchored)
 
 
 # ---------------------------------------------------------------- OSL
