@@ -75,3 +75,9 @@ def shares_at(noise: td.FilteredNoise, cmap: td.ColourMap, footprints: wp.array(
               out: wp.array(dtype=float)):
     t = wp.tid()
     out[t] = td.filtered_share(noise, cmap, footprints[t])
+
+
+@wp.kernel
+def tiling_at(t: td.Tiling, points: wp.array(dtype=wp.vec2d), out: wp.array(dtype=wp.vec3)):
+    k = wp.tid()
+    out[k] = td.tiling_value(t, points[k])

@@ -37,7 +37,7 @@ ROOM_LAYERS = {
               "synthesis": 4, "ground_plane": 4, "mixing": 4, "dask_arrays": 5, "batches": 5},
     "surface": {"frames": 0, "atlas": 0, "atlas_worker": 0, "blocks": 0, "points": 1, "mesh": 2, "mesh_files": 3,
                 "render": 3, "bake": 4, "jobs": 5},
-    "runtimes": {"glsl": 0, "osl": 0, "warp_api": 0, "export": 1},
+    "runtimes": {"glsl": 0, "osl": 0, "warp_api": 0, "tiling_shaders": 1, "export": 2},
     "view": {"static": 0, "queries": 0, "cache": 0, "images": 0, "webgl": 0, "inputs": 1, "commands": 2,
              "viewer": 3, "server": 4},
     "cli": {"options": 0, "images": 1, "surface": 1, "shader": 1, "view": 1, "parser": 2},

@@ -294,7 +294,10 @@ def test_overwrite_replaces_only_the_exports_files(tmp_path, grey_texton, preser
 
 def test_every_file_an_export_writes_is_listed(tmp_path, grey_texton, preserving_texton):
     written = set()
-    for k, texton in enumerate((grey_texton, preserving_texton)):
+    from warp_texton.model.tiling import TilingModel
+
+    tiling = TilingModel(np.random.default_rng(0).random((40, 40, 3)), 8.0)
+    for k, texton in enumerate((grey_texton, preserving_texton, tiling)):
         for lang in ("glsl", "osl"):
             written |= set(os.listdir(export_shader(texton, lang, tmp_path / f"{lang}{k}")))
     assert written == EXPORT_FILES

@@ -54,8 +54,7 @@ def _check_page(page, output) -> None:
 
 def _shader(args) -> None:
     from ..files.images import atomic_path
-    from ..runtimes.export import export_shader
-    from ..runtimes.glsl import preview_html
+    from ..runtimes.export import export_shader, preview_page
 
     if args.output is None and args.html is None:
         raise TextonError("give -o DIR (the export folder), --html PAGE (the preview), or both")
@@ -66,20 +65,23 @@ def _shader(args) -> None:
     t0 = time.perf_counter()
     texton = texton_of(args)
     noise = noise_options(args)
+    what = "a tiling model" if getattr(texton, "kind", "texton") == "tiling" else "texton noise"
     # the page is made (and its options checked) before the folder is written: all outputs or none
-    html = None if args.html is None else preview_html(
+    html = None if args.html is None else preview_page(
         texton, (args.height, args.width), scale=args.scale, rotation=args.rotation, offset=tuple(args.offset),
         noise=noise)
     if args.output is not None:
         out = export_shader(texton, args.lang, args.output, up=args.up, overwrite=args.overwrite,
                             filter=args.filter, texel_size=args.texel_size, noise=noise)
         if not args.quiet:
-            print(f"{out}: {args.lang} export of texton noise, MNI {args.mni:g} ({seconds_since(t0)})")
+            print(f"{out}: {args.lang} export of {what}" + ("" if what != "texton noise" else f", MNI {args.mni:g}")
+                  + f" ({seconds_since(t0)})")
     if html is not None:
         with atomic_path(args.html) as tmp:
             Path(tmp).write_text(html, encoding="utf-8")
         if not args.quiet:
-            print(f"{args.html}: {args.width}x{args.height} WebGL2 preview of texton noise, MNI {args.mni:g}")
+            print(f"{args.html}: {args.width}x{args.height} WebGL2 preview of {what}"
+                  + ("" if what != "texton noise" else f", MNI {args.mni:g}"))
 
 
 SHADER = Command(

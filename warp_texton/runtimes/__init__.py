@@ -10,7 +10,7 @@ from ..core.lazy import lazy_names
 
 if TYPE_CHECKING:
     from .export import export_shader, write_shader_preview
-    from .warp_api import pack_plane, pack_filtered, pack_surface, pack_colours
+    from .warp_api import pack_plane, pack_filtered, pack_surface, pack_colours, pack_tiling
 
 #: The module of each name of this room's face, imported on first use (PEP 562).
 _LAZY = {
@@ -20,9 +20,11 @@ _LAZY = {
     "pack_filtered": "warp_api",
     "pack_surface": "warp_api",
     "pack_colours": "warp_api",
+    "pack_tiling": "warp_api",
 }
 
-__all__ = ["export_shader", "pack_colours", "pack_filtered", "pack_plane", "pack_surface", "write_shader_preview"]
+__all__ = ["export_shader", "pack_colours", "pack_filtered", "pack_plane", "pack_surface", "pack_tiling",
+           "write_shader_preview"]
 
 
 __getattr__, __dir__ = lazy_names(__name__, _LAZY)

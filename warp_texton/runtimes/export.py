@@ -14,13 +14,16 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
+
 from ..core.errors import TextonError
 from ..files.folders import atomic_files, check_replaceable
 from ..surface.frames import UP
-from . import glsl, osl
+from . import glsl, osl, tiling_shaders
 from ..files.images import atomic_path, check_output_name
 from ..noise.noise_options import CELL_FACTOR, NoiseOptions
 from ..model.texton import Texton
+from ..model.tiling import TilingModel
 
 #: The shader languages, each with the function that makes its files.
 LANGUAGES = {"glsl": glsl.glsl_files, "osl": osl.osl_files}
@@ -30,7 +33,8 @@ META_FILES = ("texton_noise.json", "texton_noise_osl.json")
 #: this export does not write it, removes. Other files in the folder are the user's and stay.
 EXPORT_FILES = frozenset({"texton_noise.glsl", "texton_noise.js", "texton_coeffs.f32", "texton_pyramid.f32",
                           "texton_colours.f32", "texton_shares.f32", "preview.html", "texton_surface.osl",
-                          "texton_plane.osl", *META_FILES})
+                          "texton_plane.osl", "tiling_noise.glsl", "tiling_example.f32", "tiling_plane.osl",
+                          *META_FILES})
 
 
 def _files_of(lang: str):
@@ -67,7 +71,33 @@ def _osl_meta(texton: Texton, files: dict, noise: NoiseOptions, frame: dict, tex
     return (json.dumps(meta, indent=2) + "\n").encode()
 
 
-def export_shader(texton: Texton, lang: str, out_dir, *, mni: float = 30.0, seed: int = 0, period=None,
+def _default_up(up) -> bool:
+    """Whether ``up`` is the surface frame rule's default (+z), as a name or a vector."""
+    if isinstance(up, str):
+        return up == "z"
+    try:
+        return bool(np.array_equal(np.asarray(up, np.float64), UP))
+    except (TypeError, ValueError):
+        return False
+
+
+def _tiling_files(model: TilingModel, lang: str, noise: NoiseOptions | None, filter, texel_size, up,
+                  side) -> dict:
+    """The files of a tiling model's export (:mod:`warp_texton.runtimes.tiling_shaders`): the
+    unfiltered plane tiling; the texton-noise, filter and surface options are refused."""
+    seed = tiling_shaders.refuse_texton_options(noise, filter=None if filter in (None, "none") else filter,
+                                                up=None if _default_up(up) else up, side=side)
+    if lang == "glsl":
+        if texel_size is not None:
+            raise TextonError("texel_size is an option of the osl export; the glsl functions take positions in "
+                              "texels", param="texel_size")
+        return tiling_shaders.tiling_glsl_files(model, seed)
+    files = tiling_shaders.tiling_osl_files(model, seed, 0.01 if texel_size is None else texel_size)
+    files[META_FILES[1]] = tiling_shaders.tiling_osl_meta(model, seed, texel_size)
+    return files
+
+
+def export_shader(texton: Texton | TilingModel, lang: str, out_dir, *, mni: float = 30.0, seed: int = 0, period=None,
                   poisson: str = "exact", cell_factor: float = CELL_FACTOR, filter=None, texel_size=None,
                   up=UP, side=None, overwrite: bool = False, noise: NoiseOptions | None = None) -> Path:
     """Write texton noise as shader code for ``lang`` into the folder ``out_dir``.
@@ -82,7 +112,12 @@ def export_shader(texton: Texton, lang: str, out_dir, *, mni: float = 30.0, seed
 
     Parameters
     ----------
-    texton : Texton
+    texton : Texton or TilingModel
+        A tiling model (``analyze(..., method="tiling")``) exports its own files:
+        ``tiling_noise.glsl`` with ``tiling_example.f32`` (GLSL) or
+        ``tiling_plane.osl`` (OSL), the unfiltered plane tiling with ``seed``;
+        the texton-noise options, ``filter`` (other than "none"), ``up`` and
+        ``side`` are refused for it (docs/tiling.md, "Runtimes").
     lang : {"glsl", "osl"}
         ``"glsl"``: a library valid as GLSL ES 3.00 (WebGL2) and, with its
         version line changed, GLSL 3.30+, with ``texton_noise(x)``, a
@@ -174,7 +209,9 @@ def export_shader(texton: Texton, lang: str, out_dir, *, mni: float = 30.0, seed
     check_replaceable(path, overwrite, _is_export, "a shader export")  # before any work
     noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
     frame = dict(up=up, side=side)
-    if lang == "glsl":
+    if isinstance(texton, TilingModel):
+        files = _tiling_files(texton, lang, noise, filter, texel_size, up, side)
+    elif lang == "glsl":
         if texel_size is not None:
             raise TextonError("texel_size is an option of the osl export; the glsl functions take positions in "
                               "texels", param="texel_size")
@@ -192,7 +229,7 @@ def export_shader(texton: Texton, lang: str, out_dir, *, mni: float = 30.0, seed
     return path
 
 
-def write_shader_preview(texton: Texton, path, shape=(512, 512), *, mni: float = 30.0, seed: int = 0,
+def write_shader_preview(texton: Texton | TilingModel, path, shape=(512, 512), *, mni: float = 30.0, seed: int = 0,
                          scale: float = 1.0, rotation: float = 0.0, offset=(0.0, 0.0), period=None,
                          poisson: str = "exact", cell_factor: float = CELL_FACTOR,
                          noise: NoiseOptions | None = None) -> Path:
@@ -207,7 +244,9 @@ def write_shader_preview(texton: Texton, path, shape=(512, 512), *, mni: float =
 
     Parameters
     ----------
-    texton : Texton
+    texton : Texton or TilingModel
+        A tiling model's page draws ``synthesize(model, shape, seed=seed, scale=...,
+        rotation=..., offset=...)``; its other noise options are refused.
     path : str or Path
         The HTML file, written atomically.
     shape : (height, width)
@@ -225,10 +264,21 @@ def write_shader_preview(texton: Texton, path, shape=(512, 512), *, mni: float =
         For a side over 2048 pixels, a texton too large for WebGL2, and the
         errors of :func:`~warp_texton.synthesize` for these arguments.
     """
-    from .glsl import preview_html
-
     noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
-    html = preview_html(texton, shape, scale=scale, rotation=rotation, offset=offset, noise=noise)
+    html = preview_page(texton, shape, scale=scale, rotation=rotation, offset=offset, noise=noise)
     with atomic_path(path) as tmp:
         Path(tmp).write_text(html, encoding="utf-8")
     return Path(path)
+
+
+def preview_page(texton: Texton | TilingModel, shape, *, scale: float = 1.0, rotation: float = 0.0,
+                 offset=(0.0, 0.0), noise: NoiseOptions | None = None) -> str:
+    """The HTML of :func:`write_shader_preview` (``noise`` default: ``NoiseOptions()``): a texton's
+    page (:func:`warp_texton.runtimes.glsl.preview_html`) or a tiling model's
+    (:func:`warp_texton.runtimes.tiling_shaders.tiling_preview_html`; of ``noise`` only the seed
+    applies, the other options are refused)."""
+    if isinstance(texton, TilingModel):
+        seed = tiling_shaders.refuse_texton_options(noise)
+        return tiling_shaders.tiling_preview_html(texton, shape, seed=seed, scale=scale, rotation=rotation,
+                                                  offset=offset)
+    return glsl.preview_html(texton, shape, scale=scale, rotation=rotation, offset=offset, noise=noise)

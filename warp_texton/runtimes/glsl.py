@@ -397,12 +397,18 @@ def _page(g: GlslNoise, shape, placement: dict) -> str:
     data = {"library": g.source, "main": _PREVIEW_MAIN, "width": w, "height": h, "channels": g.channels,
             "placement": placement, "caption": caption,
             "textures": texture_data(g.textures)}
+    return page_html(f"warp-texton: texton noise ({w} x {h})", w, h, data, _PREVIEW_BOOT)
+
+
+def page_html(title: str, w: int, h: int, data: dict, boot: str) -> str:
+    """A self-contained preview page: a w × h canvas ``#noise``, ``data`` as JSON in the
+    script element ``#texton-noise-data``, the shared JavaScript and the page's ``boot`` script."""
     blob = json.dumps(data).replace("</", "<\\/")  # no "</script>" inside the script element
     return f"""<!DOCTYPE html>
 <html lang="en">
 <head>
 <meta charset="utf-8">
-<title>warp-texton: texton noise ({w} x {h})</title>
+<title>{title}</title>
 <style>body {{ background: #222; color: #ddd; font: 14px sans-serif; margin: 16px; }}
 canvas {{ display: block; image-rendering: pixelated; }}</style>
 </head>
@@ -411,7 +417,7 @@ canvas {{ display: block; image-rendering: pixelated; }}</style>
 <p id="status">drawing...</p>
 <script type="application/json" id="texton-noise-data">{blob}</script>
 <script>{_source(JS_FILE)}</script>
-<script>{_PREVIEW_BOOT}</script>
+<script>{boot}</script>
 </body>
 </html>
 """

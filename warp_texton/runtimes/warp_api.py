@@ -13,6 +13,7 @@ kernel.
 | :func:`pack_filtered` (``channels=1``) | ``FilteredNoise1`` | ``filtered_value(noise, x, J) -> float`` |
 | :func:`pack_filtered` | ``FilteredNoise`` | ``filtered_value(noise, x: wp.vec2d, J: wp.mat22) -> wp.vec3`` |
 | :func:`pack_surface` | ``SurfaceNoise`` | ``surface_value(noise, x: wp.vec3d, normal: wp.vec3d) -> wp.vec3``, ``surface_frame_value(noise, y: wp.vec3d, n: wp.vec3, u1: wp.vec3) -> wp.vec3`` |
+| :func:`pack_tiling` | ``Tiling`` | ``tiling_value(t, x: wp.vec2d) -> wp.vec3`` (a tiling model, docs/tiling.md) |
 | :func:`pack_colours` | ``ColourMap`` | ``colour_value(cmap, v: wp.vec3) -> wp.vec3``, ``filtered_colour(fnoise, cmap, x: wp.vec2d, J: wp.mat22) -> wp.vec3``, ``colour_share``, ``filtered_share``, ``footprint_share`` |
 
 The structs and functions are those of the package's own kernels
@@ -65,7 +66,8 @@ References
 CGF eq. (1)-(2), §5, §6, §8.
 
 Kernels driven here: ``warp_texton.kernels.noise_colours``, ``warp_texton.kernels.noise_filter``,
-``warp_texton.kernels.noise_raster``, ``warp_texton.kernels.surface_points``.
+``warp_texton.kernels.noise_raster``, ``warp_texton.kernels.noise_tiling``,
+``warp_texton.kernels.surface_points``.
 """
 
 from __future__ import annotations
@@ -83,14 +85,17 @@ from ..kernels.noise_colours import (ColourMap, colour_share, colour_value, filt
                               footprint_share)
 from ..kernels.noise_filter import FilteredNoise, FilteredNoise1, filtered_value
 from ..kernels.noise_raster import PlaneNoise, PlaneNoise1, plane_value
+from ..kernels.noise_tiling import Tiling, tiling_value
 from ..kernels.surface_points import SurfaceNoise, surface_frame_value, surface_value
 from ..noise.engine import CELL_FACTOR, noise_params, noise_setup
 from ..noise.noise_options import NoiseOptions
 from ..surface.points import CELL_FACTOR as SURFACE_CELL_FACTOR
 from ..surface.points import surface_options, surface_params, surface_setup
 from ..model.texton import Texton
+from ..model.tiling import TilingModel
 
-__all__ = ["pack_plane", "pack_filtered", "pack_surface", "pack_colours", "PlaneNoise", "PlaneNoise1", "FilteredNoise",
+__all__ = ["pack_plane", "pack_filtered", "pack_surface", "pack_colours", "pack_tiling", "Tiling", "tiling_value",
+           "PlaneNoise", "PlaneNoise1", "FilteredNoise",
            "FilteredNoise1",
            "SurfaceNoise", "ColourMap", "plane_value", "filtered_value", "surface_value", "surface_frame_value",
            "colour_value", "colour_share", "filtered_colour", "filtered_share", "footprint_share"]
@@ -379,3 +384,54 @@ def pack_colours(texton: Texton, *, device=None) -> ColourMap:
     if not isinstance(texton, Texton):
         raise TextonError(f"texton must be a Texton, got {type(texton).__name__}", param="texton")
     return make_colour_map(texton, resolve_device(device), True)
+
+
+def pack_tiling(model: TilingModel, *, seed: int = 0, device=None) -> Tiling:
+    """A tiling model (``analyze(..., method="tiling")``) packed for ``tiling_value`` in a user's kernel.
+
+    Parameters
+    ----------
+    model : TilingModel
+    seed : int
+        The seed, as in :func:`~warp_texton.evaluate` and :func:`~warp_texton.synthesize`,
+        in [0, 2**32).
+    device : str, optional
+        Where the struct's arrays (the example, and its guide when the model has a guide
+        weight) live and its kernels run, as in :func:`pack_plane`.
+
+    Returns
+    -------
+    Tiling
+        The ``@wp.struct`` of the package's own tiling kernels (``kernels/noise_tiling.py``):
+        ``tiling_value(t, x: wp.vec2d) -> wp.vec3`` is ``evaluate(model, [x], seed=seed)[0]``
+        (padded to three components for a grey model) bit for bit on ``device``, ``x``
+        a float64 point in noise units (texels of the example at scale 1), x to the right,
+        y down; ``synthesize`` places pixel (i, j) at ``offset + R(rotation) · ((j + ½) /
+        scale, (i + ½) / scale)``, computed in float64, and gives ``tiling_value`` there
+        bit for bit too. Points stay within ±2³⁰ texels (what ``evaluate`` accepts).
+
+    Raises
+    ------
+    TextonError
+        For a ``model`` that is not a TilingModel (or one with a histogram transform,
+        which the struct does not carry), a bad ``seed`` or ``device``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from warp_texton.model.tiling import TilingModel
+    >>> model = TilingModel(np.random.default_rng(0).random((64, 64, 3)), 16.0)
+    >>> t = pack_tiling(model, seed=3, device="cpu")
+    >>> int(t.seed), t.example.shape, t.margin
+    (3, (64, 64), 17)
+    """
+    from ..core.checks import check_seed
+    from ..noise.tiling import tiling_struct
+
+    if not isinstance(model, TilingModel):
+        raise TextonError(f"model must be a TilingModel (analyze(..., method='tiling')), got {type(model).__name__}",
+                          param="model")
+    if getattr(model, "histogram", None) is not None:
+        raise TextonError("a tiling model with a histogram transform is not packed by pack_tiling yet: the "
+                          "Tiling struct holds the blend only (docs/tiling.md)", param="model")
+    return tiling_struct(model, check_seed(seed), resolve_device(device))
