@@ -187,11 +187,12 @@ def _price_bake(args, texton) -> None:
     """A --bake priced from the options alone, before any mesh is read or any job starts:
     one line and exit 2 for a bake no mesh could make within the budgets."""
     from ..surface.bake import check_bake_arguments
-    from ..model.texton import Texton, as_texton, load_texton
+    from ..model.texton import Texton, load_texton
+    from ..model.tiling import TilingModel
 
     if args.bake is None:
         return
-    t = as_texton(texton if isinstance(texton, Texton) else load_texton(texton), "surface --bake")
+    t = texton if isinstance(texton, (Texton, TilingModel)) else load_texton(texton)
     check_bake_arguments(t, args.bake, mni=args.mni, supersample=args.supersample, uv=args.uv)
 
 
