@@ -163,6 +163,64 @@ def quality(model, quick: bool) -> list[dict]:
     return rows
 
 
+def unrolled_points(centre: np.ndarray, radius: float, side: int):
+    """A side² grid of texel spacing on a sphere (radius in texels) around the direction ``centre``
+    (with positive components), laid by the exponential map with its columns and rows along the
+    axes the dominant plane reads the example's x and y on: (points, normals)."""
+    c = centre / np.linalg.norm(centre)
+    # the image's axes are those the dominant plane reads (the floor's on ties), laid on the tangent plane
+    k = 2 if abs(c[2]) >= np.abs(c).max() else int(np.argmax(np.abs(c)))
+    x_axis, y_axis = {0: ([0, 1, 0], [0, 0, -1]), 1: ([-1, 0, 0], [0, 0, -1]), 2: ([1, 0, 0], [0, -1, 0])}[k]
+    a = np.array(x_axis, float) - c * (c @ x_axis)
+    a /= np.linalg.norm(a)
+    b = np.array(y_axis, float) - c * (c @ y_axis)
+    b -= a * (a @ b)
+    b /= np.linalg.norm(b)
+    j, i = np.meshgrid(np.arange(side) - side / 2 + 0.5, np.arange(side) - side / 2 + 0.5)
+    r = np.hypot(j, i).ravel() / radius
+    d = (np.outer(j.ravel(), a) + np.outer(i.ravel(), b)) / np.maximum(np.hypot(j, i).ravel(), 1e-12)[:, None]
+    n = c * np.cos(r)[:, None] + d * np.sin(r)[:, None]
+    return radius * n, n
+
+
+def triplanar_replica(model, p, n, sharpness: int, seed: int) -> np.ndarray:
+    planes = axes_planes(p, n)
+    values = [evaluate(model, x, seed=s, device="cpu") for x, s in zip(planes, plane_seeds(seed))]
+    w = weights(n, sharpness)
+    mean = model.example.mean(axis=(0, 1))
+    return mean + sum(w[:, [a]] * (values[a] - mean) for a in range(3)) / np.sqrt((w ** 2).sum(axis=1,
+                                                                                             keepdims=True))
+
+
+def unrolled(model, quick: bool) -> list[dict]:
+    """Patch distance (docs/tiling.md's measure, over the example's half-to-half distance) of
+    the surface's values unrolled from a sphere of radius 256 texels by the exponential map,
+    around a face (one plane), an edge (two planes blend) and a corner (three) of the triplanar
+    projection; seeds 1-3. The planar tiling's own distance is the row "plane"."""
+    from warp_texton import synthesize
+    from warp_texton.model.tiling import half_distance, patch_distance
+
+    side = 128 if quick else 256
+    floor = half_distance(model.example)
+    seeds = (1,) if quick else (1, 2, 3)
+    # the plane at scale 1 reads the example's texels themselves; turned, it reads between them (bilinear),
+    # as a curved surface does
+    rows = [{"where": "plane", "method": f"planar tiling{', turned 10°' if turn else ''}", "distance": float(np.mean(
+        [patch_distance(synthesize(model, (side, side), seed=s, rotation=turn, device="cpu"), model.example)
+         for s in seeds])) / floor} for turn in (0.0, 10.0)]
+    for where, c in (("face", [0.0, 0.0, 1.0]), ("edge", [1.0, 0.0, 1.0]), ("corner", [1.0, 1.0, 1.0])):
+        p, n = unrolled_points(np.array(c), 256.0, side)
+        u1, u2 = tangent_frames(n)
+        methods = {f"triplanar, sharpness {k}": (lambda s, k=k: triplanar_replica(model, p, n, k, s))
+                   for k in SHARPNESSES}
+        methods["tangent frames"] = lambda s: evaluate(
+            model, np.stack([np.einsum("nd,nd->n", p, u1), np.einsum("nd,nd->n", p, u2)], 1), seed=s, device="cpu")
+        for name, fn in methods.items():
+            d = np.mean([patch_distance(fn(s).reshape(side, side, -1), model.example) for s in seeds])
+            rows.append({"where": where, "method": name, "distance": float(d) / floor})
+    return rows
+
+
 def cost(model, texton, repeat: int, device: str, quick: bool) -> dict:
     s = trimesh.creation.icosphere(subdivisions=5 if quick else 7)
     pts, nrm = s.vertices, s.vertex_normals
@@ -192,6 +250,7 @@ def run(args) -> dict:
     report = report_header("surface_tiling", device)
     report["texture"] = "scikit-image data.brick (512², grey, CC0), analyze(method='tiling') defaults"
     report["quality"] = quality(model, args.quick)
+    report["unrolled"] = unrolled(model, args.quick)
     report["cost"] = cost(model, texton, args.repeat, device, args.quick)
     return report
 
@@ -204,6 +263,10 @@ def markdown(report: dict) -> str:
         lines.append(f"| {r['mesh']} | {r['method']} | {r['vertices']} | {100 * r['stretched_share']:.1f} % | "
                      f"{r['stretch_p99']:.2f} | {r['seam']:.2f} | {100 * r['blend_share']:.1f} % | "
                      f"{r['blend_contrast']:.2f} |")
+    lines += ["", "Patch distance of the values unrolled from a sphere of radius 256 texels (over the example's "
+              "half-to-half distance; mean of seeds 1-3):", "", "| where | method | distance |", "|---|---|---:|"]
+    for r in report["unrolled"]:
+        lines.append(f"| {r['where']} | {r['method']} | {r['distance']:.3f} |")
     c = report["cost"]
     lines += ["", f"surface_noise at {c['points']} points: tiling {1e3 * c['tiling']['best_s']:.1f} ms, texton "
               f"noise MNI 60 {1e3 * c['texton MNI 60']['best_s']:.1f} ms (best of interleaved runs): "
