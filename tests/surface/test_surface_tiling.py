@@ -13,6 +13,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -331,3 +332,44 @@ class TestFiles:
         a = trimesh.load(tmp_path / "a" / "ball.ply", process=False)
         b = trimesh.load(tmp_path / "b" / "ball.ply", process=False)
         np.testing.assert_array_equal(a.visual.vertex_colors, b.visual.vertex_colors)
+
+
+@pytest.mark.slow
+def test_blender_renders_a_tiling_bake_as_the_package_reads_it(tmp_path):
+    """A torus baked with a tiling model, written as GLB, imported and rendered by Blender: its
+    pixels are the texture looked up where the package's ray cast hits (the tolerance of the
+    texton bakes' Blender test, tests/surface/test_clients_mesh.py: 8-bit sRGB decoding and
+    re-encoding, half a step, and bilinear weights a hair apart)."""
+    import json
+
+    import scipy.ndimage as ndi
+    from PIL import Image
+
+    from clients import run_blender
+    from warp_texton.surface.bake import lookup
+    from warp_texton.surface.mesh_files import texture_8bit
+
+    pytest.importorskip("xatlas")
+    torus = trimesh.creation.torus(1.0, 0.35, major_sections=48, minor_sections=24)
+    baked = bake_mesh(torus, model(), 0.01, resolution=256, seed=2, device="cpu", up="z")
+    write_baked(baked, tmp_path / "torus", fmt="glb")
+    width, height = 80, 60
+    cam = Camera(position=(2.4, -2.9, 2.2), target=(0.0, 0.0, 0.0), fov=40.0)
+    script = Path(__file__).resolve().parents[1] / "blender_mesh.py"
+    run_blender(script, "glb", tmp_path / "torus.glb", tmp_path / "info.json", tmp_path / "render.png",
+                ",".join(map(str, cam.position)), ",".join(map(str, cam.target)), str(cam.fov), str(width),
+                str(height), timeout=600)
+    info = json.loads((tmp_path / "info.json").read_text())
+    (material,) = info["materials"]
+    assert material["base_color_from"] == "TEX_IMAGE" and material["size"] == [256, 256]
+    render = np.asarray(Image.open(tmp_path / "render.png").convert("RGBA"), np.float64) / 255.0
+    hits = cast_rays(baked.mesh, (height, width), cam, device="cpu")
+    expected = np.zeros((height, width, 3))
+    tri = hits.faces[hits.face[hits.hit]]
+    uv = np.einsum("nk,nkd->nd", hits.bary[hits.hit], np.asarray(baked.mesh.visual.uv)[tri])
+    expected[hits.hit] = lookup(texture_8bit(baked.texture)[0] / 255.0, uv)
+    seen = render[:, :, 3] > 0.5
+    assert np.count_nonzero(seen ^ hits.hit) <= 0.01 * np.count_nonzero(hits.hit)
+    inside = ndi.binary_erosion(seen & hits.hit, iterations=1)
+    diff = np.abs(render[:, :, :3] - expected)[inside]
+    assert np.median(diff) <= 1.0 / 255.0 and diff.max() <= 3.0 / 255.0
