@@ -231,6 +231,23 @@ class TestMeshes:
         got = out.visual.vertex_colors[corners, :3]
         np.testing.assert_array_equal(got, np.round(np.clip(want, 0, 1) * 255).astype(np.uint8))
 
+    def test_the_normals_options_apply(self, device):
+        # normals="smooth" on a box: every vertex keeps one normal (the corner's diagonal), so the
+        # colours are the three planes blended there, not a face's plane
+        m = model()
+        box = trimesh.creation.box(extents=(2.0, 1.0, 1.5))
+        smooth = texture_mesh(box, m, 0.05, seed=1, device=device, warn=False, normals="smooth")
+        assert len(smooth.vertices) == 8
+        want = surface_noise(m, box.vertices, box.vertex_normals, 0.05, seed=1, device=device)
+        np.testing.assert_array_equal(smooth.visual.vertex_colors[:, :3],
+                                      np.round(np.clip(want, 0, 1) * 255).astype(np.uint8))
+        flat = texture_mesh(box, m, 0.05, seed=1, device=device, warn=False, normals="flat")
+        assert len(flat.vertices) == 24
+        # a corner's three face copies hold its three planes' tilings, which differ from the blend
+        first = flat.vertices[:, None, :] == box.vertices[None, :, :]
+        corner_of = np.argmax(first.all(axis=2), axis=1)
+        assert np.any(flat.visual.vertex_colors[:, :3] != smooth.visual.vertex_colors[corner_of, :3])
+
     def test_bake_texels_are_the_noise_at_their_points(self, device, tmp_path):
         m = model()
         plane = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], [[0, 1, 2], [0, 2, 3]],
@@ -287,6 +304,12 @@ class TestOptions:
     def test_other_objects_are_refused_naming_both_kinds(self):
         with pytest.raises(TextonError, match="texton must be a Texton or a TilingModel"):
             render_mesh(trimesh.creation.box(), "bricks.exr", (8, 8))
+
+    def test_a_side_along_up_is_refused(self):
+        p = np.ones((2, 3))
+        with pytest.raises(TextonError, match="side is parallel to up") as e:
+            surface_noise(model(), p, p, 0.1, up="z", side=(0, 0, 2), device="cpu")
+        assert e.value.param == "side"
 
     def test_far_points_are_refused(self):
         p = np.array([[3e9, 0.0, 0.0]])
