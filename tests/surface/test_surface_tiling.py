@@ -334,12 +334,13 @@ class TestFiles:
         ball = trimesh.load(tmp_path / "coloured" / "ball.ply", process=False)
         assert ball.visual.vertex_colors[:, :3].std() > 5  # the example's texels, not one colour
 
-    def test_cli_refuses_mni_for_a_tiling_file_in_one_line(self, tmp_path, capsys):
+    @pytest.mark.parametrize("extra", [(), ("--bake", "32"), ("--render", "16x16")])
+    def test_cli_refuses_mni_for_a_tiling_file_in_one_line(self, tmp_path, capsys, extra):
         m = model()
         m.save(tmp_path / "bricks.exr")
         trimesh.creation.icosphere(subdivisions=1).export(tmp_path / "ball.ply")
         status = run_cli(["surface", tmp_path / "ball.ply", "--texton", tmp_path / "bricks.exr", "--out-dir",
-                          tmp_path / "out", "--bake", "32", "--mni", "30", "--device", "cpu"])
+                          tmp_path / "out", *extra, "--mni", "30", "--device", "cpu"])
         err = capsys.readouterr().err
         assert status == 2 and "--mni does not apply to a tiling model" in err and len(err.strip().splitlines()) == 1
         assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
