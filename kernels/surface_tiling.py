@@ -22,9 +22,13 @@ Driven by: ``warp_texton.surface.tiling``.
 
 import warp as wp
 
-from .noise_tiling import CUTOFF, Tiling, power, tiling_value
+from .noise_tiling import Tiling, tiling_value
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
+
+#: Plane weights below this fraction of the largest are zero (those planes are not read), as the
+#: tiling drops its patches' (noise_tiling.CUTOFF).
+CUTOFF = wp.constant(1.0e-4)
 
 
 @wp.struct
@@ -42,8 +46,11 @@ class Triplanar:
 
 @wp.func
 def plane_weight(c: float, squarings: int):
-    # |c|^(2^squarings), by the tiling's repeated squaring
-    return power(wp.abs(c), squarings)
+    # |c|^(2^squarings) by repeated squaring (float32 products), as the tiling sharpens its weights
+    r = wp.abs(c)
+    for i in range(squarings):
+        r = r * r
+    return r
 
 
 @wp.func
