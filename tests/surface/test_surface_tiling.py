@@ -346,12 +346,15 @@ class TestFiles:
         assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
 
     def test_jobs_take_a_model_or_its_file(self, tmp_path):
+        import pickle
+
         m = model(channels=1)
         m.save(tmp_path / "bricks.exr")
         trimesh.creation.icosphere(subdivisions=2).export(tmp_path / "ball.ply")
-        results = run_jobs([SurfaceJob(str(tmp_path / "ball.ply"), t, str(tmp_path / name), render=(16, 16),
-                                       device="cpu", overwrite=True)
-                            for t, name in ((m, "a"), (str(tmp_path / "bricks.exr"), "b"))])
+        jobs = [SurfaceJob(str(tmp_path / "ball.ply"), t, str(tmp_path / name), render=(16, 16), device="cpu",
+                           overwrite=True) for t, name in ((m, "a"), (str(tmp_path / "bricks.exr"), "b"))]
+        jobs[0] = pickle.loads(pickle.dumps(jobs[0]))  # as an executor (Dask) hands it to a worker
+        results = run_jobs(jobs)
         assert [r.status for r in results] == ["done", "done"], [r.message for r in results]
         a = trimesh.load(tmp_path / "a" / "ball.ply", process=False)
         b = trimesh.load(tmp_path / "b" / "ball.ply", process=False)
