@@ -363,7 +363,10 @@ def surface_case(suite: Suite, textons: dict, device: str, report: Report) -> No
 
     from warp_texton import render_mesh, surface_noise, synthesize
 
+    from warp_texton import analyze
+
     texton = textons[suite.ref_texton]
+    tiling = analyze(make_texture(suite.image_side), method="tiling")  # triplanar on surfaces (docs/tiling.md)
     # unit sphere, 128 texels per unit: about 800 texels round the equator
     mesh = trimesh.creation.icosphere(subdivisions=suite.surface_subdivisions, radius=1.0)
     texel = 1.0 / 128.0
@@ -377,6 +380,7 @@ def surface_case(suite: Suite, textons: dict, device: str, report: Report) -> No
                                                device=device),
         "surface_noise (walk)": lambda: surface_noise(texton, vertices, normals, texel, mni=SURFACE_MNI, seed=1,
                                                       device=device, method="points"),
+        "surface_noise (tiling)": lambda: surface_noise(tiling, vertices, normals, texel, seed=1, device=device),
         "synthesize": lambda: synthesize(texton, suite.ref_shape, mni=suite.ref_mni, seed=1, device=device),
         "render_mesh": lambda: render_mesh(mesh, texton, suite.surface_render, texel_size=texel, mni=SURFACE_MNI, seed=1,
                                            device=device),
@@ -386,7 +390,7 @@ def surface_case(suite: Suite, textons: dict, device: str, report: Report) -> No
     results = interleaved(methods, suite.repeat)
     raster = results["synthesize"]
     per_pixel = raster["best_s"] / (rh * rw)
-    for name in ("surface_noise", "surface_noise (walk)"):
+    for name in ("surface_noise", "surface_noise (walk)", "surface_noise (tiling)"):
         t = results[name]
         report.add(case="surface", method=name, device=device, vertices=nv, mni=SURFACE_MNI,
                    texton=suite.ref_texton, mpoints_per_s=nv / t["best_s"] / 1e6,

@@ -171,12 +171,16 @@ def _executor(scheduler):
 def _surface_texton(args):
     """The batch's texton: a texton file, or an example image analysed once (a bad one fails the batch)."""
     from ..model.texton import is_texton_path, load_texton
+    from ..surface.tiling import SURFACE_MNI, check_model
 
     if is_texton_path(args.texton):
-        load_texton(args.texton)  # checked once here; the jobs read it themselves
+        # checked once here (a tiling model's options too); the jobs read it themselves
+        check_model(load_texton(args.texton), mni=(args.mni, SURFACE_MNI))
         return args.texton
     try:
-        return texton_of(args, args.texton)
+        texton = texton_of(args, args.texton)
+        check_model(texton, mni=(args.mni, SURFACE_MNI))
+        return texton
     except TextonError as exc:
         if exc.param == "u" or "u" in exc.mentions or args.texton in str(exc):
             raise  # it names the image (as the file, in the command line's words)
@@ -187,11 +191,12 @@ def _price_bake(args, texton) -> None:
     """A --bake priced from the options alone, before any mesh is read or any job starts:
     one line and exit 2 for a bake no mesh could make within the budgets."""
     from ..surface.bake import check_bake_arguments
-    from ..model.texton import Texton, as_texton, load_texton
+    from ..model.texton import Texton, load_texton
+    from ..model.tiling import TilingModel
 
     if args.bake is None:
         return
-    t = as_texton(texton if isinstance(texton, Texton) else load_texton(texton), "surface --bake")
+    t = texton if isinstance(texton, (Texton, TilingModel)) else load_texton(texton)
     check_bake_arguments(t, args.bake, mni=args.mni, supersample=args.supersample, uv=args.uv)
 
 

@@ -46,6 +46,8 @@ from .render import cast_rays, check_background
 from .points import (check_method, check_surface_work, evaluate_points, floor_visits, surface_params,
                       surface_setup, texel_positions)
 from ..model.texton import Texton
+from ..model.tiling import TilingModel
+from .tiling import SURFACE_MNI, check_model
 
 if TYPE_CHECKING:
     import trimesh
@@ -201,7 +203,7 @@ def _corners_of(cnormals: np.ndarray, faces: np.ndarray, vmap: np.ndarray, new_f
 
 def bake_mesh(
     mesh,
-    texton: Texton,
+    texton: Texton | TilingModel,
     texel_size: float,
     *,
     resolution: int = 1024,
@@ -234,7 +236,8 @@ def bake_mesh(
     Parameters
     ----------
     mesh : trimesh.Trimesh
-    texton : Texton
+    texton : Texton or TilingModel
+        As in :func:`warp_texton.surface_noise` (a tiling model refuses ``mni`` and ``method``).
     texel_size : float
         World units per texton texel (as :func:`warp_texton.texture_mesh`).
     resolution : int
@@ -343,8 +346,7 @@ def bake_mesh(
     import trimesh
 
     mesh = check_mesh(mesh)
-    if not isinstance(texton, Texton):
-        raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
+    check_model(texton, mni=(mni, SURFACE_MNI), method=(method, "auto"))
     texel = check_positive(texel_size, "texel_size")
     res = check_int(resolution, "resolution", minimum=1)
     if res > MAX_RESOLUTION:
@@ -398,7 +400,7 @@ def bake_mesh(
     values = (sums / (nx * ny)[:, None]).astype(np.float32)
     c = texton.channels
     texture = np.empty((res, res, c), np.float32)
-    texture[:] = mean_colour(texton)
+    texture[:] = texton.mean3[:c] if isinstance(texton, TilingModel) else mean_colour(texton)
     texture[tx.rows, tx.cols] = values[:, :c]
     # one normal per vertex for the file (glTF NORMAL): vertices split where their corners' do
     vsplit, faces, vnormals = split_corners(faces, cnormals, len(vertices))
@@ -524,7 +526,7 @@ def _sample_sums(p, setup, tx: _TexelFaces, nx, ny, cnormals, texel, device, met
     return sums
 
 
-def check_bake_arguments(texton: Texton, resolution: int, *, mni: float = 60.0, supersample: int | None = None,
+def check_bake_arguments(texton: Texton | TilingModel, resolution: int, *, mni: float = 60.0, supersample: int | None = None,
                          uv: str = "auto") -> None:
     """Refuse, from the arguments alone (before any mesh is read), a bake that no mesh could
     make within the budgets.
@@ -543,8 +545,7 @@ def check_bake_arguments(texton: Texton, resolution: int, *, mni: float = 60.0, 
         Over the memory or the work budget, naming ``resolution``, ``supersample``
         and ``mni``; and the errors of :func:`bake_mesh` for these arguments.
     """
-    if not isinstance(texton, Texton):
-        raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
+    check_model(texton, mni=(mni, SURFACE_MNI))
     res = check_int(resolution, "resolution", minimum=1, maximum=MAX_RESOLUTION)
     supersample, _ = _check_choices(res, uv, supersample, None, CHART_METHODS[0], PNG_DTYPES[0])
     what = f"a {res}x{res} bake" + ("" if supersample is None else f" with {supersample}x{supersample} samples a texel")

@@ -22,6 +22,7 @@ from pathlib import Path
 from .mesh_files import bake_outputs
 from ..core.errors import TextonError
 from ..model.texton import Texton
+from ..model.tiling import TilingModel
 
 FORMATS = ("ply", "obj", "glb")
 #: ``up`` of a job: "auto" takes the convention of the file's format (AUTO_UP), or a world axis.
@@ -147,7 +148,7 @@ class SurfaceJob:
     """
 
     mesh: str
-    texton: str | Texton
+    texton: str | Texton | TilingModel
     out_dir: str
     texel_size: float | None = None  # world units per texel; None: mesh.default_texel_size
     mni: float = 60.0
@@ -386,12 +387,12 @@ def _run(job: SurfaceJob, outputs: list[Path], notes: list[str]) -> None:
     from ..files.images import check_output_name
     from .mesh_files import check_surface, export_mesh, write_baked, write_set
     from .render import render_mesh
-    from ..model.texton import as_texton, load_texton
+    from ..model.texton import load_texton
 
     Path(job.out_dir).mkdir(parents=True, exist_ok=True)  # on a cluster worker too
     for path in outputs:  # names that cannot be written are refused before any work
         check_output_name(path)
-    texton = job.texton if isinstance(job.texton, Texton) else as_texton(load_texton(job.texton), "a surface job")
+    texton = job.texton if isinstance(job.texton, (Texton, TilingModel)) else load_texton(job.texton)
     up = resolve_up(job.up, job.mesh)
     mesh = _load_mesh(job.mesh)
     check_surface(mesh, job.mesh)

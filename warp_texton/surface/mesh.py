@@ -21,6 +21,8 @@ from ..core.errors import TextonError
 from .frames import UP, up_vector
 from .points import surface_noise, surface_setup, texel_positions
 from ..model.texton import Texton
+from ..model.tiling import TilingModel
+from .tiling import SURFACE_MNI, check_model
 
 if TYPE_CHECKING:
     import trimesh
@@ -299,7 +301,7 @@ def vertex_spacing(mesh, texel_size: float) -> float:
 
 def texture_mesh(
     mesh,
-    texton: Texton,
+    texton: Texton | TilingModel,
     texel_size: float,
     *,
     mni: float = 60.0,
@@ -331,7 +333,8 @@ def texture_mesh(
     ----------
     mesh : trimesh.Trimesh
         At least one triangle.
-    texton : Texton
+    texton : Texton or TilingModel
+        As in :func:`surface_noise` (a tiling model refuses ``mni``).
     texel_size : float
         World units per texel, > 0.
     mni : float
@@ -429,8 +432,7 @@ def texture_mesh(
     check_normals(normals, crease_angle)
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
     faces = np.asarray(mesh.faces, dtype=np.int64)
-    if not isinstance(texton, Texton):
-        raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
+    check_model(texton, mni=(mni, SURFACE_MNI))
     texel_positions(vertices, texel, surface_setup(texton, mni), "the mesh's vertices")
     if max_edge is not None:
         edge = check_positive(max_edge, "max_edge") * texel

@@ -44,6 +44,9 @@ from ..core.limits import check_memory, check_work
 from ..noise.engine import MAX_CELL_INDEX, MAX_CELL_MEAN, WALK_COST, noise_setup
 from ..noise.noise_options import NoiseOptions, check_poisson
 from ..model.texton import Texton
+from ..model.tiling import TilingModel
+from .tiling import TILING_POINT_OPS, TilingSetup, check_tiling_reach, tiling_params, tiling_setup, \
+    tiling_surface_noise, tiling_values
 
 #: Default cell side relative to the slab thickness r.
 CELL_FACTOR = 0.6
@@ -109,7 +112,9 @@ class SurfaceSetup:
     texton: Texton | None = None  # whose histogram transform maps the values (evaluate_points)
 
 
-def surface_setup(texton: Texton, mni: float, cell_factor: float = CELL_FACTOR) -> SurfaceSetup:
+def surface_setup(texton: Texton | TilingModel, mni: float, cell_factor: float = CELL_FACTOR) -> SurfaceSetup:
+    if isinstance(texton, TilingModel):  # a tiling model: triplanar projection (surface/tiling.py)
+        return tiling_setup(texton, mni)  # type: ignore[return-value]
     base = noise_setup(texton, mni)
     r = max(base.hi[0] - base.lo[0], base.hi[1] - base.lo[1])
     lam = check_positive(mni, "mni") / (r * texton.support_area)
@@ -197,6 +202,8 @@ def density_visits(setup: SurfaceSetup, density: float) -> float:
     walk where a block would hold fewer than AUTO_MIN_DENSITY points, else a block's
     cubes around a flat patch shared by its points, plus a cluster's share. The estimate
     of :func:`block_visits` before the points exist."""
+    if isinstance(setup, TilingSetup):
+        return TILING_POINT_OPS
     side = BLOCK_CUBES * setup.cell
     per_block = density * side * side
     if not per_block >= AUTO_MIN_DENSITY:
@@ -211,6 +218,8 @@ def floor_visits(setup: SurfaceSetup) -> float:
     """The fewest operations a point can cost on any path (a full cluster's share of the
     densest block path): ``points × floor_visits`` over the budget is refused before
     anything is sorted or cast."""
+    if isinstance(setup, TilingSetup):
+        return TILING_POINT_OPS
     return _gather_visits(setup, float(CLUSTER_POINTS))
 
 
@@ -248,6 +257,8 @@ def plan_points(setup: SurfaceSetup, pos: np.ndarray, nrm: np.ndarray, method: s
     AUTO_MIN_POINTS points, for ``method="points"`` and for sparse sets; else the points
     are sorted into blocks (their memory priced first) and priced by :func:`block_visits`."""
     n = len(pos)
+    if isinstance(setup, TilingSetup):
+        return PointsPlan("tiling", n * TILING_POINT_OPS)
     walk = n * surface_visits(setup)
     if n == 0 or method == "points" or (method == "auto" and n < AUTO_MIN_POINTS):
         return PointsPlan("points", walk)
@@ -259,8 +270,10 @@ def plan_points(setup: SurfaceSetup, pos: np.ndarray, nrm: np.ndarray, method: s
     return PointsPlan("blocks", block_visits(setup, blocked), blocked)
 
 
-def surface_params(texton: Texton, setup: SurfaceSetup, seed: int, poisson: str, up, side) -> surface_points.SurfaceParams:
+def surface_params(texton: Texton | TilingModel, setup: SurfaceSetup, seed: int, poisson: str, up, side) -> surface_points.SurfaceParams:
     """The kernels' ``SurfaceParams`` (CGF Prop. 3 normalisation, the frame rule's directions)."""
+    if isinstance(texton, TilingModel):  # the triplanar planes' seeds and blend instead
+        return tiling_params(texton, seed, up, side)
     check_poisson(poisson)
     cells = Cells3()
     cells.size = setup.cell
@@ -291,6 +304,8 @@ def surface_params(texton: Texton, setup: SurfaceSetup, seed: int, poisson: str,
 def check_reach(pos: np.ndarray, setup: SurfaceSetup, what: str) -> None:
     """Refuse positions (texel units, float64) whose cubes would not fit the
     kernels' int32 cube indices, or that overflowed (a tiny texel_size)."""
+    if isinstance(setup, TilingSetup):
+        return check_tiling_reach(pos, what)
     with np.errstate(over="ignore", invalid="ignore"):
         far = float(np.abs(pos).max()) if pos.size else 0.0
     limit = (MAX_CELL_INDEX - 2) * setup.cell - setup.r
@@ -340,7 +355,7 @@ def surface_options(noise: NoiseOptions | None, **keywords) -> NoiseOptions:
 
 
 def surface_noise(
-    texton: Texton,
+    texton: Texton | TilingModel,
     points,
     normals,
     texel_size: float,
@@ -365,7 +380,10 @@ def surface_noise(
 
     Parameters
     ----------
-    texton : Texton
+    texton : Texton or TilingModel
+        A tiling model (``analyze(..., method="tiling")``) is projected
+        triplanarly (docs/tiling.md, "Surfaces"); it refuses ``mni``,
+        ``tangents``, ``poisson``, ``cell_factor``, ``noise`` and ``method``.
     points : array (N, 3)
         Surface points, world units.
     normals : array (N, 3)
@@ -503,6 +521,11 @@ def surface_noise(
     >>> round(float(far.var()), 4), round(float(texton.covariance()[0, 0]), 4)
     (0.0244, 0.0243)
     """
+    if isinstance(texton, TilingModel):  # triplanar tiling (surface/tiling.py)
+        return tiling_surface_noise(texton, points, normals, texel_size, seed=seed, device=device, up=up, side=side,
+                                    options=dict(mni=(mni, 60.0), tangents=(tangents, None), poisson=(poisson, "exact"),
+                                                 cell_factor=(cell_factor, CELL_FACTOR), noise=(noise, None),
+                                                 method=(method, "auto")))
     if not isinstance(texton, Texton):
         raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
     pts = as_points(points, "points")
@@ -551,6 +574,8 @@ def evaluate_points(p: surface_points.SurfaceParams, setup: SurfaceSetup, pos: n
     :func:`plan_points`, priced) or else by ``method``, mapped through the texton's
     histogram transform when it has one: every surface output (points, meshes, bakes,
     renders) gets its values here."""
+    if isinstance(setup, TilingSetup):  # a tiling model: the triplanar projection
+        return tiling_values(p, pos, nrm, device)
     values = _surface_values(p, setup, pos, nrm, tan, device, method, plan)
     to_colours(values, setup.texton)
     return values

@@ -26,6 +26,8 @@ from .mesh import CREASE_ANGLE, check_mesh, check_normals, corner_normals, defau
 from .points import (check_method, evaluate_points, floor_visits, plan_points, surface_params, surface_setup,
                       texel_positions)
 from ..model.texton import Texton
+from ..model.tiling import TilingModel
+from .tiling import SURFACE_MNI, check_model
 
 #: Largest render, in pixels (64 Mpx: about 4 GB at the peak of a render).
 MAX_RENDER_PIXELS = 1 << 26
@@ -322,7 +324,7 @@ def _cast_box(mesh, shape, camera, up, orbit, fov, light, device, normals=("angl
 
 def render_mesh(
     mesh,
-    texton: Texton,
+    texton: Texton | TilingModel,
     shape=(512, 512),
     *,
     texel_size: float | None = None,
@@ -351,7 +353,8 @@ def render_mesh(
     ----------
     mesh : trimesh.Trimesh
         As in :func:`texture_mesh`.
-    texton : Texton
+    texton : Texton or TilingModel
+        As in :func:`surface_noise` (a tiling model refuses ``mni`` and ``method``).
     shape : (height, width)
         Image size in pixels, at most 2**26 pixels (``MAX_RENDER_PIXELS``).
     texel_size : float, optional
@@ -468,8 +471,7 @@ def render_mesh(
     >>> upright = render_mesh(box, texton, (96, 64), up="y", orbit=(-60, 15), fov=45, device="cpu")
     """
     mesh = check_mesh(mesh)
-    if not isinstance(texton, Texton):
-        raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
+    check_model(texton, mni=(mni, SURFACE_MNI), method=(method, "auto"))
     h, w = check_shape(shape, max_pixels=MAX_RENDER_PIXELS)
     texel = default_texel_size(mesh) if texel_size is None else check_positive(texel_size, "texel_size")
     seed = check_seed(seed)
