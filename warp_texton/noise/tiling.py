@@ -16,6 +16,7 @@ import numpy as np
 from ..core.runtime import init_warp, is_cpu, resolve_device, split_launch
 from ..kernels import noise_tiling
 from ..model.tiling import TilingModel
+from .colours import to_colours
 
 #: The device arrays of each model, per device (models are immutable).
 _ARRAYS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -64,6 +65,7 @@ def tiling_pixels(model: TilingModel, shape, origin, step, first, seed: int, dev
 
     split_launch(device, noise_tiling, h, launch)
     values = host if host is not None else out.numpy()
+    to_colours(values.reshape(-1, 3), model)  # a histogram-preserving model: its tables, after the blend
     return values if model.channels == 3 else np.ascontiguousarray(values[..., :model.channels])
 
 
@@ -80,4 +82,8 @@ def tiling_at(model: TilingModel, points: np.ndarray, seed: int, device) -> np.n
         wp.launch(noise_tiling.tiling_points, dim=k1 - k0, inputs=[t, pts[k0:k1], out[k0:k1]], device=device)
 
     split_launch(device, noise_tiling, n, launch)
-    return np.ascontiguousarray(out.numpy()[:, :model.channels]) if n else np.zeros((0, model.channels), np.float32)
+    if not n:
+        return np.zeros((0, model.channels), np.float32)
+    values = out.numpy()
+    to_colours(values, model)  # a histogram-preserving model: its tables, after the blend
+    return np.ascontiguousarray(values[:, :model.channels])
