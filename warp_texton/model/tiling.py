@@ -28,7 +28,7 @@ from ..core.checks import CHANNELS, MAX_VALUE, as_image, as_real_array, check_pa
 from .._version import __version__
 from ..core.errors import TextonError
 from ..files.images import EXR, check_output_name, read_exr, read_exr_header, write_exr
-from .histogram import HistogramTransform, check_histogram
+from .histogram import HistogramTransform, check_histogram, gauss_grid
 
 __all__ = ["TilingModel", "TILING_KIND", "KIND_ATTRIBUTE", "fit_tiling", "guide_of", "structure_score",
            "patch_distance", "half_distance", "suggest_method", "scorable", "is_tiling_header", "load_tiling",
@@ -399,10 +399,40 @@ def fit_tiling(u, *, side: float | None = None, sharpness: int = SHARPNESS, guid
         metadata["structure"] = structure_score(a, seed=seed)
     if histogram == "gaussian":
         return TilingModel(a, side, sharpness, guide_weight, metadata, blend)
-    transform = HistogramTransform.fit(a, axes="rgb" if a.shape[2] > 1 else "pca")
+    example, transform = gaussianised(a)
     metadata["histogram"] = histogram
-    return TilingModel(transform.to_gaussian(a).astype(np.float32), side, sharpness, guide_weight, metadata, blend,
-                       transform)
+    return TilingModel(example, side, sharpness, guide_weight, metadata, blend, transform)
+
+
+def gaussianised(u: np.ndarray) -> tuple[np.ndarray, HistogramTransform]:
+    """(example, transform) of a histogram-preserving tiling model of the image u (H, W, C).
+
+    The example is u Gaussianised per channel (RGB channels for colour, as
+    ``analyze``'s texton tables; grey's one channel): ranks to standard
+    Gaussian quantiles (:meth:`HistogramTransform.to_gaussian`), float32. The
+    outputs standardise the blend by the example's own mean and standard
+    deviation (:func:`warp_texton.noise.colours.noise_moments`), so each table
+    is fitted on those standardised values s: ``lut[c, k]`` is channel c of
+    u where s crosses the grid value g_k (linear between the example's
+    distinct values), the quantile of u at the probability of g_k. A texel
+    alone (most of the plane at a high sharpness) then maps back to its own
+    colour to within the table's resolution (10⁻⁴ on 8-bit photographs,
+    where the tables of :meth:`HistogramTransform.fit`, read at shifted
+    values, were a level off).
+    """
+    fit = HistogramTransform.fit(u, axes="rgb" if u.shape[2] > 1 else "pca")
+    example = fit.to_gaussian(u).astype(np.float32)
+    flat = example.reshape(-1, u.shape[2]).astype(np.float64)
+    mean = example.mean(axis=(0, 1), dtype=np.float64)
+    std = np.sqrt(np.maximum(((flat - mean) ** 2).mean(axis=0), 1e-30))
+    s = (flat - mean) / std
+    z = fit.decorrelate(u).reshape(-1, u.shape[2])
+    grid = gauss_grid(fit.lut.shape[1])
+    lut = np.empty_like(fit.lut)
+    for c in range(u.shape[2]):
+        values, first = np.unique(s[:, c], return_index=True)
+        lut[c] = np.interp(grid, values, z[first, c])
+    return example, HistogramTransform(fit.matrix, fit.centre, np.maximum.accumulate(lut, axis=1))
 
 
 # ---------------------------------------------------------------- evaluation
