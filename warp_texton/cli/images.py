@@ -316,6 +316,9 @@ def _mix_input(args, path):
     import numpy as np
 
     x = _load_texture(path)
+    if getattr(x, "kind", None) == "tiling":
+        raise TextonError(f"{path}: a tiling model (method 'tiling') cannot be mixed: mix follows the path "
+                          "between Gaussian texton models; give images or textons")
     if not isinstance(x, np.ndarray):
         return x
     if args.crop is not None or args.downscale != 1:
