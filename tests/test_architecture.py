@@ -40,7 +40,7 @@ ROOM_LAYERS = {
     "runtimes": {"glsl": 0, "osl": 0, "warp_api": 0, "export": 1},
     "view": {"static": 0, "queries": 0, "cache": 0, "images": 0, "webgl": 0, "inputs": 1, "commands": 2,
              "viewer": 3, "server": 4},
-    "cli": {"options": 0, "images": 1, "surface": 1, "shader": 1, "view": 1, "parser": 2},
+    "cli": {"options": 0, "images": 1, "surface": 1, "shader": 1, "view": 1, "info": 1, "parser": 2},
 }
 #: Package data with an ``__init__`` (no code): outside the rooms' order.
 DATA_PACKAGES = {"data", "view.static"}
