@@ -28,8 +28,9 @@ def summary(model) -> dict:
     else:
         out.update(size=[model.size[1], model.size[0]], order=model.order, mean=[float(v) for v in model.mean],
                    support_area=float(model.support_area))
-    if isinstance(meta.get("structure"), (int, float)):
-        out["suggested_method"] = suggest_method(float(meta["structure"]))
+    score = meta.get("structure")
+    if isinstance(score, (int, float)) and not isinstance(score, bool):
+        out["suggested_method"] = suggest_method(float(score))
     out["metadata"] = meta
     return out
 

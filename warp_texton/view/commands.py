@@ -91,7 +91,7 @@ def plan_noise(name: str, w: Window, analysis: Analysis, noise: Noise, src: Sour
     if w.period is not None:
         line += ["--period", _arg(w.period[0]), _arg(w.period[1])]
     line += ([] if tiling and noise.filter == "none" else ["--filter", noise.filter]) + dev_cli
-    kwargs = {} if tiling else dict(mni=_py(noise.mni))
+    kwargs: dict = {} if tiling else dict(mni=_py(noise.mni))
     kwargs.update(seed=noise.seed, scale=_py(w.scale), rotation=_py(w.rotation), offset=_py(w.offset))
     if w.period is not None:
         kwargs["period"] = _py(w.period)

@@ -34,7 +34,7 @@ from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import cast
+from typing import Any, cast
 
 import numpy as np
 
@@ -142,7 +142,7 @@ class Viewer:
         texton = self.texton(analysis)
         self.src = digest(self.source.digest, __version__, device or "default")
         #: what the package computes for a tiling model (all of it for textons): tiling_support()
-        self.supports = {"filters": VIEW_FILTERS, "plane": True, "periodic": True}
+        self.supports: dict[str, Any] = {"filters": VIEW_FILTERS, "plane": True, "periodic": True}
         self._warm_up(texton)
         self.workdir = Path(tempfile.mkdtemp(prefix="warp-texton-view-"))
 
@@ -172,7 +172,7 @@ class Viewer:
         filters = tuple(f for f in VIEW_FILTERS if f == "none" or works(
             lambda f=f: synthesize(model, (8, 8), scale=0.1, filter=f, device=self.device)))
         return {"filters": filters,
-                "plane": works(lambda: render_plane(model, (4, 4), seed=0, filter=filters[-1], device=self.device)),
+                "plane": works(lambda: render_plane(cast(Any, model), (4, 4), seed=0, filter=filters[-1], device=self.device)),
                 "periodic": works(lambda: synthesize(model, (8, 8), period=(8.0, 8.0), device=self.device))}
 
     def texton(self, analysis: Analysis) -> Texton | TilingModel:
@@ -353,7 +353,7 @@ class Viewer:
         if key not in self._shaders:
             self._analysed(alive, analysis)
         return self._shaders.get(key, lambda: self._compute(alive, lambda: shader_payload(
-            self.texton(analysis), filters=VIEW_FILTERS)))
+            cast(Texton, self.texton(analysis)), filters=VIEW_FILTERS)))
 
     def _analysis_key(self, analysis: Analysis) -> Analysis | None:
         """Analysis settings change nothing when the input is a texton file."""
@@ -386,7 +386,8 @@ class Viewer:
                 raise BadRequest("the ground plane of a tiling model is not supported yet (render_plane takes "
                                  "textons); use the noise mode")
             self._tiling_check(noise)
-            return cast(np.ndarray, render_plane(model, (plane.height, plane.width),  # type: ignore[arg-type]
+            # render_plane takes tiling models where the package supports them (self.supports["plane"])
+            return cast(np.ndarray, render_plane(cast(Any, model), (plane.height, plane.width),
                                                  height=plane.camera_height, tilt=plane.tilt, fov=plane.fov,
                                                  texel_size=plane.texel_size, seed=noise.seed,
                                                  filter=noise.filter, device=self.device))
@@ -514,7 +515,7 @@ class Viewer:
             self._tiling_check(noise, window.period)
 
             def make_tiling() -> np.ndarray:
-                return self.tiling_raster(cast(TilingModel, model), window.shape, noise, window.scale,
+                return self.tiling_raster(model, window.shape, noise, window.scale,
                                           window.rotation, window.offset, window.period)
 
             return Export(name, plan_noise(name, window, analysis, noise, self.source, self.device), make_tiling)
