@@ -73,7 +73,7 @@ def tile_moments(example: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 @pytest.mark.parametrize("channels", [1, 3])
-@pytest.mark.parametrize("sharpness", [1, 4])
+@pytest.mark.parametrize("sharpness", [1, 4, 16])
 def test_variance_preserving_blend_keeps_mean_and_covariance(channels, sharpness):
     example = tile_example(channels)
     model = TilingModel(example, SIDE, sharpness, blend="variance")
