@@ -44,6 +44,15 @@ def tiling_struct(model: TilingModel, seed: int, device: str):
     return t
 
 
+def tiling_colours(model: TilingModel, values: np.ndarray) -> None:
+    """Map a tiling model's blended values (..., lanes ≥ C) float32, in place, through its histogram
+    tables (a histogram-preserving model), exactly as texton noise maps its noise
+    (:func:`~warp_texton.noise.colours.to_colours`); nothing for a model without tables.
+    Every output of a tiling model passes its values through here once, after the blend."""
+    if model.histogram is not None:
+        to_colours(values.reshape(-1, values.shape[-1]), model)
+
+
 def tiling_pixels(model: TilingModel, shape, origin, step, first, seed: int, device) -> np.ndarray:
     """The (H, W, C) float32 raster whose pixel (i, j) is the model at
     origin + step · (first[1] + j + ½, first[0] + i + ½) (``raster_geometry``'s layout)."""
@@ -65,7 +74,7 @@ def tiling_pixels(model: TilingModel, shape, origin, step, first, seed: int, dev
 
     split_launch(device, noise_tiling, h, launch)
     values = host if host is not None else out.numpy()
-    to_colours(values.reshape(-1, 3), model)  # a histogram-preserving model: its tables, after the blend
+    tiling_colours(model, values)
     return values if model.channels == 3 else np.ascontiguousarray(values[..., :model.channels])
 
 
@@ -85,5 +94,5 @@ def tiling_at(model: TilingModel, points: np.ndarray, seed: int, device) -> np.n
     if not n:
         return np.zeros((0, model.channels), np.float32)
     values = out.numpy()
-    to_colours(values, model)  # a histogram-preserving model: its tables, after the blend
+    tiling_colours(model, values)
     return np.ascontiguousarray(values[:, :model.channels])
