@@ -50,7 +50,10 @@ def tiling_colours(model: TilingModel, values: np.ndarray) -> None:
     (:func:`~warp_texton.noise.colours.to_colours`); nothing for a model without tables.
     Every output of a tiling model passes its values through here once, after the blend."""
     if model.histogram is not None:
-        to_colours(values.reshape(-1, values.shape[-1]), model)
+        flat = values.reshape(-1, values.shape[-1])
+        to_colours(flat, model)
+        if not np.shares_memory(flat, values):  # a copy (a strided view): write it back
+            values[...] = flat.reshape(values.shape)
 
 
 def tiling_pixels(model: TilingModel, shape, origin, step, first, seed: int, device) -> np.ndarray:
