@@ -15,6 +15,8 @@ and each seed, every method makes a 512² output; measured against the example:
 
     python benchmarks/bench_structure.py            # → results/structure.{json,md}
     python benchmarks/bench_structure.py --quick    # brick only, one seed
+    python benchmarks/bench_structure.py --sharpness 2 4   # also the variance blend at these sharpnesses,
+                                                           # with and without histogram="preserve"
 """
 
 from __future__ import annotations
@@ -60,7 +62,7 @@ def tiling_weights(model: TilingModel, shape):
     return (b / b.sum(axis=0)).max(axis=0)
 
 
-def methods(u, device, mni):
+def methods(u, device, mni, sweep=()):
     """name → (sample(seed), max_weight map or None, host-only)."""
     from benchmarks.peers import TilingBlending
 
@@ -75,6 +77,12 @@ def methods(u, device, mni):
     hp = analyze(u, method="tiling", histogram="preserve")
     out["tiling s=16 variance, histogram preserve"] = (lambda s: synthesize(hp, SHAPE, seed=s, device=device),
                                                        tiling_weights(hp, SHAPE), False)
+    for sharp in sweep:  # wider blend zones: where the histogram tables matter
+        for tables in (False, True):
+            src = hp if tables else base
+            m = TilingModel(src.example, src.side, sharp, 0.0, src.metadata, "variance", src.histogram)
+            out[f"tiling s={sharp} variance" + (", histogram preserve" if tables else "")] = (
+                lambda s, m=m: synthesize(m, SHAPE, seed=s, device=device), tiling_weights(m, SHAPE), False)
     t = analyze(u, size=min(64, *u.shape[:2]), seed=0)
     out[f"texton noise MNI {mni:g}"] = (lambda s: synthesize(t, SHAPE, mni=mni, seed=s, device=device), None, False)
     return out, base.structure
@@ -93,7 +101,7 @@ def run(args) -> dict:
             continue
         u = u[:, :, None] if u.ndim == 2 else u
         floor = half_distance(u)
-        ms, score = methods(u, args.device, args.mni)
+        ms, score = methods(u, args.device, args.mni, tuple(args.sharpness or ()))
         for fn, _, _ in ms.values():
             fn(0)  # warm up (compiles)
         acc: dict[str, dict[str, list[float]]] = {k: {"patch": [], "blend": [], "rep": [], "w1": [], "s": []} for k in ms}
@@ -116,7 +124,8 @@ def run(args) -> dict:
             print(f"  {name:12s} {key:34s} patch {row['patch']:.3f}  blend {row['blend_zone']:+.3f}  "
                   f"rep {row['repetition']:.3f}  W1 {row['w1']:.4f}  {row['ms']:.0f} ms", flush=True)
     return {**report_header("structure", args.device),
-            "parameters": {"shape": list(SHAPE), "seeds": list(seeds), "mni": args.mni},
+            "parameters": {"shape": list(SHAPE), "seeds": list(seeds), "mni": args.mni,
+                           "sharpness_sweep": list(args.sharpness or ())},
             "results": rows, "skipped": skipped}
 
 
@@ -134,7 +143,11 @@ def markdown(report: dict) -> str:
 
 
 def main(argv=None) -> int:
-    return run_main(__doc__, "structure", run, markdown, argv, repeat=1)
+    def extra(parser):
+        parser.add_argument("--sharpness", type=int, nargs="*", choices=(1, 2, 4, 8, 32, 64),
+                            help="also these sharpnesses of the variance blend, with and without the histogram tables")
+
+    return run_main(__doc__, "structure", run, markdown, argv, repeat=1, extra_args=extra)
 
 
 if __name__ == "__main__":
