@@ -150,8 +150,10 @@ def test_page_shows_the_tiling_model(server, model):
             page = context.new_page()
             errors: list = []
             page.on("pageerror", lambda e: errors.append(str(e)))
-            page.goto(server.url + "?render=tiles")
+            page.goto(server.url)  # render=auto: the page keeps to the tiles for a tiling model
             wait_idle(page, panel=True)
+            assert page.evaluate("window.viewer.render()")["drawing"] == "tiles"
+            assert "tiling model" in page.inner_text("#render-note")
             assert_shows(page, model, Noise(0, 30.0, 0.0, "none"))
             assert "tiling model" in page.inner_text("#texton-info")
             assert page.is_disabled("input[name=mode][value=mix]") and page.is_disabled("#mni")
