@@ -71,7 +71,7 @@ INFO = Command(
     "Print what a model file holds: for a texton its size, order, mean and model error; for a tiling model "
     "(analyze --method tiling) its example, triangle side, sharpness and blend; for either the histogram "
     "transform and the structure score measured at analysis, with the method it suggests.",
-    _arguments, _info, {"path": "INPUT"}, input_file,
+    _arguments, _info, {}, input_file,
     epilog="""examples:
   warp-texton info wood.exr
   warp-texton info bricks_tiling.exr --json
