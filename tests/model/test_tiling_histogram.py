@@ -92,3 +92,27 @@ def test_cli_analyze_with_histogram_preserve(example, tmp_path, capsys):
     assert main(["analyze", str(tmp_path / "ex.png"), "--method", "tiling", "--histogram", "preserve",
                  "-o", str(tmp_path / "m.texton")]) == 2
     assert capsys.readouterr().err.count("\n") == 1
+
+
+def test_a_users_kernel_maps_tiling_value_with_the_texton_functions(model):
+    # the tables are texton noise's: colour_value(make_colour_map(model), tiling_value(t, x)) in a Warp
+    # kernel is evaluate's value bit for bit on the CPU (the device functions the host maps with)
+    import warp as wp
+
+    from warp_texton.kernels import noise_colours, noise_tiling
+    from warp_texton.noise.colours import make_colour_map
+    from warp_texton.noise.tiling import tiling_struct
+
+    @wp.kernel
+    def mapped(t: noise_tiling.Tiling, cmap: noise_colours.ColourMap, pts: wp.array(dtype=wp.vec2d),
+               out: wp.array(dtype=wp.vec3)):
+        k = wp.tid()
+        out[k] = noise_colours.colour_value(cmap, noise_tiling.tiling_value(t, pts[k]))
+
+    rng = np.random.default_rng(5)
+    pts = np.stack([rng.uniform(-1e4, 1e4, 500), rng.uniform(-1e4, 1e4, 500)], 1)
+    out = wp.empty(500, dtype=wp.vec3, device="cpu")
+    wp.launch(mapped, dim=500, device="cpu",
+              inputs=[tiling_struct(model, 6, "cpu"), make_colour_map(model, "cpu"),
+                      wp.array(pts, dtype=wp.vec2d, device="cpu"), out])
+    assert np.array_equal(out.numpy(), evaluate(model, pts, seed=6, device="cpu"))
