@@ -8,11 +8,15 @@ and each seed, every method makes a 512² output; measured against the example:
 * **blend zone** — :func:`structure.blend_zone_energy` (ln HF energy in the blend
   zones over the example's; whole output for methods without a blend);
 * **repetition** — ``bench_quality.repetition``;
+* **W1** — ``bench_quality.marginal_w1``: the 1-D Wasserstein distance between the
+  marginal histograms of output and example, mean over the channels;
 * **ms** — milliseconds per output on ``--device`` (the NumPy peer on the host),
   best of the seeds, methods interleaved.
 
     python benchmarks/bench_structure.py            # → results/structure.{json,md}
     python benchmarks/bench_structure.py --quick    # brick only, one seed
+    python benchmarks/bench_structure.py --sharpness 2 4   # also the variance blend at these sharpnesses,
+                                                           # with and without histogram="preserve"
 """
 
 from __future__ import annotations
@@ -27,7 +31,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent))
 
-from bench_quality import repetition  # noqa: E402
+from bench_quality import marginal_w1, repetition  # noqa: E402
 from common import machine_line, report_header, run_main  # noqa: E402
 from structure import blend_zone_energy  # noqa: E402
 from structured_textures import STRUCTURED  # noqa: E402
@@ -58,7 +62,7 @@ def tiling_weights(model: TilingModel, shape):
     return (b / b.sum(axis=0)).max(axis=0)
 
 
-def methods(u, device, mni):
+def methods(u, device, mni, sweep=()):
     """name → (sample(seed), max_weight map or None, host-only)."""
     from benchmarks.peers import TilingBlending
 
@@ -70,6 +74,15 @@ def methods(u, device, mni):
         m = TilingModel(base.example, base.side, sharp, 0.0, base.metadata, blend)
         out[f"tiling s={sharp} {blend}"] = (lambda s, m=m: synthesize(m, SHAPE, seed=s, device=device),
                                             tiling_weights(m, SHAPE), False)
+    hp = analyze(u, method="tiling", histogram="preserve")
+    out["tiling s=16 variance, histogram preserve"] = (lambda s: synthesize(hp, SHAPE, seed=s, device=device),
+                                                       tiling_weights(hp, SHAPE), False)
+    for sharp in sweep:  # wider blend zones: where the histogram tables matter
+        for tables in (False, True):
+            src = hp if tables else base
+            m = TilingModel(src.example, src.side, sharp, 0.0, src.metadata, "variance", src.histogram)
+            out[f"tiling s={sharp} variance" + (", histogram preserve" if tables else "")] = (
+                lambda s, m=m: synthesize(m, SHAPE, seed=s, device=device), tiling_weights(m, SHAPE), False)
     t = analyze(u, size=min(64, *u.shape[:2]), seed=0)
     out[f"texton noise MNI {mni:g}"] = (lambda s: synthesize(t, SHAPE, mni=mni, seed=s, device=device), None, False)
     return out, base.structure
@@ -88,10 +101,10 @@ def run(args) -> dict:
             continue
         u = u[:, :, None] if u.ndim == 2 else u
         floor = half_distance(u)
-        ms, score = methods(u, args.device, args.mni)
+        ms, score = methods(u, args.device, args.mni, tuple(args.sharpness or ()))
         for fn, _, _ in ms.values():
             fn(0)  # warm up (compiles)
-        acc: dict[str, dict[str, list[float]]] = {k: {"patch": [], "blend": [], "rep": [], "s": []} for k in ms}
+        acc: dict[str, dict[str, list[float]]] = {k: {"patch": [], "blend": [], "rep": [], "w1": [], "s": []} for k in ms}
         for seed in seeds:
             for key, (fn, weights, _) in ms.items():
                 t0 = time.perf_counter()
@@ -100,16 +113,19 @@ def run(args) -> dict:
                 acc[key]["patch"].append(patch_distance(o, u, seed=seed) / floor)
                 acc[key]["blend"].append(blend_zone_energy(u, o, weights))
                 acc[key]["rep"].append(repetition(o))
+                acc[key]["w1"].append(float(np.mean(marginal_w1(o, u))))
         for key, a in acc.items():
             row = {"texture": name, "source": source, "structure": score, "method": key,
                    "device": "host" if ms[key][2] else args.device, "patch": float(np.mean(a["patch"])),
                    "patch_seeds": a["patch"], "blend_zone": float(np.mean(a["blend"])),
-                   "repetition": float(np.mean(a["rep"])), "ms": 1e3 * min(a["s"])}
+                   "repetition": float(np.mean(a["rep"])), "w1": float(np.mean(a["w1"])),
+                   "ms": 1e3 * min(a["s"])}
             rows.append(row)
             print(f"  {name:12s} {key:34s} patch {row['patch']:.3f}  blend {row['blend_zone']:+.3f}  "
-                  f"rep {row['repetition']:.3f}  {row['ms']:.0f} ms", flush=True)
+                  f"rep {row['repetition']:.3f}  W1 {row['w1']:.4f}  {row['ms']:.0f} ms", flush=True)
     return {**report_header("structure", args.device),
-            "parameters": {"shape": list(SHAPE), "seeds": list(seeds), "mni": args.mni},
+            "parameters": {"shape": list(SHAPE), "seeds": list(seeds), "mni": args.mni,
+                           "sharpness_sweep": list(args.sharpness or ())},
             "results": rows, "skipped": skipped}
 
 
@@ -118,16 +134,20 @@ def markdown(report: dict) -> str:
              "patch: multi-scale 7×7 patch sliced-Wasserstein distance to the example over the example's "
              "half-to-half distance, mean of the seeds; blend zone: ln HF energy in blend zones over the example's; "
              "ms: best of the seeds.", "",
-             "| texture | structure | method | patch | blend zone | repetition | ms |",
-             "|---|---:|---|---:|---:|---:|---:|"]
+             "| texture | structure | method | patch | blend zone | repetition | W1 | ms |",
+             "|---|---:|---|---:|---:|---:|---:|---:|"]
     for r in report["results"]:
         lines.append(f"| {r['texture']} | {r['structure']:.2f} | {r['method']} | {r['patch']:.3f} | "
-                     f"{r['blend_zone']:+.3f} | {r['repetition']:.3f} | {r['ms']:.0f} |")
+                     f"{r['blend_zone']:+.3f} | {r['repetition']:.3f} | {r.get('w1', float('nan')):.4f} | {r['ms']:.0f} |")
     return "\n".join(lines) + "\n"
 
 
 def main(argv=None) -> int:
-    return run_main(__doc__, "structure", run, markdown, argv, repeat=1)
+    def extra(parser):
+        parser.add_argument("--sharpness", type=int, nargs="*", choices=(1, 2, 4, 8, 32, 64),
+                            help="also these sharpnesses of the variance blend, with and without the histogram tables")
+
+    return run_main(__doc__, "structure", run, markdown, argv, repeat=1, extra_args=extra)
 
 
 if __name__ == "__main__":

@@ -31,16 +31,16 @@ ROOMS = ["_version", "core", "files", "model", "noise", "surface", "runtimes", "
 ROOM_LAYERS = {
     "core": {"errors": 0, "progress": 0, "lazy": 0, "limits": 1, "checks": 2, "runtime": 3},
     "files": {"readers": 0, "folders": 0, "images": 1},
-    "model": {"bspline": 0, "histogram": 0, "tiling": 0, "example_checks": 0, "texton": 1, "analysis_options": 1,
-              "gaussian": 2, "spot_noise": 2, "analysis": 3},
-    "noise": {"filter_options": 0, "noise_options": 0, "tiling": 0, "engine": 1, "colours": 1, "canvas": 2, "filtering": 3, "raster": 3,
+    "model": {"bspline": 0, "histogram": 0, "tiling": 1, "example_checks": 0, "texton": 2, "analysis_options": 1,
+              "gaussian": 2, "spot_noise": 3, "analysis": 3},
+    "noise": {"filter_options": 0, "noise_options": 0, "tiling": 2, "engine": 1, "colours": 1, "canvas": 2, "filtering": 3, "raster": 3,
               "synthesis": 4, "ground_plane": 4, "mixing": 4, "dask_arrays": 5, "batches": 5},
     "surface": {"frames": 0, "atlas": 0, "atlas_worker": 0, "blocks": 0, "tiling": 1, "points": 2, "mesh": 3,
                 "mesh_files": 4, "render": 4, "bake": 5, "jobs": 6},
     "runtimes": {"glsl": 0, "osl": 0, "warp_api": 0, "tiling_shaders": 1, "export": 2},
     "view": {"static": 0, "queries": 0, "cache": 0, "images": 0, "webgl": 0, "inputs": 1, "commands": 2,
              "viewer": 3, "server": 4},
-    "cli": {"options": 0, "images": 1, "surface": 1, "shader": 1, "view": 1, "parser": 2},
+    "cli": {"options": 0, "images": 1, "surface": 1, "shader": 1, "view": 1, "info": 1, "parser": 2},
 }
 #: Package data with an ``__init__`` (no code): outside the rooms' order.
 DATA_PACKAGES = {"data", "view.static"}

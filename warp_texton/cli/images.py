@@ -205,12 +205,18 @@ def _synthesize_zarr(args, out: Path, dtype) -> None:
     noise = noise_options(args)
     t0 = time.perf_counter()
     texton = texton_of(args)
+    options = filter_options(args)
+    texton_only: dict = {"noise": noise, "filter": options}
+    tiling = getattr(texton, "kind", "texton") == "tiling"
+    if tiling and args.period is None and options.kind == "none":
+        texton_only = {"seed": args.seed}  # as synthesize to an image: the options a tiling model takes
     report = write_zarr(out, texton, (h, w), chunks=chunk, dtype=dtype or ZARR_DTYPE, scheduler=args.scheduler,
                         workers=args.workers, overwrite=args.overwrite, progress=show_progress(args),
-                        noise=noise, scale=args.scale, rotation=args.rotation,
-                        offset=tuple(args.offset), device=args.device, filter=filter_options(args))
+                        scale=args.scale, rotation=args.rotation, offset=tuple(args.offset), device=args.device,
+                        **texton_only)
     if not args.quiet:
-        print(f"{out}: {w}x{h} texton noise, MNI {args.mni:g}, {report['dtype']} Zarr in chunks of "
+        what = "tiling and blending" if tiling and "seed" in texton_only else f"texton noise, MNI {args.mni:g}"
+        print(f"{out}: {w}x{h} {what}, {report['dtype']} Zarr in chunks of "
               f"{chunk[1]}x{chunk[0]} ({seconds_since(t0)})")
 
 
@@ -310,6 +316,9 @@ def _mix_input(args, path):
     import numpy as np
 
     x = _load_texture(path)
+    if getattr(x, "kind", None) == "tiling":
+        raise TextonError(f"{path}: a tiling model (method 'tiling') cannot be mixed: mix follows the path "
+                          "between Gaussian texton models; give images or textons")
     if not isinstance(x, np.ndarray):
         return x
     if args.crop is not None or args.downscale != 1:

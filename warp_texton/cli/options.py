@@ -236,11 +236,11 @@ def analysis_kwargs(args) -> dict:
         texton_only = [flag for flag, value, default in (
             ("--size", args.size, 64), ("--order", args.order, 1), ("--iterations", args.iterations, 50),
             ("--support", args.support, "square"), ("--no-periodic", args.periodic, True),
-            ("--no-color-correction", args.color_correction, True), ("--histogram", args.histogram, "gaussian"))
+            ("--no-color-correction", args.color_correction, True))
             if value != default]
         if texton_only:
             raise TextonError(f"{', '.join(texton_only)} apply to --method texton only", param="method")
-        return {"method": "tiling", "side": args.side, "seed": args.seed}
+        return {"method": "tiling", "side": args.side, "seed": args.seed, "histogram": args.histogram}
     return {"options": analysis_options(args)}
 
 

@@ -18,6 +18,7 @@ import warnings
 
 from .._version import __version__
 from .images import ANALYZE, DEMO, GAUSSIAN, MIX, RENDER_PLANE, SYNTHESIZE
+from .info import INFO
 from .options import Command, start_clock
 from .shader import SHADER
 from .surface import SURFACE
@@ -26,7 +27,7 @@ from ..core.errors import ExampleWarning, TextonError
 
 #: The commands, in the order ``--help`` lists them.
 COMMANDS: dict[str, Command] = {c.name: c for c in (ANALYZE, GAUSSIAN, SYNTHESIZE, RENDER_PLANE, MIX, SURFACE,
-                                                     VIEW, DEMO, SHADER)}
+                                                     VIEW, DEMO, SHADER, INFO)}
 
 
 class _Formatter(argparse.RawDescriptionHelpFormatter, argparse.ArgumentDefaultsHelpFormatter):

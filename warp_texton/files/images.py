@@ -378,10 +378,15 @@ def read_image(path) -> np.ndarray:
     if not path.is_file():
         raise TextonError(f"{path}: not a file")
     ext = path.suffix.lower()
-    if ext == ".texton" or (ext == EXR and is_texton_header(read_exr_header(path))):
+    header = read_exr_header(path) if ext == EXR else {}
+    if ext == ".texton" or (ext == EXR and is_texton_header(header)):
+        tiling = header.get("texton_kind") == "tiling"
+        what = "tiling model" if tiling else "texton"
+        where = "synthesize, view, info; docs/tiling.md" if tiling else \
+            "synthesize, render-plane, mix, surface --texton, view, info"
         raise TextonError(
-            f"{path}: is a texton file, not an image; give an example image here, or use the texton where "
-            "a texton is expected (load_texton; on the command line: synthesize, render-plane, mix, surface --texton)"
+            f"{path}: is a {what} file, not an image; give an example image here, or use the {what} where "
+            f"a model is expected (load_texton; on the command line: {where})"
         )
     if ext == EXR:
         return read_exr(path)[0]

@@ -31,7 +31,7 @@ from .analysis_options import SUPPORTS, AnalysisOptions, check_support  # noqa: 
 from ..core.errors import TextonError
 from .example_checks import warn_large, warn_unsuited
 from ..core.limits import check_memory, check_work
-from .histogram import HistogramTransform
+from .histogram import HistogramTransform, check_histogram
 from .gaussian import FFT_WORKERS, normalized_kernel, relative_model_error_half
 from .texton import Texton, lag0_covariance
 
@@ -254,7 +254,9 @@ def analyze(
         example is analysed, and the texton keeps the inverse map
         (:class:`~warp_texton.model.histogram.HistogramTransform`), which every
         output applies after the noise, so that outputs have the example's
-        colour histogram (docs/histogram.md).
+        colour histogram (docs/histogram.md). With ``method="tiling"`` the
+        model blends the Gaussianised example and maps the blend back through
+        the same tables (docs/tiling.md, "Histogram-preserving blend").
     progress : bool
         Show a progress bar over the iterations.
     options : AnalysisOptions, optional
@@ -330,15 +332,15 @@ def analyze(
     if method == TILING_KIND:
         changed = [name for name, value, default in (
             ("size", size, 64), ("order", order, 1), ("iterations", iterations, 50), ("periodic", periodic, True),
-            ("color_correction", color_correction, True), ("support", support, "square"),
-            ("histogram", histogram, "gaussian")) if not (type(value) is type(default) and value == default)]
+            ("color_correction", color_correction, True), ("support", support, "square"))
+            if not (type(value) is type(default) and value == default)]
         if options is not None:
             changed.insert(0, "options")
         if changed:
             raise TextonError(f"{', '.join(changed)} apply to method 'texton' only, not to method 'tiling'",
                               param=changed[0])
         side = None if side is None else check_int(side, "side", minimum=2)
-        return fit_tiling(as_image(u), side=side, seed=check_seed(seed))
+        return fit_tiling(as_image(u), side=side, seed=check_seed(seed), histogram=check_histogram(histogram))
     if side is not None:
         raise TextonError("side applies to method 'tiling' only", param="side")
     u = as_image(u)

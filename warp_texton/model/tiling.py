@@ -28,6 +28,7 @@ from ..core.checks import CHANNELS, MAX_VALUE, as_image, as_real_array, check_pa
 from .._version import __version__
 from ..core.errors import TextonError
 from ..files.images import EXR, check_output_name, read_exr, read_exr_header, write_exr
+from .histogram import HistogramTransform, check_histogram, gauss_grid
 
 __all__ = ["TilingModel", "TILING_KIND", "KIND_ATTRIBUTE", "fit_tiling", "guide_of", "structure_score",
            "patch_distance", "half_distance", "suggest_method", "scorable", "is_tiling_header", "load_tiling",
@@ -91,6 +92,17 @@ class TilingModel:
         (the default) blends by position only.
     metadata : dict
         Provenance and the measured structure score; JSON values.
+    blend : {"linear", "variance"}
+        The weighted mean of the patches, or the variance-preserving blend
+        (Heitz & Neyret 2018, eq. (4)).
+    histogram : HistogramTransform, optional
+        ``analyze(..., method="tiling", histogram="preserve")``: ``example`` holds
+        the example Gaussianised per channel (:meth:`HistogramTransform.to_gaussian`)
+        and every output maps the blended values back through these tables,
+        after the blend, exactly as texton noise applies a texton's
+        (:func:`warp_texton.noise.colours.to_colours`, standardised by the
+        Gaussianised example's own :attr:`mean` and :meth:`covariance`). None:
+        the example's colours are blended directly.
 
     Raises
     ------
@@ -105,6 +117,7 @@ class TilingModel:
     guide_weight: float = 0.0
     metadata: dict = field(default_factory=dict)
     blend: str = "linear"
+    histogram: HistogramTransform | None = None
 
     def __post_init__(self):
         a = as_real_array(self.example, "example", "an array (H, W) or (H, W, C) of numbers")
@@ -133,6 +146,10 @@ class TilingModel:
         if not isinstance(self.metadata, Mapping) or not all(isinstance(k, str) for k in self.metadata):
             raise TextonError(f"metadata must be a dict with string keys, got {self.metadata!r:.80}",
                               param="metadata")
+        if self.histogram is not None and (not isinstance(self.histogram, HistogramTransform)
+                                           or self.histogram.channels != a.shape[2]):
+            raise TextonError(f"histogram must be a HistogramTransform of {a.shape[2]} channel(s) or None, got "
+                              f"{self.histogram!r:.60}", param="histogram")
         a = np.ascontiguousarray(a, dtype=np.float32)
         a.setflags(write=False)
         object.__setattr__(self, "example", a)
@@ -170,6 +187,13 @@ class TilingModel:
         """The example's mean colour, float64 (C,)."""
         return self.example.mean(axis=(0, 1), dtype=np.float64)
 
+    def covariance(self) -> np.ndarray:
+        """The example's colour covariance (all texels), float64 (C, C): what the variance-preserving
+        blend keeps; with a histogram transform, its diagonal standardises the blend before the tables."""
+        flat = self.example.reshape(-1, self.channels).astype(np.float64)
+        flat = flat - flat.mean(axis=0)
+        return flat.T @ flat / max(flat.shape[0], 1)
+
     @property
     def mean3(self) -> np.ndarray:
         """The example's mean colour as the kernels hold it: float32 (3,), zeros past its channels."""
@@ -194,12 +218,24 @@ class TilingModel:
             "tiling_blend": self.blend,
             "texton_metadata": json.dumps({**self.metadata, "warp_texton_version": __version__}),
         }
+        if self.histogram is not None:  # as texton files store theirs: JSON, float64 values exactly
+            attributes["texton_histogram"] = self.histogram.to_json()
         write_exr(path, self.example, **attributes)
 
     def __repr__(self) -> str:
         h, w, c = self.example.shape
+        extra = "" if self.histogram is None else ", histogram=preserve"
         return (f"TilingModel(example {w}x{h}x{c}, side={self.side:g}, sharpness={self.sharpness:g}, "
-                f"guide_weight={self.guide_weight:g}, blend={self.blend!r})")
+                f"guide_weight={self.guide_weight:g}, blend={self.blend!r}{extra})")
+
+    def colours(self) -> np.ndarray:
+        """The example in its own colours (float32 (H, W, C)): ``example`` itself, or mapped
+        back through the histogram tables when the model holds a Gaussianised example."""
+        if self.histogram is None:
+            return self.example
+        flat = self.example.reshape(-1, self.channels)
+        mean, std = self.mean, np.sqrt(np.maximum(np.diag(self.covariance()), 1e-30))
+        return self.histogram.to_colours((flat - mean) / std).reshape(self.example.shape).astype(np.float32)
 
 
 def _number(value, name: str, lo: float, hi: float | None) -> float:
@@ -231,7 +267,10 @@ def load_tiling(path) -> TilingModel:
         if not isinstance(metadata, dict):
             raise ValueError("metadata is not a JSON object")
         metadata.pop("warp_texton_version", None)
-        return TilingModel(example, side, sharp, beta, metadata, header.get("tiling_blend", "linear"))
+        histogram = None
+        if "texton_histogram" in header:
+            histogram = HistogramTransform.from_json(header["texton_histogram"], f"{path}")
+        return TilingModel(example, side, sharp, beta, metadata, header.get("tiling_blend", "linear"), histogram)
     except (KeyError, ValueError, TypeError, TextonError) as exc:
         raise TextonError(f"{path}: malformed tiling model EXR: {exc}", param="path") from None
 
@@ -335,8 +374,15 @@ def suggest_method(score: float) -> str:
 
 def fit_tiling(u, *, side: float | None = None, sharpness: int = SHARPNESS, guide_weight: float = 0.0,
                blend: str = "variance", score: bool = True, seed: int = 0,
-               source: str | None = None) -> TilingModel:
-    """The :class:`TilingModel` of an example image (``analyze(u, method="tiling")``)."""
+               source: str | None = None, histogram: str = "gaussian") -> TilingModel:
+    """The :class:`TilingModel` of an example image (``analyze(u, method="tiling")``).
+
+    ``histogram="preserve"``: the model blends the example Gaussianised per
+    channel (the RGB channels for colour, as ``analyze``'s texton tables; the
+    one channel for grey) and maps the blend back through its tables
+    (:class:`~warp_texton.model.histogram.HistogramTransform`), so that the
+    blend zones keep the example's marginals (Heitz & Neyret 2018, §1.4)."""
+    histogram = check_histogram(histogram)
     a = as_image(u, "u")
     small = min(a.shape[:2])
     if small < MIN_SIDE:
@@ -351,7 +397,42 @@ def fit_tiling(u, *, side: float | None = None, sharpness: int = SHARPNESS, guid
         metadata["source"] = source
     if score and scorable(a.shape):
         metadata["structure"] = structure_score(a, seed=seed)
-    return TilingModel(a, side, sharpness, guide_weight, metadata, blend)
+    if histogram == "gaussian":
+        return TilingModel(a, side, sharpness, guide_weight, metadata, blend)
+    example, transform = gaussianised(a)
+    metadata["histogram"] = histogram
+    return TilingModel(example, side, sharpness, guide_weight, metadata, blend, transform)
+
+
+def gaussianised(u: np.ndarray) -> tuple[np.ndarray, HistogramTransform]:
+    """(example, transform) of a histogram-preserving tiling model of the image u (H, W, C).
+
+    The example is u Gaussianised per channel (RGB channels for colour, as
+    ``analyze``'s texton tables; grey's one channel): ranks to standard
+    Gaussian quantiles (:meth:`HistogramTransform.to_gaussian`), float32. The
+    outputs standardise the blend by the example's own mean and standard
+    deviation (:func:`warp_texton.noise.colours.noise_moments`), so each table
+    is fitted on those standardised values s: ``lut[c, k]`` is channel c of
+    u where s crosses the grid value g_k (linear between the example's
+    distinct values), the quantile of u at the probability of g_k. A texel
+    alone (most of the plane at a high sharpness) then maps back to its own
+    colour to within the table's resolution (10⁻⁴ on 8-bit photographs,
+    where the tables of :meth:`HistogramTransform.fit`, read at shifted
+    values, were a level off).
+    """
+    fit = HistogramTransform.fit(u, axes="rgb" if u.shape[2] > 1 else "pca")
+    example = fit.to_gaussian(u).astype(np.float32)
+    flat = example.reshape(-1, u.shape[2]).astype(np.float64)
+    mean = example.mean(axis=(0, 1), dtype=np.float64)
+    std = np.sqrt(np.maximum(((flat - mean) ** 2).mean(axis=0), 1e-30))
+    s = (flat - mean) / std
+    z = fit.decorrelate(u).reshape(-1, u.shape[2])
+    grid = gauss_grid(fit.lut.shape[1])
+    lut = np.empty_like(fit.lut)
+    for c in range(u.shape[2]):
+        values, first = np.unique(s[:, c], return_index=True)
+        lut[c] = np.interp(grid, values, z[first, c])
+    return example, HistogramTransform(fit.matrix, fit.centre, np.maximum.accumulate(lut, axis=1))
 
 
 # ---------------------------------------------------------------- evaluation

@@ -6,6 +6,8 @@ prices the whole batch once, then puts its plain items into one
 count/emit/splat pass (CPU) or one gather launch (CUDA) per group of about
 ``canvas.STRIP_WORK`` pixels; filtered items go through the filters one by one.
 Item k equals :func:`warp_texton.synthesize` with ``Batch.params.item(k)``.
+Batches of tiling models (:class:`~warp_texton.model.tiling.TilingModel`) run item by item
+through ``synthesize`` (one launch each: a tiling item has no impacts to share).
 """
 
 from __future__ import annotations
@@ -27,8 +29,9 @@ from ..core.limits import check_memory, check_work, work_budget
 from .engine import CELL_FACTOR, NoiseSetup, noise_setup, params_record, params_struct
 from .raster import (RasterWindow, TextonStack, check_method, check_raster_cost, raster_cost, raster_geometry,
                      raster_reach, rasters, resolve_method, window_block)
-from .synthesis import filtered_work
+from .synthesis import check_tiling_reach, filtered_work, synthesize
 from ..model.texton import Texton
+from ..model.tiling import TilingModel
 
 #: Host memory per batch item besides its pixels: its drawn parameters (NumPy) and its
 #: window (a small Python object with its geometry): 1.2 KiB measured (tracemalloc, 20 000 items
@@ -39,6 +42,10 @@ BATCH_ITEM_BYTES = 2048
 #: 9.0 s on the two-core CPU of docs/limits.md), which the raster path's 7e8 operations / s
 #: would spend on 6.5e4 operations; rounded up, so a million items are refused by the default budget.
 BATCH_ITEM_OPS = 1.0e5
+#: Work of one pixel of a tiling model, in operations: 512² pixels in about 11 ms on the two-core
+#: CPU of docs/limits.md (docs/tiling.md), 42 ns a pixel, which the raster path's 7e8 operations / s
+#: spends on 30; rounded up.
+TILING_PIXEL_OPS = 32.0
 
 
 @dataclass(frozen=True)
@@ -93,18 +100,23 @@ class Batch(NamedTuple):
     params: BatchParams
 
 
-def _check_textons(textons) -> list[Texton]:
-    if isinstance(textons, Texton):
+def _check_textons(textons) -> list:
+    if isinstance(textons, (Texton, TilingModel)):
         return [textons]
     try:
         textons = list(textons)
     except TypeError:
-        raise TextonError(f"textons must be a Texton or a list of Textons, got {type(textons).__name__}") from None
+        raise TextonError(f"textons must be a Texton, a TilingModel or a list of them, got "
+                          f"{type(textons).__name__}") from None
     if not textons:
-        raise TextonError("textons is empty; give at least one Texton")
+        raise TextonError("textons is empty; give at least one Texton or TilingModel")
     for k, t in enumerate(textons):
-        if not isinstance(t, Texton):
-            raise TextonError(f"textons[{k}] must be a Texton, got {type(t).__name__}")
+        if not isinstance(t, (Texton, TilingModel)):
+            raise TextonError(f"textons[{k}] must be a Texton or a TilingModel, got {type(t).__name__}")
+        if type(t) is not type(textons[0]):
+            raise TextonError(f"textons[{k}] is a {type(t).__name__} but textons[0] a {type(textons[0]).__name__}; "
+                              "a batch's models must all be textons or all tiling models (make separate batches)",
+                              param="textons")
         if t.channels != textons[0].channels:
             raise TextonError(
                 f"textons[{k}] has {t.channels} channel(s) but textons[0] has {textons[0].channels}; a batch's "
@@ -241,8 +253,13 @@ def synthesize_batch(
 
     Parameters
     ----------
-    textons : Texton or list of Texton
-        Textons of one channel count; their sizes and orders may differ.
+    textons : Texton, TilingModel or a list of them
+        Textons of one channel count; their sizes and orders may differ. Or
+        tiling models (``analyze(..., method="tiling")``) of one channel count:
+        each item is then ``synthesize(model, shape, **params.item(k))``
+        (the texton-noise options ``mni``, ``period``, ``poisson``,
+        ``cell_factor``, ``method`` and ``filter`` go to :func:`synthesize`,
+        which refuses what a tiling model does not support).
     count : int
         Number of rasters, >= 1 (their memory must fit the budget of
         :mod:`warp_texton.core.limits`).
@@ -330,6 +347,10 @@ def synthesize_batch(
     count = check_int(count, "count", minimum=1)
     h, w = check_shape(shape)
     output = check_output(output)
+    if isinstance(textons[0], TilingModel):
+        return _tiling_batch(textons, count, (h, w), seed, scale, rotation, offset, device, texton_index, output,
+                             progress, dict(mni=mni, period=period, poisson=poisson, cell_factor=cell_factor,
+                                            method=method, filter=filter))
     mni = check_positive(mni, "mni")
     options = FilterOptions.of(filter)
     check_method(method)
@@ -426,3 +447,39 @@ def _runs(items: list[int]) -> list[tuple[int, int]]:
         else:
             runs.append([k, k + 1])
     return [(a, b) for a, b in runs]
+
+
+def _tiling_batch(models: list[TilingModel], count: int, shape: tuple[int, int], seed, scale, rotation, offset,
+                  device, texton_index, output: str, progress: bool, options: dict) -> Batch:
+    """:func:`synthesize_batch` of tiling models: item k is ``synthesize(models[params.texton[k]], shape,
+    **params.item(k), **options)``, computed item by item (bit for bit that call)."""
+    h, w = shape
+    channels = models[0].channels
+    # what synthesize refuses for every item (texton-noise options), before anything is made
+    synthesize(models[0], (1, 1), device="cpu", **options)
+    device = resolve_device(device)
+    items_bytes = result_bytes(count, h, w, channels, device, output) + count * BATCH_ITEM_BYTES
+    what = f"a batch of {count} {w}x{h} rasters of a tiling model"
+    check_memory(items_bytes, what, "use a smaller count or shape, or make the batch in parts")
+    check_work(count * (BATCH_ITEM_OPS + h * w * TILING_PIXEL_OPS), what,
+               "use a smaller count or shape, or make the batch in parts", param="count", mentions=("shape",))
+    params = draw_batch_params(len(models), count, seed, scale, rotation, offset, texton_index)
+    corners = np.array([[0, 0], [w, 0], [0, h], [w, h]], np.float64).T
+    for k in range(count):  # far positions are refused before any item is computed
+        kw = params.item(k)
+        origin, step = raster_geometry((h, w), kw["scale"], kw["rotation"], kw["offset"])
+        check_tiling_reach((origin[:, None] + step @ corners).T)
+    images = np.empty((count, h, w, channels), np.float32)
+    bar = progress_bar(progress, count, "synthesize_batch", "image")
+    try:
+        for k in range(count):
+            images[k] = synthesize(models[int(params.texton[k])], (h, w), **params.item(k), device=device,
+                                   **options)
+            bar.update(1)
+    finally:
+        bar.close()
+    if output == "warp":
+        import warp as wp
+
+        return Batch(wp.array(images, dtype=float, device=device), params)
+    return Batch(images, params)

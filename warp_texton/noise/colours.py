@@ -31,6 +31,7 @@ from ..kernels import noise_colours
 from ..kernels.noise_filter import Filter
 from ..core.limits import check_memory
 from ..model.texton import Texton
+from ..model.tiling import TilingModel
 
 #: The shares' table: footprint extents 2^LOG_EXTENTS texels along the two axes of
 #: J Jᵀ, and ANGLES directions of its major axis over [0, π).
@@ -43,13 +44,14 @@ SPECTRUM_SIDE = 64
 
 
 @functools.lru_cache(maxsize=16)
-def noise_moments(texton: Texton) -> tuple[np.ndarray, np.ndarray]:
-    """(mean, standard deviation) per channel of the texton's noise (CGF §3.3)."""
+def noise_moments(texton: Texton | TilingModel) -> tuple[np.ndarray, np.ndarray]:
+    """(mean, standard deviation) per channel of the texton's noise (CGF §3.3), or of a
+    tiling model's blend (its Gaussianised example's, which the variance-preserving blend keeps)."""
     var = np.diag(np.atleast_2d(texton.covariance()))
     return texton.mean.astype(np.float64), np.sqrt(np.maximum(var, 1e-30))
 
 
-def make_colour_map(texton: Texton, device: str = "cpu", shares: bool = False) -> noise_colours.ColourMap:
+def make_colour_map(texton: Texton | TilingModel, device: str = "cpu", shares: bool = False) -> noise_colours.ColourMap:
     """The kernels' ``ColourMap`` of ``texton`` on ``device`` (float32 copies of its
     transform and noise moments; ``enabled`` 0 without a transform), with its table
     of footprint shares when ``shares`` (:func:`share_table`)."""
@@ -80,7 +82,7 @@ def make_colour_map(texton: Texton, device: str = "cpu", shares: bool = False) -
 colour_map = functools.lru_cache(maxsize=16)(make_colour_map)
 
 
-def to_colours(values: np.ndarray, texton: Texton | None, share=None) -> None:
+def to_colours(values: np.ndarray, texton: Texton | TilingModel | None, share=None) -> None:
     """Map ``values`` (N, ≥ C) float32, in place, from the noise of ``texton`` to its
     example's colours; nothing for a texton without a histogram transform.
 

@@ -38,8 +38,9 @@ from ..core.limits import check_memory, check_work
 from .engine import CELL_FACTOR, noise_setup
 from .noise_options import NoiseOptions
 from .raster import raster_geometry, raster_reach
-from .synthesis import synthesize
+from .synthesis import check_tiling_reach, synthesize
 from ..model.texton import Texton
+from ..model.tiling import TilingModel
 
 if TYPE_CHECKING:
     from concurrent.futures import Executor
@@ -107,13 +108,19 @@ def check_chunks(chunks, shape, name: str = "chunks") -> tuple[int, int]:
 class _Plan:
     """A validated request: the texton, the raster, its chunks and synthesize's options."""
 
+    noise: NoiseOptions | None  # None for a tiling model
+
     def __init__(self, texton, shape, chunks, mni, seed, scale, rotation, offset, period, device, poisson,
                  cell_factor, method, filter, noise=None):
-        if not isinstance(texton, Texton):
-            raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
+        if not isinstance(texton, (Texton, TilingModel)):
+            raise TextonError(f"texton must be a Texton or a TilingModel, got {type(texton).__name__}")
         self.texton = texton
         self.shape = check_big_shape(shape)
         self.chunks = check_chunks(chunks, self.shape)
+        if isinstance(texton, TilingModel):
+            self._tiling(mni, seed, scale, rotation, offset, period, device, poisson, cell_factor, method, filter,
+                         noise)
+            return
         self.noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson,
                                         cell_factor=cell_factor)
         self.options = dict(noise=self.noise, scale=scale, rotation=rotation, offset=offset, device=device,
@@ -124,6 +131,22 @@ class _Plan:
         raster_reach(origin, step, self.shape, setup)
         synthesize(texton, (1, 1), **{**self.options, "device": "cpu"}, pixel_offset=(0, 0))
         self.filtered = needs_filtering(step, self.options["filter"])
+        if device is not None:
+            resolve_device(device)
+
+    def _tiling(self, mni, seed, scale, rotation, offset, period, device, poisson, cell_factor, method, filter,
+                noise) -> None:
+        """A tiling model's plan: its chunks are ``synthesize`` windows with the options as given (the
+        texton-noise ones at their defaults, which ``synthesize`` checks: it refuses the others)."""
+        self.noise = None
+        self.options = dict(mni=mni, seed=seed, scale=scale, rotation=rotation, offset=offset, period=period,
+                            device=device, poisson=poisson, cell_factor=cell_factor, method=method, filter=filter,
+                            noise=noise)
+        synthesize(self.texton, (1, 1), **{**self.options, "device": "cpu"}, pixel_offset=(0, 0))
+        h, w = self.shape
+        origin, step = raster_geometry(self.shape, scale, rotation, offset)
+        check_tiling_reach((origin[:, None] + step @ np.array([[0, w, 0, w], [0, 0, h, h]], np.float64)).T)
+        self.filtered = False
         if device is not None:
             resolve_device(device)
 
@@ -150,7 +173,7 @@ def _block(plan: _Plan, block_info=None) -> np.ndarray:
 
 
 def synthesize_dask(
-    texton: Texton,
+    texton: Texton | TilingModel,
     shape,
     *,
     chunks=CHUNK,
@@ -176,7 +199,11 @@ def synthesize_dask(
 
     Parameters
     ----------
-    texton : Texton
+    texton : Texton or TilingModel
+        A texton, or a tiling model (``analyze(..., method="tiling")``): its
+        chunks are ``synthesize`` windows too, bit for bit; the texton-noise
+        options go to :func:`~warp_texton.synthesize` as given, which refuses
+        those a tiling model does not support.
     shape : (height, width)
         Each side at most 2**30 pixels; no limit on the pixel count.
     chunks : int or (rows, columns)
@@ -259,6 +286,9 @@ def _token(plan: _Plan) -> str:
 
     t = plan.texton
     colours = () if t.histogram is None else (t.histogram.matrix, t.histogram.centre, t.histogram.lut)
+    if isinstance(t, TilingModel):
+        model = (t.example, t.side, t.sharpness, t.guide_weight, t.blend)
+        return tokenize("tiling", *model, *colours, plan.shape, plan.chunks, repr(sorted(plan.options.items())))
     return tokenize(t.coeffs, t.mean, t.order, *colours, plan.shape, plan.chunks, repr(sorted(plan.options.items())))
 
 
@@ -316,7 +346,7 @@ def check_scheduler(scheduler) -> tuple[str, str | None]:
 
 def write_zarr(
     path,
-    texton: Texton,
+    texton: Texton | TilingModel,
     shape,
     *,
     chunks=CHUNK,
@@ -340,7 +370,7 @@ def write_zarr(
     ----------
     path : str or Path
         The store (a folder, conventionally ``*.zarr``); must not exist unless ``overwrite``.
-    texton : Texton
+    texton : Texton or TilingModel
         As in :func:`synthesize_dask`.
     shape : (height, width)
         As in :func:`synthesize_dask`.
@@ -448,6 +478,8 @@ def _attributes(plan: _Plan, dtype: str) -> dict:
     o = plan.options
     n = plan.noise
     t = plan.texton
+    if isinstance(t, TilingModel) or n is None:
+        return _tiling_attributes(plan, dtype)
     noise = dict(mni=n.mni, seed=n.seed, scale=o["scale"], rotation=o["rotation"], offset=list(o["offset"]),
                  period=None if n.period is None else list(n.period), poisson=n.poisson, cell_factor=n.cell_factor,
                  filter=o["filter"].kind)
@@ -512,3 +544,23 @@ def _run_distributed(address: str, task, grid, bar) -> int:
         raise
     finally:
         client.close()
+
+
+def _tiling_attributes(plan: _Plan, dtype: str) -> dict:
+    """The store's attributes for a tiling model: the model's parameters and the options as given."""
+    o = plan.options
+    t = plan.texton
+    assert isinstance(t, TilingModel), "a plan without noise options is a tiling model's"
+    h, w, c = t.example.shape
+    filt = o["filter"] if isinstance(o["filter"], str) else getattr(o["filter"], "kind", str(o["filter"]))
+    noise = dict(seed=o["seed"], scale=o["scale"], rotation=o["rotation"], offset=list(o["offset"]),
+                 period=None if o["period"] is None else list(o["period"]), filter=filt)
+    values = "noise values" if dtype.startswith("float") else f"[0, 1] scaled to 0..{np.iinfo(dtype).max}, clipped"
+    model = {"kind": t.kind, "example": [w, h], "channels": c, "side": t.side, "sharpness": t.sharpness,
+             "guide_weight": t.guide_weight, "blend": t.blend,
+             "histogram": "preserve" if t.histogram is not None else "gaussian",
+             "mean": [float(v) for v in t.mean]}
+    return {"warp_texton": {"version": __version__, "noise": json.loads(json.dumps(noise, default=float)),
+                            "texton": model,
+                            "pixel": "(i, j) at offset + R(rotation) ((j + 1/2) / scale, (i + 1/2) / scale)",
+                            "values": values}}

@@ -16,6 +16,7 @@ import numpy as np
 from ..core.runtime import init_warp, is_cpu, resolve_device, split_launch
 from ..kernels import noise_tiling
 from ..model.tiling import TilingModel
+from .colours import to_colours
 
 #: The device arrays of each model, per device (models are immutable).
 _ARRAYS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -43,6 +44,18 @@ def tiling_struct(model: TilingModel, seed: int, device: str):
     return t
 
 
+def tiling_colours(model: TilingModel, values: np.ndarray) -> None:
+    """Map a tiling model's blended values (..., lanes ≥ C) float32, in place, through its histogram
+    tables (a histogram-preserving model), exactly as texton noise maps its noise
+    (:func:`~warp_texton.noise.colours.to_colours`); nothing for a model without tables.
+    Every output of a tiling model passes its values through here once, after the blend."""
+    if model.histogram is not None:
+        flat = values.reshape(-1, values.shape[-1])
+        to_colours(flat, model)
+        if not np.shares_memory(flat, values):  # a copy (a strided view): write it back
+            values[...] = flat.reshape(values.shape)
+
+
 def tiling_pixels(model: TilingModel, shape, origin, step, first, seed: int, device) -> np.ndarray:
     """The (H, W, C) float32 raster whose pixel (i, j) is the model at
     origin + step · (first[1] + j + ½, first[0] + i + ½) (``raster_geometry``'s layout)."""
@@ -64,6 +77,7 @@ def tiling_pixels(model: TilingModel, shape, origin, step, first, seed: int, dev
 
     split_launch(device, noise_tiling, h, launch)
     values = host if host is not None else out.numpy()
+    tiling_colours(model, values)
     return values if model.channels == 3 else np.ascontiguousarray(values[..., :model.channels])
 
 
@@ -80,4 +94,8 @@ def tiling_at(model: TilingModel, points: np.ndarray, seed: int, device) -> np.n
         wp.launch(noise_tiling.tiling_points, dim=k1 - k0, inputs=[t, pts[k0:k1], out[k0:k1]], device=device)
 
     split_launch(device, noise_tiling, n, launch)
-    return np.ascontiguousarray(out.numpy()[:, :model.channels]) if n else np.zeros((0, model.channels), np.float32)
+    if not n:
+        return np.zeros((0, model.channels), np.float32)
+    values = out.numpy()
+    tiling_colours(model, values)
+    return np.ascontiguousarray(values[:, :model.channels])

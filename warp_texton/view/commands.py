@@ -55,8 +55,8 @@ def _pycall(fn: str, *args, **kwargs) -> str:
 
 def texton_steps(src: Source, analysis: Analysis) -> tuple[list[str], list[str], str]:
     """(CLI lines, Python lines, the CLI's texton argument) that give the texton."""
-    path = src.path or ("INPUT.exr" if src.kind == "texton" else "INPUT.png")
-    if src.kind == "texton":
+    path = src.path or ("INPUT.exr" if src.kind in ("texton", "tiling") else "INPUT.png")
+    if src.kind in ("texton", "tiling"):  # a model file: loaded as it is
         return [], ["from warp_texton import load_texton", f"texton = load_texton({path!r})"], shlex.quote(path)
     stem = Path(src.name).stem or "input"
     cc = "" if analysis.color_correction else "_nocc"
@@ -83,17 +83,21 @@ def plan_noise(name: str, w: Window, analysis: Analysis, noise: Noise, src: Sour
     cli, py, texton_arg = texton_steps(src, analysis)
     dev_cli, dev_py = device_args(device)
     h, wd = w.shape
+    tiling = src.kind == "tiling"  # no MNI (texton noise's); the filter only when there is one
+    mni_cli = [] if tiling else ["--mni", _arg(noise.mni)]
     line = ["warp-texton", "synthesize", texton_arg, "-o", shlex.quote(name), "--width", str(wd),
-            "--height", str(h), "--mni", _arg(noise.mni), "--seed", str(noise.seed), "--scale", _arg(w.scale),
+            "--height", str(h), *mni_cli, "--seed", str(noise.seed), "--scale", _arg(w.scale),
             "--rotation", _arg(w.rotation), "--offset", _arg(w.offset[0]), _arg(w.offset[1])]
     if w.period is not None:
         line += ["--period", _arg(w.period[0]), _arg(w.period[1])]
-    line += ["--filter", noise.filter, *dev_cli]
-    kwargs = dict(mni=_py(noise.mni), seed=noise.seed, scale=_py(w.scale), rotation=_py(w.rotation),
-                  offset=_py(w.offset))
+    line += ([] if tiling and noise.filter == "none" else ["--filter", noise.filter]) + dev_cli
+    kwargs: dict = {} if tiling else dict(mni=_py(noise.mni))
+    kwargs.update(seed=noise.seed, scale=_py(w.scale), rotation=_py(w.rotation), offset=_py(w.offset))
     if w.period is not None:
         kwargs["period"] = _py(w.period)
-    kwargs.update(filter=repr(noise.filter), **dev_py)
+    if not (tiling and noise.filter == "none"):
+        kwargs["filter"] = repr(noise.filter)
+    kwargs.update(**dev_py)
     py = py + ["from warp_texton import synthesize, write_image",
                f"image = {_pycall('synthesize', 'texton', _py(w.shape), **kwargs)}",
                f"write_image({name!r}, image)"]

@@ -1,5 +1,5 @@
-"""The viewer's inputs: the image or texton given at start, and the images the page
-uploads for mixing, parsed defensively (size-checked before decoding)."""
+"""The viewer's inputs: the image, texton or tiling model given at start, and the images
+the page uploads for mixing, parsed defensively (size-checked before decoding)."""
 
 from __future__ import annotations
 
@@ -16,7 +16,8 @@ import numpy as np
 from ..core.errors import TextonError
 from ..files.images import read_image
 from ..core.limits import check_memory
-from ..model.texton import Texton, as_texton, load_texton
+from ..model.texton import Texton, load_texton
+from ..model.tiling import TilingModel
 from .queries import BadRequest
 
 #: Uploaded second inputs (mixing): bytes, pixels, how many are kept.
@@ -31,16 +32,20 @@ UPLOAD_BYTES_PER_PIXEL = 40
 
 @dataclass(frozen=True)
 class Source:
-    """An input given at start (or uploaded): an image to analyse, or a texton."""
+    """An input given at start (or uploaded): an image to analyse, a texton, or a tiling model
+    (``analyze(..., method="tiling")``, shown as server tiles: :mod:`~warp_texton.view.viewer`)."""
 
     name: str
     path: str | None
     image: np.ndarray | None
-    texton: Texton | None
+    texton: Texton | TilingModel | None
     digest: str
 
     @property
     def kind(self) -> str:
+        """"image", "texton" or "tiling"."""
+        if isinstance(self.texton, TilingModel):
+            return "tiling"
         return "texton" if self.texton is not None else "image"
 
     @property
@@ -71,15 +76,37 @@ def _is_texton_file(path: Path) -> bool:
     return True
 
 
-def load_source(input, what: str = "input") -> Source:
-    """A Source from a path (texton file or image) or a Texton."""
+def _is_tiling_file(path: Path) -> bool:
+    if path.suffix.lower() != ".exr" or not path.is_file():
+        return False
+    from ..files.images import read_exr_header
+    from ..model.tiling import is_tiling_header
+
+    try:
+        return is_tiling_header(read_exr_header(path))
+    except TextonError:
+        return False
+
+
+def load_source(input, what: str = "input", tiling: bool = True) -> Source:
+    """A Source from a path (texton or tiling model file, or image), a Texton or a TilingModel
+    (refused with ``tiling=False``: the inputs of mixing)."""
+    if isinstance(input, TilingModel) or (isinstance(input, (str, os.PathLike)) and _is_tiling_file(Path(input))):
+        if not tiling:
+            raise TextonError(f"{what}: a tiling model (method 'tiling') cannot be mixed; mixing takes images "
+                              "and textons", param=what)
+    if isinstance(input, TilingModel):
+        colours = () if input.histogram is None else (input.histogram.to_json().encode(),)
+        return Source("tiling model", None, None, input,
+                      digest(b"tiling", input.example.tobytes(), input.side, input.sharpness, input.guide_weight,
+                             input.blend, *colours))
     if isinstance(input, Texton):
         colours = () if input.histogram is None else (input.histogram.to_json().encode(),)
         return Source("texton", None, None, input,
                       digest(input.coeffs.tobytes(), input.mean.tobytes(), input.order, *colours))
     if not isinstance(input, (str, os.PathLike)):
-        raise TextonError(f"{what} must be the path of an image or texton file, or a Texton, "
-                          f"got {type(input).__name__}", param=what)
+        raise TextonError(f"{what} must be the path of an image, texton or tiling model file, or a Texton or "
+                          f"TilingModel, got {type(input).__name__}", param=what)
     path = Path(input)
     if not path.is_file():
         raise TextonError(f"{what}: {path}: no such file", param=what)
@@ -87,7 +114,7 @@ def load_source(input, what: str = "input") -> Source:
         key = digest(f.read())
     resolved = str(path.resolve())
     if _is_texton_file(path):
-        return Source(path.name, resolved, None, as_texton(load_texton(path), "the viewer"), key)
+        return Source(path.name, resolved, None, load_texton(path), key)
     return Source(path.name, resolved, read_image(path), None, key)
 
 

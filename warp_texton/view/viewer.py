@@ -14,6 +14,14 @@ reads and bounds the parameters, :mod:`~warp_texton.view.inputs` the uploads),
 computations wait for one of a few slots, and analyses and tiles are computed
 once and cached (:mod:`~warp_texton.view.cache`); exports carry the commands
 that reproduce them (:mod:`~warp_texton.view.commands`).
+
+A tiling model file (``analyze(..., method="tiling")``) is shown too: its tiles,
+exports and panel are the same functions of ``synthesize`` (offset, scale,
+rotation, seed), drawn by the server's kernels. The page's WebGL mode draws
+texton models only (:data:`WEBGL_TILING`, the hook for a GLSL port of tiling);
+the filters, the ground plane and seamless tiles are offered for a tiling model
+where the package supports them for it (probed at start:
+:meth:`Viewer.tiling_support`); mixing takes textons and images only.
 """
 
 from __future__ import annotations
@@ -26,7 +34,7 @@ from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import cast
+from typing import Any, cast
 
 import numpy as np
 
@@ -42,6 +50,7 @@ from ..noise.mixing import mix_textons, synthesize_mixed
 from ..noise.ground_plane import render_plane
 from ..noise.synthesis import synthesize
 from ..model.texton import Texton
+from ..model.tiling import TilingModel
 from .cache import Memo
 from .commands import plan_mix, plan_noise, plan_plane
 from .images import PNG_LEVEL, data_url, log_spectra, png_bytes, texton_picture
@@ -69,6 +78,10 @@ MAX_VIEW_WORK = 2.0e9
 MAX_KEPT_UPLOAD_BYTES = 256 << 20
 #: The smallest share of memory a slot may have.
 MIN_SLOT_BYTES = 64 << 20
+#: The page's WebGL2 mode for tiling models: None while the viewer has no GLSL program for them
+#: (the page then draws the server's tiles). The hook for the GLSL port of tiling
+#: (warp_texton.runtimes): a function model -> the payload of ``webgl.shader_payload``.
+WEBGL_TILING: Callable[[TilingModel], dict] | None = None
 
 
 class ClientGone(Exception):
@@ -95,6 +108,9 @@ class Viewer:
     def __init__(self, input, *, mix=None, device=None, analysis: Analysis = Analysis(),
                  noise: Noise = Noise(), slots: int = 2, cache_bytes: int = 256 << 20, png_level: int = PNG_LEVEL):
         self.source = load_source(input)
+        if mix is not None and self.source.kind == "tiling":
+            raise TextonError("mix: the input is a tiling model (method 'tiling'), which cannot be mixed; mixing "
+                              "takes images and textons", param="mix")
         self.png_level = png_level
         self.device = device
         self.defaults = (analysis, noise)
@@ -117,7 +133,7 @@ class Viewer:
         self._uploads: OrderedDict[str, Source] = OrderedDict()
         self._uploads_lock = threading.Lock()
         if mix is not None:
-            b = load_source(mix, "mix")
+            b = load_source(mix, "mix", tiling=False)
             self._uploads[b.digest] = b
             self.start_b: str | None = b.digest
         else:
@@ -125,6 +141,8 @@ class Viewer:
         # an input that cannot be analysed with the start settings fails now, not in the page
         texton = self.texton(analysis)
         self.src = digest(self.source.digest, __version__, device or "default")
+        #: what the package computes for a tiling model (all of it for textons): tiling_support()
+        self.supports: dict[str, Any] = {"filters": VIEW_FILTERS, "plane": True, "periodic": True}
         self._warm_up(texton)
         self.workdir = Path(tempfile.mkdtemp(prefix="warp-texton-view-"))
 
@@ -132,12 +150,32 @@ class Viewer:
         shutil.rmtree(self.workdir, ignore_errors=True)
 
     # -- inputs
-    def _warm_up(self, texton: Texton) -> None:
+    def _warm_up(self, texton: Texton | TilingModel) -> None:
         """Compile the kernel modules before the first request needs them."""
+        if isinstance(texton, TilingModel):
+            self.supports = self.tiling_support(texton)
+            return
         synthesize(texton, (8, 8), device=self.device)
         synthesize(texton, (8, 8), scale=0.1, filter="anisotropic", device=self.device)
 
-    def texton(self, analysis: Analysis) -> Texton:
+    def tiling_support(self, model: TilingModel) -> dict:
+        """The view's filters, the ground plane and seamless tiles that the package computes for a
+        tiling model: each tried once on a few pixels (a refusal says it does not)."""
+        def works(fn) -> bool:
+            try:
+                fn()
+            except (TextonError, TypeError, AttributeError):
+                return False
+            return True
+
+        synthesize(model, (8, 8), device=self.device)
+        filters = tuple(f for f in VIEW_FILTERS if f == "none" or works(
+            lambda f=f: synthesize(model, (8, 8), scale=0.1, filter=f, device=self.device)))
+        return {"filters": filters,
+                "plane": works(lambda: render_plane(cast(Any, model), (4, 4), seed=0, filter=filters[-1], device=self.device)),
+                "periodic": works(lambda: synthesize(model, (8, 8), period=(8.0, 8.0), device=self.device))}
+
+    def texton(self, analysis: Analysis) -> Texton | TilingModel:
         if self.source.texton is not None:
             return self.source.texton
         return self._textons.get(analysis, lambda: self._analyze(analysis))
@@ -172,6 +210,8 @@ class Viewer:
         return b
 
     def mixed_textons(self, analysis: Analysis, mix: Mix) -> list[Texton]:
+        if self.source.kind == "tiling":
+            raise BadRequest("mixing takes images and textons; the input is a tiling model (method 'tiling')")
         b = self.second(mix.b)
 
         def compute():
@@ -218,11 +258,33 @@ class Viewer:
         """The float32 (T, T, C) values of a tile."""
         if mix is None:
             w = tile_window(tile, noise)
+            model = self.texton(analysis)
+            if isinstance(model, TilingModel):
+                return self.tiling_raster(model, w.shape, noise, w.scale, w.rotation, w.offset)
             # output="numpy" (the default) gives NumPy
-            return cast(np.ndarray, synthesize(self.texton(analysis), w.shape, noise=noise.options(),
+            return cast(np.ndarray, synthesize(model, w.shape, noise=noise.options(),
                                                scale=w.scale, rotation=w.rotation, offset=w.offset,
                                                device=self.device, filter=noise.filter))
         return self.mixed_tile(tile, analysis, noise, mix)
+
+    def tiling_raster(self, model: TilingModel, shape, noise: Noise, scale: float, rotation: float, offset,
+                      period=None) -> np.ndarray:
+        """``synthesize`` of a tiling model: the seed and the placement (the MNI is texton noise's);
+        the view's filter and a period where the package supports them for tiling models."""
+        self._tiling_check(noise, period)
+        extra: dict = {} if period is None else {"period": period}
+        if noise.filter != "none":
+            extra["filter"] = noise.filter
+        return cast(np.ndarray, synthesize(model, shape, seed=noise.seed, scale=scale, rotation=rotation,
+                                           offset=offset, device=self.device, **extra))
+
+    def _tiling_check(self, noise: Noise, period=None) -> None:
+        if noise.filter not in self.supports["filters"]:
+            raise BadRequest(f"filter {noise.filter!r} does not apply to a tiling model yet; this viewer offers "
+                             f"{', '.join(self.supports['filters'])} for it")
+        if period is not None and not self.supports["periodic"]:
+            raise BadRequest("seamless tiles (periodic outputs) of a tiling model are not supported yet; export "
+                             "the view")
 
     def mixed_tile(self, tile: Tile, analysis: Analysis, noise: Noise, mix: Mix) -> np.ndarray:
         """A tile of mixed noise (no rotation, no filter). An impact takes the texton of
@@ -281,11 +343,17 @@ class Viewer:
         the analysis first, as for a tile, then the library and textures within a view's bounds."""
         analysis = parse_analysis(q, self.defaults[0])
         q.finish()
+        model = self.source.texton
+        if isinstance(model, TilingModel):
+            if WEBGL_TILING is None:
+                raise BadRequest("the WebGL mode draws texton models; a tiling model is drawn by the server's "
+                                 "tiles", 501)
+            return self._shaders.get(None, lambda: self._compute(alive, lambda: WEBGL_TILING(model)))
         key = self._analysis_key(analysis)
         if key not in self._shaders:
             self._analysed(alive, analysis)
         return self._shaders.get(key, lambda: self._compute(alive, lambda: shader_payload(
-            self.texton(analysis), filters=VIEW_FILTERS)))
+            cast(Texton, self.texton(analysis)), filters=VIEW_FILTERS)))
 
     def _analysis_key(self, analysis: Analysis) -> Analysis | None:
         """Analysis settings change nothing when the input is a texton file."""
@@ -312,7 +380,18 @@ class Viewer:
         raise ClientGone()
 
     def plane(self, plane: Plane, analysis: Analysis, noise: Noise) -> np.ndarray:
-        return cast(np.ndarray, render_plane(self.texton(analysis), (plane.height, plane.width),
+        model = self.texton(analysis)
+        if isinstance(model, TilingModel):
+            if not self.supports["plane"]:
+                raise BadRequest("the ground plane of a tiling model is not supported yet (render_plane takes "
+                                 "textons); use the noise mode")
+            self._tiling_check(noise)
+            # render_plane takes tiling models where the package supports them (self.supports["plane"])
+            return cast(np.ndarray, render_plane(cast(Any, model), (plane.height, plane.width),
+                                                 height=plane.camera_height, tilt=plane.tilt, fov=plane.fov,
+                                                 texel_size=plane.texel_size, seed=noise.seed,
+                                                 filter=noise.filter, device=self.device))
+        return cast(np.ndarray, render_plane(model, (plane.height, plane.width),
                                              height=plane.camera_height, tilt=plane.tilt, fov=plane.fov,
                                              texel_size=plane.texel_size, mni=noise.mni, seed=noise.seed,
                                              filter=noise.filter, device=self.device))
@@ -324,8 +403,34 @@ class Viewer:
             self._analysed(None, analysis)
         return self._panels.get(key, lambda: self._compute(None, lambda: self._panel(analysis, seed)))
 
+    def _tiling_panel(self, model: TilingModel, seed: int) -> dict:
+        """The side panel of a tiling model: its example (in its colours), its numbers, and the
+        periodograms of the example and of the blend (on the example's grid, at most 256²)."""
+        h, w, c = model.example.shape
+        example = model.colours()
+        summary = (f"tiling model of a {w}×{h} example, triangle side {model.side:g}, sharpness {model.sharpness}, "
+                   f"{model.blend} blend" + (", histogram preserved" if model.histogram is not None else "") +
+                   f", {'grey' if c == 1 else 'RGB'}")
+        info = {"kind": "tiling", "summary": summary, "texton": data_url(example, 160),
+                "texton_size": [h, w], "order": None, "channels": c,
+                "mean": [round(float(m), 5) for m in example.mean(axis=(0, 1), dtype=np.float64)],
+                "model_error": None, "structure": model.structure}
+        grid = (min(h, 256), min(w, 256))
+        crop = example[(h - grid[0]) // 2:(h - grid[0]) // 2 + grid[0],
+                       (w - grid[1]) // 2:(w - grid[1]) // 2 + grid[1]].astype(np.float64)
+        crop -= crop.mean(axis=(0, 1))
+        spectrum = (np.abs(np.fft.fft2(crop, axes=(0, 1))) ** 2).sum(axis=2) / (grid[0] * grid[1])
+        g = cast(np.ndarray, synthesize(model, grid, seed=seed, device=self.device)).astype(np.float64)
+        g -= g.mean(axis=(0, 1))
+        measured = (np.abs(np.fft.fft2(g, axes=(0, 1))) ** 2).sum(axis=2) / (grid[0] * grid[1])
+        for name, pic in zip(("spectrum_texton", "spectrum_noise"), log_spectra(spectrum, measured)):
+            info[name] = data_url(pic, 160)
+        return info
+
     def _panel(self, analysis: Analysis, seed: int) -> dict:
         texton = self.texton(analysis)
+        if isinstance(texton, TilingModel):
+            return self._tiling_panel(texton, seed)
         r, s = texton.size
         info = {"texton": data_url(texton_picture(texton), 160, nearest=True),
                 "texton_size": [r, s], "order": texton.order, "channels": texton.channels,
@@ -405,6 +510,16 @@ class Viewer:
         q.finish()
         name = f"{kind if kind == 'tile' else 'noise'}_{w}x{h}_seed{noise.seed}.{fmt}"
 
+        model = self.texton(analysis)
+        if isinstance(model, TilingModel):
+            self._tiling_check(noise, window.period)
+
+            def make_tiling() -> np.ndarray:
+                return self.tiling_raster(model, window.shape, noise, window.scale,
+                                          window.rotation, window.offset, window.period)
+
+            return Export(name, plan_noise(name, window, analysis, noise, self.source, self.device), make_tiling)
+
         def make() -> np.ndarray:
             return cast(np.ndarray, synthesize(self.texton(analysis), window.shape,
                                                noise=noise.options().replace(period=window.period),
@@ -438,14 +553,18 @@ class Viewer:
             "input_size": None if image is None else [image.shape[1], image.shape[0]],
             "device": str(resolve_device(self.device)),  # the one the noise runs on, also when not chosen
             "defaults": {"size": analysis.size, "order": analysis.order, "cc": analysis.color_correction,
-                         "seed": noise.seed, "mni": noise.mni, "filter": noise.filter},
+                         "seed": noise.seed, "mni": noise.mni,
+                         "filter": noise.filter if noise.filter in self.supports["filters"] else "none"},
             "bounds": {"zoom_min": ZOOM_MIN, "zoom_max": ZOOM_MAX, "enlarge": ENLARGE, "mix_zoom": list(MIX_ZOOM),
                        "mni": list(MNI_RANGE), "texton_size": list(TEXTON_SIZES), "orders": list(ORDERS),
                        "tile_sizes": list(TILE_SIZES), "mix_steps": list(MIX_STEPS), "export_side": MAX_EXPORT_SIDE,
                        "export_pixels": MAX_EXPORT_PIXELS, "plane_pixels": MAX_PLANE_PIXELS,
-                       "filters": list(VIEW_FILTERS), "upload_bytes": MAX_UPLOAD_BYTES},
+                       "filters": list(self.supports["filters"]), "upload_bytes": MAX_UPLOAD_BYTES},
             "filter_notes": {name: FILTERS[name].description for name in VIEW_FILTERS},
             "mix_b": None if start_b is None else {"id": start_b.digest, "name": start_b.name},
+            "supports": {"plane": self.supports["plane"], "periodic": self.supports["periodic"],
+                         "mix": self.source.kind != "tiling", "webgl": self.source.kind != "tiling"
+                         or WEBGL_TILING is not None},
         }
 
 

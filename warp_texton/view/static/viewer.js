@@ -176,7 +176,9 @@
       $("render-note").textContent = "The WebGL2 context was lost: the server draws tiles.";
       changed();
     };
-    if (RENDER !== "tiles") {
+    // a tiling model: no WebGL2 program on the server yet (info.supports.webgl), the tiles draw
+    const served = !(state.info.supports && state.info.supports.webgl === false);
+    if (RENDER !== "tiles" && served) {
       try { gl = ViewerGL.mode(glCanvas, requestFrame, lost); } catch (e) { gl = null; }
     }
     select.querySelector("option[value=webgl]").disabled = gl === null;
@@ -184,6 +186,7 @@
     state.render = gl !== null && (RENDER === "webgl" || (RENDER === "auto" && !software)) ? "webgl" : "tiles";
     select.value = state.render;
     $("render-note").textContent = gl ? `WebGL2: ${gl.renderer}` + (software ? " (software: slower than tiles)" : "") :
+      !served ? "A tiling model: the server draws tiles (the WebGL2 mode draws texton models)." :
       RENDER === "tiles" ? "" : "WebGL2 is not available here: the server draws tiles.";
   }
   function drawGL() {
@@ -357,9 +360,10 @@
         return r.json();
       })
       .then((p) => {
-        $("model-error").textContent = p.model_error == null ? "n/a (texton file)" : p.model_error.toFixed(3);
-        $("texton-info").textContent = `${p.texton_size[0]}×${p.texton_size[1]} texton, order ${p.order}, ` +
-          `${p.channels === 1 ? "grey" : "RGB"}, mean ${p.mean.map((v) => v.toFixed(3)).join(", ")}`;
+        $("model-error").textContent = p.model_error == null ? `n/a (${p.kind === "tiling" ? "tiling model" : "texton file"})` : p.model_error.toFixed(3);
+        $("texton-info").textContent = (p.summary ? `${p.summary}, ` : `${p.texton_size[0]}×${p.texton_size[1]} texton, order ${p.order}, ` +
+          `${p.channels === 1 ? "grey" : "RGB"}, `) + `mean ${p.mean.map((v) => v.toFixed(3)).join(", ")}` +
+          (p.structure != null ? `, structure score ${p.structure.toFixed(2)}` : "");
         for (const name of ["input", "gaussian", "texton", "spectrum_input", "spectrum_texton", "spectrum_noise"]) {
           const img = $(`img-${name}`);
           if (p[name]) img.src = p[name];
@@ -489,8 +493,15 @@
     $("cc").checked = state.cc;
     if (info.kind !== "image") {
       for (const id of ["size", "order", "cc"]) $(id).disabled = true;
-      $("analysis-note").textContent = "The input is a texton file: nothing to analyse.";
+      $("analysis-note").textContent = `The input is a ${info.kind === "tiling" ? "tiling model" : "texton"} file: nothing to analyse.`;
       for (const id of ["fig-input", "fig-gaussian", "fig-spectrum-input"]) $(id).hidden = true;
+    }
+    if (info.kind === "tiling") {  // tiling and blending: no MNI; the modes the server supports for it
+      $("mni").disabled = true;
+      const supports = info.supports || {};
+      for (const [mode, ok] of [["plane", supports.plane], ["mix", supports.mix]]) {
+        document.querySelector(`input[name=mode][value=${mode}]`).disabled = !ok;
+      }
     }
     if (info.mix_b) addSecond(info.mix_b.id, info.mix_b.name);
     outputs();
