@@ -73,6 +73,22 @@ class TestPlanes:
         assert got.shape == (len(pts), channels) and got.dtype == np.float32
         np.testing.assert_array_equal(got, want)
 
+    @pytest.mark.parametrize("channels", [1, 3])
+    def test_a_histogram_preserving_model_maps_its_tables_on_surfaces_too(self, channels, device):
+        # the tables run after the triplanar blend as after the planar one: a face orthogonal to an axis
+        # is still evaluate of its plane bit for bit, and the values are colours, not Gaussianised ones
+        from warp_texton import analyze
+
+        rng = np.random.default_rng(5)
+        ex = rng.gamma(2.0, 0.1, (48, 48, channels)).astype(np.float32)
+        m = analyze(ex, method="tiling", side=10, histogram="preserve")
+        assert m.histogram is not None
+        pts, nrm = quad(0, 1.0)
+        got = surface_noise(m, pts, nrm, 0.5, seed=4, device=device)
+        want = evaluate(m, PLANE_COORDS[0, 1.0](pts / 0.5), seed=plane_seeds(4)[0], device=device)
+        np.testing.assert_array_equal(got, want)
+        assert got.min() >= ex.min() - 1e-6 and got.max() <= ex.max() + 1e-6
+
     def test_the_floor_is_synthesize_of_the_same_seed(self, device):
         # the floor reads (x, -y): a raster's pixel (i, j) at (j + ½, i + ½) is the point (j + ½, -(i + ½), z)
         from warp_texton import synthesize

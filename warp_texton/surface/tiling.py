@@ -33,7 +33,7 @@ from ..core.runtime import init_warp, map_points, resolve_device
 from ..kernels import surface_tiling
 from ..model.texton import Texton
 from ..model.tiling import TilingModel
-from ..noise.tiling import tiling_struct
+from ..noise.tiling import tiling_colours, tiling_struct
 from .frames import UP, as_points, check_lengths, frame_rule
 
 __all__ = ["TilingSetup", "TilingParams", "check_model", "tiling_setup", "tiling_params", "tiling_values",
@@ -155,7 +155,8 @@ def check_tiling_reach(pos: np.ndarray, what: str) -> None:
 
 
 def tiling_values(p: TilingParams, pos: np.ndarray, nrm: np.ndarray, device) -> np.ndarray:
-    """(N, 3) float32: the triplanar tiling at float64 texel positions with unit normals."""
+    """(N, 3) float32: the triplanar tiling at float64 texel positions with unit normals (through the
+    model's histogram tables, if it has them)."""
     wp = init_warp()
     device = resolve_device(device)
     n = len(pos)
@@ -172,7 +173,9 @@ def tiling_values(p: TilingParams, pos: np.ndarray, nrm: np.ndarray, device) -> 
                           wp.array(nrm[start:stop], dtype=wp.vec3, device=device), out])
         return out.numpy()
 
-    return map_points(device, surface_tiling, n, values)
+    out = map_points(device, surface_tiling, n, values)
+    tiling_colours(p.model, out)  # a histogram-preserving model: its tables, after the triplanar blend
+    return out
 
 
 def tiling_surface_noise(model: TilingModel, points, normals, texel_size, *, seed=0, device=None, up=UP,
