@@ -445,8 +445,22 @@ LOAD_LANE
                     const v16f fy = __builtin_elementwise_floor(zb);
                     const v16f tx = za - fx;
                     const v16f ty = zb - fy;
-                    *(v16i*)l_i00 = (__builtin_convertvector(fy, v16i) + PADV) * row
-                                    + (__builtin_convertvector(fx, v16i) + PADV);
+                    const v16i i00 = (__builtin_convertvector(fy, v16i) + PADV) * row
+                                     + (__builtin_convertvector(fx, v16i) + PADV);
+#if defined(__AVX512F__)
+                    // AVX-512's masked gathers: the passing lanes' four texels (the others read nothing)
+                    typedef float gv16f __attribute__((__vector_size__(64)));
+                    typedef int gv16i __attribute__((__vector_size__(64)));
+                    const gv16i gi = __builtin_bit_cast(gv16i, i00);
+                    const gv16f none = {};
+                    const unsigned short k = (unsigned short)bits;
+                    const v16f c00 = __builtin_bit_cast(v16f, __builtin_ia32_gathersiv16sf(none, cf, gi, k, 4));
+                    const v16f c01 = __builtin_bit_cast(v16f, __builtin_ia32_gathersiv16sf(none, cf + 1, gi, k, 4));
+                    const v16f c10 = __builtin_bit_cast(v16f, __builtin_ia32_gathersiv16sf(none, cf + row, gi, k, 4));
+                    const v16f c11 = __builtin_bit_cast(v16f, __builtin_ia32_gathersiv16sf(none, cf + row + 1, gi, k,
+                                                                                          4));
+#else
+                    *(v16i*)l_i00 = i00;
                     while (bits != 0) {
                         const int l = __builtin_ctz(bits);
                         bits &= bits - 1u;
@@ -456,8 +470,10 @@ LOAD_LANE
                         g10[l] = p0[row];
                         g11[l] = p0[row + 1];
                     }
-                    const v16f sum = slab_add(acc, *(const v16f*)g00, *(const v16f*)g01, *(const v16f*)g10,
-                                              *(const v16f*)g11, 1.0f - tx, tx, 1.0f - ty, ty, w);
+                    const v16f c00 = *(const v16f*)g00, c01 = *(const v16f*)g01, c10 = *(const v16f*)g10,
+                               c11 = *(const v16f*)g11;
+#endif
+                    const v16f sum = slab_add(acc, c00, c01, c10, c11, 1.0f - tx, tx, 1.0f - ty, ty, w);
                     // the passing lanes take the new sum, the others keep theirs
                     acc = __builtin_bit_cast(v16f, (__builtin_bit_cast(v16i, sum) & ok)
                                                    | (__builtin_bit_cast(v16i, acc) & ~ok));
