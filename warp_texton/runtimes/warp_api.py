@@ -46,7 +46,9 @@ device, from the same inputs:
   ``tangents``).
 
 The values are ``wp.vec3``; the first ``texton.channels`` components are the
-noise, the others zero. They are the Gaussian noise: for a texton analysed with
+noise, the others zero. A grey texton packed with ``channels=1``
+(``PlaneNoise1``, ``FilteredNoise1``, ``SurfaceNoise1``) gives floats, bit for
+bit the first component, reading one float a texel. They are the Gaussian noise: for a texton analysed with
 ``histogram="preserve"``, whose outputs are mapped to the example's colours,
 a kernel maps them with :func:`pack_colours`'s struct (``colour_value``,
 ``filtered_colour``) as the package does. A struct's arrays live on the device it was packed
