@@ -295,13 +295,87 @@ def label_impacts(
 # which the plain loop computes twice: 7 operations a float instead of 10, the same
 # values (each lane's operations and their order are the plain loop's; neither form
 # contracts to FMAs). The last floats (fewer than WIDTH) take the plain loop. The row
-# loop is native too, so an impact's rows are one call.
+# loop is native too, so an impact's rows are one call; the vector form takes its rows
+# two at a time (the middle texton row loaded once, two independent chains of chunks:
+# the splat's CPU time 0.89 of one row at a time for grey textons, 0.85 for RGB).
 _SPLAT_ROWS = """
 VECTOR
 typedef float vNf __attribute__((ext_vector_type(WIDTH)));
 #endif
 const int n = LANES * count;
-for (int i = i0; i <= i1; ++i) {
+int i = i0;
+VECTOR
+// Two output rows at a time where both are whole: rows i and i + 1 read texton rows
+// a, a + 1 and a + 1, a + 2, so the middle row is loaded once; the two rows' chunks
+// are independent work for the CPU. Each float takes the one-row form's operations.
+if (n >= WIDTH) {
+    for (; i + 1 <= i1; i += 2) {
+        const int a = a0 + i;
+        float* __restrict d0 = (float*)((char*)acc.data + (size_t)i * acc.strides[0]) + LANES * j;
+        float* __restrict d1 = (float*)((char*)acc.data + (size_t)(i + 1) * acc.strides[0]) + LANES * j;
+        const float* __restrict c0 = (const float*)((const char*)coeffs.data + (size_t)a * coeffs.strides[0]) + LANES * b;
+        const float* __restrict c1 = (const float*)((const char*)coeffs.data + (size_t)(a + 1) * coeffs.strides[0])
+                                     + LANES * b;
+        const float* __restrict c2 = (const float*)((const char*)coeffs.data + (size_t)(a + 2) * coeffs.strides[0])
+                                     + LANES * b;
+        vNf l0, l1, l2;
+        __builtin_memcpy(&l0, c0, sizeof(vNf));
+        __builtin_memcpy(&l1, c1, sizeof(vNf));
+        __builtin_memcpy(&l2, c2, sizeof(vNf));
+        vNf cur0 = gy * l0 + fy * l1;
+        vNf cur1 = gy * l1 + fy * l2;
+        int t = 0;
+        for (; t + 2 * WIDTH <= n + LANES; t += WIDTH) {
+            vNf m0, m1, m2;
+            __builtin_memcpy(&m0, c0 + t + WIDTH, sizeof(vNf));
+            __builtin_memcpy(&m1, c1 + t + WIDTH, sizeof(vNf));
+            __builtin_memcpy(&m2, c2 + t + WIDTH, sizeof(vNf));
+            const vNf next0 = gy * m0 + fy * m1;
+            const vNf next1 = gy * m1 + fy * m2;
+            const vNf right0 = __builtin_shufflevector(cur0, next0, SHIFT);
+            const vNf right1 = __builtin_shufflevector(cur1, next1, SHIFT);
+            vNf e0, e1;
+            __builtin_memcpy(&e0, d0 + t, sizeof(vNf));
+            __builtin_memcpy(&e1, d1 + t, sizeof(vNf));
+            e0 += gx * cur0 + fx * right0;
+            e1 += gx * cur1 + fx * right1;
+            __builtin_memcpy(d0 + t, &e0, sizeof(vNf));
+            __builtin_memcpy(d1 + t, &e1, sizeof(vNf));
+            cur0 = next0;
+            cur1 = next1;
+        }
+        if (t + WIDTH <= n) {
+            vNf m0 = 0.0f, m1 = 0.0f, m2 = 0.0f;
+            for (int l = 0; l < LANES; ++l) {
+                m0[l] = c0[t + WIDTH + l];
+                m1[l] = c1[t + WIDTH + l];
+                m2[l] = c2[t + WIDTH + l];
+            }
+            const vNf next0 = gy * m0 + fy * m1;
+            const vNf next1 = gy * m1 + fy * m2;
+            const vNf right0 = __builtin_shufflevector(cur0, next0, SHIFT);
+            const vNf right1 = __builtin_shufflevector(cur1, next1, SHIFT);
+            vNf e0, e1;
+            __builtin_memcpy(&e0, d0 + t, sizeof(vNf));
+            __builtin_memcpy(&e1, d1 + t, sizeof(vNf));
+            e0 += gx * cur0 + fx * right0;
+            e1 += gx * cur1 + fx * right1;
+            __builtin_memcpy(d0 + t, &e0, sizeof(vNf));
+            __builtin_memcpy(d1 + t, &e1, sizeof(vNf));
+            t += WIDTH;
+        }
+        for (; t < n; ++t) {
+            const float left0 = gy * c0[t] + fy * c1[t];
+            const float right0 = gy * c0[t + LANES] + fy * c1[t + LANES];
+            d0[t] += gx * left0 + fx * right0;
+            const float left1 = gy * c1[t] + fy * c2[t];
+            const float right1 = gy * c1[t + LANES] + fy * c2[t + LANES];
+            d1[t] += gx * left1 + fx * right1;
+        }
+    }
+}
+#endif
+for (; i <= i1; ++i) {
     const int a = a0 + i;
     float* __restrict dst = (float*)((char*)acc.data + (size_t)i * acc.strides[0]) + LANES * j;
     const float* __restrict top = (const float*)((const char*)coeffs.data + (size_t)a * coeffs.strides[0]) + LANES * b;
