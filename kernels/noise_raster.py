@@ -296,8 +296,10 @@ def label_impacts(
 # values (each lane's operations and their order are the plain loop's; neither form
 # contracts to FMAs). The last floats (fewer than WIDTH) take the plain loop. The row
 # loop is native too, so an impact's rows are one call; the vector form takes its rows
-# two at a time (the middle texton row loaded once, two independent chains of chunks:
-# the splat's CPU time 0.89 of one row at a time for grey textons, 0.85 for RGB).
+# in groups of GROUP_ROWS, then two, then one (``_rows_group``): the texton rows that
+# neighbouring output rows share are loaded once and the group's rows are independent
+# chains of chunks (the splat's CPU time, 1080p at MNI 30: 0.82 of one row at a time
+# for grey textons, 0.79 for RGB; docs/benchmarks.md).
 _SPLAT_ROWS = """
 VECTOR
 typedef float vNf __attribute__((ext_vector_type(WIDTH)));
@@ -305,75 +307,7 @@ typedef float vNf __attribute__((ext_vector_type(WIDTH)));
 const int n = LANES * count;
 int i = i0;
 VECTOR
-// Two output rows at a time where both are whole: rows i and i + 1 read texton rows
-// a, a + 1 and a + 1, a + 2, so the middle row is loaded once; the two rows' chunks
-// are independent work for the CPU. Each float takes the one-row form's operations.
-if (n >= WIDTH) {
-    for (; i + 1 <= i1; i += 2) {
-        const int a = a0 + i;
-        float* __restrict d0 = (float*)((char*)acc.data + (size_t)i * acc.strides[0]) + LANES * j;
-        float* __restrict d1 = (float*)((char*)acc.data + (size_t)(i + 1) * acc.strides[0]) + LANES * j;
-        const float* __restrict c0 = (const float*)((const char*)coeffs.data + (size_t)a * coeffs.strides[0]) + LANES * b;
-        const float* __restrict c1 = (const float*)((const char*)coeffs.data + (size_t)(a + 1) * coeffs.strides[0])
-                                     + LANES * b;
-        const float* __restrict c2 = (const float*)((const char*)coeffs.data + (size_t)(a + 2) * coeffs.strides[0])
-                                     + LANES * b;
-        vNf l0, l1, l2;
-        __builtin_memcpy(&l0, c0, sizeof(vNf));
-        __builtin_memcpy(&l1, c1, sizeof(vNf));
-        __builtin_memcpy(&l2, c2, sizeof(vNf));
-        vNf cur0 = gy * l0 + fy * l1;
-        vNf cur1 = gy * l1 + fy * l2;
-        int t = 0;
-        for (; t + 2 * WIDTH <= n + LANES; t += WIDTH) {
-            vNf m0, m1, m2;
-            __builtin_memcpy(&m0, c0 + t + WIDTH, sizeof(vNf));
-            __builtin_memcpy(&m1, c1 + t + WIDTH, sizeof(vNf));
-            __builtin_memcpy(&m2, c2 + t + WIDTH, sizeof(vNf));
-            const vNf next0 = gy * m0 + fy * m1;
-            const vNf next1 = gy * m1 + fy * m2;
-            const vNf right0 = __builtin_shufflevector(cur0, next0, SHIFT);
-            const vNf right1 = __builtin_shufflevector(cur1, next1, SHIFT);
-            vNf e0, e1;
-            __builtin_memcpy(&e0, d0 + t, sizeof(vNf));
-            __builtin_memcpy(&e1, d1 + t, sizeof(vNf));
-            e0 += gx * cur0 + fx * right0;
-            e1 += gx * cur1 + fx * right1;
-            __builtin_memcpy(d0 + t, &e0, sizeof(vNf));
-            __builtin_memcpy(d1 + t, &e1, sizeof(vNf));
-            cur0 = next0;
-            cur1 = next1;
-        }
-        if (t + WIDTH <= n) {
-            vNf m0 = 0.0f, m1 = 0.0f, m2 = 0.0f;
-            for (int l = 0; l < LANES; ++l) {
-                m0[l] = c0[t + WIDTH + l];
-                m1[l] = c1[t + WIDTH + l];
-                m2[l] = c2[t + WIDTH + l];
-            }
-            const vNf next0 = gy * m0 + fy * m1;
-            const vNf next1 = gy * m1 + fy * m2;
-            const vNf right0 = __builtin_shufflevector(cur0, next0, SHIFT);
-            const vNf right1 = __builtin_shufflevector(cur1, next1, SHIFT);
-            vNf e0, e1;
-            __builtin_memcpy(&e0, d0 + t, sizeof(vNf));
-            __builtin_memcpy(&e1, d1 + t, sizeof(vNf));
-            e0 += gx * cur0 + fx * right0;
-            e1 += gx * cur1 + fx * right1;
-            __builtin_memcpy(d0 + t, &e0, sizeof(vNf));
-            __builtin_memcpy(d1 + t, &e1, sizeof(vNf));
-            t += WIDTH;
-        }
-        for (; t < n; ++t) {
-            const float left0 = gy * c0[t] + fy * c1[t];
-            const float right0 = gy * c0[t + LANES] + fy * c1[t + LANES];
-            d0[t] += gx * left0 + fx * right0;
-            const float left1 = gy * c1[t] + fy * c2[t];
-            const float right1 = gy * c1[t + LANES] + fy * c2[t + LANES];
-            d1[t] += gx * left1 + fx * right1;
-        }
-    }
-}
+GROUPS
 #endif
 for (; i <= i1; ++i) {
     const int a = a0 + i;
@@ -437,9 +371,50 @@ _VECTOR = ("#if defined(__clang__) && !defined(__CUDACC__) && !defined(__CUDA_AR
 WIDTH = 8
 
 
+def _rows_group(rows: int) -> str:
+    """The vector form's loop over groups of ``rows`` output rows (C++), each float with
+    the one-row form's operations; texton rows shared by neighbouring output rows are
+    loaded once."""
+    r, rr = range(rows), range(rows + 1)
+    pre = "    "
+    lines = ["if (n >= WIDTH) {", f"for (; i + {rows - 1} <= i1; i += {rows}) {{", pre + "const int a = a0 + i;"]
+    lines += [pre + f"float* __restrict d{k} = (float*)((char*)acc.data + (size_t)(i + {k}) * acc.strides[0]) + LANES * j;"
+              for k in r]
+    lines += [pre + f"const float* __restrict c{k} = (const float*)((const char*)coeffs.data + (size_t)(a + {k}) * "
+              f"coeffs.strides[0]) + LANES * b;" for k in rr]
+    lines += [pre + f"vNf l{k}; __builtin_memcpy(&l{k}, c{k}, sizeof(vNf));" for k in rr]
+    lines += [pre + f"vNf cur{k} = gy * l{k} + fy * l{k + 1};" for k in r]
+    lines += [pre + "int t = 0;", pre + "for (; t + 2 * WIDTH <= n + LANES; t += WIDTH) {"]
+    lines += [pre * 2 + f"vNf m{k}; __builtin_memcpy(&m{k}, c{k} + t + WIDTH, sizeof(vNf));" for k in rr]
+    body = []
+    body += [pre * 2 + f"const vNf next{k} = gy * m{k} + fy * m{k + 1};" for k in r]
+    body += [pre * 2 + f"const vNf right{k} = __builtin_shufflevector(cur{k}, next{k}, SHIFT);" for k in r]
+    body += [pre * 2 + f"vNf e{k}; __builtin_memcpy(&e{k}, d{k} + t, sizeof(vNf));" for k in r]
+    body += [pre * 2 + f"e{k} += gx * cur{k} + fx * right{k};" for k in r]
+    body += [pre * 2 + f"__builtin_memcpy(d{k} + t, &e{k}, sizeof(vNf));" for k in r]
+    lines += body + [pre * 2 + f"cur{k} = next{k};" for k in r] + [pre + "}"]
+    lines += [pre + "if (t + WIDTH <= n) {"]
+    lines += [pre * 2 + f"vNf m{k} = 0.0f;" for k in rr]
+    lines += [pre * 2 + "for (int l = 0; l < LANES; ++l) {"] + \
+             [pre * 3 + f"m{k}[l] = c{k}[t + WIDTH + l];" for k in rr] + [pre * 2 + "}"]
+    lines += body + [pre * 2 + "t += WIDTH;", pre + "}"]
+    lines += [pre + "for (; t < n; ++t) {"]
+    for k in r:
+        lines += [pre * 2 + f"const float left{k} = gy * c{k}[t] + fy * c{k + 1}[t];",
+                  pre * 2 + f"const float right{k} = gy * c{k}[t + LANES] + fy * c{k + 1}[t + LANES];",
+                  pre * 2 + f"d{k}[t] += gx * left{k} + fx * right{k};"]
+    lines += [pre + "}", "}", "}"]
+    return "\n".join(lines) + "\n"
+
+
+#: Output rows a group of the vector form holds (then pairs, then single rows).
+GROUP_ROWS = 4
+
+
 def _splat_row_source(lanes: int) -> str:
     shift = ", ".join(str(lanes + k) for k in range(WIDTH))
-    return _SPLAT_ROWS.replace("VECTOR", _VECTOR).replace("SHIFT", shift).replace("LANES", str(lanes)).replace("WIDTH", str(WIDTH))
+    groups = "".join(_rows_group(k) for k in (GROUP_ROWS, 2) if k > 1)
+    return _SPLAT_ROWS.replace("GROUPS", groups).replace("VECTOR", _VECTOR).replace("SHIFT", shift).replace("LANES", str(lanes)).replace("WIDTH", str(WIDTH))
 
 
 @wp.func_native(_splat_row_source(3))
