@@ -11,12 +11,18 @@ Measures, interleaved in one run so that all see the same machine load:
   (the goal: at least 5× faster than commit 3c913e1, whose only path was the
   walk; ``compare_commits.py --base 3c913e1`` measures that directly);
 * ``bake_mesh`` of the torus (1024², xatlas atlas) and, on a plane, the error
-  of the default supersampling against a densely supersampled reference.
+  of the default supersampling against a densely supersampled reference;
+* grey against RGB: ``surface_noise`` at the torus's vertices and a bake of the
+  torus (its atlas made once, so that the bakes time the surface noise of their
+  samples), for a grey texton (one float a texel through the kernels) and the
+  RGB one, interleaved, wall-clock and the process's CPU time, the ratios
+  printed (goal by analogy with the plane: grey ≤ 0.5× RGB).
 
-RGB 64² texton analysed from the benchmark texture.
+RGB 64² texton analysed from the benchmark texture; the grey one from its grey mean.
 
     python benchmarks/bench_surface.py            # full run, writes results/
     python benchmarks/bench_surface.py --quick    # smoke run (CI)
+    python benchmarks/bench_surface.py --only grey   # the grey/RGB pair alone (results/surface_grey.*)
 """
 
 from __future__ import annotations
@@ -79,14 +85,75 @@ def supersampling_errors(texton, device, quick: bool) -> list[dict]:
     return rows
 
 
+def both_clocks(methods: dict, repeat: int) -> dict:
+    """Wall-clock and process CPU time (best and median) of each callable, taking turns after one untimed call."""
+    for fn in methods.values():
+        fn()
+    wall: dict = {k: [] for k in methods}
+    cpu: dict = {k: [] for k in methods}
+    for _ in range(repeat):
+        for name, fn in methods.items():
+            c0, t0 = time.process_time(), time.perf_counter()
+            fn()
+            wall[name].append(time.perf_counter() - t0)
+            cpu[name].append(time.process_time() - c0)
+    return {k: {clock: {"best_s": min(v[k]), "median_s": statistics.median(v[k])}
+                for clock, v in (("wall", wall), ("cpu", cpu))} for k in methods}
+
+
+def grey_pair(args, device, texture, pts, nrm, texel) -> dict:
+    """surface_noise at the points and a bake, grey texton against RGB, interleaved."""
+    grey = analyze(np.ascontiguousarray(texture.mean(axis=2, keepdims=True)), size=args.size, seed=0)
+    rgb = analyze(texture, size=args.size, seed=0)
+    res = 256 if args.quick else 1024
+    # the torus with an atlas made once: the bakes then time the noise of their samples
+    atlas = bake_mesh(trimesh.creation.torus(1.0, 0.35), rgb, texel, resolution=res, device=device).mesh
+    times = both_clocks({
+        "surface_noise grey": lambda: surface_noise(grey, pts, nrm, texel, mni=args.mni, device=device),
+        "surface_noise RGB": lambda: surface_noise(rgb, pts, nrm, texel, mni=args.mni, device=device),
+        "bake grey": lambda: bake_mesh(atlas, grey, texel, resolution=res, uv="mesh", mni=args.mni, device=device),
+        "bake RGB": lambda: bake_mesh(atlas, rgb, texel, resolution=res, uv="mesh", mni=args.mni, device=device),
+    }, args.repeat)
+    ratios = {f"{what} {clock}": times[f"{what} grey"][clock]["best_s"] / times[f"{what} RGB"][clock]["best_s"]
+              for what in ("surface_noise", "bake") for clock in ("wall", "cpu")}
+    for what in ("surface_noise", "bake"):
+        g, c = times[f"{what} grey"], times[f"{what} RGB"]
+        print(f"  {what}: grey {g['wall']['best_s']:.3f} s, RGB {c['wall']['best_s']:.3f} s: grey/RGB "
+              f"{ratios[what + ' wall']:.2f} wall, {ratios[what + ' cpu']:.2f} CPU (goal by analogy: <= 0.5)")
+    return {"points": len(pts), "bake": res, "times": times, "ratios": ratios}
+
+
+def pair_markdown(report: dict) -> str:
+    p, g = report["parameters"], report["grey_pair"]
+    t = g["times"]
+    lines = [f"# Surface noise, grey against RGB ({report['date']})", "", machine_line(report),
+             f"Textons {p['texton'][0]}x{p['texton'][1]} (grey: the benchmark texture's grey mean), MNI {p['mni']:g}; "
+             f"best of {p['repeat']} interleaved runs (median in brackets); CPU cluster loops: {p['cpu_loops']}.", "",
+             "| operation | grey wall (s) | RGB wall (s) | grey/RGB wall | grey CPU (s) | RGB CPU (s) | grey/RGB CPU |",
+             "|---|---:|---:|---:|---:|---:|---:|"]
+    for what, label in (("surface_noise", f"`surface_noise`, {g['points']} points"),
+                        ("bake", f"`bake_mesh` torus {g['bake']}² (atlas made once)")):
+        a, b = t[f"{what} grey"], t[f"{what} RGB"]
+        lines.append(f"| {label} | {_cell(a['wall'])} | {_cell(b['wall'])} | {g['ratios'][what + ' wall']:.2f} | "
+                     f"{_cell(a['cpu'])} | {_cell(b['cpu'])} | {g['ratios'][what + ' cpu']:.2f} |")
+    return "\n".join(lines) + "\n"
+
+
 def run(args) -> dict:
     device = resolve_device(args.device)
-    texton = analyze(make_texture(256 if args.quick else 512), size=args.size, seed=0)
+    texture = make_texture(256 if args.quick else 512)
+    texton = analyze(texture, size=args.size, seed=0)
     sections = (100, 100) if args.quick else (1000, 1000)
     torus = trimesh.creation.torus(major_radius=1.0, minor_radius=0.35, major_sections=sections[0],
                                    minor_sections=sections[1])
     texel = 0.004  # about 1,600 texels around the torus
     pts, nrm = np.asarray(torus.vertices), np.asarray(torus.vertex_normals)
+    if args.only == "grey":
+        return {**report_header("surface_grey", device),
+                "parameters": {"texton": list(texton.size), "mni": args.mni, "vertices": len(pts), "texel_size": texel,
+                               "repeat": args.repeat, "quick": args.quick,
+                               "cpu_loops": simd_loops(device) if device == "cpu" else "none (GPU)"},
+                "grey_pair": grey_pair(args, device, texture, pts, nrm, texel)}
     raster = (128, 128) if args.quick else (1024, 1024)
     sphere = trimesh.creation.icosphere(subdivisions=4 if args.quick else 6)
     shape = (128, 128) if args.quick else (1024, 1024)
@@ -106,6 +173,7 @@ def run(args) -> dict:
     baked = bake_mesh(trimesh.creation.torus(1.0, 0.35), texton, texel, resolution=bake_res, mni=args.mni, device=device)
     bake_s = time.perf_counter() - t0
     errors = supersampling_errors(texton, device, args.quick)
+    pair = grey_pair(args, device, texture, pts, nrm, texel)
     n = len(pts)
     ratio = noise["blocks"]["best_s"] / noise["synthesize"]["best_s"] * (raster[0] * raster[1]) / n
     print(f"  surface_noise: {n} points in {noise['blocks']['best_s']:.3f} s (walk {noise['points']['best_s']:.3f} s)"
@@ -127,6 +195,7 @@ def run(args) -> dict:
         "bake": {"resolution": bake_res, "time_s": bake_s, "texels_per_texton_texel": baked.texels_per_texton_texel,
                  "samples_per_texel": baked.samples, "coverage": float(baked.coverage.mean())},
         "supersampling": errors,
+        "grey_pair": pair,
     }
 
 
@@ -135,6 +204,8 @@ def _cell(t: dict) -> str:
 
 
 def markdown(report: dict) -> str:
+    if "surface_noise" not in report:  # --only grey
+        return pair_markdown(report)
     p = report["parameters"]
     s, r, b = report["surface_noise"], report["render_mesh"], report["bake"]
     h, w = p["render_shape"]
@@ -174,11 +245,18 @@ def markdown(report: dict) -> str:
     for e in report["supersampling"]:
         lines.append(f"| {e['footprint']} | {e['samples_per_side']} | {e['density']:.2f} | {e['rms_error_sd']:.3f} | "
                      f"{e['time_s']:.3f} |")
+    if "grey_pair" in report:
+        lines += ["", pair_markdown(report).split("\n", 3)[3]]  # its table, without its heading and machine line
     return "\n".join(lines) + "\n"
 
 
 def main(argv=None) -> int:
-    return run_main(__doc__, "surface", run, markdown, argv, repeat=3, mni=60.0)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    # --only grey: the grey/RGB pair alone, written as surface_grey.*
+    name = "surface_grey" if "grey" in argv and "--only" in argv else "surface"
+    return run_main(__doc__, name, run, markdown, argv, repeat=3, mni=60.0,
+                    extra_args=lambda p: p.add_argument("--only", choices=["grey"], default=None,
+                                                        help="run the grey/RGB pair alone"))
 
 
 if __name__ == "__main__":

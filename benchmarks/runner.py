@@ -357,16 +357,19 @@ def surface_case(suite: Suite, textons: dict, device: str, report: Report) -> No
     """Surface noise on meshes (CGF §6): ``surface_noise`` points per second at
     MNI 60 at the vertices of an icosphere, in blocks and with the per-point walk
     (the reference), against a ``synthesize`` raster (MNI 30) of the same texton
-    measured in the same turns; and one ``render_mesh`` frame, blocks and walk.
+    measured in the same turns; and one ``render_mesh`` frame, blocks and walk; and
+    ``surface_noise`` of a grey texton (the first channel of the same texton: one float
+    a texel through the kernels), with the ratio grey / RGB.
     """
     import trimesh
 
-    from warp_texton import render_mesh, surface_noise, synthesize
+    from warp_texton import Texton, render_mesh, surface_noise, synthesize
 
     from warp_texton import analyze
 
     texton = textons[suite.ref_texton]
     tiling = analyze(make_texture(suite.image_side), method="tiling")  # triplanar on surfaces (docs/tiling.md)
+    grey = Texton(np.ascontiguousarray(texton.coeffs[..., :1]), texton.mean[:1], order=texton.order)
     # unit sphere, 128 texels per unit: about 800 texels round the equator
     mesh = trimesh.creation.icosphere(subdivisions=suite.surface_subdivisions, radius=1.0)
     texel = 1.0 / 128.0
@@ -381,6 +384,8 @@ def surface_case(suite: Suite, textons: dict, device: str, report: Report) -> No
         "surface_noise (walk)": lambda: surface_noise(texton, vertices, normals, texel, mni=SURFACE_MNI, seed=1,
                                                       device=device, method="points"),
         "surface_noise (tiling)": lambda: surface_noise(tiling, vertices, normals, texel, seed=1, device=device),
+        "surface_noise (grey)": lambda: surface_noise(grey, vertices, normals, texel, mni=SURFACE_MNI, seed=1,
+                                                      device=device),
         "synthesize": lambda: synthesize(texton, suite.ref_shape, mni=suite.ref_mni, seed=1, device=device),
         "render_mesh": lambda: render_mesh(mesh, texton, suite.surface_render, texel_size=texel, mni=SURFACE_MNI, seed=1,
                                            device=device),
@@ -390,7 +395,7 @@ def surface_case(suite: Suite, textons: dict, device: str, report: Report) -> No
     results = interleaved(methods, suite.repeat)
     raster = results["synthesize"]
     per_pixel = raster["best_s"] / (rh * rw)
-    for name in ("surface_noise", "surface_noise (walk)", "surface_noise (tiling)"):
+    for name in ("surface_noise", "surface_noise (walk)", "surface_noise (grey)", "surface_noise (tiling)"):
         t = results[name]
         report.add(case="surface", method=name, device=device, vertices=nv, mni=SURFACE_MNI,
                    texton=suite.ref_texton, mpoints_per_s=nv / t["best_s"] / 1e6,
@@ -405,7 +410,8 @@ def surface_case(suite: Suite, textons: dict, device: str, report: Report) -> No
     t, r = results["surface_noise"], results["render_mesh"]
     print(f"  surface_noise: {t['best_s']:.4f} s ({nv / t['best_s'] / 1e6:.2f} Mpoints/s, x"
           f"{t['best_s'] / nv / per_pixel:.1f} a raster pixel; walk x"
-          f"{results['surface_noise (walk)']['best_s'] / t['best_s']:.2f} slower); render_mesh {w}x{h}: "
+          f"{results['surface_noise (walk)']['best_s'] / t['best_s']:.2f} slower; grey / RGB "
+          f"{results['surface_noise (grey)']['best_s'] / t['best_s']:.2f}); render_mesh {w}x{h}: "
           f"{r['best_s']:.4f} s (walk x{results['render_mesh (walk)']['best_s'] / r['best_s']:.2f} slower)",
           flush=True)
 

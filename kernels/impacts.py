@@ -192,10 +192,11 @@ def impact_offset3(rel: wp.vec3, u: wp.vec3, size: float):
     return rel - u * size
 
 
-def cell_walk3(contribution, name: str):
+def cell_walk3(contribution, name: str, zero=wp.vec3):
     """A ``@wp.func walk(y: vec3d, ext: vec3, cells: Cells3, ctx) -> vec3`` summing
     ``contribution(ctx, d, acc)`` over the impacts q of the cubes that meet the
-    box y ± ext, with d = y − q (the contribution tests its own support).
+    box y ± ext, with d = y − q (the contribution tests its own support), from
+    ``zero(0.0)`` (``wp.float32`` for a one-channel sum).
 
     Cubes are visited in z, y, x order and the impacts of a cube in the order
     they are drawn; a path that shares impacts between points (``kernels/surface_points.py``,
@@ -205,7 +206,7 @@ def cell_walk3(contribution, name: str):
     def walk(y: wp.vec3d, ext: wp.vec3, cells: Cells3, ctx: Any):
         c = cells.size
         x0, x1, y0, y1, z0, z1 = cube_span(y, ext, c)
-        acc = wp.vec3(0.0)
+        acc = zero(0.0)
         for cz in range(z0, z1 + 1):
             for cy in range(y0, y1 + 1):
                 for cx in range(x0, x1 + 1):

@@ -29,7 +29,8 @@ expression is contracted to FMAs exactly where Warp's generated code is (one
 ``wp.dot`` is one expression; every other operation is its own statement), so
 the sums are bit-identical to the per-point walk. The slab term's weighting of
 the four texels is written once (``_SLAB_ADD``) and used by both forms, with a
-float (one channel) or a 4-float vector (three channels) as its lane type.
+float (one channel), a 4-float vector (three channels, one lookup) or a 16-float
+vector (one channel, 16 points' lookups) as its lane type.
 ``tests/test_surface.py`` checks both forms against the walk, and the recorded
 references (``blocks_*`` in tests/test_reference.py) check their values.
 """
@@ -86,8 +87,8 @@ _VECTOR_TYPES = r"""
 #: whole func_native function, and the walk written in Warp is the independent
 #: implementation that tests/test_surface.py checks these loops against.
 _SLAB_ADD = r"""
-    const auto slab_add = [](auto acc, auto c00, auto c01, auto c10, auto c11, float mtx, float tx, float mty,
-                             float ty, float w) {
+    const auto slab_add = [](auto acc, auto c00, auto c01, auto c10, auto c11, auto mtx, auto tx, auto mty,
+                             auto ty, auto w) {
         const auto a = c00 * mtx;
         const auto b = c01 * tx;
         const auto top = a + b;
@@ -383,8 +384,197 @@ LOAD_LANE
 """).replace("PADV", str(PAD)).replace("LOAD_LANE", _LOAD_LANE)
 
 
+#: The same gather for a one-channel (grey) texton: float coefficients, float sums.
+#: The vector form weighs the 16 lanes at once: each passing lane's four texels are
+#: copied into 16-float rows (their slots of lanes that do not pass keep old, finite
+#: values), the slab term is computed in every lane with slab_add's operations, and
+#: only the passing lanes keep it (a select, so the other lanes' sums are untouched):
+#: each lane's sum takes the plain loop's terms in its order, bit for bit.
+CLUSTER_SUMS1 = (_SLAB_ADD + _VECTOR + _VECTOR_TYPES + r"""
+    if (simd != 0) {
+        const int np = k1 - k0;
+        v16f nx, ny, nz, ax, ay, az, bx, by, bz;
+        v16i xl, xh, yl, yh, zl, zh, live;
+        v16d px, py, pz;
+        v16f acc = 0.0f;
+        for (int l = 0; l < 16; ++l) {
+            const int k = k0 + (l < np ? l : 0);
+            live[l] = l < np ? -1 : 0;
+LOAD_LANE
+            const wp::vec3d y = points.data[k];
+            px[l] = y[0]; py[l] = y[1]; pz[l] = y[2];
+        }
+        const float* cf = (const float*)coeffs.data;
+        const int row = coeffs.shape[1];
+        const double cd = (double)size;
+        alignas(64) int l_i00[16];
+        alignas(64) float g00[16] = {}, g01[16] = {}, g10[16] = {}, g11[16] = {};
+        int start = 0;
+        for (int r = 0; r < runs; ++r) {
+            const int end = run_end.data[r0 + r];
+            const wp::vec3i cc = cubes.data[run_cube.data[r0 + r]];
+            const v16i inside = live & (cc[0] >= xl) & (cc[0] <= xh) & (cc[1] >= yl) & (cc[1] <= yh)
+                                & (cc[2] >= zl) & (cc[2] <= zh);
+            if (lane_bits(inside) != 0) {
+                const double mx = (double)cc[0] * cd;
+                const double my = (double)cc[1] * cd;
+                const double mz = (double)cc[2] * cd;
+                const v16f rx = __builtin_convertvector(px - mx, v16f);
+                const v16f ry = __builtin_convertvector(py - my, v16f);
+                const v16f rz = __builtin_convertvector(pz - mz, v16f);
+                for (int e = u0 + start; e < u0 + end; ++e) {
+                    const float qx = ux.data[e] * size;
+                    const float qy = uy.data[e] * size;
+                    const float qz = uz.data[e] * size;
+                    const v16f dx = rx - qx;
+                    const v16f dy = ry - qy;
+                    const v16f dz = rz - qz;
+                    const v16f t = dx * nx + dy * ny + dz * nz;
+                    const v16f da = dx * ax + dy * ay + dz * az;
+                    const v16f db = dx * bx + dy * by + dz * bz;
+                    const v16f za = da + cen0;
+                    const v16f zb = db + cen1;
+                    const v16f at = __builtin_elementwise_abs(t);
+                    const v16i ok = inside & (at < half) & (za >= lo0) & (za <= hi0) & (zb >= lo1) & (zb <= hi1);
+                    unsigned bits = lane_bits(ok);
+                    if (bits == 0)
+                        continue;
+                    const v16f q = at / half;
+                    const v16f w = 1.0f - q;
+                    const v16f fx = __builtin_elementwise_floor(za);
+                    const v16f fy = __builtin_elementwise_floor(zb);
+                    const v16f tx = za - fx;
+                    const v16f ty = zb - fy;
+                    const v16i i00 = (__builtin_convertvector(fy, v16i) + PADV) * row
+                                     + (__builtin_convertvector(fx, v16i) + PADV);
+#if defined(__AVX512F__)
+                    // AVX-512's masked gathers: the passing lanes' four texels (the others read nothing)
+                    typedef float gv16f __attribute__((__vector_size__(64)));
+                    typedef int gv16i __attribute__((__vector_size__(64)));
+                    const gv16i gi = __builtin_bit_cast(gv16i, i00);
+                    const gv16f none = {};
+                    const unsigned short k = (unsigned short)bits;
+                    const v16f c00 = __builtin_bit_cast(v16f, __builtin_ia32_gathersiv16sf(none, cf, gi, k, 4));
+                    const v16f c01 = __builtin_bit_cast(v16f, __builtin_ia32_gathersiv16sf(none, cf + 1, gi, k, 4));
+                    const v16f c10 = __builtin_bit_cast(v16f, __builtin_ia32_gathersiv16sf(none, cf + row, gi, k, 4));
+                    const v16f c11 = __builtin_bit_cast(v16f, __builtin_ia32_gathersiv16sf(none, cf + row + 1, gi, k,
+                                                                                          4));
+#else
+                    *(v16i*)l_i00 = i00;
+                    while (bits != 0) {
+                        const int l = __builtin_ctz(bits);
+                        bits &= bits - 1u;
+                        const float* p0 = cf + l_i00[l];
+                        g00[l] = p0[0];
+                        g01[l] = p0[1];
+                        g10[l] = p0[row];
+                        g11[l] = p0[row + 1];
+                    }
+                    const v16f c00 = *(const v16f*)g00, c01 = *(const v16f*)g01, c10 = *(const v16f*)g10,
+                               c11 = *(const v16f*)g11;
+#endif
+                    const v16f sum = slab_add(acc, c00, c01, c10, c11, 1.0f - tx, tx, 1.0f - ty, ty, w);
+                    // the passing lanes take the new sum, the others keep theirs
+                    acc = __builtin_bit_cast(v16f, (__builtin_bit_cast(v16i, sum) & ok)
+                                                   | (__builtin_bit_cast(v16i, acc) & ~ok));
+                }
+            }
+            start = end;
+        }
+        for (int l = 0; l < np; ++l)
+            out.data[dest.data[k0 + l]] = acc[l];
+        return;
+    }
+#endif
+    // the same loop over lanes in plain C++ (up to 16 points, impact by impact)
+    const int np = k1 - k0;
+    float nx[16], ny[16], nz[16], ax[16], ay[16], az[16], bx[16], by[16], bz[16];
+    float rx[16], ry[16], rz[16], s0[16];
+    int xl[16], xh[16], yl[16], yh[16], zl[16], zh[16];
+    bool inside[16];
+    for (int l = 0; l < np; ++l) {
+        const int k = k0 + l;
+LOAD_LANE
+        s0[l] = 0.0f;
+    }
+    const float* cf = (const float*)coeffs.data;
+    const int row = coeffs.shape[1];
+    const double cd = (double)size;
+    int start = 0;
+    for (int r = 0; r < runs; ++r) {
+        const int end = run_end.data[r0 + r];
+        const wp::vec3i cc = cubes.data[run_cube.data[r0 + r]];
+        const double mx = (double)cc[0] * cd;
+        const double my = (double)cc[1] * cd;
+        const double mz = (double)cc[2] * cd;
+        bool any = false;
+        for (int l = 0; l < np; ++l) {
+            inside[l] = cc[0] >= xl[l] && cc[0] <= xh[l] && cc[1] >= yl[l] && cc[1] <= yh[l] && cc[2] >= zl[l]
+                        && cc[2] <= zh[l];
+            any = any || inside[l];
+            const wp::vec3d y = points.data[k0 + l];
+            const double ex = y[0] - mx;
+            const double ey = y[1] - my;
+            const double ez = y[2] - mz;
+            rx[l] = (float)ex;
+            ry[l] = (float)ey;
+            rz[l] = (float)ez;
+        }
+        if (any) {
+            for (int e = u0 + start; e < u0 + end; ++e) {
+                const float qx = ux.data[e] * size;
+                const float qy = uy.data[e] * size;
+                const float qz = uz.data[e] * size;
+                for (int l = 0; l < np; ++l) {
+                    const float dx = rx[l] - qx;
+                    const float dy = ry[l] - qy;
+                    const float dz = rz[l] - qz;
+                    const float t = dx * nx[l] + dy * ny[l] + dz * nz[l];
+                    const float at = fabsf(t);
+                    if (!inside[l] || !(at < half))
+                        continue;
+                    const float da = dx * ax[l] + dy * ay[l] + dz * az[l];
+                    const float db = dx * bx[l] + dy * by[l] + dz * bz[l];
+                    const float za = da + cen0;
+                    const float zb = db + cen1;
+                    if (!(za >= lo0 && za <= hi0 && zb >= lo1 && zb <= hi1))
+                        continue;
+                    const float q = at / half;
+                    const float w = 1.0f - q;
+                    const float fx = floorf(za);
+                    const float fy = floorf(zb);
+                    const float tx = za - fx;
+                    const float ty = zb - fy;
+                    const float mtx = 1.0f - tx;
+                    const float mty = 1.0f - ty;
+                    const float* p00 = cf + ((int)fy + PADV) * row + ((int)fx + PADV);
+                    const float* p10 = p00 + row;
+                    s0[l] = slab_add(s0[l], p00[0], p00[1], p10[0], p10[1], mtx, tx, mty, ty, w);
+                }
+            }
+        }
+        start = end;
+    }
+    for (int l = 0; l < np; ++l)
+        out.data[dest.data[k0 + l]] = s0[l];
+""").replace("PADV", str(PAD)).replace("LOAD_LANE", _LOAD_LANE)
+
+
+@wp.func_native(CLUSTER_SUMS1)
+def cluster_sums1(coeffs: wp.array2d(dtype=float), points: wp.array(dtype=wp.vec3d),
+                  normals: wp.array(dtype=wp.vec3), u1s: wp.array(dtype=wp.vec3), u2s: wp.array(dtype=wp.vec3),
+                  span_lo: wp.array(dtype=wp.vec3i), span_hi: wp.array(dtype=wp.vec3i), k0: int, k1: int,
+                  cubes: wp.array(dtype=wp.vec3i), run_cube: wp.array(dtype=wp.int32),
+                  run_end: wp.array(dtype=wp.int32), r0: int, runs: int, ux: wp.array(dtype=float),
+                  uy: wp.array(dtype=float), uz: wp.array(dtype=float), u0: int, size: float, half: float,
+                  cen0: float, cen1: float, lo0: float, lo1: float, hi0: float, hi1: float,
+                  out: wp.array(dtype=float), dest: wp.array(dtype=wp.int64), simd: int):
+    """``cluster_sums`` for a one-channel texton: float coefficients and sums."""
+    ...
+
+
 @wp.func_native(CLUSTER_SUMS)
-def cluster_sums(coeffs: wp.array2d(dtype=wp.vec3), points: wp.array(dtype=wp.vec3d),
+def cluster_sums3(coeffs: wp.array2d(dtype=wp.vec3), points: wp.array(dtype=wp.vec3d),
                  normals: wp.array(dtype=wp.vec3), u1s: wp.array(dtype=wp.vec3), u2s: wp.array(dtype=wp.vec3),
                  span_lo: wp.array(dtype=wp.vec3i), span_hi: wp.array(dtype=wp.vec3i), k0: int, k1: int,
                  cubes: wp.array(dtype=wp.vec3i), run_cube: wp.array(dtype=wp.int32),
@@ -395,6 +585,34 @@ def cluster_sums(coeffs: wp.array2d(dtype=wp.vec3), points: wp.array(dtype=wp.ve
     """The raw slab sums (order-1 texton) of a cluster's points over its list,
     written to out[dest[k]] for point k."""
     ...
+
+
+@wp.func
+def cluster_sums(coeffs: wp.array2d(dtype=wp.vec3), points: wp.array(dtype=wp.vec3d),
+                 normals: wp.array(dtype=wp.vec3), u1s: wp.array(dtype=wp.vec3), u2s: wp.array(dtype=wp.vec3),
+                 span_lo: wp.array(dtype=wp.vec3i), span_hi: wp.array(dtype=wp.vec3i), k0: int, k1: int,
+                 cubes: wp.array(dtype=wp.vec3i), run_cube: wp.array(dtype=wp.int32),
+                 run_end: wp.array(dtype=wp.int32), r0: int, runs: int, ux: wp.array(dtype=float),
+                 uy: wp.array(dtype=float), uz: wp.array(dtype=float), u0: int, size: float, half: float,
+                 cen0: float, cen1: float, lo0: float, lo1: float, hi0: float, hi1: float,
+                 out: wp.array(dtype=wp.vec3), dest: wp.array(dtype=wp.int64), simd: int):
+    # three channels (vec3 coefficients and sums)
+    cluster_sums3(coeffs, points, normals, u1s, u2s, span_lo, span_hi, k0, k1, cubes, run_cube, run_end, r0, runs,
+                  ux, uy, uz, u0, size, half, cen0, cen1, lo0, lo1, hi0, hi1, out, dest, simd)
+
+
+@wp.func
+def cluster_sums(coeffs: wp.array2d(dtype=float), points: wp.array(dtype=wp.vec3d),  # noqa: F811 (a Warp overload)
+                 normals: wp.array(dtype=wp.vec3), u1s: wp.array(dtype=wp.vec3), u2s: wp.array(dtype=wp.vec3),
+                 span_lo: wp.array(dtype=wp.vec3i), span_hi: wp.array(dtype=wp.vec3i), k0: int, k1: int,
+                 cubes: wp.array(dtype=wp.vec3i), run_cube: wp.array(dtype=wp.int32),
+                 run_end: wp.array(dtype=wp.int32), r0: int, runs: int, ux: wp.array(dtype=float),
+                 uy: wp.array(dtype=float), uz: wp.array(dtype=float), u0: int, size: float, half: float,
+                 cen0: float, cen1: float, lo0: float, lo1: float, hi0: float, hi1: float,
+                 out: wp.array(dtype=float), dest: wp.array(dtype=wp.int64), simd: int):
+    # one channel (float coefficients and sums)
+    cluster_sums1(coeffs, points, normals, u1s, u2s, span_lo, span_hi, k0, k1, cubes, run_cube, run_end, r0, runs,
+                  ux, uy, uz, u0, size, half, cen0, cen1, lo0, lo1, hi0, hi1, out, dest, simd)
 
 
 @wp.func_native(_VECTOR + """

@@ -14,6 +14,8 @@ Driven by: ``warp_texton.runtimes.warp_api``, ``warp_texton.surface.blocks``,
 ``warp_texton.surface.points``.
 """
 
+from typing import Any
+
 import warp as wp
 
 from .surface_blocks import CubeBlocks, clamp_to_block
@@ -82,9 +84,25 @@ class SlabLookup:
     order: int
 
 
+@wp.struct
+class SlabLookup1:
+    # the same, one channel (a grey texton: float coefficients)
+    coeffs: wp.array2d(dtype=float)
+    u1: wp.vec3
+    u2: wp.vec3
+    n: wp.vec3
+    half: float
+    centre: wp.vec2
+    lo: wp.vec2
+    hi: wp.vec2
+    order: int
+
+
 @wp.func
-def slab_term(coeffs: wp.array2d(dtype=wp.vec3), u1: wp.vec3, u2: wp.vec3, t: float, half: float, centre: wp.vec2,
-              lo: wp.vec2, hi: wp.vec2, order: int, d: wp.vec3, acc: wp.vec3):
+def slab_term(coeffs: wp.array2d(dtype=Any), u1: wp.vec3, u2: wp.vec3, t: float, half: float, centre: wp.vec2,
+              lo: wp.vec2, hi: wp.vec2, order: int, d: wp.vec3, acc: Any):
+    # One channel (float coefficients) or three (vec3): the same operations on each
+    # channel, so a grey texton's float sum is the first component of its vec3 sum.
     # an impact at t = ⟨d, n⟩ within r/2 of the tangent plane adds (1 − 2|t|/r) h_c(⟨d, u1⟩, ⟨d, u2⟩)
     z = wp.vec2(wp.dot(d, u1), wp.dot(d, u2)) + centre
     if z[0] >= lo[0] and z[0] <= hi[0] and z[1] >= lo[1] and z[1] <= hi[1]:
@@ -117,14 +135,37 @@ def add_slab(c: SlabLookup, d: wp.vec3, acc: wp.vec3):
     return acc
 
 
-#: Σ of the slab contributions over the impacts of the cubes near a point (see impacts.cell_walk3).
+@wp.func
+def add_slab(c: SlabLookup1, d: wp.vec3, acc: float):  # noqa: F811 (a Warp overload)
+    t = wp.dot(d, c.n)
+    if wp.abs(t) < c.half:
+        acc = slab_term(c.coeffs, c.u1, c.u2, t, c.half, c.centre, c.lo, c.hi, c.order, d, acc)
+    return acc
+
+
+#: Σ of the slab contributions over the impacts of the cubes near a point (see impacts.cell_walk3),
+#: three channels and one.
 sum_slab = cell_walk3(add_slab, "sum_slab")
+sum_slab1 = cell_walk3(add_slab, "sum_slab1", zero=wp.float32)
 
 
 @wp.func
-def slab_lookup(p: SurfaceParams, coeffs: wp.array2d(dtype=wp.vec3), u1: wp.vec3, u2: wp.vec3, n: wp.vec3):
+def new_lookup(coeffs: wp.array2d(dtype=wp.vec3)):
     look = SlabLookup()
     look.coeffs = coeffs
+    return look
+
+
+@wp.func
+def new_lookup(coeffs: wp.array2d(dtype=float)):  # noqa: F811 (a Warp overload)
+    look = SlabLookup1()
+    look.coeffs = coeffs
+    return look
+
+
+@wp.func
+def slab_lookup(p: SurfaceParams, coeffs: wp.array2d(dtype=Any), u1: wp.vec3, u2: wp.vec3, n: wp.vec3):
+    look = new_lookup(coeffs)
     look.u1 = u1
     look.u2 = u2
     look.n = n
@@ -161,11 +202,25 @@ def normalize_surface(p: SurfaceParams, acc: wp.vec3):
 
 
 @wp.func
+def normalize_surface(p: SurfaceParams, acc: float):  # noqa: F811 (a Warp overload)
+    # one channel: the vec3 form's operations on its first component
+    return p.mean[0] + (acc - p.shift[0]) * p.inv_scale
+
+
+@wp.func
 def frame_value(p: SurfaceParams, coeffs: wp.array2d(dtype=wp.vec3), y: wp.vec3d, u1: wp.vec3, u2: wp.vec3,
                 n: wp.vec3):
     # the noise at texel-space y with the frame (u1, u2, n): each point walking its cubes
     look = slab_lookup(p, coeffs, u1, u2, n)
     acc = sum_slab(y, frame_extent(p.half, u1, u2, n), p.cells, look)
+    return normalize_surface(p, acc)
+
+
+@wp.func
+def frame_value(p: SurfaceParams, coeffs: wp.array2d(dtype=float), y: wp.vec3d, u1: wp.vec3,  # noqa: F811
+                u2: wp.vec3, n: wp.vec3):  # (a Warp overload: one channel)
+    look = slab_lookup(p, coeffs, u1, u2, n)
+    acc = sum_slab1(y, frame_extent(p.half, u1, u2, n), p.cells, look)
     return normalize_surface(p, acc)
 
 
@@ -211,6 +266,29 @@ class SurfaceNoise:
     texel_size: wp.float64
 
 
+@wp.struct
+class SurfaceNoise1:
+    """Surface texton noise of a one-channel (grey) texton (the device API).
+
+    Filled on the host by :func:`warp_texton.runtimes.warp_api.pack_surface` with
+    ``channels=1``; ``surface_value`` and ``surface_frame_value`` of it return a
+    float, and read one float a texel where ``SurfaceNoise`` reads three.
+
+    Attributes
+    ----------
+    params : SurfaceParams
+        As in ``SurfaceNoise`` (the mean and shift in the first component).
+    coeffs : wp.array2d(dtype=float)
+        The texton's coefficients with a zero margin of ``PAD`` texels.
+    texel_size : wp.float64
+        World units per texel.
+    """
+
+    params: SurfaceParams
+    coeffs: wp.array2d(dtype=float)
+    texel_size: wp.float64
+
+
 @wp.func
 def surface_frame_value(noise: SurfaceNoise, y: wp.vec3d, n: wp.vec3, u1: wp.vec3) -> wp.vec3:
     """Surface texton noise at the texel-space point ``y`` with the frame (``u1``, n × ``u1``, ``n``).
@@ -221,6 +299,12 @@ def surface_frame_value(noise: SurfaceNoise, y: wp.vec3d, n: wp.vec3, u1: wp.vec
     for the same point, normal and tangent after its own normalisation
     (float64, then float32), bit for bit on the same device.
     """
+    return frame_value(noise.params, noise.coeffs, y, u1, wp.cross(n, u1), n)
+
+
+@wp.func
+def surface_frame_value(noise: SurfaceNoise1, y: wp.vec3d, n: wp.vec3, u1: wp.vec3) -> float:  # noqa: F811
+    """One channel: the first component of the ``SurfaceNoise`` form's value, bit for bit."""
     return frame_value(noise.params, noise.coeffs, y, u1, wp.cross(n, u1), n)
 
 
@@ -242,24 +326,46 @@ def surface_value(noise: SurfaceNoise, x: wp.vec3d, normal: wp.vec3d) -> wp.vec3
     return surface_frame_value(noise, x / noise.texel_size, n, u1)
 
 
+@wp.func
+def surface_value(noise: SurfaceNoise1, x: wp.vec3d, normal: wp.vec3d) -> float:  # noqa: F811 (a Warp overload)
+    """One channel: the first component of the ``SurfaceNoise`` form's value, bit for bit."""
+    length = normal_length(normal)
+    n = unit_normal(normal, length)
+    u1, u2 = tangent_frame(n, noise.params.up, noise.params.side)
+    return surface_frame_value(noise, x / noise.texel_size, n, u1)
+
+
+@wp.func
+def new_noise(coeffs: wp.array2d(dtype=wp.vec3)):
+    noise = SurfaceNoise()
+    noise.coeffs = coeffs
+    return noise
+
+
+@wp.func
+def new_noise(coeffs: wp.array2d(dtype=float)):  # noqa: F811 (a Warp overload)
+    noise = SurfaceNoise1()
+    noise.coeffs = coeffs
+    return noise
+
+
 @wp.kernel
 def evaluate_surface(
     p: SurfaceParams,
-    coeffs: wp.array2d(dtype=wp.vec3),
+    coeffs: wp.array2d(dtype=Any),
     points: wp.array(dtype=wp.vec3d),
     normals: wp.array(dtype=wp.vec3),
     tangents: wp.array(dtype=wp.vec3),
     use_tangents: int,
-    out: wp.array(dtype=wp.vec3),
+    out: wp.array(dtype=Any),
 ):
     """Surface noise at points (texel units, float64) with unit normals, each point
     walking its own cubes; frames from the rule, or from given tangents (already
     orthogonal to the normals, unit): ``surface_frame_value``, the device API's
     function, at each point. The reference for the block path."""
     k = wp.tid()
-    noise = SurfaceNoise()
+    noise = new_noise(coeffs)
     noise.params = p
-    noise.coeffs = coeffs
     noise.texel_size = wp.float64(1.0)
     n = normals[k]
     u1, u2 = point_frame(p, n, tangents, k, use_tangents)
@@ -292,7 +398,7 @@ def range_meets(rel: wp.vec3, a: wp.vec3, size: float, lo: float, hi: float):
 
 
 @wp.func
-def cube_may_count(c: SlabLookup, rel: wp.vec3, size: float):
+def cube_may_count(c: Any, rel: wp.vec3, size: float):
     """Whether an impact of the cube whose corner is at y − rel can pass add_slab's
     tests: the ranges of ⟨d, n⟩, ⟨d, u1⟩, ⟨d, u2⟩ over d = rel − [0, size]³ against
     the slab and the support, with a margin far above float rounding. A cube
@@ -335,7 +441,7 @@ def frame_points(p: SurfaceParams, points: wp.array(dtype=wp.vec3d), normals: wp
 
 
 @wp.func
-def sum_block(p: SurfaceParams, coeffs: wp.array2d(dtype=wp.vec3), look: SlabLookup, y: wp.vec3d, n: wp.vec3,
+def sum_block(p: SurfaceParams, coeffs: wp.array2d(dtype=Any), look: Any, y: wp.vec3d, n: wp.vec3,
               u1: wp.vec3, u2: wp.vec3, x0: int, x1: int, y0: int, y1: int, z0: int, z1: int, b: int,
               blocks: CubeBlocks):
     # the walk's sum over the cubes [x0, x1] × [y0, y1] × [z0, z1], from block b's drawn
@@ -351,7 +457,7 @@ def sum_block(p: SurfaceParams, coeffs: wp.array2d(dtype=wp.vec3), look: SlabLoo
     hi = p.hi
     order = p.order
     c = p.cells.size
-    acc = wp.vec3(0.0)
+    acc = coeffs.dtype(0.0)
     for cz in range(z0, z1 + 1):
         for cy in range(y0, y1 + 1):
             row = base + ((cz - o[2]) * dm[1] + (cy - o[1])) * dm[0] - o[0]
@@ -537,7 +643,7 @@ def list_cluster_impacts(
 
 
 @wp.func
-def cluster_point(p: SurfaceParams, coeffs: wp.array2d(dtype=wp.vec3), points: wp.array(dtype=wp.vec3d),
+def cluster_point(p: SurfaceParams, coeffs: wp.array2d(dtype=Any), points: wp.array(dtype=wp.vec3d),
                   normals: wp.array(dtype=wp.vec3), frames: PointFrames, block_of: wp.array(dtype=wp.int32),
                   blocks: CubeBlocks, lists: Clusters, slot: int, runs: int, k: int):
     # point k of a cluster: the raw sum over its list of ``runs`` runs in slot ``slot``
@@ -555,7 +661,7 @@ def cluster_point(p: SurfaceParams, coeffs: wp.array2d(dtype=wp.vec3), points: w
     c = p.cells.size
     u0 = slot * lists.cap
     r0 = slot * lists.cap_runs
-    acc = wp.vec3(0.0)
+    acc = coeffs.dtype(0.0)
     start = int(0)
     for r in range(runs):
         end = lists.run_end[r0 + r]
@@ -575,7 +681,7 @@ def cluster_point(p: SurfaceParams, coeffs: wp.array2d(dtype=wp.vec3), points: w
 @wp.kernel
 def gather_clustered(
     p: SurfaceParams,
-    coeffs: wp.array2d(dtype=wp.vec3),
+    coeffs: wp.array2d(dtype=Any),
     points: wp.array(dtype=wp.vec3d),
     normals: wp.array(dtype=wp.vec3),
     frames: PointFrames,
@@ -585,7 +691,7 @@ def gather_clustered(
     clusters: Clusters,
     first_cluster: int,
     first: int,
-    out: wp.array(dtype=wp.vec3),
+    out: wp.array(dtype=Any),
     dest: wp.array(dtype=wp.int64),
 ):
     """The walk's sum at each point k (written to out[dest[k]]) (one thread per point: the GPU's gather, and any
@@ -601,7 +707,7 @@ def gather_clustered(
 @wp.kernel
 def gather_cluster_lists(
     p: SurfaceParams,
-    coeffs: wp.array2d(dtype=wp.vec3),
+    coeffs: wp.array2d(dtype=Any),
     points: wp.array(dtype=wp.vec3d),
     normals: wp.array(dtype=wp.vec3),
     tangents: wp.array(dtype=wp.vec3),
@@ -614,7 +720,7 @@ def gather_cluster_lists(
     first_cluster: int,
     min_points: int,
     simd: int,
-    out: wp.array(dtype=wp.vec3),
+    out: wp.array(dtype=Any),
     dest: wp.array(dtype=wp.int64),
 ):
     """Frame, list and gather one cluster per thread (the CPU's path, order-1
@@ -641,6 +747,14 @@ def gather_cluster_lists(
         out[d] = normalize_surface(p, out[d])
 
 
+#: The point kernels for one channel (float) and three (vec3): a grey texton's
+#: surface noise reads and writes one float a texel, not three.
+for _lanes in (float, wp.vec3):
+    wp.overload(evaluate_surface, {"coeffs": wp.array2d(dtype=_lanes), "out": wp.array(dtype=_lanes)})
+    wp.overload(gather_clustered, {"coeffs": wp.array2d(dtype=_lanes), "out": wp.array(dtype=_lanes)})
+    wp.overload(gather_cluster_lists, {"coeffs": wp.array2d(dtype=_lanes), "out": wp.array(dtype=_lanes)})
+
+
 @wp.kernel
 def simd_probe(out: wp.array(dtype=wp.int32)):
     """Which form of the loops of kernels/surface_native.py this build holds (vector_loops)."""
@@ -649,4 +763,4 @@ def simd_probe(out: wp.array(dtype=wp.int32)):
 
 __all__ = ["PAD", "SurfaceParams", "PointFrames", "Clusters", "evaluate_surface", "prepare_points", "frame_points",
            "list_cluster_impacts", "gather_clustered", "gather_cluster_lists", "simd_probe", "tangent_frame",
-           "SurfaceNoise", "surface_value", "surface_frame_value"]
+           "SurfaceNoise", "SurfaceNoise1", "surface_value", "surface_frame_value"]

@@ -9,6 +9,8 @@ noise's, so a render does not recompile with the surface kernels.
 Driven by: ``warp_texton.surface.render``.
 """
 
+from typing import Any
+
 import warp as wp
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
@@ -93,20 +95,35 @@ def fill_image(img: wp.array2d(dtype=wp.vec3), background: wp.vec3):
     img[i, j] = background
 
 
+@wp.func
+def spread(v: wp.vec3, grey: int):
+    # grey noise, in channel 0, spread to RGB
+    if grey != 0:
+        return wp.vec3(v[0], v[0], v[0])
+    return v
+
+
+@wp.func
+def spread(v: float, grey: int):  # noqa: F811 (a Warp overload: a one-channel value)
+    return wp.vec3(v, v, v)
+
+
 @wp.kernel
-def shade_hits(pixels: wp.array(dtype=wp.int32), values: wp.array(dtype=wp.vec3), shade: wp.array(dtype=float),
+def shade_hits(pixels: wp.array(dtype=wp.int32), values: wp.array(dtype=Any), shade: wp.array(dtype=float),
                box_width: int, row0: int, col0: int, grey: int, img: wp.array2d(dtype=wp.vec3)):
     """Pixel pixels[k] (flat index into the ray cast's box) of the render: its noise
-    value clipped to [0, 1] times its shade (grey noise, in channel 0, spread to RGB)."""
+    value clipped to [0, 1] times its shade (grey noise, in channel 0 or as one
+    float a pixel, spread to RGB)."""
     k = wp.tid()
     q = pixels[k]
-    g = values[k]
-    if grey != 0:
-        g = wp.vec3(g[0], g[0], g[0])
+    g = spread(values[k], grey)
     s = shade[q]
     img[row0 + q / box_width, col0 + q % box_width] = wp.vec3(wp.clamp(g[0], 0.0, 1.0) * s,
                                                               wp.clamp(g[1], 0.0, 1.0) * s,
                                                               wp.clamp(g[2], 0.0, 1.0) * s)
 
+
+for _lanes in (float, wp.vec3):
+    wp.overload(shade_hits, {"values": wp.array(dtype=_lanes)})
 
 __all__ = ["Camera", "cast_rays", "fill_image", "hit_points", "shade_hits"]

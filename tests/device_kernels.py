@@ -50,6 +50,21 @@ def surface_frame_at(noise: td.SurfaceNoise, points: wp.array(dtype=wp.vec3d), n
 
 
 @wp.kernel
+def surface_grey_at(noise: td.SurfaceNoise1, points: wp.array(dtype=wp.vec3d), normals: wp.array(dtype=wp.vec3d),
+                    out: wp.array(dtype=float)):
+    t = wp.tid()
+    out[t] = td.surface_value(noise, points[t], normals[t])
+
+
+@wp.kernel
+def surface_frame_grey_at(noise: td.SurfaceNoise1, points: wp.array(dtype=wp.vec3d),
+                          normals: wp.array(dtype=wp.vec3), tangents: wp.array(dtype=wp.vec3),
+                          out: wp.array(dtype=float)):
+    t = wp.tid()
+    out[t] = td.surface_frame_value(noise, points[t], normals[t], tangents[t])
+
+
+@wp.kernel
 def plane_colour_at(noise: td.PlaneNoise, cmap: td.ColourMap, points: wp.array(dtype=wp.vec2d),
                     out: wp.array(dtype=wp.vec3)):
     t = wp.tid()

@@ -833,6 +833,39 @@ def test_grey_points_are_the_first_channel_of_the_three_lane_path(device):
     assert one.shape == (400, 1) and np.array_equal(one[:, 0], three[:, 0])
 
 
+@pytest.mark.parametrize("method", ["splat", "gather"])
+def test_grey_mixed_noise_is_the_first_channel_of_the_three_lane_path(method, device):
+    """synthesize_mixed of grey textons (one lane through the marked splat and gather)
+    equals the first channel of the mix of textons with the same first channels, bit
+    for bit, for strips and for a map."""
+    if method == "splat" and device != "cpu":
+        pytest.skip("the splat runs on the CPU")
+    from warp_texton import synthesize_mixed
+
+    pairs = [grey_and_coloured(1, seed=20 + k) for k in range(3)]
+    rho = np.random.default_rng(4).random((28, 34))
+    for weights in ("strips", rho):
+        kw = dict(mni=25.0, seed=7, scale=0.8, offset=(-40.5, 12.25), device=device, method=method)
+        one = synthesize_mixed([g for g, _ in pairs], weights, (28, 34), **kw)
+        three = synthesize_mixed([c for _, c in pairs], weights, (28, 34), **kw)
+        assert one.shape == (28, 34, 1) and np.array_equal(one[..., 0], three[..., 0])
+        assert np.ptp(one) > 0
+
+
+@pytest.mark.parametrize("filt", ["none", "anisotropic"])
+def test_grey_batches_are_the_first_channel_of_the_three_lane_path(filt, device):
+    """A batch of grey textons (one lane a texel and a pixel) equals the first channel
+    of the batch of textons with the same first channels, bit for bit."""
+    from warp_texton import synthesize_batch
+
+    pairs = [grey_and_coloured(1, seed=30 + k) for k in range(2)]
+    kw = dict(mni=20.0, seed=3, scale=(0.4, 2.0), rotation=(0.0, 40.0), filter=filt, device=device)
+    one = synthesize_batch([g for g, _ in pairs], 4, (26, 30), **kw)
+    three = synthesize_batch([c for _, c in pairs], 4, (26, 30), **kw)
+    a, b = one.images, three.images
+    assert a.shape == (4, 26, 30, 1) and np.array_equal(a[..., 0], b[..., 0]) and np.ptp(a) > 0
+
+
 def test_grey_textons_take_one_lane():
     """The canvas and the texton stack of a grey texton without a histogram
     transform hold one float a value; colour textons, three."""

@@ -244,6 +244,40 @@ def test_surface_frame_value_is_surface_noise_with_tangents(device):
     assert np.array_equal(got, want)
 
 
+@pytest.mark.parametrize("order", [1, 3])
+def test_grey_surface_values_are_the_first_channel(order, device):
+    """A grey texton packed on one channel (SurfaceNoise1: float coefficients, a float
+    value) gives surface_noise's values, and the first component of its three-channel
+    form, bit for bit, by both device functions."""
+    texton = random_texton((9, 11), channels=1, order=order, seed=order + 6)
+    points, normals = sphere_points(order + 2)
+    grey = td.pack_surface(texton, 0.015, mni=40, seed=5, device=device, channels=1)
+    assert grey.coeffs.dtype == wp.float32 and grey.coeffs.ndim == 2
+    three = td.pack_surface(texton, 0.015, mni=40, seed=5, device=device)
+    args = [wp.array(points, dtype=wp.vec3d, device=device), wp.array(normals, dtype=wp.vec3d, device=device)]
+    out = wp.zeros(len(points), dtype=float, device=device)
+    wp.launch(user.surface_grey_at, dim=len(points), inputs=[grey, *args], outputs=[out], device=device)
+    want = surface_noise(texton, points, normals, 0.015, mni=40, seed=5, method="points", device=device)
+    assert np.array_equal(out.numpy(), want[:, 0])
+    assert np.array_equal(out.numpy(), launch(user.surface_at, len(points), [three, *args], device)[:, 0])
+    assert np.ptp(want) > 0
+    # the frame form, at the texel-space points with the rule's frames
+    n32 = (normals / np.linalg.norm(normals, axis=1)[:, None]).astype(np.float32)
+    _, u2 = tangent_frames(n32)
+    frame_args = [wp.array(points / 0.015, dtype=wp.vec3d, device=device), wp.array(n32, dtype=wp.vec3, device=device),
+                  wp.array(np.ascontiguousarray(u2, np.float32), dtype=wp.vec3, device=device)]
+    out1 = wp.zeros(len(points), dtype=float, device=device)
+    wp.launch(user.surface_frame_grey_at, dim=len(points), inputs=[grey, *frame_args], outputs=[out1], device=device)
+    assert np.array_equal(out1.numpy(), launch(user.surface_frame_at, len(points), [three, *frame_args], device)[:, 0])
+
+
+def test_pack_surface_refuses_one_channel_of_colour():
+    with pytest.raises(TextonError, match="channels=1 packs a grey texton"):
+        td.pack_surface(colour_texton(1), 0.01, device="cpu", channels=1)
+    with pytest.raises(TextonError, match="channels must be 1 or 3"):
+        td.pack_surface(random_texton((4, 4), channels=1), 0.01, device="cpu", channels=2)
+
+
 # ------------------------------------------------------------------- errors
 def test_packers_refuse_bad_input():
     texton = random_texton((8, 8))

@@ -992,14 +992,15 @@ import warp_texton.surface.blocks as S
 from warp_texton import Texton, surface_noise
 print(S.simd_loops("cpu"))
 rng = np.random.default_rng(5)
-t = Texton(0.05 * rng.standard_normal((12, 10, 3)), [0.5] * 3)
 mesh = trimesh.creation.torus(2.0, 0.7, major_sections=120, minor_sections=50)
 p = mesh.vertices + np.array([5e3, -2e3, 1e3])
 n = np.asarray(mesh.vertex_normals)
-b = surface_noise(t, p, n, 0.05, seed=2, mni=40.0, method="points", device="cpu")
-for simd in (True, False):
-    S.SIMD = simd
-    print(np.array_equal(surface_noise(t, p, n, 0.05, seed=2, mni=40.0, method="blocks", device="cpu"), b))
+for c in (3, 1):  # the three-channel loops and the one-channel ones
+    t = Texton(0.05 * rng.standard_normal((12, 10, c)), [0.5] * c)
+    b = surface_noise(t, p, n, 0.05, seed=2, mni=40.0, method="points", device="cpu")
+    for simd in (True, False):
+        S.SIMD = simd
+        print(np.array_equal(surface_noise(t, p, n, 0.05, seed=2, mni=40.0, method="blocks", device="cpu"), b))
 """
 
 
@@ -1036,15 +1037,16 @@ class TestBlocks:
         _same_values(a, b, t, device)
 
     @pytest.mark.parametrize("simd", [True, False])
-    def test_simd_and_scalar_loops_equal_the_walk(self, simd, device, monkeypatch):
+    @pytest.mark.parametrize("channels", [3, 1])
+    def test_simd_and_scalar_loops_equal_the_walk(self, channels, simd, device, monkeypatch):
         # the CPU lists and gathers clusters with kernels/surface_native.py: the vector form
-        # where the CPU has AVX2, AVX-512 or NEON, plain C++ otherwise; both must sum the
-        # walk's terms in its order
+        # where the CPU has AVX2, AVX-512 or NEON, plain C++ otherwise, for three channels
+        # and for one (a grey texton's float loops); both must sum the walk's terms in its order
         import warp_texton.surface.blocks as blk
 
         monkeypatch.setattr(blk, "SIMD", simd)
         rng = np.random.default_rng(31)
-        t = random_texton((16, 12), channels=3, order=1, seed=rng)
+        t = random_texton((16, 12), channels=channels, order=1, seed=rng)
         p, n = _dense_cluster_points(rng)
         for tangents in (None, np.cross(n, rng.normal(size=3))):
             kw = dict(seed=11, mni=float(rng.uniform(20, 90)), tangents=tangents, device=device)
@@ -1052,6 +1054,24 @@ class TestBlocks:
             b = surface_noise(t, p, n, 0.05, method="points", **kw)
             _same_values(a, b, t, device)
             assert a.std(axis=0).min() > 0.3 * noise_sd(t)
+
+    @pytest.mark.parametrize("order", [1, 3])
+    @pytest.mark.parametrize("method", ["blocks", "points"])
+    def test_grey_values_are_the_first_channel_of_three(self, order, method, device):
+        # a grey texton runs the one-channel kernels (one float a texel); a texton whose
+        # first channel is that texton runs the three-channel ones: the same values in
+        # that channel, bit for bit, with the frame rule and with tangents
+        rng = np.random.default_rng(40 + order)
+        grey = random_texton((14, 11), channels=1, order=order, seed=rng)
+        three = Texton(np.concatenate([grey.coeffs, 0.03 * rng.standard_normal(grey.coeffs.shape[:2] + (2,))],
+                                      axis=2), [grey.mean[0], 0.2, 0.7], order=order)
+        p, n = _dense_cluster_points(rng)
+        for tangents in (None, np.cross(n, rng.normal(size=3))):
+            kw = dict(seed=13, mni=45.0, tangents=tangents, device=device, method=method)
+            g = surface_noise(grey, p, n, 0.05, **kw)
+            assert g.shape == (len(p), 1) and g.dtype == np.float32
+            assert np.array_equal(g[:, 0], surface_noise(three, p, n, 0.05, **kw)[:, 0])
+            assert g.std() > 0.3 * noise_sd(grey)
 
     def test_vector_loops_are_built_where_the_cpu_has_simd(self):
         # a build that silently lost the vector loops would give the same values, only
@@ -1074,7 +1094,7 @@ class TestBlocks:
         script.write_text(AVX2_ONLY)
         done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=600)
         assert done.returncode == 0, done.stderr[-2000:]
-        assert done.stdout.split() == ["avx2", "True", "True"]
+        assert done.stdout.split() == ["avx2"] + ["True"] * 4
 
     def test_blocks_spread_beyond_int64_keys(self, device):
         # two dense groups 10^7 texels apart on every axis: (10^7 / block side)^3 blocks

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..core.checks import check_int, check_positive, check_seed, check_shape
 from ..core.runtime import progress_bar, resolve_device
-from .canvas import Canvas, check_output, group_size, result_bytes
+from .canvas import Canvas, check_output, group_size, lanes_for, result_bytes
 from ..core.errors import TextonError
 from .filtering import (COST_HINT_NAMES, FILTER_BYTES_PER_PIXEL, FilterOptions, RasterPixels, filter_pixels,
                         needs_filtering, pixel_shares)
@@ -356,7 +356,8 @@ def synthesize_batch(
     check_method(method)
     channels = textons[0].channels
     device = resolve_device(device)
-    items_bytes = result_bytes(count, h, w, channels, device, output) + count * BATCH_ITEM_BYTES
+    lanes = lanes_for(textons)  # grey textons: one float a texel and a pixel through the kernels
+    items_bytes = result_bytes(count, h, w, channels, device, output, lanes) + count * BATCH_ITEM_BYTES
     # before anything of size count is made (its parameters, its windows): what grows with count alone
     check_memory(items_bytes, f"a batch of {count} {w}x{h} rasters with {channels} channel(s)",
                  "use a smaller count or shape, or make the batch in parts")
@@ -370,7 +371,7 @@ def synthesize_batch(
                    mentions=("shape", "mni"))
     params = draw_batch_params(len(textons), count, seed, scale, rotation, offset, texton_index)
     setups = [noise_setup(t, mni, period, cell_factor) for t in textons]
-    stack = TextonStack.of([s.coeffs for s in setups])
+    stack = TextonStack.of([s.coeffs for s in setups], lanes)
     windows, filtered = {}, []
     for k in range(count):
         i = int(params.texton[k])
@@ -388,7 +389,7 @@ def synthesize_batch(
     groups = [(g0, min(k1, g0 + per_group)) for k0, k1 in _runs(list(windows)) for g0 in range(k0, k1, per_group)]
     method = resolve_method(method, device) if windows else method
     check_batch_cost(textons, setups, h, w, windows, groups, filtered, stack, options, method, items_bytes)
-    canvas = Canvas((count, h, w), device)
+    canvas = Canvas((count, h, w), device, lanes)
     rows = canvas.rows(w)
     bar = progress_bar(progress, count, "synthesize_batch", "image")
     try:

@@ -494,9 +494,10 @@ def synthesize_mixed(
     stack = np.zeros((len(textons), pad_rows, pad_cols, 3), np.float32)
     for k, t in enumerate(textons):
         stack[k] = padded_coeffs(t)
-    out = raster(p, setup, stack, textons[0].order, (h, w), origin, step, device, method, scale,
-                 regions=Regions(len(textons), rho))
     c = textons[0].channels
+    # grey textons: one float a texel and a pixel through the kernels
+    out = raster(p, setup, stack, textons[0].order, (h, w), origin, step, device, method, scale,
+                 regions=Regions(len(textons), rho), lanes=1 if c == 1 else 3)
     means = np.stack([t.mean for t in textons]).astype(np.float64)  # (R, C)
     knots = np.linspace(0.0, 1.0, len(textons)) if len(textons) > 1 else np.zeros(1)
     out = out[:, :, :c]

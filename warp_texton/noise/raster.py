@@ -398,10 +398,11 @@ def rasters(windows, stack: TextonStack, shape, device, method: str, out,
 
 
 def raster(p: np.ndarray, setup: NoiseSetup, coeffs: np.ndarray, order: int, shape, origin, step, device,
-           method: str, scale, regions: Regions | None = None) -> np.ndarray:
+           method: str, scale, regions: Regions | None = None, lanes: int = 3) -> np.ndarray:
     """Evaluate the noise of ``p`` (a :func:`~warp_texton.noise.engine.params_record`) on a
-    raster in one pass, after checking its budgets: (H, W, 3) float32 of
-    normalised values.
+    raster in one pass, after checking its budgets: (H, W, lanes) float32 of
+    normalised values (``lanes`` 1 for grey textons: one float a texel and a pixel
+    through the kernels, the values of the first of three lanes).
 
     ``coeffs`` holds one padded texton, or ``regions.count`` of them stacked
     (R, rows, cols, 3) for mixed noise (then values are Σ ε h / √λ, without mean).
@@ -409,13 +410,13 @@ def raster(p: np.ndarray, setup: NoiseSetup, coeffs: np.ndarray, order: int, sha
     h, w = shape
     method = resolve_method(method, device)
     win = RasterWindow(p, setup, 0, order, origin, step, (0, 0), scale)
-    stack = TextonStack.of([coeffs])
+    stack = TextonStack.of([coeffs], lanes)
     blocks = [window_block(win, shape)]
     nbytes, work, what = raster_cost([win], shape, stack, blocks=blocks, marked=regions is not None,
                                      splat=method == "splat")
     # the canvas and the copy the caller makes of its channels
     check_raster_cost(nbytes + 2 * VEC3_BYTES * h * w, work, what)
-    canvas = Canvas(shape, device)
+    canvas = Canvas(shape, device, lanes)
     rows = canvas.rows(w)
     parts = strips(h, w)
     if len(parts) == 1:
@@ -427,4 +428,4 @@ def raster(p: np.ndarray, setup: NoiseSetup, coeffs: np.ndarray, order: int, sha
             checkpoint()
             strip = RasterWindow(p, setup, 0, order, origin, step, (r0, 0), scale)
             rasters([strip], stack, (r1 - r0, w), device, method, rows[r0:r1], regions)
-    return canvas.result(3, "numpy", textons=[None])  # mixed values: the caller adds the means
+    return canvas.result(lanes, "numpy", textons=[None])  # mixed values: the caller adds the means

@@ -13,6 +13,7 @@ kernel.
 | :func:`pack_filtered` (``channels=1``) | ``FilteredNoise1`` | ``filtered_value(noise, x, J) -> float`` |
 | :func:`pack_filtered` | ``FilteredNoise`` | ``filtered_value(noise, x: wp.vec2d, J: wp.mat22) -> wp.vec3`` |
 | :func:`pack_surface` | ``SurfaceNoise`` | ``surface_value(noise, x: wp.vec3d, normal: wp.vec3d) -> wp.vec3``, ``surface_frame_value(noise, y: wp.vec3d, n: wp.vec3, u1: wp.vec3) -> wp.vec3`` |
+| :func:`pack_surface` (``channels=1``) | ``SurfaceNoise1`` | ``surface_value(noise, x, normal) -> float``, ``surface_frame_value(noise, y, n, u1) -> float`` |
 | :func:`pack_tiling` | ``Tiling`` | ``tiling_value(t, x: wp.vec2d) -> wp.vec3`` (a tiling model, docs/tiling.md) |
 | :func:`pack_colours` | ``ColourMap`` | ``colour_value(cmap, v: wp.vec3) -> wp.vec3``, ``filtered_colour(fnoise, cmap, x: wp.vec2d, J: wp.mat22) -> wp.vec3``, ``colour_share``, ``filtered_share``, ``footprint_share`` |
 
@@ -46,7 +47,9 @@ device, from the same inputs:
   ``tangents``).
 
 The values are ``wp.vec3``; the first ``texton.channels`` components are the
-noise, the others zero. They are the Gaussian noise: for a texton analysed with
+noise, the others zero. A grey texton packed with ``channels=1``
+(``PlaneNoise1``, ``FilteredNoise1``, ``SurfaceNoise1``) gives floats, bit for
+bit the first component, reading one float a texel. They are the Gaussian noise: for a texton analysed with
 ``histogram="preserve"``, whose outputs are mapped to the example's colours,
 a kernel maps them with :func:`pack_colours`'s struct (``colour_value``,
 ``filtered_colour``) as the package does. A struct's arrays live on the device it was packed
@@ -86,7 +89,7 @@ from ..kernels.noise_colours import (ColourMap, colour_share, colour_value, filt
 from ..kernels.noise_filter import FilteredNoise, FilteredNoise1, filtered_value
 from ..kernels.noise_raster import PlaneNoise, PlaneNoise1, plane_value
 from ..kernels.noise_tiling import Tiling, tiling_value
-from ..kernels.surface_points import SurfaceNoise, surface_frame_value, surface_value
+from ..kernels.surface_points import SurfaceNoise, SurfaceNoise1, surface_frame_value, surface_value
 from ..noise.engine import CELL_FACTOR, noise_params, noise_setup
 from ..noise.noise_options import NoiseOptions
 from ..surface.points import CELL_FACTOR as SURFACE_CELL_FACTOR
@@ -97,7 +100,7 @@ from ..model.tiling import TilingModel
 __all__ = ["pack_plane", "pack_filtered", "pack_surface", "pack_colours", "pack_tiling", "Tiling", "tiling_value",
            "PlaneNoise", "PlaneNoise1", "FilteredNoise",
            "FilteredNoise1",
-           "SurfaceNoise", "ColourMap", "plane_value", "filtered_value", "surface_value", "surface_frame_value",
+           "SurfaceNoise", "SurfaceNoise1", "ColourMap", "plane_value", "filtered_value", "surface_value", "surface_frame_value",
            "colour_value", "colour_share", "filtered_colour", "filtered_share", "footprint_share"]
 
 
@@ -273,7 +276,8 @@ def pack_surface(
     poisson: str = "exact",
     cell_factor: float = SURFACE_CELL_FACTOR,
     noise: NoiseOptions | None = None,
-) -> SurfaceNoise:
+    channels: int = 3,
+) -> SurfaceNoise | SurfaceNoise1:
     """The surface noise of ``texton`` (CGF §6) packed for ``surface_value`` in a user's kernel.
 
     Parameters
@@ -286,20 +290,26 @@ def pack_surface(
         frame rule ``surface_value`` applies.
     device : str, optional
         As in :func:`pack_plane`.
+    channels : {3, 1}
+        3: a ``SurfaceNoise`` (vec3 coefficients, the functions return a
+        ``wp.vec3``). 1, for a grey texton: a ``SurfaceNoise1`` (float
+        coefficients, the functions return a float and read one float a
+        texel), equal to the first component of the three-channel form.
 
     Returns
     -------
-    SurfaceNoise
+    SurfaceNoise or SurfaceNoise1
         A ``@wp.struct``: ``surface_value(noise, x, normal)`` is
         ``surface_noise(texton, [x], [normal], texel_size, ...)[0]`` (padded
-        to three components) bit for bit on ``device``.
+        to three components, or its one component) bit for bit on ``device``.
 
     Raises
     ------
     TextonError
         For the ``texton``, ``texel_size``, ``mni``, ``seed``, ``device``,
         ``up``, ``side``, ``poisson`` and ``cell_factor`` errors of
-        :func:`~warp_texton.surface_noise`.
+        :func:`~warp_texton.surface_noise`; for ``channels`` other than 1 or
+        3, or 1 with a texton of three channels.
 
     Examples
     --------
@@ -309,17 +319,25 @@ def pack_surface(
     >>> noise = pack_surface(texton, 0.01, seed=1, up="y", device="cpu")
     >>> noise.texel_size, [float(v) for v in noise.params.up]
     (0.01, [0.0, 1.0, 0.0])
+    >>> pack_surface(texton, 0.01, device="cpu", channels=1).coeffs.dtype.__name__
+    'float32'
     """
     if not isinstance(texton, Texton):
         raise TextonError(f"texton must be a Texton, got {type(texton).__name__}", param="texton")
+    _check_channels(texton, channels)
     texel = check_positive(texel_size, "texel_size")
     noise = surface_options(noise, mni=mni, seed=seed, poisson=poisson, cell_factor=cell_factor)
     setup = surface_setup(texton, noise.mni, noise.cell_factor)
     params = surface_params(texton, setup, noise.seed, noise.poisson, up, side)
     device = resolve_device(device)
-    struct = SurfaceNoise()
+    struct: SurfaceNoise | SurfaceNoise1
+    if channels == 1:
+        struct = SurfaceNoise1()
+        struct.coeffs = wp.array(setup.coeffs[..., 0].copy(), dtype=wp.float32, device=device)
+    else:
+        struct = SurfaceNoise()
+        struct.coeffs = wp.array(setup.coeffs, dtype=wp.vec3, device=device)
     struct.params = params
-    struct.coeffs = wp.array(setup.coeffs, dtype=wp.vec3, device=device)
     struct.texel_size = texel
     return struct
 

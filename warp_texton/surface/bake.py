@@ -520,7 +520,12 @@ def _sample_sums(p, setup, tx: _TexelFaces, nx, ny, cnormals, texel, device, met
             pts = np.einsum("nc,ncd->nd", bary, tx.p3[k])
             nrm = _normals_at(bary, cnormals[tx.f[k]], tx.fn[k])
             vals = evaluate_points(p, setup, pts / texel, nrm, None, device, method)
-            sums[g] += vals.reshape(len(g), len(offsets), 3).sum(axis=1)  # g holds distinct texels
+            if vals.shape[1] == 1:
+                # one channel: each texel's samples added one after another, the order
+                # in which NumPy sums the strided axis of the three-channel form
+                sums[g, :1] += np.ascontiguousarray(vals.reshape(len(g), len(offsets)).T).sum(axis=0)[:, None]
+            else:
+                sums[g] += vals.reshape(len(g), len(offsets), 3).sum(axis=1)  # g holds distinct texels
             done += 1
             bar.round(done, rounds)
     return sums

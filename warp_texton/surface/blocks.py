@@ -233,14 +233,17 @@ def gather_blocks(p: surface_points.SurfaceParams, coeffs, pos: np.ndarray, nrm:
     ends = np.r_[pts.starts[1:], n]
     sorted_tan = np.take(tan, pts.order, axis=0).astype(np.float32) if tan is not None else None
     # values go straight to the points' own rows (dest = order), in place on the CPU
-    out = np.empty((n, 3), np.float32)
-    res = wp.array(out, dtype=wp.vec3, copy=False, device=device) if on_cpu else wp.empty(n, dtype=wp.vec3, device=device)
+    # (one float a point for a one-channel texton's float coefficients, else three)
+    lanes = 1 if coeffs.dtype == wp.float32 else 3
+    out = np.empty((n, lanes), np.float32)
+    res = wp.array(out.reshape(n) if lanes == 1 else out, dtype=coeffs.dtype, copy=False, device=device) if on_cpu \
+        else wp.empty(n, dtype=coeffs.dtype, device=device)
     lists = None if by_cluster else ClusterLists(min(len(pts.clusters), CLUSTERS_PER_ROUND))
     for b0, b1 in block_rounds(cubes):
         blocks = draw_cubes(p.cells, pts.lo[b0:b1], dims[b0:b1], device)
         gather_round(p, coeffs, pts, sorted_tan, device, pts.starts[b0:b1], ends[b0:b1], blocks, lists, res,
                      by_cluster)
-    return out if on_cpu else res.numpy()
+    return out if on_cpu else res.numpy().reshape(n, lanes)
 
 
 class ClusterLists:

@@ -32,7 +32,7 @@ import numpy as np
 import warp as wp
 
 from ..core.checks import check_positive
-from ..core.runtime import map_points, resolve_device, split_launch
+from ..core.runtime import resolve_device, split_launch
 from .blocks import BLOCK_CUBES, BYTES_PER_POINT, CLUSTER_MIN, CLUSTER_POINTS, BlockedPoints, gather_blocks, \
     sort_into_blocks
 from ..noise.colours import to_colours
@@ -569,7 +569,7 @@ def surface_noise(
 
 def evaluate_points(p: surface_points.SurfaceParams, setup: SurfaceSetup, pos: np.ndarray, nrm: np.ndarray, tan, device,
                     method: str = "auto", *, plan: PointsPlan | None = None) -> np.ndarray:
-    """(N, 3) float32 surface noise at checked float64 texel positions with unit
+    """(N, 3) float32 surface noise, (N, 1) for a one-channel texton, at checked float64 texel positions with unit
     normals (and unit tangents, or None for the frame rule), by ``plan`` (the caller's
     :func:`plan_points`, priced) or else by ``method``, mapped through the texton's
     histogram transform when it has one: every surface output (points, meshes, bakes,
@@ -581,27 +581,43 @@ def evaluate_points(p: surface_points.SurfaceParams, setup: SurfaceSetup, pos: n
     return values
 
 
+def surface_lanes(setup: SurfaceSetup) -> int:
+    """Floats the kernels carry a texel and a value: 1 for a one-channel (grey) texton, else 3."""
+    return 1 if setup.texton is not None and setup.texton.channels == 1 else 3
+
+
+def surface_coeffs(setup: SurfaceSetup) -> wp.array:
+    """The padded coefficients as the kernels read them, on the current device: float
+    for a one-channel texton (one float a texel), vec3 otherwise."""
+    if surface_lanes(setup) == 1:
+        return wp.array(np.ascontiguousarray(setup.coeffs[..., 0]), dtype=wp.float32)
+    return wp.array(setup.coeffs, dtype=wp.vec3)
+
+
 def _surface_values(p: surface_points.SurfaceParams, setup: SurfaceSetup, pos: np.ndarray, nrm: np.ndarray, tan, device,
                     method: str, plan: PointsPlan | None) -> np.ndarray:
     n = pos.shape[0]
+    lanes = surface_lanes(setup)
     if n == 0:
-        return np.zeros((0, 3), np.float32)
+        return np.zeros((0, lanes), np.float32)
     if plan is None:
         plan = plan_points(setup, pos, nrm, method)
     method, blocked = plan.method, plan.blocked
     with wp.ScopedDevice(device):
-        coeffs: wp.array = wp.array(setup.coeffs, dtype=wp.vec3)
+        coeffs = surface_coeffs(setup)
         if method == "points":
             dummy = wp.zeros(1, dtype=wp.vec3)
 
             def values(start, stop):
-                res = wp.zeros(stop - start, dtype=wp.vec3)
+                res = wp.zeros(stop - start, dtype=coeffs.dtype)
                 tarr = wp.array(tan[start:stop], dtype=wp.vec3) if tan is not None else dummy
                 wp.launch(surface_points.evaluate_surface, dim=stop - start,
                           inputs=[p, coeffs, wp.array(pos[start:stop], dtype=wp.vec3d),
                                   wp.array(nrm[start:stop], dtype=wp.vec3), tarr, int(tan is not None), res])
-                return res.numpy()
+                out[start:stop] = res.numpy().reshape(stop - start, lanes)
 
-            return map_points(device, surface_points, n, values)
+            out = np.zeros((n, lanes), np.float32)
+            split_launch(device, surface_points, n, values)
+            return out
         return gather_blocks(p, coeffs, pos, nrm, tan, device, reach=walk_reach(setup.r),
                              mean_count=setup.lam * setup.cell ** 3, sorted_points=blocked)

@@ -515,7 +515,7 @@ def render_mesh(
             plan = plan_points(setup, pos, hit_nrm, method)
             check_work(cast + plan.operations, what, hint, param="mni", mentions=("shape", "mni"))
             g = evaluate_points(p, setup, pos, hit_nrm, None, device, plan=plan)
-            g_w: wp.array = wp.array(g, dtype=wp.vec3)
+            g_w: wp.array = wp.array(g, dtype=wp.vec3) if g.shape[1] == 3 else wp.array(g.reshape(-1), dtype=float)
             shade_w: wp.array = wp.array(shade.reshape(-1), dtype=wp.float32, copy=not on_cpu)
             split_launch(device, surface_render, pixels.size, lambda a, b: wp.launch(
                 surface_render.shade_hits, dim=b - a, inputs=[pix[a:b], g_w[a:b], shade_w, c1 - c0, r0, c0,
