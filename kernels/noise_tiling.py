@@ -11,13 +11,20 @@ coordinates and g_k the guide (the example's standardised luminance) read
 from each patch at x. docs/tiling.md is the exact specification; GLSL, OSL and
 users' Warp kernels reproduce it from ``tiling_value``.
 
-One implementation: ``tiling_value`` is called by the raster-window kernel
-``tiling_raster`` and by the points kernel ``tiling_points``.
+``tiling_value`` is the reference, called by the points kernel ``tiling_points`` and by
+``tiling_raster``. The raster kernel ``tiling_runs`` computes the same values bit for bit
+faster: a thread takes a run of pixels along a row, keeps the centres of the last
+vertices it met (pixels of one triangle share them, so a vertex is hashed once per
+run instead of once per pixel), skips weights that the cutoff would drop before
+raising them to the sharpness (they would underflow to slow subnormals), and reads
+and writes one float a texel for a grey example.
 
 Driven by: ``warp_texton.noise.tiling``.
 """
 
 import warp as wp
+
+from typing import Any
 
 from .impacts import GOLDEN, avalanche
 
@@ -235,3 +242,172 @@ def tiling_raster(t: Tiling, origin: wp.vec2d, step_x: wp.vec2d, step_y: wp.vec2
 def tiling_points(t: Tiling, points: wp.array(dtype=wp.vec2d), out: wp.array(dtype=wp.vec3)):
     k = wp.tid()
     out[k] = tiling_value(t, points[k])
+
+
+# ------------------------------------------------------------------ the fast raster: runs of pixels
+#: Slots of a run's vertex cache: a triangle's three vertices and one of its neighbour's.
+SLOTS = 4
+
+
+@wp.struct
+class VertexCache:
+    # the last SLOTS vertices a run met: lattice indices, centre texels and rounded positions
+    a: wp.vec4i
+    b: wp.vec4i
+    cx: wp.vec4i
+    cy: wp.vec4i
+    px: wp.vec4d
+    py: wp.vec4d
+    used: int  # slots filled so far; then replaced round robin
+    next: int
+
+
+@wp.func
+def empty_cache():
+    c = VertexCache()
+    c.a = wp.vec4i(0)
+    c.b = wp.vec4i(0)
+    c.cx = wp.vec4i(0)
+    c.cy = wp.vec4i(0)
+    c.px = wp.vec4d(wp.float64(0.0))
+    c.py = wp.vec4d(wp.float64(0.0))
+    c.used = 0
+    c.next = 0
+    return c
+
+
+@wp.func
+def cached_slot(t: Tiling, c: VertexCache, a: int, b: int):
+    # the slot of vertex (a, b) in the cache, hashing it into a slot when absent
+    for k in range(SLOTS):
+        if k < c.used and c.a[k] == a and c.b[k] == b:
+            return c, k
+    k = c.next
+    cen = vertex_centre(t, a, b)
+    p = vertex_position(t, a, b)
+    c.a[k] = a
+    c.b[k] = b
+    c.cx[k] = cen[0]
+    c.cy[k] = cen[1]
+    c.px[k] = p[0]
+    c.py[k] = p[1]
+    c.next = (k + 1) % SLOTS
+    c.used = wp.min(c.used + 1, SLOTS)
+    return c, k
+
+
+@wp.func
+def slot_point(c: VertexCache, k: int, x: wp.vec2d):
+    # patch_point from a cached vertex: the same float64 difference, float32 rounding and sum
+    return wp.vec2(float(c.cx[k]) + float(x[0] - c.px[k]), float(c.cy[k]) + float(x[1] - c.py[k]))
+
+
+@wp.func
+def bilinear(img: wp.array2d(dtype=Any), q: wp.vec2):
+    # bilinear3 / bilinear1 for either texel type: the same operations per channel
+    rows = img.shape[0]
+    cols = img.shape[1]
+    fx = q[0] - 0.5
+    fy = q[1] - 0.5
+    x0 = wp.floor(fx)
+    y0 = wp.floor(fy)
+    tx = fx - x0
+    ty = fy - y0
+    j0 = wp.clamp(int(x0), 0, cols - 1)
+    i0 = wp.clamp(int(y0), 0, rows - 1)
+    if tx == 0.0 and ty == 0.0:
+        return img[i0, j0]
+    j1 = wp.clamp(int(x0) + 1, 0, cols - 1)
+    i1 = wp.clamp(int(y0) + 1, 0, rows - 1)
+    top = img[i0, j0] * (1.0 - tx) + img[i0, j1] * tx
+    bottom = img[i1, j0] * (1.0 - tx) + img[i1, j1] * tx
+    return top * (1.0 - ty) + bottom * ty
+
+
+@wp.func
+def quick_weight(w: float, squarings: int, skip: float):
+    # sharpened(w, squarings, 0, 0), or 0 where w < skip: there w^(2^squarings) is below the cutoff
+    # (skip = 0.3 · CUTOFF^(1/2^squarings) < (max weight ≥ 1/3) · CUTOFF^(...)), so the blend drops it anyway
+    if w <= 0.0 or w < skip:
+        return 0.0
+    return power(w, squarings)
+
+
+@wp.kernel
+def tiling_runs(t: Tiling, example: wp.array2d(dtype=Any), mean: Any, skip: float, origin: wp.vec2d,
+                step_x: wp.vec2d, step_y: wp.vec2d, first: wp.vec2i, run: int, out: wp.array2d(dtype=Any)):
+    # pixels (i, j0 … j0 + run − 1) of the window: tiling_value bit for bit, one vertex cache per run
+    i, r = wp.tid()
+    cols = out.shape[1]
+    j0 = r * run
+    j1 = wp.min(j0 + run, cols)
+    I = wp.float64(first[0] + i) + wp.float64(0.5)
+    c = empty_cache()
+    for j in range(j0, j1):
+        J = wp.float64(first[1] + j) + wp.float64(0.5)
+        x = origin + step_x * J + step_y * I
+        a, b, u, v = triangle_of(t, x)
+        a0 = a
+        b0 = b
+        w0 = 1.0 - u - v
+        w1 = u
+        w2 = v
+        if u + v > 1.0:
+            a0 = a + 1
+            b0 = b + 1
+            w0 = u + v - 1.0
+            w1 = 1.0 - v
+            w2 = 1.0 - u
+        s0 = int(0)
+        s1 = int(0)
+        s2 = int(0)
+        g0 = float(0.0)
+        g1 = float(0.0)
+        g2 = float(0.0)
+        k0 = float(0.0)
+        k1 = float(0.0)
+        k2 = float(0.0)
+        if t.guide_weight != 0.0:
+            # each slot is read as soon as it is found: the next lookup may replace it
+            c, s0 = cached_slot(t, c, a0, b0)
+            g0 = bilinear(t.guide, slot_point(c, s0, x))
+            c, s1 = cached_slot(t, c, a + 1, b)
+            g1 = bilinear(t.guide, slot_point(c, s1, x))
+            c, s2 = cached_slot(t, c, a, b + 1)
+            g2 = bilinear(t.guide, slot_point(c, s2, x))
+            gm = wp.max(g0, wp.max(g1, g2))
+            k0 = sharpened(w0, t.squarings, t.guide_weight, g0 - gm)
+            k1 = sharpened(w1, t.squarings, t.guide_weight, g1 - gm)
+            k2 = sharpened(w2, t.squarings, t.guide_weight, g2 - gm)
+        else:
+            k0 = quick_weight(w0, t.squarings, skip)
+            k1 = quick_weight(w1, t.squarings, skip)
+            k2 = quick_weight(w2, t.squarings, skip)
+        km = wp.max(k0, wp.max(k1, k2)) * CUTOFF
+        if k0 < km:
+            k0 = 0.0
+        if k1 < km:
+            k1 = 0.0
+        if k2 < km:
+            k2 = 0.0
+        total = k0 + k1 + k2
+        k0 = k0 / total
+        k1 = k1 / total
+        k2 = k2 / total
+        acc = mean - mean
+        if k0 > 0.0:
+            c, s0 = cached_slot(t, c, a0, b0)
+            acc = acc + (bilinear(example, slot_point(c, s0, x)) - mean) * k0
+        if k1 > 0.0:
+            c, s1 = cached_slot(t, c, a + 1, b)
+            acc = acc + (bilinear(example, slot_point(c, s1, x)) - mean) * k1
+        if k2 > 0.0:
+            c, s2 = cached_slot(t, c, a, b + 1)
+            acc = acc + (bilinear(example, slot_point(c, s2, x)) - mean) * k2
+        if t.variance_preserving != 0:
+            acc = acc / wp.sqrt(k0 * k0 + k1 * k1 + k2 * k2)
+        out[i, j] = mean + acc
+
+
+wp.overload(tiling_runs, {"example": wp.array2d(dtype=wp.vec3), "mean": wp.vec3, "out": wp.array2d(dtype=wp.vec3)})
+wp.overload(tiling_runs, {"example": wp.array2d(dtype=float), "mean": float, "out": wp.array2d(dtype=float)})

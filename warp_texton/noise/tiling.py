@@ -29,10 +29,11 @@ def tiling_struct(model: TilingModel, seed: int, device: str):
         ex = model.example
         rgb = ex if ex.shape[2] == 3 else np.concatenate([ex, np.zeros(ex.shape[:2] + (2,), np.float32)], axis=2)
         guide = model.guide if model.guide_weight != 0.0 else np.zeros((1, 1), np.float32)
+        grey = wp.array(np.ascontiguousarray(ex[..., 0]), dtype=float, device=device) if ex.shape[2] == 1 else None
         per_device[device] = (wp.array(np.ascontiguousarray(rgb), dtype=wp.vec3, device=device),
-                              wp.array(guide, dtype=float, device=device))
+                              wp.array(guide, dtype=float, device=device), grey)
     t = noise_tiling.Tiling()
-    t.example, t.guide = per_device[device]
+    t.example, t.guide = per_device[device][:2]
     t.side = float(model.side)
     t.margin = int(model.margin)
     t.squarings = int(model.sharpness).bit_length() - 1
@@ -43,6 +44,20 @@ def tiling_struct(model: TilingModel, seed: int, device: str):
     return t
 
 
+def skip_below(model: TilingModel) -> float:
+    """The barycentric weight below which ``tiling_runs`` drops a vertex without raising it to the
+    sharpness: 0.3 · CUTOFF^(1/sharpness), where w^sharpness is below CUTOFF × the largest weight's
+    (≥ (1/3)^sharpness) with a 10 % margin, so the reference drops it too; 0 with a guide."""
+    if model.guide_weight != 0.0:
+        return 0.0
+    return float(np.float32(0.3 * float(noise_tiling.CUTOFF) ** (1.0 / model.sharpness)))
+
+
+#: Pixels per thread of ``tiling_runs`` (one vertex cache per run).
+RUN_CPU = 64
+RUN_CUDA = 4
+
+
 def tiling_pixels(model: TilingModel, shape, origin, step, first, seed: int, device) -> np.ndarray:
     """The (H, W, C) float32 raster whose pixel (i, j) is the model at
     origin + step · (first[1] + j + ½, first[0] + i + ½) (``raster_geometry``'s layout)."""
@@ -50,21 +65,31 @@ def tiling_pixels(model: TilingModel, shape, origin, step, first, seed: int, dev
     device = resolve_device(device)
     h, w = shape
     t = tiling_struct(model, seed, device)
-    host = np.empty((h, w, 3), np.float32) if is_cpu(device) else None
-    out = wp.array(host, dtype=wp.vec3, copy=False) if host is not None else wp.empty((h, w), dtype=wp.vec3,
-                                                                                         device=device)
+    grey = _ARRAYS[model][device][2]
+    lanes = 1 if grey is not None else 3
+    dtype = float if lanes == 1 else wp.vec3
+    example = grey if grey is not None else t.example
+    mean = float(model.mean3[0]) if lanes == 1 else t.mean
+    host = np.empty((h, w, lanes), np.float32) if is_cpu(device) else None
+    out = wp.array(host[..., 0] if lanes == 1 else host, dtype=dtype, copy=False) if host is not None \
+        else wp.empty((h, w), dtype=dtype, device=device)
     o = wp.vec2d(float(origin[0]), float(origin[1]))
     sx = wp.vec2d(float(step[0, 0]), float(step[1, 0]))
     sy = wp.vec2d(float(step[0, 1]), float(step[1, 1]))
+    run = RUN_CPU if is_cpu(device) else RUN_CUDA
+    skip = skip_below(model)
 
     def launch(r0, r1):
         if r1 > r0:
             at = wp.vec2i(int(first[0]) + r0, int(first[1]))
-            wp.launch(noise_tiling.tiling_raster, dim=(r1 - r0, w), inputs=[t, o, sx, sy, at, out[r0:r1]], device=device)
+            wp.launch(noise_tiling.tiling_runs, dim=(r1 - r0, -(-w // run)),
+                      inputs=[t, example, mean, skip, o, sx, sy, at, run, out[r0:r1]], device=device)
 
     split_launch(device, noise_tiling, h, launch)
-    values = host if host is not None else out.numpy()
-    return values if model.channels == 3 else np.ascontiguousarray(values[..., :model.channels])
+    if host is not None:
+        return host
+    values = out.numpy()
+    return values[..., None] if lanes == 1 else values
 
 
 def tiling_at(model: TilingModel, points: np.ndarray, seed: int, device) -> np.ndarray:
