@@ -250,8 +250,21 @@ SLOTS = 4
 
 
 @wp.struct
+class Lattice:
+    # the triangle lattice of a periodic tiling (periodic = 1): `cols` vertices across the period px and
+    # `rows` (even) rows of height dy = py / rows; dx = px / cols. periodic = 0: the plain lattice of side t.side.
+    periodic: int
+    cols: int
+    rows: int
+    dx: wp.float64
+    dy: wp.float64
+    px: wp.float64
+    py: wp.float64
+
+
+@wp.struct
 class VertexCache:
-    # the last SLOTS vertices a run met: lattice indices, centre texels and rounded positions
+    # the last SLOTS vertices a run met: lattice indices, centre texels and (rounded) positions
     a: wp.vec4i
     b: wp.vec4i
     cx: wp.vec4i
@@ -277,14 +290,54 @@ def empty_cache():
 
 
 @wp.func
-def cached_slot(t: Tiling, c: VertexCache, a: int, b: int):
+def floor_div(n: int, d: int):
+    q = n / d
+    if q * d > n:
+        q = q - 1
+    return q
+
+
+@wp.func
+def lattice_triangle(t: Tiling, lat: Lattice, x: wp.vec2d):
+    # triangle_of on the plain lattice; on a periodic one the skewed coordinates of its (dx, dy) grid
+    if lat.periodic == 0:
+        return triangle_of(t, x)
+    sy = x[1] / lat.dy
+    sx = x[0] / lat.dx - sy * wp.float64(0.5)
+    fa = wp.floor(sx)
+    fb = wp.floor(sy)
+    return int(fa), int(fb), float(sx - fa), float(sy - fb)
+
+
+@wp.func
+def lattice_vertex(t: Tiling, lat: Lattice, a: int, b: int):
+    # (centre texel, rounded position) of vertex (a, b). Periodic: the vertex is the period's own vertex
+    # (a', b') — b' = b mod rows, a' = (a + (b − b') / 2) mod cols — hashed as such, placed at
+    # round(p(a', b')) shifted by the whole periods that separate them, so every period shows the same patches
+    if lat.periodic == 0:
+        cen = vertex_centre(t, a, b)
+        return cen, vertex_position(t, a, b)
+    kb = floor_div(b, lat.rows)
+    bb = b - kb * lat.rows
+    a1 = a + kb * (lat.rows / 2)
+    ka = floor_div(a1, lat.cols)
+    aa = a1 - ka * lat.cols
+    cen = vertex_centre(t, aa, bb)
+    px = lat.dx * (wp.float64(aa) + wp.float64(bb) * wp.float64(0.5))
+    py = lat.dy * wp.float64(bb)
+    p = wp.vec2d(wp.floor(px + wp.float64(0.5)) + wp.float64(ka) * lat.px,
+                 wp.floor(py + wp.float64(0.5)) + wp.float64(kb) * lat.py)
+    return cen, p
+
+
+@wp.func
+def cached_slot(t: Tiling, lat: Lattice, c: VertexCache, a: int, b: int):
     # the slot of vertex (a, b) in the cache, hashing it into a slot when absent
     for k in range(SLOTS):
         if k < c.used and c.a[k] == a and c.b[k] == b:
             return c, k
     k = c.next
-    cen = vertex_centre(t, a, b)
-    p = vertex_position(t, a, b)
+    cen, p = lattice_vertex(t, lat, a, b)
     c.a[k] = a
     c.b[k] = b
     c.cx[k] = cen[0]
@@ -333,8 +386,75 @@ def quick_weight(w: float, squarings: int, skip: float):
     return power(w, squarings)
 
 
+@wp.func
+def blend_at(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean: Any, skip: float, c: VertexCache,
+             x: wp.vec2d):
+    # tiling_value(t, x) bit for bit on the plain lattice (any texel type), its vertices through the cache c
+    a, b, u, v = lattice_triangle(t, lat, x)
+    a0 = a
+    b0 = b
+    w0 = 1.0 - u - v
+    w1 = u
+    w2 = v
+    if u + v > 1.0:
+        a0 = a + 1
+        b0 = b + 1
+        w0 = u + v - 1.0
+        w1 = 1.0 - v
+        w2 = 1.0 - u
+    s0 = int(0)
+    s1 = int(0)
+    s2 = int(0)
+    g0 = float(0.0)
+    g1 = float(0.0)
+    g2 = float(0.0)
+    k0 = float(0.0)
+    k1 = float(0.0)
+    k2 = float(0.0)
+    if t.guide_weight != 0.0:
+        # each slot is read as soon as it is found: the next lookup may replace it
+        c, s0 = cached_slot(t, lat, c, a0, b0)
+        g0 = bilinear(t.guide, slot_point(c, s0, x))
+        c, s1 = cached_slot(t, lat, c, a + 1, b)
+        g1 = bilinear(t.guide, slot_point(c, s1, x))
+        c, s2 = cached_slot(t, lat, c, a, b + 1)
+        g2 = bilinear(t.guide, slot_point(c, s2, x))
+        gm = wp.max(g0, wp.max(g1, g2))
+        k0 = sharpened(w0, t.squarings, t.guide_weight, g0 - gm)
+        k1 = sharpened(w1, t.squarings, t.guide_weight, g1 - gm)
+        k2 = sharpened(w2, t.squarings, t.guide_weight, g2 - gm)
+    else:
+        k0 = quick_weight(w0, t.squarings, skip)
+        k1 = quick_weight(w1, t.squarings, skip)
+        k2 = quick_weight(w2, t.squarings, skip)
+    km = wp.max(k0, wp.max(k1, k2)) * CUTOFF
+    if k0 < km:
+        k0 = 0.0
+    if k1 < km:
+        k1 = 0.0
+    if k2 < km:
+        k2 = 0.0
+    total = k0 + k1 + k2
+    k0 = k0 / total
+    k1 = k1 / total
+    k2 = k2 / total
+    acc = mean - mean
+    if k0 > 0.0:
+        c, s0 = cached_slot(t, lat, c, a0, b0)
+        acc = acc + (bilinear(example, slot_point(c, s0, x)) - mean) * k0
+    if k1 > 0.0:
+        c, s1 = cached_slot(t, lat, c, a + 1, b)
+        acc = acc + (bilinear(example, slot_point(c, s1, x)) - mean) * k1
+    if k2 > 0.0:
+        c, s2 = cached_slot(t, lat, c, a, b + 1)
+        acc = acc + (bilinear(example, slot_point(c, s2, x)) - mean) * k2
+    if t.variance_preserving != 0:
+        acc = acc / wp.sqrt(k0 * k0 + k1 * k1 + k2 * k2)
+    return c, mean + acc
+
+
 @wp.kernel
-def tiling_runs(t: Tiling, example: wp.array2d(dtype=Any), mean: Any, skip: float, origin: wp.vec2d,
+def tiling_runs(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean: Any, skip: float, origin: wp.vec2d,
                 step_x: wp.vec2d, step_y: wp.vec2d, first: wp.vec2i, run: int, out: wp.array2d(dtype=Any)):
     # pixels (i, j0 … j0 + run − 1) of the window: tiling_value bit for bit, one vertex cache per run
     i, r = wp.tid()
@@ -346,68 +466,19 @@ def tiling_runs(t: Tiling, example: wp.array2d(dtype=Any), mean: Any, skip: floa
     for j in range(j0, j1):
         J = wp.float64(first[1] + j) + wp.float64(0.5)
         x = origin + step_x * J + step_y * I
-        a, b, u, v = triangle_of(t, x)
-        a0 = a
-        b0 = b
-        w0 = 1.0 - u - v
-        w1 = u
-        w2 = v
-        if u + v > 1.0:
-            a0 = a + 1
-            b0 = b + 1
-            w0 = u + v - 1.0
-            w1 = 1.0 - v
-            w2 = 1.0 - u
-        s0 = int(0)
-        s1 = int(0)
-        s2 = int(0)
-        g0 = float(0.0)
-        g1 = float(0.0)
-        g2 = float(0.0)
-        k0 = float(0.0)
-        k1 = float(0.0)
-        k2 = float(0.0)
-        if t.guide_weight != 0.0:
-            # each slot is read as soon as it is found: the next lookup may replace it
-            c, s0 = cached_slot(t, c, a0, b0)
-            g0 = bilinear(t.guide, slot_point(c, s0, x))
-            c, s1 = cached_slot(t, c, a + 1, b)
-            g1 = bilinear(t.guide, slot_point(c, s1, x))
-            c, s2 = cached_slot(t, c, a, b + 1)
-            g2 = bilinear(t.guide, slot_point(c, s2, x))
-            gm = wp.max(g0, wp.max(g1, g2))
-            k0 = sharpened(w0, t.squarings, t.guide_weight, g0 - gm)
-            k1 = sharpened(w1, t.squarings, t.guide_weight, g1 - gm)
-            k2 = sharpened(w2, t.squarings, t.guide_weight, g2 - gm)
-        else:
-            k0 = quick_weight(w0, t.squarings, skip)
-            k1 = quick_weight(w1, t.squarings, skip)
-            k2 = quick_weight(w2, t.squarings, skip)
-        km = wp.max(k0, wp.max(k1, k2)) * CUTOFF
-        if k0 < km:
-            k0 = 0.0
-        if k1 < km:
-            k1 = 0.0
-        if k2 < km:
-            k2 = 0.0
-        total = k0 + k1 + k2
-        k0 = k0 / total
-        k1 = k1 / total
-        k2 = k2 / total
-        acc = mean - mean
-        if k0 > 0.0:
-            c, s0 = cached_slot(t, c, a0, b0)
-            acc = acc + (bilinear(example, slot_point(c, s0, x)) - mean) * k0
-        if k1 > 0.0:
-            c, s1 = cached_slot(t, c, a + 1, b)
-            acc = acc + (bilinear(example, slot_point(c, s1, x)) - mean) * k1
-        if k2 > 0.0:
-            c, s2 = cached_slot(t, c, a, b + 1)
-            acc = acc + (bilinear(example, slot_point(c, s2, x)) - mean) * k2
-        if t.variance_preserving != 0:
-            acc = acc / wp.sqrt(k0 * k0 + k1 * k1 + k2 * k2)
-        out[i, j] = mean + acc
+        c, value = blend_at(t, lat, example, mean, skip, c, x)
+        out[i, j] = value
 
 
-wp.overload(tiling_runs, {"example": wp.array2d(dtype=wp.vec3), "mean": wp.vec3, "out": wp.array2d(dtype=wp.vec3)})
-wp.overload(tiling_runs, {"example": wp.array2d(dtype=float), "mean": float, "out": wp.array2d(dtype=float)})
+@wp.kernel
+def lattice_points(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean: Any, skip: float,
+                   points: wp.array(dtype=wp.vec2d), out: wp.array(dtype=Any)):
+    # blend_at at each point (the periodic tiling's points; tiling_points is the plain one)
+    k = wp.tid()
+    c, value = blend_at(t, lat, example, mean, skip, empty_cache(), points[k])
+    out[k] = value
+
+
+for _T in (wp.vec3, float):
+    wp.overload(tiling_runs, {"example": wp.array2d(dtype=_T), "mean": _T, "out": wp.array2d(dtype=_T)})
+    wp.overload(lattice_points, {"example": wp.array2d(dtype=_T), "mean": _T, "out": wp.array(dtype=_T)})

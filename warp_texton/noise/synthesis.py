@@ -28,7 +28,7 @@ from .filtering import (COST_HINT_NAMES, COST_SAMPLES, FILTER_BYTES_PER_PIXEL, F
                         check_jacobian, filter_pixels, filter_work, needs_filtering, pixel_cost, pixel_shares)
 from .engine import (CELL_FACTOR, NoiseSetup, check_cell_range, check_points_cost, noise_params, noise_setup,
                     params_record, params_struct, point_values)
-from .noise_options import NoiseOptions
+from .noise_options import NoiseOptions, check_period
 from .raster import (RasterWindow, TextonStack, check_method, check_raster_cost, raster_cost, raster_geometry,
                      raster_reach, rasters, resolve_method, window_block)
 from ..model.texton import Texton
@@ -316,8 +316,8 @@ def synthesize(
     """
     if isinstance(texton, TilingModel):
         return _synthesize_tiling(texton, shape, seed=seed, scale=scale, rotation=rotation, offset=offset,
-                                  device=device, pixel_offset=pixel_offset, output=output,
-                                  texton_only=dict(mni=(mni, 30.0), period=(period, None),
+                                  period=period, device=device, pixel_offset=pixel_offset, output=output,
+                                  texton_only=dict(mni=(mni, 30.0),
                                                    poisson=(poisson, "exact"), cell_factor=(cell_factor, CELL_FACTOR),
                                                    method=(method, "auto"), jacobian=(jacobian, None),
                                                    filter=(filter, "none"), noise=(noise, None)))
@@ -474,12 +474,13 @@ def evaluate(
     if not np.isfinite(pts).all():
         raise TextonError(f"points contain {int((~np.isfinite(pts)).sum())} NaN or infinite values")
     if isinstance(texton, TilingModel):
-        _refuse_texton_options(dict(mni=(mni, 30.0), period=(period, None), poisson=(poisson, "exact"),
+        _refuse_texton_options(dict(mni=(mni, 30.0), poisson=(poisson, "exact"),
                                     cell_factor=(cell_factor, CELL_FACTOR), noise=(noise, None)))
         seed = check_seed(seed)
         output = check_output(output)
         check_tiling_reach(pts)
-        return _tiling_output(tiling_at(texton, np.ascontiguousarray(pts), seed, device), output, device)
+        per = check_tiling_period(period)
+        return _tiling_output(tiling_at(texton, np.ascontiguousarray(pts), seed, device, per), output, device)
     noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
     output = check_output(output)
     setup = noise_setup(texton, noise.mni, noise.period, noise.cell_factor)
@@ -539,10 +540,22 @@ def _tiling_output(values: np.ndarray, output: str, device):
     return wp.array(values, dtype=float, device=resolve_device(device))
 
 
-def _synthesize_tiling(model: TilingModel, shape, *, seed, scale, rotation, offset, device, pixel_offset, output,
-                       texton_only):
-    """``synthesize`` for a :class:`TilingModel`: any window, offset, scale and rotation; no filters or periods."""
+def check_tiling_period(period) -> tuple[float, float] | None:
+    """None, or the period (Px, Py) of a tiling model's noise: positive, at most ±2³⁰ texels."""
+    if period is None:
+        return None
+    px, py = check_period(period)
+    if max(px, py) > MAX_TILING_REACH:
+        raise TextonError(f"period ({px:g}, {py:g}): a tiling model's period is at most {MAX_TILING_REACH:.3g} "
+                          "texels", param="period")
+    return px, py
+
+
+def _synthesize_tiling(model: TilingModel, shape, *, seed, scale, rotation, offset, period, device, pixel_offset,
+                       output, texton_only):
+    """``synthesize`` for a :class:`TilingModel`: any window, offset, scale, rotation and period."""
     _refuse_texton_options(texton_only)
+    period = check_tiling_period(period)
     h, w = check_shape(shape)
     seed = check_seed(seed)
     first = check_pixel_offset(pixel_offset)
@@ -552,5 +565,5 @@ def _synthesize_tiling(model: TilingModel, shape, *, seed, scale, rotation, offs
                                                  [first[0], first[0], first[0] + h, first[0] + h]], np.float64)
     check_tiling_reach(corners.T)
     device = resolve_device(device)
-    values = tiling_pixels(model, (h, w), origin, step, first, seed, device)
+    values = tiling_pixels(model, (h, w), origin, step, first, seed, device, period)
     return _tiling_output(values, output, device)
