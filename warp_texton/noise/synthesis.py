@@ -33,7 +33,9 @@ from .raster import (RasterWindow, TextonStack, check_method, check_raster_cost,
                      raster_reach, rasters, resolve_method, window_block)
 from ..model.texton import Texton
 from ..model.tiling import TilingModel
-from .tiling import tiling_at, tiling_pixels
+from .tiling import (tiling_at, tiling_filter_work, tiling_filtered_raster, tiling_options, tiling_pixels,
+                     tiling_supersampled)
+from ..core.limits import check_memory, check_work
 
 if TYPE_CHECKING:
     import warp as wp
@@ -317,10 +319,10 @@ def synthesize(
     if isinstance(texton, TilingModel):
         return _synthesize_tiling(texton, shape, seed=seed, scale=scale, rotation=rotation, offset=offset,
                                   period=period, device=device, pixel_offset=pixel_offset, output=output,
+                                  jacobian=jacobian, filter=filter,
                                   texton_only=dict(mni=(mni, 30.0),
                                                    poisson=(poisson, "exact"), cell_factor=(cell_factor, CELL_FACTOR),
-                                                   method=(method, "auto"), jacobian=(jacobian, None),
-                                                   filter=(filter, "none"), noise=(noise, None)))
+                                                   method=(method, "auto"), noise=(noise, None)))
     h, w = check_shape(shape)
     noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
     seed = noise.seed
@@ -552,10 +554,11 @@ def check_tiling_period(period) -> tuple[float, float] | None:
 
 
 def _synthesize_tiling(model: TilingModel, shape, *, seed, scale, rotation, offset, period, device, pixel_offset,
-                       output, texton_only):
-    """``synthesize`` for a :class:`TilingModel`: any window, offset, scale, rotation and period."""
+                       output, jacobian, filter, texton_only):
+    """``synthesize`` for a :class:`TilingModel`: any window, offset, scale, rotation, period and filter."""
     _refuse_texton_options(texton_only)
     period = check_tiling_period(period)
+    options = tiling_options(FilterOptions.of(filter))
     h, w = check_shape(shape)
     seed = check_seed(seed)
     first = check_pixel_offset(pixel_offset)
@@ -565,5 +568,15 @@ def _synthesize_tiling(model: TilingModel, shape, *, seed, scale, rotation, offs
                                                  [first[0], first[0], first[0] + h, first[0] + h]], np.float64)
     check_tiling_reach(corners.T)
     device = resolve_device(device)
-    values = tiling_pixels(model, (h, w), origin, step, first, seed, device, period)
+    J = step if jacobian is None else check_jacobian(jacobian, (h, w))
+    if not needs_filtering(J, options):
+        return _tiling_output(tiling_pixels(model, (h, w), origin, step, first, seed, device, period), output, device)
+    what = f"a {w}x{h} raster of a tiling model with filter {options.kind!r}"
+    check_memory(float(h * w) * FILTER_BYTES_PER_PIXEL, what, "use a smaller shape", mentions=("shape",))
+    check_work(tiling_filter_work(options, h * w), what, options.spec.cost_hint, mentions=("shape", *COST_HINT_NAMES))
+    if options.spec.supersamples:
+        pixels = RasterPixels((h, w), origin, step, J, first=first)
+        values = tiling_supersampled(model, pixels, options.supersample, seed, device, period).reshape(h, w, -1)
+    else:
+        values = tiling_filtered_raster(model, (h, w), origin, step, first, J, options, seed, device, period)
     return _tiling_output(values, output, device)
