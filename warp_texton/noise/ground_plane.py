@@ -482,11 +482,11 @@ def _tiling_plane(model: TilingModel, camera: PlaneCamera, keys, options: Filter
     as ``options`` say: the footprint kinds through the same kernel function as ``synthesize``'s filtered
     rasters (``tiling_filtered``), "supersample" with each sub-pixel projected exactly. Pixels that see no
     plane, or whose centre lies beyond ±2³⁰ texels, hold the example's mean."""
-    from .synthesis import MAX_TILING_REACH, _refuse_texton_options
-    from .tiling import (tiling_at, tiling_filter_work, tiling_filtered_at, tiling_options, tiling_supersampled)
+    from .filtering import tiling_filter_work, tiling_options, tiling_supersampled
+    from .tiling import MAX_TILING_REACH, refuse_texton_options, tiling_at, tiling_filtered_at
     from ..core.limits import check_work
 
-    _refuse_texton_options(dict(mni=(mni, 30.0)))
+    refuse_texton_options(dict(mni=(mni, 30.0)))
     seed = check_seed(seed)
     options = tiling_options(options)
     device = resolve_device(device)

@@ -24,7 +24,7 @@ from ..core.checks import as_real_array, check_seed, check_shape
 from ..core.runtime import progress_bar, resolve_device
 from .canvas import Canvas, check_output, lanes_for, result_bytes, strips
 from ..core.errors import TextonError
-from .filtering import (COST_HINT_NAMES, COST_SAMPLES, FILTER_BYTES_PER_PIXEL, FilterOptions, RasterPixels,
+from .filtering import (COST_HINT_NAMES, tiling_filter_work, tiling_options, tiling_supersampled, COST_SAMPLES, FILTER_BYTES_PER_PIXEL, FilterOptions, RasterPixels,
                         check_jacobian, filter_pixels, filter_work, needs_filtering, pixel_cost, pixel_shares)
 from .engine import (CELL_FACTOR, NoiseSetup, check_cell_range, check_points_cost, noise_params, noise_setup,
                     params_record, params_struct, point_values)
@@ -33,8 +33,8 @@ from .raster import (RasterWindow, TextonStack, check_method, check_raster_cost,
                      raster_reach, rasters, resolve_method, window_block)
 from ..model.texton import Texton
 from ..model.tiling import TilingModel
-from .tiling import (tiling_at, tiling_filter_work, tiling_filtered_raster, tiling_options, tiling_pixels,
-                     tiling_supersampled)
+from .tiling import MAX_TILING_REACH, tiling_at, tiling_filtered_raster, tiling_pixels
+from .tiling import refuse_texton_options as _refuse_texton_options
 from ..core.limits import check_memory, check_work
 
 if TYPE_CHECKING:
@@ -510,22 +510,7 @@ def filtered_work(texton: Texton, setup: NoiseSetup, J: np.ndarray, options: Fil
 # ---------------------------------------------------------------- tiling models
 
 #: Tiling models place points with float64 lattice indices in int32: positions stay within ±2³⁰ texels.
-MAX_TILING_REACH = float(1 << 30)
-
-
-def _refuse_texton_options(options: dict) -> None:
-    """One error naming the texton-noise options given to a tiling model."""
-    def same(value, default):
-        if value is default:
-            return True
-        if isinstance(value, bool) or isinstance(default, bool) or default is None:
-            return False
-        return isinstance(value, (str, numbers.Real)) and type(value) is not bool and value == default
-
-    given = [name for name, (value, default) in options.items() if not same(value, default)]
-    if given:
-        raise TextonError(f"{', '.join(given)} do not apply to a tiling model (method 'tiling'); "
-                          "they are texton-noise options", param=given[0])
+# (defined with the tiling drivers, which the ground plane shares)
 
 
 def check_tiling_reach(pts: np.ndarray) -> None:

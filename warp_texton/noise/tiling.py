@@ -10,13 +10,34 @@ Kernels driven here: ``warp_texton.kernels.noise_tiling``.
 from __future__ import annotations
 
 import math
+import numbers
 import weakref
 
 import numpy as np
 
 from ..core.runtime import init_warp, is_cpu, resolve_device, split_launch
 from ..kernels import noise_tiling
+from ..core.errors import TextonError
 from ..model.tiling import TilingModel
+
+#: Tiling models place points with float64 lattice indices in int32: positions stay within ±2³⁰ texels.
+MAX_TILING_REACH = float(1 << 30)
+
+
+def refuse_texton_options(options: dict) -> None:
+    """One error naming the texton-noise options given to a tiling model."""
+    def same(value, default):
+        if value is default:
+            return True
+        if isinstance(value, bool) or isinstance(default, bool) or default is None:
+            return False
+        return isinstance(value, (str, numbers.Real)) and type(value) is not bool and value == default
+
+    given = [name for name, (value, default) in options.items() if not same(value, default)]
+    if given:
+        raise TextonError(f"{', '.join(given)} do not apply to a tiling model (method 'tiling'); "
+                          "they are texton-noise options", param=given[0])
+
 
 #: The device arrays of each model, per device (models are immutable).
 _ARRAYS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -291,55 +312,3 @@ def tiling_filtered_at(model: TilingModel, points: np.ndarray, J: np.ndarray, op
 
     split_launch(device, noise_tiling, n, launch)
     return _channels(model, out.numpy())
-
-
-def tiling_supersampled(model: TilingModel, pixels, n: int, seed: int, device, period=None,
-                        reach: float = float(1 << 30)) -> np.ndarray:
-    """(pixels.count, C) means of n × n stratified jittered evaluations per pixel (a
-    :class:`~warp_texton.noise.filtering.PixelSet`), the reference of the footprint filters; sub-pixels
-    that see no plane or lie beyond ``reach`` count as the mean."""
-    from .filtering import SUPERSAMPLE_BATCH, subpixel_jitter
-
-    out = np.zeros((pixels.count, model.channels), np.float32)
-    per = max(1, SUPERSAMPLE_BATCH // (n * n))
-    mean = model.mean3[:model.channels]
-    for start in range(0, pixels.count, per):
-        sel = np.arange(start, min(start + per, pixels.count))
-        with np.errstate(invalid="ignore"):
-            pts = pixels.subpixels(sel, subpixel_jitter(seed, pixels.keys[sel], n)).reshape(-1, 2)
-            good = (np.abs(pts) < reach).all(axis=1)
-        vals = np.empty((pts.shape[0], model.channels), np.float32)
-        vals[~good] = mean
-        vals[good] = tiling_at(model, np.ascontiguousarray(pts[good]), seed, device, period)
-        out[sel] = vals.reshape(sel.size, n * n, model.channels).mean(axis=1)
-    return out
-
-
-def tiling_options(options):
-    """``options`` with the tiling's level bias where it has none (:data:`TILING_LOD_BIAS`), so that
-    :func:`~warp_texton.noise.filtering.footprint_levels` and ``needs_filtering`` see the kernels' choice."""
-    import dataclasses
-
-    from ..core.errors import TextonError
-    from .filter_options import FADE_ENERGY
-
-    if options.fade_energy != FADE_ENERGY:
-        raise TextonError("fade_energy does not apply to a tiling model: its MIP pyramid keeps every level of the "
-                          "example (footprints past the last one see the mean)", param="fade_energy")
-    if options.spec.footprint and options.lod_bias is None:
-        return dataclasses.replace(options, lod_bias=TILING_LOD_BIAS[options.kind])
-    return options
-
-
-#: Operations of one blend (a triangle, three hashed vertices, three lookups), for the work budget.
-BLEND_WORK = 64
-
-
-def tiling_filter_work(options, count: int) -> float:
-    """Operations of filtering ``count`` pixels of a tiling model with ``options``: a blend per probe
-    (two levels per lookup) or per sub-pixel."""
-    if options.spec.supersamples:
-        return float(count) * BLEND_WORK * options.supersample ** 2
-    if options.spec.axis_lookups:
-        return float(count) * BLEND_WORK * 2 * options.max_aniso
-    return float(count) * BLEND_WORK * 2
