@@ -248,6 +248,8 @@ def tiling_points(t: Tiling, points: wp.array(dtype=wp.vec2d), out: wp.array(dty
 # ------------------------------------------------------------------ the fast raster: runs of pixels
 #: Slots of a run's vertex cache: a triangle's three vertices and one of its neighbour's.
 SLOTS = 4
+#: The lattice index of an empty slot.
+NO_VERTEX = wp.constant(-2147483647)
 
 
 @wp.struct
@@ -272,20 +274,18 @@ class VertexCache:
     cy: wp.vec4i
     px: wp.vec4d
     py: wp.vec4d
-    used: int  # slots filled so far; then replaced round robin
-    next: int
+    next: int  # the slot replaced next (round robin)
 
 
 @wp.func
 def empty_cache():
     c = VertexCache()
-    c.a = wp.vec4i(0)
-    c.b = wp.vec4i(0)
+    c.a = wp.vec4i(NO_VERTEX)  # no vertex has this index (positions stay within ±2³⁰ texels)
+    c.b = wp.vec4i(NO_VERTEX)
     c.cx = wp.vec4i(0)
     c.cy = wp.vec4i(0)
     c.px = wp.vec4d(wp.float64(0.0))
     c.py = wp.vec4d(wp.float64(0.0))
-    c.used = 0
     c.next = 0
     return c
 
@@ -335,7 +335,7 @@ def lattice_vertex(t: Tiling, lat: Lattice, a: int, b: int):
 def cached_slot(t: Tiling, lat: Lattice, c: VertexCache, a: int, b: int):
     # the slot of vertex (a, b) in the cache, hashing it into a slot when absent
     for k in range(SLOTS):
-        if k < c.used and c.a[k] == a and c.b[k] == b:
+        if c.a[k] == a and c.b[k] == b:
             return c, k
     k = c.next
     cen, p = lattice_vertex(t, lat, a, b)
@@ -345,8 +345,9 @@ def cached_slot(t: Tiling, lat: Lattice, c: VertexCache, a: int, b: int):
     c.cy[k] = cen[1]
     c.px[k] = p[0]
     c.py[k] = p[1]
-    c.next = (k + 1) % SLOTS
-    c.used = wp.min(c.used + 1, SLOTS)
+    c.next = k + 1
+    if c.next == SLOTS:
+        c.next = 0
     return c, k
 
 
@@ -357,22 +358,41 @@ def slot_point(c: VertexCache, k: int, x: wp.vec2d):
 
 
 @wp.func
+def floor_int(x: float):
+    # ⌊x⌋ as an int for |x| < 2³¹ without a call to floorf (CPU builds target baseline x86-64, where floorf
+    # is a library call): truncate, then step down below negative non-integers. float(⌊x⌋) is wp.floor(x).
+    i = int(x)
+    if float(i) > x:
+        i = i - 1
+    return i
+
+
+@wp.func
+def floor_int64(x: wp.float64):
+    # floor_int for float64
+    i = int(x)
+    if wp.float64(i) > x:
+        i = i - 1
+    return i
+
+
+@wp.func
 def bilinear(img: wp.array2d(dtype=Any), q: wp.vec2):
     # bilinear3 / bilinear1 for either texel type: the same operations per channel
     rows = img.shape[0]
     cols = img.shape[1]
     fx = q[0] - 0.5
     fy = q[1] - 0.5
-    x0 = wp.floor(fx)
-    y0 = wp.floor(fy)
-    tx = fx - x0
-    ty = fy - y0
-    j0 = wp.clamp(int(x0), 0, cols - 1)
-    i0 = wp.clamp(int(y0), 0, rows - 1)
+    ix = floor_int(fx)
+    iy = floor_int(fy)
+    tx = fx - float(ix)
+    ty = fy - float(iy)
+    j0 = wp.clamp(ix, 0, cols - 1)
+    i0 = wp.clamp(iy, 0, rows - 1)
     if tx == 0.0 and ty == 0.0:
         return img[i0, j0]
-    j1 = wp.clamp(int(x0) + 1, 0, cols - 1)
-    i1 = wp.clamp(int(y0) + 1, 0, rows - 1)
+    j1 = wp.clamp(ix + 1, 0, cols - 1)
+    i1 = wp.clamp(iy + 1, 0, rows - 1)
     top = img[i0, j0] * (1.0 - tx) + img[i0, j1] * tx
     bottom = img[i1, j0] * (1.0 - tx) + img[i1, j1] * tx
     return top * (1.0 - ty) + bottom * ty
@@ -381,10 +401,24 @@ def bilinear(img: wp.array2d(dtype=Any), q: wp.vec2):
 @wp.func
 def quick_weight(w: float, squarings: int, skip: float):
     # sharpened(w, squarings, 0, 0), or 0 where w < skip: there w^(2^squarings) is below the cutoff
-    # (skip = 0.3 · CUTOFF^(1/2^squarings) < (max weight ≥ 1/3) · CUTOFF^(...)), so the blend drops it anyway
+    # (skip = 0.3 · CUTOFF^(1/2^squarings) < (max weight ≥ 1/3) · CUTOFF^(...)), so the blend drops it anyway.
+    # power's squarings written out (squarings ≤ 6): the same products without a loop
     if w <= 0.0 or w < skip:
         return 0.0
-    return power(w, squarings)
+    r = w
+    if squarings > 0:
+        r = r * r
+    if squarings > 1:
+        r = r * r
+    if squarings > 2:
+        r = r * r
+    if squarings > 3:
+        r = r * r
+    if squarings > 4:
+        r = r * r
+    if squarings > 5:
+        r = r * r
+    return r
 
 
 @wp.func
@@ -454,21 +488,121 @@ def blend_at(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean: Any,
     return c, mean + acc
 
 
+@wp.func
+def guide_weights(t: Tiling, lat: Lattice, c: VertexCache, x: wp.vec2d, a0: int, b0: int, a: int, b: int,
+                  w0: float, w1: float, w2: float):
+    # the guided weights of blend_at (each slot read as soon as it is found: the next lookup may replace it)
+    c, s0 = cached_slot(t, lat, c, a0, b0)
+    g0 = bilinear(t.guide, slot_point(c, s0, x))
+    c, s1 = cached_slot(t, lat, c, a + 1, b)
+    g1 = bilinear(t.guide, slot_point(c, s1, x))
+    c, s2 = cached_slot(t, lat, c, a, b + 1)
+    g2 = bilinear(t.guide, slot_point(c, s2, x))
+    gm = wp.max(g0, wp.max(g1, g2))
+    k0 = sharpened(w0, t.squarings, t.guide_weight, g0 - gm)
+    k1 = sharpened(w1, t.squarings, t.guide_weight, g1 - gm)
+    k2 = sharpened(w2, t.squarings, t.guide_weight, g2 - gm)
+    return c, k0, k1, k2
+
+
+@wp.func
+def kept_weights(k0: float, k1: float, k2: float):
+    # the cutoff and the normalisation of tiling_value; with one vertex kept (most pixels at high
+    # sharpness) its weight k/k is 1 and √(1²) = 1: returned without the divisions, with one = True
+    km = wp.max(k0, wp.max(k1, k2)) * CUTOFF
+    if k0 < km:
+        k0 = 0.0
+    if k1 < km:
+        k1 = 0.0
+    if k2 < km:
+        k2 = 0.0
+    n = int(k0 > 0.0) + int(k1 > 0.0) + int(k2 > 0.0)
+    if n == 1:
+        return wp.float32(k0 > 0.0), wp.float32(k1 > 0.0), wp.float32(k2 > 0.0), True
+    total = k0 + k1 + k2
+    return k0 / total, k1 / total, k2 / total, False
+
+
+@wp.func
+def hinted_slot(t: Tiling, lat: Lattice, c: VertexCache, hint: int, a: int, b: int):
+    # the slot of vertex (a, b): `hint` when it holds it (where the vertex was found for the last pixel)
+    if c.a[hint] == a and c.b[hint] == b:
+        return c, hint
+    return cached_slot(t, lat, c, a, b)
+
+
 @wp.kernel
 def tiling_runs(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean: Any, skip: float, origin: wp.vec2d,
                 step_x: wp.vec2d, step_y: wp.vec2d, first: wp.vec2i, run: int, out: wp.array2d(dtype=Any)):
-    # pixels (i, j0 … j0 + run − 1) of the window: tiling_value bit for bit, one vertex cache per run
+    # pixels (i, j0 … j0 + run − 1) of the window: blend_at's steps written out in the loop (so that the
+    # compiler keeps the cache in registers), tiling_value bit for bit on the plain lattice. The skewed row
+    # coordinate depends on x's y only: it is computed again only when y changes (never, without rotation).
     i, r = wp.tid()
     cols = out.shape[1]
     j0 = r * run
     j1 = wp.min(j0 + run, cols)
     I = wp.float64(first[0] + i) + wp.float64(0.5)
     c = empty_cache()
+    s = wp.float64(t.side)
+    if lat.periodic != 0:
+        s = lat.dx
+    last_y = wp.float64(0.0)
+    h0 = int(0)
+    h1 = int(0)
+    h2 = int(0)
+    sy = wp.float64(0.0)
+    fb = wp.float64(0.0)
+    b = int(0)
     for j in range(j0, j1):
         J = wp.float64(first[1] + j) + wp.float64(0.5)
         x = origin + step_x * J + step_y * I
-        c, value = blend_at(t, lat, example, mean, skip, c, x)
-        out[i, j] = value
+        if j == j0 or x[1] != last_y:
+            last_y = x[1]
+            if lat.periodic == 0:
+                sy = (x[1] / s) / SQRT3_2
+            else:
+                sy = x[1] / lat.dy
+            b = floor_int64(sy)
+            fb = wp.float64(b)
+        sx = x[0] / s - sy * wp.float64(0.5)
+        a = floor_int64(sx)
+        u = float(sx - wp.float64(a))
+        v = float(sy - fb)
+        a0 = a
+        b0 = b
+        w0 = 1.0 - u - v
+        w1 = u
+        w2 = v
+        if u + v > 1.0:
+            a0 = a + 1
+            b0 = b + 1
+            w0 = u + v - 1.0
+            w1 = 1.0 - v
+            w2 = 1.0 - u
+        k0 = float(0.0)
+        k1 = float(0.0)
+        k2 = float(0.0)
+        if t.guide_weight != 0.0:
+            c, k0, k1, k2 = guide_weights(t, lat, c, x, a0, b0, a, b, w0, w1, w2)
+        else:
+            k0 = quick_weight(w0, t.squarings, skip)
+            k1 = quick_weight(w1, t.squarings, skip)
+            k2 = quick_weight(w2, t.squarings, skip)
+        k0, k1, k2, one = kept_weights(k0, k1, k2)
+        acc = mean - mean
+        # each vertex's slot is tried where the same vertex was last found (h0, h1, h2) before the cache
+        if k0 > 0.0:
+            c, h0 = hinted_slot(t, lat, c, h0, a0, b0)
+            acc = acc + (bilinear(example, slot_point(c, h0, x)) - mean) * k0
+        if k1 > 0.0:
+            c, h1 = hinted_slot(t, lat, c, h1, a + 1, b)
+            acc = acc + (bilinear(example, slot_point(c, h1, x)) - mean) * k1
+        if k2 > 0.0:
+            c, h2 = hinted_slot(t, lat, c, h2, a, b + 1)
+            acc = acc + (bilinear(example, slot_point(c, h2, x)) - mean) * k2
+        if t.variance_preserving != 0 and not one:
+            acc = acc / wp.sqrt(k0 * k0 + k1 * k1 + k2 * k2)
+        out[i, j] = mean + acc
 
 
 @wp.kernel
