@@ -519,8 +519,9 @@ def check_tiling_reach(pts: np.ndarray) -> None:
                           f"defined within ±{MAX_TILING_REACH:.3g} texels", param="points")
 
 
-def _tiling_output(values: np.ndarray, output: str, device):
-    if output == "numpy":
+def _tiling_output(values, output: str, device):
+    """NumPy values as ``output`` asks; a device array that is already the output as it is."""
+    if output == "numpy" or not isinstance(values, np.ndarray):
         return values
     import warp as wp
 
@@ -555,7 +556,8 @@ def _synthesize_tiling(model: TilingModel, shape, *, seed, scale, rotation, offs
     device = resolve_device(device)
     J = step if jacobian is None else check_jacobian(jacobian, (h, w))
     if not needs_filtering(J, options):
-        return _tiling_output(tiling_pixels(model, (h, w), origin, step, first, seed, device, period), output, device)
+        return _tiling_output(tiling_pixels(model, (h, w), origin, step, first, seed, device, period, output), output,
+                              device)
     what = f"a {w}x{h} raster of a tiling model with filter {options.kind!r}"
     check_memory(float(h * w) * FILTER_BYTES_PER_PIXEL, what, "use a smaller shape", mentions=("shape",))
     check_work(tiling_filter_work(options, h * w), what, options.spec.cost_hint, mentions=("shape", *COST_HINT_NAMES))

@@ -104,13 +104,13 @@ def lattice_struct(model: TilingModel, period):
     return lat
 
 
-def _lanes(model: TilingModel, t, device):
+def _lanes(model: TilingModel, device):
     """(example array, mean, texel type) of the kernels' one-lane (grey) or three-lane path."""
     wp = init_warp()
-    grey = _ARRAYS[model][device][2]
+    rgb, _, grey = _ARRAYS[model][device]
     if grey is not None:
         return grey, float(model.mean3[0]), float
-    return t.example, t.mean, wp.vec3
+    return rgb, wp.vec3(*model.mean3.tolist()), wp.vec3
 
 
 #: Pixels per thread of ``tiling_runs`` (one vertex cache per run).
@@ -118,20 +118,26 @@ RUN_CPU = 64
 RUN_CUDA = 4
 
 
-def tiling_pixels(model: TilingModel, shape, origin, step, first, seed: int, device, period=None) -> np.ndarray:
+def tiling_pixels(model: TilingModel, shape, origin, step, first, seed: int, device, period=None,
+                  output: str = "numpy"):
     """The (H, W, C) float32 raster whose pixel (i, j) is the model at
     origin + step · (first[1] + j + ½, first[0] + i + ½) (``raster_geometry``'s layout),
-    periodic with ``period`` = (Px, Py) when given."""
+    periodic with ``period`` = (Px, Py) when given: NumPy, or with ``output="warp"`` on a GPU a
+    float32 ``wp.array`` (H, W, C) that never leaves the device."""
     wp = init_warp()
     device = resolve_device(device)
     h, w = shape
-    t = tiling_struct(model, seed, device)
-    lat = lattice_struct(model, period)
-    example, mean, dtype = _lanes(model, t, device)
+    tiling_struct(model, seed, device)  # the model's arrays on the device
+    example, mean, dtype = _lanes(model, device)
     lanes = 1 if dtype is float else 3
-    host = np.empty((h, w, lanes), np.float32) if is_cpu(device) else None
-    out = wp.array(host[..., 0] if lanes == 1 else host, dtype=dtype, copy=False) if host is not None \
-        else wp.empty((h, w), dtype=dtype, device=device)
+    if is_cpu(device):
+        host = np.empty((h, w, lanes), np.float32)
+        buf = None
+        out = wp.array(host[..., 0] if lanes == 1 else host, dtype=dtype, copy=False)
+    else:
+        host = None
+        buf = wp.empty((h, w, lanes), dtype=float, device=device)  # the result; the kernels write a view of it
+        out = wp.array(ptr=buf.ptr, dtype=dtype, shape=(h, w), device=device)
     o = wp.vec2d(float(origin[0]), float(origin[1]))
     sx = wp.vec2d(float(step[0, 0]), float(step[1, 0]))
     sy = wp.vec2d(float(step[0, 1]), float(step[1, 1]))
@@ -140,6 +146,9 @@ def tiling_pixels(model: TilingModel, shape, origin, step, first, seed: int, dev
 
     def launch(r0, r1):
         if r1 > r0:
+            # each launch packs structs of its own: CPU launches run from several threads at once
+            t = tiling_struct(model, seed, device)
+            lat = lattice_struct(model, period)
             at = wp.vec2i(int(first[0]) + r0, int(first[1]))
             wp.launch(noise_tiling.tiling_runs, dim=(r1 - r0, -(-w // run)),
                       inputs=[t, lat, example, mean, skip, o, sx, sy, at, run, out[r0:r1]], device=device)
@@ -147,8 +156,8 @@ def tiling_pixels(model: TilingModel, shape, origin, step, first, seed: int, dev
     split_launch(device, noise_tiling, h, launch)
     if host is not None:
         return host
-    values = out.numpy()
-    return values[..., None] if lanes == 1 else values
+    assert buf is not None
+    return buf if output == "warp" else buf.numpy()
 
 
 def tiling_at(model: TilingModel, points: np.ndarray, seed: int, device, period=None) -> np.ndarray:
@@ -157,12 +166,12 @@ def tiling_at(model: TilingModel, points: np.ndarray, seed: int, device, period=
     wp = init_warp()
     device = resolve_device(device)
     n = points.shape[0]
-    t = tiling_struct(model, seed, device)
     pts = wp.array(np.ascontiguousarray(points, np.float64), dtype=wp.vec2d, device=device)
     out = wp.empty(n, dtype=wp.vec3, device=device)
-    lat = lattice_struct(model, period)
 
     def launch(k0, k1):
+        t = tiling_struct(model, seed, device)  # structs of its own per launch (launched from several threads)
+        lat = lattice_struct(model, period)
         if period is None:  # the reference, tiling_value
             wp.launch(noise_tiling.tiling_points, dim=k1 - k0, inputs=[t, pts[k0:k1], out[k0:k1]], device=device)
         else:
@@ -215,7 +224,8 @@ _PYRAMIDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def pyramid_struct(model: TilingModel, device: str):
-    """The kernels' ``TilingPyramid`` of a model on ``device``, computed once per model and device."""
+    """The kernels' ``TilingPyramid`` of a model on ``device``: its arrays computed once per model and
+    device, the struct made anew for each call (each launch packs its own)."""
     wp = init_warp()
     per_device = _PYRAMIDS.setdefault(model, {})
     if device not in per_device:
@@ -227,15 +237,13 @@ def pyramid_struct(model: TilingModel, device: str):
         stack = np.zeros((int(rows.sum()), w, 3), np.float32)
         for lv, r0 in zip(levels, row0):
             stack[r0:r0 + lv.shape[0], :lv.shape[1], :model.channels] = lv
-        pyr = noise_tiling.TilingPyramid()
-        pyr.texels = wp.array(stack, dtype=wp.vec3, device=device)
-        pyr.row0 = wp.array(row0, dtype=int, device=device)
-        pyr.rows = wp.array(rows, dtype=int, device=device)
-        pyr.cols = wp.array(cols, dtype=int, device=device)
-        pyr.contrast = wp.array(level_contrast(model, levels), dtype=float, device=device)
-        pyr.levels = len(levels)
-        per_device[device] = pyr
-    return per_device[device]
+        per_device[device] = (wp.array(stack, dtype=wp.vec3, device=device),
+                              wp.array(row0, dtype=int, device=device), wp.array(rows, dtype=int, device=device),
+                              wp.array(cols, dtype=int, device=device),
+                              wp.array(level_contrast(model, levels), dtype=float, device=device), len(levels))
+    pyr = noise_tiling.TilingPyramid()
+    pyr.texels, pyr.row0, pyr.rows, pyr.cols, pyr.contrast, pyr.levels = per_device[device]
+    return pyr
 
 
 def tiling_filter(options) -> object:
@@ -266,10 +274,7 @@ def tiling_filtered_raster(model: TilingModel, shape, origin, step, first, J: np
     wp = init_warp()
     device = resolve_device(device)
     h, w = shape
-    t = tiling_struct(model, seed, device)
-    lat = lattice_struct(model, period)
-    pyr = pyramid_struct(model, device)
-    f = tiling_filter(options)
+    tiling_struct(model, seed, device)  # the model's arrays on the device
     per_pixel = int(J.ndim == 4)
     jac_host = np.ascontiguousarray(J.astype(np.float32).reshape((h, w, 2, 2) if per_pixel else (1, 1, 2, 2)))
     jac = wp.array(jac_host, dtype=wp.mat22, device=device)
@@ -279,6 +284,10 @@ def tiling_filtered_raster(model: TilingModel, shape, origin, step, first, J: np
     sy = wp.vec2d(float(step[0, 1]), float(step[1, 1]))
 
     def launch(r0, r1):
+        t = tiling_struct(model, seed, device)  # structs of its own per launch (launched from several threads)
+        lat = lattice_struct(model, period)
+        pyr = pyramid_struct(model, device)
+        f = tiling_filter(options)
         at = wp.vec2i(int(first[0]) + r0, int(first[1]))
         wp.launch(noise_tiling.tiling_filtered_raster, dim=(r1 - r0, w),
                   inputs=[t, lat, pyr, f, o, sx, sy, at, jac[r0:r1] if per_pixel else jac, per_pixel, out[r0:r1]],
@@ -297,16 +306,17 @@ def tiling_filtered_at(model: TilingModel, points: np.ndarray, J: np.ndarray, op
     n = points.shape[0]
     if not n:
         return np.zeros((0, model.channels), np.float32)
-    t = tiling_struct(model, seed, device)
-    lat = lattice_struct(model, period)
-    pyr = pyramid_struct(model, device)
-    f = tiling_filter(options)
+    tiling_struct(model, seed, device)  # the model's arrays on the device
     per = int(J.shape[0] > 1)
     pts = wp.array(np.ascontiguousarray(points, np.float64), dtype=wp.vec2d, device=device)
     jac = wp.array(np.ascontiguousarray(J.reshape(-1, 2, 2).astype(np.float32)), dtype=wp.mat22, device=device)
     out = wp.empty(n, dtype=wp.vec3, device=device)
 
     def launch(k0, k1):
+        t = tiling_struct(model, seed, device)  # structs of its own per launch (launched from several threads)
+        lat = lattice_struct(model, period)
+        pyr = pyramid_struct(model, device)
+        f = tiling_filter(options)
         wp.launch(noise_tiling.tiling_filtered_points, dim=k1 - k0,
                   inputs=[t, lat, pyr, f, pts[k0:k1], jac[k0:k1] if per else jac, per, out[k0:k1]], device=device)
 
