@@ -523,88 +523,6 @@ def kept_weights(k0: float, k1: float, k2: float):
     return k0 / total, k1 / total, k2 / total, False
 
 
-@wp.func
-def hinted_slot(t: Tiling, lat: Lattice, c: VertexCache, hint: int, a: int, b: int):
-    # the slot of vertex (a, b): `hint` when it holds it (where the vertex was found for the last pixel)
-    if c.a[hint] == a and c.b[hint] == b:
-        return c, hint
-    return cached_slot(t, lat, c, a, b)
-
-
-@wp.kernel
-def tiling_runs(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean: Any, skip: float, origin: wp.vec2d,
-                step_x: wp.vec2d, step_y: wp.vec2d, first: wp.vec2i, run: int, out: wp.array2d(dtype=Any)):
-    # pixels (i, j0 … j0 + run − 1) of the window: blend_at's steps written out in the loop (so that the
-    # compiler keeps the cache in registers), tiling_value bit for bit on the plain lattice. The skewed row
-    # coordinate depends on x's y only: it is computed again only when y changes (never, without rotation).
-    i, r = wp.tid()
-    cols = out.shape[1]
-    j0 = r * run
-    j1 = wp.min(j0 + run, cols)
-    I = wp.float64(first[0] + i) + wp.float64(0.5)
-    c = empty_cache()
-    s = wp.float64(t.side)
-    if lat.periodic != 0:
-        s = lat.dx
-    last_y = wp.float64(0.0)
-    h0 = int(0)
-    h1 = int(0)
-    h2 = int(0)
-    sy = wp.float64(0.0)
-    fb = wp.float64(0.0)
-    b = int(0)
-    for j in range(j0, j1):
-        J = wp.float64(first[1] + j) + wp.float64(0.5)
-        x = origin + step_x * J + step_y * I
-        if j == j0 or x[1] != last_y:
-            last_y = x[1]
-            if lat.periodic == 0:
-                sy = (x[1] / s) / SQRT3_2
-            else:
-                sy = x[1] / lat.dy
-            b = floor_int64(sy)
-            fb = wp.float64(b)
-        sx = x[0] / s - sy * wp.float64(0.5)
-        a = floor_int64(sx)
-        u = float(sx - wp.float64(a))
-        v = float(sy - fb)
-        a0 = a
-        b0 = b
-        w0 = 1.0 - u - v
-        w1 = u
-        w2 = v
-        if u + v > 1.0:
-            a0 = a + 1
-            b0 = b + 1
-            w0 = u + v - 1.0
-            w1 = 1.0 - v
-            w2 = 1.0 - u
-        k0 = float(0.0)
-        k1 = float(0.0)
-        k2 = float(0.0)
-        if t.guide_weight != 0.0:
-            c, k0, k1, k2 = guide_weights(t, lat, c, x, a0, b0, a, b, w0, w1, w2)
-        else:
-            k0 = quick_weight(w0, t.squarings, skip)
-            k1 = quick_weight(w1, t.squarings, skip)
-            k2 = quick_weight(w2, t.squarings, skip)
-        k0, k1, k2, one = kept_weights(k0, k1, k2)
-        acc = mean - mean
-        # each vertex's slot is tried where the same vertex was last found (h0, h1, h2) before the cache
-        if k0 > 0.0:
-            c, h0 = hinted_slot(t, lat, c, h0, a0, b0)
-            acc = acc + (bilinear(example, slot_point(c, h0, x)) - mean) * k0
-        if k1 > 0.0:
-            c, h1 = hinted_slot(t, lat, c, h1, a + 1, b)
-            acc = acc + (bilinear(example, slot_point(c, h1, x)) - mean) * k1
-        if k2 > 0.0:
-            c, h2 = hinted_slot(t, lat, c, h2, a, b + 1)
-            acc = acc + (bilinear(example, slot_point(c, h2, x)) - mean) * k2
-        if t.variance_preserving != 0 and not one:
-            acc = acc / wp.sqrt(k0 * k0 + k1 * k1 + k2 * k2)
-        out[i, j] = mean + acc
-
-
 @wp.kernel
 def lattice_points(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean: Any, skip: float,
                    points: wp.array(dtype=wp.vec2d), out: wp.array(dtype=Any)):
@@ -615,7 +533,6 @@ def lattice_points(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean
 
 
 for _T in (wp.vec3, float):
-    wp.overload(tiling_runs, {"example": wp.array2d(dtype=_T), "mean": _T, "out": wp.array2d(dtype=_T)})
     wp.overload(lattice_points, {"example": wp.array2d(dtype=_T), "mean": _T, "out": wp.array(dtype=_T)})
 
 
@@ -768,3 +685,136 @@ def tiling_filtered_points(t: Tiling, lat: Lattice, pyr: TilingPyramid, f: Filte
                            out: wp.array(dtype=wp.vec3)):
     k = wp.tid()
     out[k] = tiling_filtered(t, lat, pyr, f, points[k], jac[k * per_point])
+
+
+@wp.kernel
+def tiling_runs(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean: Any, skip: float,  # noqa: C901
+                origin: wp.vec2d, step_x: wp.vec2d, step_y: wp.vec2d, first: wp.vec2i, run: int,
+                out: wp.array2d(dtype=Any)):
+    # pixels (i, j0 … j0 + run − 1) of the window: blend_at's steps written out in the loop, tiling_value bit
+    # for bit on the plain lattice. The run's vertex cache lives in local vectors (ca, cb: lattice indices;
+    # ccx, ccy: centre texels; cpx, cpy: rounded positions; round robin) so that the compiler keeps it in
+    # registers; each vertex role first tries the slot where it was found for the last pixel (h0, h1, h2).
+    # The skewed row coordinate depends on x's y only: computed again only when y changes (never, without
+    # rotation).
+    i, r = wp.tid()
+    cols = out.shape[1]
+    j0 = r * run
+    j1 = wp.min(j0 + run, cols)
+    I = wp.float64(first[0] + i) + wp.float64(0.5)
+    ca = wp.vec4i(NO_VERTEX)
+    cb = wp.vec4i(NO_VERTEX)
+    ccx = wp.vec4i(0)
+    ccy = wp.vec4i(0)
+    cpx = wp.vec4d(wp.float64(0.0))
+    cpy = wp.vec4d(wp.float64(0.0))
+    nxt = int(0)
+    c = empty_cache()  # the guide's lookups (guide_weight ≠ 0) use the struct cache
+    s = wp.float64(t.side)
+    if lat.periodic != 0:
+        s = lat.dx
+    last_y = wp.float64(0.0)
+    h0 = int(0)
+    h1 = int(0)
+    h2 = int(0)
+    sy = wp.float64(0.0)
+    fb = wp.float64(0.0)
+    b = int(0)
+    for j in range(j0, j1):
+        J = wp.float64(first[1] + j) + wp.float64(0.5)
+        x = origin + step_x * J + step_y * I
+        if j == j0 or x[1] != last_y:
+            last_y = x[1]
+            if lat.periodic == 0:
+                sy = (x[1] / s) / SQRT3_2
+            else:
+                sy = x[1] / lat.dy
+            b = floor_int64(sy)
+            fb = wp.float64(b)
+        sx = x[0] / s - sy * wp.float64(0.5)
+        a = floor_int64(sx)
+        u = float(sx - wp.float64(a))
+        v = float(sy - fb)
+        a0 = a
+        b0 = b
+        w0 = 1.0 - u - v
+        w1 = u
+        w2 = v
+        if u + v > 1.0:
+            a0 = a + 1
+            b0 = b + 1
+            w0 = u + v - 1.0
+            w1 = 1.0 - v
+            w2 = 1.0 - u
+        k0 = float(0.0)
+        k1 = float(0.0)
+        k2 = float(0.0)
+        if t.guide_weight != 0.0:
+            c, k0, k1, k2 = guide_weights(t, lat, c, x, a0, b0, a, b, w0, w1, w2)
+        else:
+            k0 = quick_weight(w0, t.squarings, skip)
+            k1 = quick_weight(w1, t.squarings, skip)
+            k2 = quick_weight(w2, t.squarings, skip)
+        k0, k1, k2, one = kept_weights(k0, k1, k2)
+        acc = mean - mean
+        if k0 > 0.0:
+            if ca[h0] != a0 or cb[h0] != b0:
+                h0 = -1
+                for k in range(SLOTS):
+                    if ca[k] == a0 and cb[k] == b0:
+                        h0 = k
+                if h0 < 0:
+                    h0 = nxt
+                    nxt = (nxt + 1) & 3
+                    cen, p = lattice_vertex(t, lat, a0, b0)
+                    ca[h0] = a0
+                    cb[h0] = b0
+                    ccx[h0] = cen[0]
+                    ccy[h0] = cen[1]
+                    cpx[h0] = p[0]
+                    cpy[h0] = p[1]
+            q = wp.vec2(float(ccx[h0]) + float(x[0] - cpx[h0]), float(ccy[h0]) + float(x[1] - cpy[h0]))
+            acc = acc + (bilinear(example, q) - mean) * k0
+        if k1 > 0.0:
+            if ca[h1] != a + 1 or cb[h1] != b:
+                h1 = -1
+                for k in range(SLOTS):
+                    if ca[k] == a + 1 and cb[k] == b:
+                        h1 = k
+                if h1 < 0:
+                    h1 = nxt
+                    nxt = (nxt + 1) & 3
+                    cen, p = lattice_vertex(t, lat, a + 1, b)
+                    ca[h1] = a + 1
+                    cb[h1] = b
+                    ccx[h1] = cen[0]
+                    ccy[h1] = cen[1]
+                    cpx[h1] = p[0]
+                    cpy[h1] = p[1]
+            q = wp.vec2(float(ccx[h1]) + float(x[0] - cpx[h1]), float(ccy[h1]) + float(x[1] - cpy[h1]))
+            acc = acc + (bilinear(example, q) - mean) * k1
+        if k2 > 0.0:
+            if ca[h2] != a or cb[h2] != b + 1:
+                h2 = -1
+                for k in range(SLOTS):
+                    if ca[k] == a and cb[k] == b + 1:
+                        h2 = k
+                if h2 < 0:
+                    h2 = nxt
+                    nxt = (nxt + 1) & 3
+                    cen, p = lattice_vertex(t, lat, a, b + 1)
+                    ca[h2] = a
+                    cb[h2] = b + 1
+                    ccx[h2] = cen[0]
+                    ccy[h2] = cen[1]
+                    cpx[h2] = p[0]
+                    cpy[h2] = p[1]
+            q = wp.vec2(float(ccx[h2]) + float(x[0] - cpx[h2]), float(ccy[h2]) + float(x[1] - cpy[h2]))
+            acc = acc + (bilinear(example, q) - mean) * k2
+        if t.variance_preserving != 0 and not one:
+            acc = acc / wp.sqrt(k0 * k0 + k1 * k1 + k2 * k2)
+        out[i, j] = mean + acc
+
+
+for _T in (wp.vec3, float):
+    wp.overload(tiling_runs, {"example": wp.array2d(dtype=_T), "mean": _T, "out": wp.array2d(dtype=_T)})
