@@ -222,7 +222,10 @@ def render_plane(
 
     Parameters
     ----------
-    texton : Texton
+    texton : Texton or TilingModel
+        A tiling model (``analyze(..., method="tiling")``) is filtered through
+        a MIP pyramid of its example (docs/tiling.md, "Filtering"); ``mni``
+        does not apply to it.
     shape : (height, width)
         Image size in pixels, at most 2**28 pixels.
     height : float

@@ -127,7 +127,9 @@ def synthesize(
         1; at another scale use (W / scale, H / scale). Note the order:
         ``period`` is (x, y), ``shape`` is (height, width). A period spans at
         most 2³⁰ noise cells (4.2 × 10¹⁰ texels for a 64 × 64 texton,
-        docs/limits.md); a longer one is refused.
+        docs/limits.md); a longer one is refused. A tiling model takes any
+        period up to 2³⁰ texels; its triangle lattice shrinks slightly to fit
+        (docs/tiling.md, "Periodic tiles").
     device : str, optional
         "cpu", "cuda", "cuda:N"; default CUDA when available, else CPU.
     poisson : {"exact", "gaussian"}
@@ -168,7 +170,9 @@ def synthesize(
         "anisotropic") both give exactly the output of "none". Footprints past
         the last MIP level the filters keep
         (:func:`warp_texton.noise.filtering.kept_levels`) fade to the texton's mean;
-        supersamples beyond the noise's cell range count as the mean.
+        supersamples beyond the noise's cell range count as the mean. A tiling
+        model takes the same filters, through a MIP pyramid of its example
+        (docs/tiling.md, "Filtering"; ``fade_energy`` does not apply).
     pixel_offset : (row, column) of integers
         Within ±2³⁰. Make the result the window of pixels ``pixel_offset`` +
         (i, j) of the raster that ``offset``, ``scale`` and ``rotation``
