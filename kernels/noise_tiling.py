@@ -11,15 +11,23 @@ coordinates and g_k the guide (the example's standardised luminance) read
 from each patch at x. docs/tiling.md is the exact specification; GLSL, OSL and
 users' Warp kernels reproduce it from ``tiling_value``.
 
-One implementation: ``tiling_value`` is called by the raster-window kernel
-``tiling_raster`` and by the points kernel ``tiling_points``.
+``tiling_value`` is the reference, called by the points kernel ``tiling_points`` and by
+``tiling_raster``. The raster kernel ``tiling_runs`` computes the same values bit for bit
+faster: a thread takes a run of pixels along a row, keeps the centres of the last
+vertices it met (pixels of one triangle share them, so a vertex is hashed once per
+run instead of once per pixel), skips weights that the cutoff would drop before
+raising them to the sharpness (they would underflow to slow subnormals), and reads
+and writes one float a texel for a grey example.
 
 Driven by: ``warp_texton.noise.tiling``.
 """
 
 import warp as wp
 
+from typing import Any
+
 from .impacts import GOLDEN, avalanche
+from .noise_filter import Filter, footprint_lookups
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
 
@@ -235,3 +243,578 @@ def tiling_raster(t: Tiling, origin: wp.vec2d, step_x: wp.vec2d, step_y: wp.vec2
 def tiling_points(t: Tiling, points: wp.array(dtype=wp.vec2d), out: wp.array(dtype=wp.vec3)):
     k = wp.tid()
     out[k] = tiling_value(t, points[k])
+
+
+# ------------------------------------------------------------------ the fast raster: runs of pixels
+#: Slots of a run's vertex cache: a triangle's three vertices and one of its neighbour's.
+SLOTS = 4
+#: The lattice index of an empty slot.
+NO_VERTEX = wp.constant(-2147483647)
+
+
+@wp.struct
+class Lattice:
+    # the triangle lattice of a periodic tiling (periodic = 1): `cols` vertices across the period px and
+    # `rows` (even) rows of height dy = py / rows; dx = px / cols. periodic = 0: the plain lattice of side t.side.
+    periodic: int
+    cols: int
+    rows: int
+    dx: wp.float64
+    dy: wp.float64
+    px: wp.float64
+    py: wp.float64
+
+
+@wp.struct
+class VertexCache:
+    # the last SLOTS vertices a run met: lattice indices, centre texels and (rounded) positions
+    a: wp.vec4i
+    b: wp.vec4i
+    cx: wp.vec4i
+    cy: wp.vec4i
+    px: wp.vec4d
+    py: wp.vec4d
+    next: int  # the slot replaced next (round robin)
+
+
+@wp.func
+def empty_cache():
+    c = VertexCache()
+    c.a = wp.vec4i(NO_VERTEX)  # no vertex has this index (positions stay within ±2³⁰ texels)
+    c.b = wp.vec4i(NO_VERTEX)
+    c.cx = wp.vec4i(0)
+    c.cy = wp.vec4i(0)
+    c.px = wp.vec4d(wp.float64(0.0))
+    c.py = wp.vec4d(wp.float64(0.0))
+    c.next = 0
+    return c
+
+
+@wp.func
+def floor_div(n: int, d: int):
+    q = n / d
+    if q * d > n:
+        q = q - 1
+    return q
+
+
+@wp.func
+def lattice_triangle(t: Tiling, lat: Lattice, x: wp.vec2d):
+    # triangle_of on the plain lattice; on a periodic one the skewed coordinates of its (dx, dy) grid
+    if lat.periodic == 0:
+        return triangle_of(t, x)
+    sy = x[1] / lat.dy
+    sx = x[0] / lat.dx - sy * wp.float64(0.5)
+    fa = wp.floor(sx)
+    fb = wp.floor(sy)
+    return int(fa), int(fb), float(sx - fa), float(sy - fb)
+
+
+@wp.func
+def lattice_vertex(t: Tiling, lat: Lattice, a: int, b: int):
+    # (centre texel, rounded position) of vertex (a, b). Periodic: the vertex is the period's own vertex
+    # (a', b') — b' = b mod rows, a' = (a + (b − b') / 2) mod cols — hashed as such, placed at
+    # round(p(a', b')) shifted by the whole periods that separate them, so every period shows the same patches
+    if lat.periodic == 0:
+        cen = vertex_centre(t, a, b)
+        return cen, vertex_position(t, a, b)
+    kb = floor_div(b, lat.rows)
+    bb = b - kb * lat.rows
+    a1 = a + kb * (lat.rows / 2)
+    ka = floor_div(a1, lat.cols)
+    aa = a1 - ka * lat.cols
+    cen = vertex_centre(t, aa, bb)
+    px = lat.dx * (wp.float64(aa) + wp.float64(bb) * wp.float64(0.5))
+    py = lat.dy * wp.float64(bb)
+    p = wp.vec2d(wp.floor(px + wp.float64(0.5)) + wp.float64(ka) * lat.px,
+                 wp.floor(py + wp.float64(0.5)) + wp.float64(kb) * lat.py)
+    return cen, p
+
+
+@wp.func
+def cached_slot(t: Tiling, lat: Lattice, c: VertexCache, a: int, b: int):
+    # the slot of vertex (a, b) in the cache, hashing it into a slot when absent
+    for k in range(SLOTS):
+        if c.a[k] == a and c.b[k] == b:
+            return c, k
+    k = c.next
+    cen, p = lattice_vertex(t, lat, a, b)
+    c.a[k] = a
+    c.b[k] = b
+    c.cx[k] = cen[0]
+    c.cy[k] = cen[1]
+    c.px[k] = p[0]
+    c.py[k] = p[1]
+    c.next = k + 1
+    if c.next == SLOTS:
+        c.next = 0
+    return c, k
+
+
+@wp.func
+def slot_point(c: VertexCache, k: int, x: wp.vec2d):
+    # patch_point from a cached vertex: the same float64 difference, float32 rounding and sum
+    return wp.vec2(float(c.cx[k]) + float(x[0] - c.px[k]), float(c.cy[k]) + float(x[1] - c.py[k]))
+
+
+@wp.func
+def floor_int(x: float):
+    # ⌊x⌋ as an int for |x| < 2³¹ without a call to floorf (CPU builds target baseline x86-64, where floorf
+    # is a library call): truncate, then step down below negative non-integers. float(⌊x⌋) is wp.floor(x).
+    i = int(x)
+    if float(i) > x:
+        i = i - 1
+    return i
+
+
+@wp.func
+def floor_int64(x: wp.float64):
+    # floor_int for float64
+    i = int(x)
+    if wp.float64(i) > x:
+        i = i - 1
+    return i
+
+
+@wp.func
+def bilinear(img: wp.array2d(dtype=Any), q: wp.vec2):
+    # bilinear3 / bilinear1 for either texel type: the same operations per channel
+    rows = img.shape[0]
+    cols = img.shape[1]
+    fx = q[0] - 0.5
+    fy = q[1] - 0.5
+    ix = floor_int(fx)
+    iy = floor_int(fy)
+    tx = fx - float(ix)
+    ty = fy - float(iy)
+    j0 = wp.clamp(ix, 0, cols - 1)
+    i0 = wp.clamp(iy, 0, rows - 1)
+    if tx == 0.0 and ty == 0.0:
+        return img[i0, j0]
+    j1 = wp.clamp(ix + 1, 0, cols - 1)
+    i1 = wp.clamp(iy + 1, 0, rows - 1)
+    top = img[i0, j0] * (1.0 - tx) + img[i0, j1] * tx
+    bottom = img[i1, j0] * (1.0 - tx) + img[i1, j1] * tx
+    return top * (1.0 - ty) + bottom * ty
+
+
+@wp.func
+def quick_weight(w: float, squarings: int, skip: float):
+    # sharpened(w, squarings, 0, 0), or 0 where w < skip: there w^(2^squarings) is below the cutoff
+    # (skip = 0.3 · CUTOFF^(1/2^squarings) < (max weight ≥ 1/3) · CUTOFF^(...)), so the blend drops it anyway.
+    # power's squarings written out (squarings ≤ 6): the same products without a loop
+    if w <= 0.0 or w < skip:
+        return 0.0
+    r = w
+    if squarings > 0:
+        r = r * r
+    if squarings > 1:
+        r = r * r
+    if squarings > 2:
+        r = r * r
+    if squarings > 3:
+        r = r * r
+    if squarings > 4:
+        r = r * r
+    if squarings > 5:
+        r = r * r
+    return r
+
+
+@wp.func
+def blend_at(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean: Any, skip: float, c: VertexCache,
+             x: wp.vec2d):
+    # tiling_value(t, x) bit for bit on the plain lattice (any texel type), its vertices through the cache c
+    a, b, u, v = lattice_triangle(t, lat, x)
+    a0 = a
+    b0 = b
+    w0 = 1.0 - u - v
+    w1 = u
+    w2 = v
+    if u + v > 1.0:
+        a0 = a + 1
+        b0 = b + 1
+        w0 = u + v - 1.0
+        w1 = 1.0 - v
+        w2 = 1.0 - u
+    s0 = int(0)
+    s1 = int(0)
+    s2 = int(0)
+    g0 = float(0.0)
+    g1 = float(0.0)
+    g2 = float(0.0)
+    k0 = float(0.0)
+    k1 = float(0.0)
+    k2 = float(0.0)
+    if t.guide_weight != 0.0:
+        # each slot is read as soon as it is found: the next lookup may replace it
+        c, s0 = cached_slot(t, lat, c, a0, b0)
+        g0 = bilinear(t.guide, slot_point(c, s0, x))
+        c, s1 = cached_slot(t, lat, c, a + 1, b)
+        g1 = bilinear(t.guide, slot_point(c, s1, x))
+        c, s2 = cached_slot(t, lat, c, a, b + 1)
+        g2 = bilinear(t.guide, slot_point(c, s2, x))
+        gm = wp.max(g0, wp.max(g1, g2))
+        k0 = sharpened(w0, t.squarings, t.guide_weight, g0 - gm)
+        k1 = sharpened(w1, t.squarings, t.guide_weight, g1 - gm)
+        k2 = sharpened(w2, t.squarings, t.guide_weight, g2 - gm)
+    else:
+        k0 = quick_weight(w0, t.squarings, skip)
+        k1 = quick_weight(w1, t.squarings, skip)
+        k2 = quick_weight(w2, t.squarings, skip)
+    km = wp.max(k0, wp.max(k1, k2)) * CUTOFF
+    if k0 < km:
+        k0 = 0.0
+    if k1 < km:
+        k1 = 0.0
+    if k2 < km:
+        k2 = 0.0
+    total = k0 + k1 + k2
+    k0 = k0 / total
+    k1 = k1 / total
+    k2 = k2 / total
+    acc = mean - mean
+    if k0 > 0.0:
+        c, s0 = cached_slot(t, lat, c, a0, b0)
+        acc = acc + (bilinear(example, slot_point(c, s0, x)) - mean) * k0
+    if k1 > 0.0:
+        c, s1 = cached_slot(t, lat, c, a + 1, b)
+        acc = acc + (bilinear(example, slot_point(c, s1, x)) - mean) * k1
+    if k2 > 0.0:
+        c, s2 = cached_slot(t, lat, c, a, b + 1)
+        acc = acc + (bilinear(example, slot_point(c, s2, x)) - mean) * k2
+    if t.variance_preserving != 0:
+        acc = acc / wp.sqrt(k0 * k0 + k1 * k1 + k2 * k2)
+    return c, mean + acc
+
+
+@wp.func
+def guide_weights(t: Tiling, lat: Lattice, c: VertexCache, x: wp.vec2d, a0: int, b0: int, a: int, b: int,
+                  w0: float, w1: float, w2: float):
+    # the guided weights of blend_at (each slot read as soon as it is found: the next lookup may replace it)
+    c, s0 = cached_slot(t, lat, c, a0, b0)
+    g0 = bilinear(t.guide, slot_point(c, s0, x))
+    c, s1 = cached_slot(t, lat, c, a + 1, b)
+    g1 = bilinear(t.guide, slot_point(c, s1, x))
+    c, s2 = cached_slot(t, lat, c, a, b + 1)
+    g2 = bilinear(t.guide, slot_point(c, s2, x))
+    gm = wp.max(g0, wp.max(g1, g2))
+    k0 = sharpened(w0, t.squarings, t.guide_weight, g0 - gm)
+    k1 = sharpened(w1, t.squarings, t.guide_weight, g1 - gm)
+    k2 = sharpened(w2, t.squarings, t.guide_weight, g2 - gm)
+    return c, k0, k1, k2
+
+
+@wp.func
+def kept_weights(k0: float, k1: float, k2: float):
+    # the cutoff and the normalisation of tiling_value; with one vertex kept (most pixels at high
+    # sharpness) its weight k/k is 1 and √(1²) = 1: returned without the divisions, with one = True
+    km = wp.max(k0, wp.max(k1, k2)) * CUTOFF
+    if k0 < km:
+        k0 = 0.0
+    if k1 < km:
+        k1 = 0.0
+    if k2 < km:
+        k2 = 0.0
+    n = int(k0 > 0.0) + int(k1 > 0.0) + int(k2 > 0.0)
+    if n == 1:
+        return wp.float32(k0 > 0.0), wp.float32(k1 > 0.0), wp.float32(k2 > 0.0), True
+    total = k0 + k1 + k2
+    return k0 / total, k1 / total, k2 / total, False
+
+
+@wp.kernel
+def lattice_points(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean: Any, skip: float,
+                   points: wp.array(dtype=wp.vec2d), out: wp.array(dtype=Any)):
+    # blend_at at each point (the periodic tiling's points; tiling_points is the plain one)
+    k = wp.tid()
+    c, value = blend_at(t, lat, example, mean, skip, empty_cache(), points[k])
+    out[k] = value
+
+
+for _T in (wp.vec3, float):
+    wp.overload(lattice_points, {"example": wp.array2d(dtype=_T), "mean": _T, "out": wp.array(dtype=_T)})
+
+
+# ------------------------------------------------------------------ filtered tiling (mip, anisotropic)
+@wp.struct
+class TilingPyramid:
+    # the example's MIP levels (2 × 2 box means, edge texels repeated on odd sides), stacked by rows:
+    # level ℓ in rows [row0[ℓ], row0[ℓ] + rows[ℓ]) and columns [0, cols[ℓ]) of `texels`; its texel (i, j) is
+    # centred at 2^ℓ (j + ½, i + ½) in level-0 texels. contrast[ℓ] scales a patch's deviation from the mean
+    # read at level ℓ down to what a footprint of 2^ℓ texels keeps of the blend of independent patches.
+    texels: wp.array2d(dtype=wp.vec3)
+    row0: wp.array(dtype=int)
+    rows: wp.array(dtype=int)
+    cols: wp.array(dtype=int)
+    contrast: wp.array(dtype=float)
+    levels: int
+
+
+@wp.func
+def level_lookup(pyr: TilingPyramid, lvl: int, q: wp.vec2):
+    # bilinear lookup of level lvl at q (level-0 texel units), clamped to the level; at level 0 the same
+    # operations as bilinear3 (q · 1 is q)
+    inv = 1.0 / float(1 << lvl)
+    fx = q[0] * inv - 0.5
+    fy = q[1] * inv - 0.5
+    r0 = pyr.row0[lvl]
+    rows = pyr.rows[lvl]
+    cols = pyr.cols[lvl]
+    x0 = wp.floor(fx)
+    y0 = wp.floor(fy)
+    tx = fx - x0
+    ty = fy - y0
+    j0 = wp.clamp(int(x0), 0, cols - 1)
+    i0 = wp.clamp(int(y0), 0, rows - 1) + r0
+    if tx == 0.0 and ty == 0.0:
+        return pyr.texels[i0, j0]
+    j1 = wp.clamp(int(x0) + 1, 0, cols - 1)
+    i1 = wp.clamp(int(y0) + 1, 0, rows - 1) + r0
+    top = pyr.texels[i0, j0] * (1.0 - tx) + pyr.texels[i0, j1] * tx
+    bottom = pyr.texels[i1, j0] * (1.0 - tx) + pyr.texels[i1, j1] * tx
+    return top * (1.0 - ty) + bottom * ty
+
+
+@wp.func
+def patch_deviation(t: Tiling, pyr: TilingPyramid, q: wp.vec2, l0: int, l1: int, w1: float):
+    # a patch's deviation from the mean at q, read between levels l0 and l1 (weight w1 on l1), times the
+    # levels' contrast: trilinear filtering of the patch
+    e = level_lookup(pyr, l0, q)
+    c = pyr.contrast[l0]
+    if w1 > 0.0:
+        e = e * (1.0 - w1) + level_lookup(pyr, l1, q) * w1
+        c = c * (1.0 - w1) + pyr.contrast[l1] * w1
+    return (e - t.mean) * c
+
+
+@wp.func
+def blend_levels(t: Tiling, lat: Lattice, pyr: TilingPyramid, x: wp.vec2d, l0: int, l1: int, w1: float):
+    # the blend at x (tiling_value's weights) of the three patches, each read filtered between levels l0, l1
+    a, b, u, v = lattice_triangle(t, lat, x)
+    a0 = a
+    b0 = b
+    w0 = 1.0 - u - v
+    wa = u
+    wb = v
+    if u + v > 1.0:
+        a0 = a + 1
+        b0 = b + 1
+        w0 = u + v - 1.0
+        wa = 1.0 - v
+        wb = 1.0 - u
+    c0, p0 = lattice_vertex(t, lat, a0, b0)
+    c1, p1 = lattice_vertex(t, lat, a + 1, b)
+    c2, p2 = lattice_vertex(t, lat, a, b + 1)
+    q0 = wp.vec2(float(c0[0]) + float(x[0] - p0[0]), float(c0[1]) + float(x[1] - p0[1]))
+    q1 = wp.vec2(float(c1[0]) + float(x[0] - p1[0]), float(c1[1]) + float(x[1] - p1[1]))
+    q2 = wp.vec2(float(c2[0]) + float(x[0] - p2[0]), float(c2[1]) + float(x[1] - p2[1]))
+    g0 = float(0.0)
+    g1 = float(0.0)
+    g2 = float(0.0)
+    if t.guide_weight != 0.0:
+        g0 = bilinear1(t.guide, q0)
+        g1 = bilinear1(t.guide, q1)
+        g2 = bilinear1(t.guide, q2)
+    gm = wp.max(g0, wp.max(g1, g2))
+    k0 = sharpened(w0, t.squarings, t.guide_weight, g0 - gm)
+    k1 = sharpened(wa, t.squarings, t.guide_weight, g1 - gm)
+    k2 = sharpened(wb, t.squarings, t.guide_weight, g2 - gm)
+    km = wp.max(k0, wp.max(k1, k2)) * CUTOFF
+    if k0 < km:
+        k0 = 0.0
+    if k1 < km:
+        k1 = 0.0
+    if k2 < km:
+        k2 = 0.0
+    total = k0 + k1 + k2
+    k0 = k0 / total
+    k1 = k1 / total
+    k2 = k2 / total
+    acc = wp.vec3(0.0)
+    if k0 > 0.0:
+        acc = acc + patch_deviation(t, pyr, q0, l0, l1, w1) * k0
+    if k1 > 0.0:
+        acc = acc + patch_deviation(t, pyr, q1, l0, l1, w1) * k1
+    if k2 > 0.0:
+        acc = acc + patch_deviation(t, pyr, q2, l0, l1, w1) * k2
+    if t.variance_preserving != 0:
+        acc = acc / wp.sqrt(k0 * k0 + k1 * k1 + k2 * k2)
+    return t.mean + acc
+
+
+@wp.func
+def tiling_filtered(t: Tiling, lat: Lattice, pyr: TilingPyramid, f: Filter, x: wp.vec2d, J: wp.mat22):
+    # the tiling averaged over the footprint x + J [−½, ½]² ("mip": one probe; "anisotropic": n probes along
+    # the major axis), each probe a blend of patches read at the footprint's level; the mean past the last level
+    major, axis, n, lod = footprint_lookups(f, J)
+    if wp.isnan(lod) or lod >= float(pyr.levels - 1):
+        return t.mean
+    l0 = int(wp.floor(lod))
+    w1 = lod - float(l0)
+    l1 = wp.min(l0 + 1, pyr.levels - 1)
+    spread = axis * (major * (0.5 - 0.5 / float(n)))
+    stride = wp.vec2(0.0)
+    if n > 1:
+        stride = spread * (2.0 / float(n - 1))
+    acc = wp.vec3(0.0)
+    for k in range(n):
+        d = stride * float(k) - spread
+        acc = acc + blend_levels(t, lat, pyr, x + wp.vec2d(wp.float64(d[0]), wp.float64(d[1])), l0, l1, w1)
+    return acc / float(n)
+
+
+@wp.kernel
+def tiling_filtered_raster(t: Tiling, lat: Lattice, pyr: TilingPyramid, f: Filter, origin: wp.vec2d,
+                           step_x: wp.vec2d, step_y: wp.vec2d, first: wp.vec2i, jac: wp.array2d(dtype=wp.mat22),
+                           per_pixel: int, out: wp.array2d(dtype=wp.vec3)):
+    # pixel (i, j) of a window (positions as tiling_runs places them), footprint jac[i, j] or jac[0, 0]
+    i, j = wp.tid()
+    I = wp.float64(first[0] + i) + wp.float64(0.5)
+    J = wp.float64(first[1] + j) + wp.float64(0.5)
+    x = origin + step_x * J + step_y * I
+    F = jac[0, 0]
+    if per_pixel != 0:
+        F = jac[i, j]
+    out[i, j] = tiling_filtered(t, lat, pyr, f, x, F)
+
+
+@wp.kernel
+def tiling_filtered_points(t: Tiling, lat: Lattice, pyr: TilingPyramid, f: Filter,
+                           points: wp.array(dtype=wp.vec2d), jac: wp.array(dtype=wp.mat22), per_point: int,
+                           out: wp.array(dtype=wp.vec3)):
+    k = wp.tid()
+    out[k] = tiling_filtered(t, lat, pyr, f, points[k], jac[k * per_point])
+
+
+@wp.kernel
+def tiling_runs(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean: Any, skip: float,  # noqa: C901
+                origin: wp.vec2d, step_x: wp.vec2d, step_y: wp.vec2d, first: wp.vec2i, run: int,
+                out: wp.array2d(dtype=Any)):
+    # pixels (i, j0 … j0 + run − 1) of the window: blend_at's steps written out in the loop, tiling_value bit
+    # for bit on the plain lattice. The run's vertex cache lives in local vectors (ca, cb: lattice indices;
+    # ccx, ccy: centre texels; cpx, cpy: rounded positions; round robin) so that the compiler keeps it in
+    # registers; each vertex role first tries the slot where it was found for the last pixel (h0, h1, h2).
+    # The skewed row coordinate depends on x's y only: computed again only when y changes (never, without
+    # rotation).
+    i, r = wp.tid()
+    cols = out.shape[1]
+    j0 = r * run
+    j1 = wp.min(j0 + run, cols)
+    I = wp.float64(first[0] + i) + wp.float64(0.5)
+    ca = wp.vec4i(NO_VERTEX)
+    cb = wp.vec4i(NO_VERTEX)
+    ccx = wp.vec4i(0)
+    ccy = wp.vec4i(0)
+    cpx = wp.vec4d(wp.float64(0.0))
+    cpy = wp.vec4d(wp.float64(0.0))
+    nxt = int(0)
+    c = empty_cache()  # the guide's lookups (guide_weight ≠ 0) use the struct cache
+    s = wp.float64(t.side)
+    if lat.periodic != 0:
+        s = lat.dx
+    last_y = wp.float64(0.0)
+    h0 = int(0)
+    h1 = int(0)
+    h2 = int(0)
+    sy = wp.float64(0.0)
+    fb = wp.float64(0.0)
+    b = int(0)
+    for j in range(j0, j1):
+        J = wp.float64(first[1] + j) + wp.float64(0.5)
+        x = origin + step_x * J + step_y * I
+        if j == j0 or x[1] != last_y:
+            last_y = x[1]
+            if lat.periodic == 0:
+                sy = (x[1] / s) / SQRT3_2
+            else:
+                sy = x[1] / lat.dy
+            b = floor_int64(sy)
+            fb = wp.float64(b)
+        sx = x[0] / s - sy * wp.float64(0.5)
+        a = floor_int64(sx)
+        u = float(sx - wp.float64(a))
+        v = float(sy - fb)
+        a0 = a
+        b0 = b
+        w0 = 1.0 - u - v
+        w1 = u
+        w2 = v
+        if u + v > 1.0:
+            a0 = a + 1
+            b0 = b + 1
+            w0 = u + v - 1.0
+            w1 = 1.0 - v
+            w2 = 1.0 - u
+        k0 = float(0.0)
+        k1 = float(0.0)
+        k2 = float(0.0)
+        if t.guide_weight != 0.0:
+            c, k0, k1, k2 = guide_weights(t, lat, c, x, a0, b0, a, b, w0, w1, w2)
+        else:
+            k0 = quick_weight(w0, t.squarings, skip)
+            k1 = quick_weight(w1, t.squarings, skip)
+            k2 = quick_weight(w2, t.squarings, skip)
+        k0, k1, k2, one = kept_weights(k0, k1, k2)
+        acc = mean - mean
+        if k0 > 0.0:
+            if ca[h0] != a0 or cb[h0] != b0:
+                h0 = -1
+                for k in range(SLOTS):
+                    if ca[k] == a0 and cb[k] == b0:
+                        h0 = k
+                if h0 < 0:
+                    h0 = nxt
+                    nxt = (nxt + 1) & 3
+                    cen, p = lattice_vertex(t, lat, a0, b0)
+                    ca[h0] = a0
+                    cb[h0] = b0
+                    ccx[h0] = cen[0]
+                    ccy[h0] = cen[1]
+                    cpx[h0] = p[0]
+                    cpy[h0] = p[1]
+            q = wp.vec2(float(ccx[h0]) + float(x[0] - cpx[h0]), float(ccy[h0]) + float(x[1] - cpy[h0]))
+            acc = acc + (bilinear(example, q) - mean) * k0
+        if k1 > 0.0:
+            if ca[h1] != a + 1 or cb[h1] != b:
+                h1 = -1
+                for k in range(SLOTS):
+                    if ca[k] == a + 1 and cb[k] == b:
+                        h1 = k
+                if h1 < 0:
+                    h1 = nxt
+                    nxt = (nxt + 1) & 3
+                    cen, p = lattice_vertex(t, lat, a + 1, b)
+                    ca[h1] = a + 1
+                    cb[h1] = b
+                    ccx[h1] = cen[0]
+                    ccy[h1] = cen[1]
+                    cpx[h1] = p[0]
+                    cpy[h1] = p[1]
+            q = wp.vec2(float(ccx[h1]) + float(x[0] - cpx[h1]), float(ccy[h1]) + float(x[1] - cpy[h1]))
+            acc = acc + (bilinear(example, q) - mean) * k1
+        if k2 > 0.0:
+            if ca[h2] != a or cb[h2] != b + 1:
+                h2 = -1
+                for k in range(SLOTS):
+                    if ca[k] == a and cb[k] == b + 1:
+                        h2 = k
+                if h2 < 0:
+                    h2 = nxt
+                    nxt = (nxt + 1) & 3
+                    cen, p = lattice_vertex(t, lat, a, b + 1)
+                    ca[h2] = a
+                    cb[h2] = b + 1
+                    ccx[h2] = cen[0]
+                    ccy[h2] = cen[1]
+                    cpx[h2] = p[0]
+                    cpy[h2] = p[1]
+            q = wp.vec2(float(ccx[h2]) + float(x[0] - cpx[h2]), float(ccy[h2]) + float(x[1] - cpy[h2]))
+            acc = acc + (bilinear(example, q) - mean) * k2
+        if t.variance_preserving != 0 and not one:
+            acc = acc / wp.sqrt(k0 * k0 + k1 * k1 + k2 * k2)
+        out[i, j] = mean + acc
+
+
+for _T in (wp.vec3, float):
+    wp.overload(tiling_runs, {"example": wp.array2d(dtype=_T), "mean": _T, "out": wp.array2d(dtype=_T)})

@@ -71,8 +71,8 @@ def test_structure_score_separates_bricks_from_noise():
 
 @pytest.mark.parametrize("call, param", [
     (lambda m: synthesize(m, (8, 8), mni=10, device="cpu"), "mni"),
-    (lambda m: synthesize(m, (8, 8), period=(64, 64), device="cpu"), "period"),
-    (lambda m: synthesize(m, (8, 8), filter="mip", device="cpu"), "filter"),
+    (lambda m: synthesize(m, (8, 8), cell_factor=0.5, device="cpu"), "cell_factor"),
+    (lambda m: synthesize(m, (8, 8), filter="box", device="cpu"), "filter"),
     (lambda m: evaluate(m, [[0.0, 0.0]], poisson="gaussian", device="cpu"), "poisson"),
     (lambda m: TilingModel(m.example, side=200.0), "side"),
     (lambda m: TilingModel(m.example, side=8.0, sharpness=3), "sharpness"),

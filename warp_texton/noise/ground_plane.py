@@ -17,11 +17,12 @@ from ..core.runtime import progress_bar, resolve_device
 from .canvas import Canvas, check_output, fill_pixels, lanes_for, result_bytes, strips
 from .colours import to_colours
 from ..core.errors import TextonError
-from .filtering import (COST_SAMPLES, FilterOptions, PixelSet, check_filter_cost, filter_pixels, pixel_cost,
+from .filtering import (COST_SAMPLES, MAX_FOOTPRINT, FilterOptions, PixelSet, check_filter_cost, filter_pixels, pixel_cost,
                         pixel_shares)
 from ..core.limits import check_memory
 from .engine import cell_limit, noise_params, noise_setup, params_mean
 from ..model.texton import Texton
+from ..model.tiling import TilingModel
 
 if TYPE_CHECKING:
     import warp as wp
@@ -196,7 +197,7 @@ class PlanePixels(PixelSet):
 
 
 def render_plane(
-    texton: Texton,
+    texton: Texton | TilingModel,
     shape=(512, 512),
     *,
     height: float = 1.0,
@@ -221,7 +222,10 @@ def render_plane(
 
     Parameters
     ----------
-    texton : Texton
+    texton : Texton or TilingModel
+        A tiling model (``analyze(..., method="tiling")``) is filtered through
+        a MIP pyramid of its example (docs/tiling.md, "Filtering"); ``mni``
+        does not apply to it.
     shape : (height, width)
         Image size in pixels, at most 2**28 pixels.
     height : float
@@ -311,6 +315,9 @@ def render_plane(
     h, w = camera.shape
     output = check_output(output)
     options = FilterOptions.of(filter)
+    if isinstance(texton, TilingModel):
+        values = _tiling_plane(texton, camera, None, options, mni, seed, device).reshape(h, w, -1)
+        return _tiling_result(values, output, device)
     setup = noise_setup(texton, mni)  # a bad texton or mni is refused before anything is allocated
     check_seed(seed)
     device = resolve_device(device)
@@ -334,7 +341,7 @@ def render_plane(
     return canvas.result(texton.channels, output, textons=[texton])
 
 
-def plane_pixels(texton: Texton, camera: PlaneCamera, pixels, *, mni: float = 30.0, seed: int = 0, device=None,
+def plane_pixels(texton: Texton | TilingModel, camera: PlaneCamera, pixels, *, mni: float = 30.0, seed: int = 0, device=None,
                  filter="anisotropic", progress: bool = False, out=None) -> np.ndarray | None:
     """Some pixels of :func:`~warp_texton.render_plane`'s image, without rendering the rest.
 
@@ -402,6 +409,14 @@ def plane_pixels(texton: Texton, camera: PlaneCamera, pixels, *, mni: float = 30
     True
     """
     options = FilterOptions.of(filter)
+    if isinstance(texton, TilingModel):
+        values = _tiling_plane(texton, camera, pixels, options, mni, seed, device)
+        if out is None:
+            return values
+        full = np.zeros((values.shape[0], 3), np.float32)
+        full[:, :values.shape[1]] = values
+        out.assign(full)
+        return None
     seed = check_seed(seed)
     setup = noise_setup(texton, mni)
     device = resolve_device(device)
@@ -460,3 +475,53 @@ def check_plane_cost(texton: Texton, setup, camera: PlaneCamera, keys, options: 
     pi, pj = np.divmod(picks if keys is None else keys[picks], w)
     sample = camera.footprints(pi + 0.5, pj + 0.5)
     check_filter_cost(texton, setup, count, sample, options, f"a {w}x{h} plane view")
+
+
+# ---------------------------------------------------------------- tiling models
+
+
+def _tiling_plane(model: TilingModel, camera: PlaneCamera, keys, options: FilterOptions, mni, seed, device) -> np.ndarray:
+    """(N, C) values of the flat pixels ``keys`` (None: all) of ``camera``'s view of a tiling model, filtered
+    as ``options`` say: the footprint kinds through the same kernel function as ``synthesize``'s filtered
+    rasters (``tiling_filtered``), "supersample" with each sub-pixel projected exactly. Pixels that see no
+    plane, or whose centre lies beyond ±2³⁰ texels, hold the example's mean."""
+    from .filtering import tiling_filter_work, tiling_options, tiling_supersampled
+    from .tiling import MAX_TILING_REACH, refuse_texton_options, tiling_at, tiling_filtered_at
+    from ..core.limits import check_work
+
+    refuse_texton_options(dict(mni=(mni, 30.0)))
+    seed = check_seed(seed)
+    options = tiling_options(options)
+    device = resolve_device(device)
+    h, w = camera.shape
+    keys = np.arange(h * w, dtype=np.int64) if keys is None else np.asarray(keys, np.int64)
+    what = f"a {w}x{h} plane view of a tiling model"
+    check_memory(float(keys.size) * 160, what, "use a smaller shape", mentions=("shape",))
+    check_work(tiling_filter_work(options, keys.size), f"{what} with filter {options.kind!r}", options.spec.cost_hint,
+               mentions=("shape", "supersample", "max_aniso"))
+    ii, jj = np.divmod(keys, w)
+    centre = camera.texels(ii + 0.5, jj + 0.5)
+    with np.errstate(invalid="ignore"):
+        hit = np.isfinite(centre).all(axis=1) & (np.abs(centre) < MAX_TILING_REACH).all(axis=1)
+    idx = np.flatnonzero(hit)
+    values = np.empty((keys.size, model.channels), np.float32)
+    values[:] = model.mean3[:model.channels]
+    seen = PlanePixels(camera, keys[idx], np.ascontiguousarray(centre[idx]), options.spec.footprint)
+    if not idx.size:
+        return values
+    if options.spec.supersamples:
+        values[idx] = tiling_supersampled(model, seen, options.supersample, seed, device, reach=MAX_TILING_REACH)
+    elif options.spec.footprint:
+        J = np.clip(np.nan_to_num(seen.footprints(0, seen.count), nan=0.0), -MAX_FOOTPRINT, MAX_FOOTPRINT)
+        values[idx] = tiling_filtered_at(model, seen.centres(0, seen.count), J, options, seed, device)
+    else:
+        values[idx] = tiling_at(model, seen.centres(0, seen.count), seed, device)
+    return values
+
+
+def _tiling_result(values: np.ndarray, output: str, device):
+    if output == "numpy":
+        return values
+    import warp as wp
+
+    return wp.array(values, dtype=float, device=resolve_device(device))

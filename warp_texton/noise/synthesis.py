@@ -24,16 +24,18 @@ from ..core.checks import as_real_array, check_seed, check_shape
 from ..core.runtime import progress_bar, resolve_device
 from .canvas import Canvas, check_output, lanes_for, result_bytes, strips
 from ..core.errors import TextonError
-from .filtering import (COST_HINT_NAMES, COST_SAMPLES, FILTER_BYTES_PER_PIXEL, FilterOptions, RasterPixels,
+from .filtering import (COST_HINT_NAMES, tiling_filter_work, tiling_options, tiling_supersampled, COST_SAMPLES, FILTER_BYTES_PER_PIXEL, FilterOptions, RasterPixels,
                         check_jacobian, filter_pixels, filter_work, needs_filtering, pixel_cost, pixel_shares)
 from .engine import (CELL_FACTOR, NoiseSetup, check_cell_range, check_points_cost, noise_params, noise_setup,
                     params_record, params_struct, point_values)
-from .noise_options import NoiseOptions
+from .noise_options import NoiseOptions, check_period
 from .raster import (RasterWindow, TextonStack, check_method, check_raster_cost, raster_cost, raster_geometry,
                      raster_reach, rasters, resolve_method, window_block)
 from ..model.texton import Texton
 from ..model.tiling import TilingModel
-from .tiling import tiling_at, tiling_pixels
+from .tiling import MAX_TILING_REACH, tiling_at, tiling_filtered_raster, tiling_pixels
+from .tiling import refuse_texton_options as _refuse_texton_options
+from ..core.limits import check_memory, check_work
 
 if TYPE_CHECKING:
     import warp as wp
@@ -125,7 +127,9 @@ def synthesize(
         1; at another scale use (W / scale, H / scale). Note the order:
         ``period`` is (x, y), ``shape`` is (height, width). A period spans at
         most 2³⁰ noise cells (4.2 × 10¹⁰ texels for a 64 × 64 texton,
-        docs/limits.md); a longer one is refused.
+        docs/limits.md); a longer one is refused. A tiling model takes any
+        period up to 2³⁰ texels; its triangle lattice shrinks slightly to fit
+        (docs/tiling.md, "Periodic tiles").
     device : str, optional
         "cpu", "cuda", "cuda:N"; default CUDA when available, else CPU.
     poisson : {"exact", "gaussian"}
@@ -166,7 +170,9 @@ def synthesize(
         "anisotropic") both give exactly the output of "none". Footprints past
         the last MIP level the filters keep
         (:func:`warp_texton.noise.filtering.kept_levels`) fade to the texton's mean;
-        supersamples beyond the noise's cell range count as the mean.
+        supersamples beyond the noise's cell range count as the mean. A tiling
+        model takes the same filters, through a MIP pyramid of its example
+        (docs/tiling.md, "Filtering"; ``fade_energy`` does not apply).
     pixel_offset : (row, column) of integers
         Within ±2³⁰. Make the result the window of pixels ``pixel_offset`` +
         (i, j) of the raster that ``offset``, ``scale`` and ``rotation``
@@ -316,11 +322,11 @@ def synthesize(
     """
     if isinstance(texton, TilingModel):
         return _synthesize_tiling(texton, shape, seed=seed, scale=scale, rotation=rotation, offset=offset,
-                                  device=device, pixel_offset=pixel_offset, output=output,
-                                  texton_only=dict(mni=(mni, 30.0), period=(period, None),
+                                  period=period, device=device, pixel_offset=pixel_offset, output=output,
+                                  jacobian=jacobian, filter=filter,
+                                  texton_only=dict(mni=(mni, 30.0),
                                                    poisson=(poisson, "exact"), cell_factor=(cell_factor, CELL_FACTOR),
-                                                   method=(method, "auto"), jacobian=(jacobian, None),
-                                                   filter=(filter, "none"), noise=(noise, None)))
+                                                   method=(method, "auto"), noise=(noise, None)))
     h, w = check_shape(shape)
     noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
     seed = noise.seed
@@ -474,12 +480,13 @@ def evaluate(
     if not np.isfinite(pts).all():
         raise TextonError(f"points contain {int((~np.isfinite(pts)).sum())} NaN or infinite values")
     if isinstance(texton, TilingModel):
-        _refuse_texton_options(dict(mni=(mni, 30.0), period=(period, None), poisson=(poisson, "exact"),
+        _refuse_texton_options(dict(mni=(mni, 30.0), poisson=(poisson, "exact"),
                                     cell_factor=(cell_factor, CELL_FACTOR), noise=(noise, None)))
         seed = check_seed(seed)
         output = check_output(output)
         check_tiling_reach(pts)
-        return _tiling_output(tiling_at(texton, np.ascontiguousarray(pts), seed, device), output, device)
+        per = check_tiling_period(period)
+        return _tiling_output(tiling_at(texton, np.ascontiguousarray(pts), seed, device, per), output, device)
     noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
     output = check_output(output)
     setup = noise_setup(texton, noise.mni, noise.period, noise.cell_factor)
@@ -507,22 +514,7 @@ def filtered_work(texton: Texton, setup: NoiseSetup, J: np.ndarray, options: Fil
 # ---------------------------------------------------------------- tiling models
 
 #: Tiling models place points with float64 lattice indices in int32: positions stay within ±2³⁰ texels.
-MAX_TILING_REACH = float(1 << 30)
-
-
-def _refuse_texton_options(options: dict) -> None:
-    """One error naming the texton-noise options given to a tiling model."""
-    def same(value, default):
-        if value is default:
-            return True
-        if isinstance(value, bool) or isinstance(default, bool) or default is None:
-            return False
-        return isinstance(value, (str, numbers.Real)) and type(value) is not bool and value == default
-
-    given = [name for name, (value, default) in options.items() if not same(value, default)]
-    if given:
-        raise TextonError(f"{', '.join(given)} do not apply to a tiling model (method 'tiling'); "
-                          "they are texton-noise options", param=given[0])
+# (defined with the tiling drivers, which the ground plane shares)
 
 
 def check_tiling_reach(pts: np.ndarray) -> None:
@@ -531,18 +523,32 @@ def check_tiling_reach(pts: np.ndarray) -> None:
                           f"defined within ±{MAX_TILING_REACH:.3g} texels", param="points")
 
 
-def _tiling_output(values: np.ndarray, output: str, device):
-    if output == "numpy":
+def _tiling_output(values, output: str, device):
+    """NumPy values as ``output`` asks; a device array that is already the output as it is."""
+    if output == "numpy" or not isinstance(values, np.ndarray):
         return values
     import warp as wp
 
     return wp.array(values, dtype=float, device=resolve_device(device))
 
 
-def _synthesize_tiling(model: TilingModel, shape, *, seed, scale, rotation, offset, device, pixel_offset, output,
-                       texton_only):
-    """``synthesize`` for a :class:`TilingModel`: any window, offset, scale and rotation; no filters or periods."""
+def check_tiling_period(period) -> tuple[float, float] | None:
+    """None, or the period (Px, Py) of a tiling model's noise: positive, at most ±2³⁰ texels."""
+    if period is None:
+        return None
+    px, py = check_period(period)
+    if max(px, py) > MAX_TILING_REACH:
+        raise TextonError(f"period ({px:g}, {py:g}): a tiling model's period is at most {MAX_TILING_REACH:.3g} "
+                          "texels", param="period")
+    return px, py
+
+
+def _synthesize_tiling(model: TilingModel, shape, *, seed, scale, rotation, offset, period, device, pixel_offset,
+                       output, jacobian, filter, texton_only):
+    """``synthesize`` for a :class:`TilingModel`: any window, offset, scale, rotation, period and filter."""
     _refuse_texton_options(texton_only)
+    period = check_tiling_period(period)
+    options = tiling_options(FilterOptions.of(filter))
     h, w = check_shape(shape)
     seed = check_seed(seed)
     first = check_pixel_offset(pixel_offset)
@@ -552,5 +558,16 @@ def _synthesize_tiling(model: TilingModel, shape, *, seed, scale, rotation, offs
                                                  [first[0], first[0], first[0] + h, first[0] + h]], np.float64)
     check_tiling_reach(corners.T)
     device = resolve_device(device)
-    values = tiling_pixels(model, (h, w), origin, step, first, seed, device)
+    J = step if jacobian is None else check_jacobian(jacobian, (h, w))
+    if not needs_filtering(J, options):
+        return _tiling_output(tiling_pixels(model, (h, w), origin, step, first, seed, device, period, output), output,
+                              device)
+    what = f"a {w}x{h} raster of a tiling model with filter {options.kind!r}"
+    check_memory(float(h * w) * FILTER_BYTES_PER_PIXEL, what, "use a smaller shape", mentions=("shape",))
+    check_work(tiling_filter_work(options, h * w), what, options.spec.cost_hint, mentions=("shape", *COST_HINT_NAMES))
+    if options.spec.supersamples:
+        pixels = RasterPixels((h, w), origin, step, J, first=first)
+        values = tiling_supersampled(model, pixels, options.supersample, seed, device, period).reshape(h, w, -1)
+    else:
+        values = tiling_filtered_raster(model, (h, w), origin, step, first, J, options, seed, device, period)
     return _tiling_output(values, output, device)

@@ -9,14 +9,36 @@ Kernels driven here: ``warp_texton.kernels.noise_tiling``.
 
 from __future__ import annotations
 
+import math
+import numbers
 import weakref
 
 import numpy as np
 
 from ..core.runtime import init_warp, is_cpu, resolve_device, split_launch
 from ..kernels import noise_tiling
+from ..core.errors import TextonError
 from ..model.tiling import TilingModel
 from .colours import to_colours
+
+#: Tiling models place points with float64 lattice indices in int32: positions stay within ±2³⁰ texels.
+MAX_TILING_REACH = float(1 << 30)
+
+
+def refuse_texton_options(options: dict) -> None:
+    """One error naming the texton-noise options given to a tiling model."""
+    def same(value, default):
+        if value is default:
+            return True
+        if isinstance(value, bool) or isinstance(default, bool) or default is None:
+            return False
+        return isinstance(value, (str, numbers.Real)) and type(value) is not bool and value == default
+
+    given = [name for name, (value, default) in options.items() if not same(value, default)]
+    if given:
+        raise TextonError(f"{', '.join(given)} do not apply to a tiling model (method 'tiling'); "
+                          "they are texton-noise options", param=given[0])
+
 
 #: The device arrays of each model, per device (models are immutable).
 _ARRAYS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -30,10 +52,11 @@ def tiling_struct(model: TilingModel, seed: int, device: str):
         ex = model.example
         rgb = ex if ex.shape[2] == 3 else np.concatenate([ex, np.zeros(ex.shape[:2] + (2,), np.float32)], axis=2)
         guide = model.guide if model.guide_weight != 0.0 else np.zeros((1, 1), np.float32)
+        grey = wp.array(np.ascontiguousarray(ex[..., 0]), dtype=float, device=device) if ex.shape[2] == 1 else None
         per_device[device] = (wp.array(np.ascontiguousarray(rgb), dtype=wp.vec3, device=device),
-                              wp.array(guide, dtype=float, device=device))
+                              wp.array(guide, dtype=float, device=device), grey)
     t = noise_tiling.Tiling()
-    t.example, t.guide = per_device[device]
+    t.example, t.guide = per_device[device][:2]
     t.side = float(model.side)
     t.margin = int(model.margin)
     t.squarings = int(model.sharpness).bit_length() - 1
@@ -48,7 +71,7 @@ def tiling_colours(model: TilingModel, values: np.ndarray) -> None:
     """Map a tiling model's blended values (..., lanes ≥ C) float32, in place, through its histogram
     tables (a histogram-preserving model), exactly as texton noise maps its noise
     (:func:`~warp_texton.noise.colours.to_colours`); nothing for a model without tables.
-    Every output of a tiling model passes its values through here once, after the blend."""
+    Every unfiltered output of a tiling model passes its values through here once, after the blend."""
     if model.histogram is not None:
         flat = values.reshape(-1, values.shape[-1])
         to_colours(flat, model)
@@ -56,42 +79,131 @@ def tiling_colours(model: TilingModel, values: np.ndarray) -> None:
             values[...] = flat.reshape(values.shape)
 
 
-def tiling_pixels(model: TilingModel, shape, origin, step, first, seed: int, device) -> np.ndarray:
+def refuse_filtered_tables(model: TilingModel) -> None:
+    """A histogram-preserving tiling model has no prefiltered tables yet: "mip" and "anisotropic"
+    footprints are refused for it (one error); "supersample" maps each sample and is exact."""
+    if model.histogram is not None:
+        raise TextonError("filters 'mip' and 'anisotropic' do not apply to a histogram-preserving tiling model "
+                          "(its tables are not prefiltered); use filter='supersample', or a model analysed "
+                          "without histogram='preserve'", param="filter")
+
+
+def skip_below(model: TilingModel) -> float:
+    """The barycentric weight below which ``tiling_runs`` drops a vertex without raising it to the
+    sharpness: 0.3 · CUTOFF^(1/sharpness), where w^sharpness is below CUTOFF × the largest weight's
+    (≥ (1/3)^sharpness) with a 10 % margin, so the reference drops it too; 0 with a guide."""
+    if model.guide_weight != 0.0:
+        return 0.0
+    return float(np.float32(0.3 * float(noise_tiling.CUTOFF) ** (1.0 / model.sharpness)))
+
+
+def period_lattice(model: TilingModel, period) -> tuple[int, int]:
+    """(cols, rows): the vertices per period of a periodic tiling's lattice, for ``period`` = (Px, Py).
+
+    cols = ⌈Px / side⌉ and rows = 2 ⌈Py / (side √3)⌉ (even, so that a row period shifts the skewed
+    lattice by whole vertices): the triangles shrink to fit a whole number per period, by at most one
+    part in cols across and in rows/2 down, so that every point stays within ``side`` of its vertices
+    (docs/tiling.md, "Periodic tiles")."""
+    px, py = period
+    cols = max(1, math.ceil(px / model.side))
+    rows = 2 * max(1, math.ceil(py / (model.side * math.sqrt(3.0))))
+    return cols, rows
+
+
+def lattice_struct(model: TilingModel, period):
+    """The kernels' ``Lattice``: the plain one for ``period`` None, else the periodic one of (Px, Py)."""
+    wp = init_warp()
+    lat = noise_tiling.Lattice()
+    lat.periodic = 0
+    lat.cols, lat.rows = 1, 2
+    lat.dx = lat.dy = lat.px = lat.py = wp.float64(1.0)
+    if period is not None:
+        cols, rows = period_lattice(model, period)
+        lat.periodic = 1
+        lat.cols, lat.rows = cols, rows
+        lat.px, lat.py = wp.float64(period[0]), wp.float64(period[1])
+        lat.dx, lat.dy = wp.float64(period[0] / cols), wp.float64(period[1] / rows)
+    return lat
+
+
+def _lanes(model: TilingModel, device):
+    """(example array, mean, texel type) of the kernels' one-lane (grey) or three-lane path."""
+    wp = init_warp()
+    rgb, _, grey = _ARRAYS[model][device]
+    if grey is not None:
+        return grey, float(model.mean3[0]), float
+    return rgb, wp.vec3(*model.mean3.tolist()), wp.vec3
+
+
+#: Pixels per thread of ``tiling_runs`` (one vertex cache per run).
+RUN_CPU = 64
+RUN_CUDA = 4
+
+
+def tiling_pixels(model: TilingModel, shape, origin, step, first, seed: int, device, period=None,
+                  output: str = "numpy"):
     """The (H, W, C) float32 raster whose pixel (i, j) is the model at
-    origin + step · (first[1] + j + ½, first[0] + i + ½) (``raster_geometry``'s layout)."""
+    origin + step · (first[1] + j + ½, first[0] + i + ½) (``raster_geometry``'s layout),
+    periodic with ``period`` = (Px, Py) when given: NumPy, or with ``output="warp"`` on a GPU a
+    float32 ``wp.array`` (H, W, C) that never leaves the device."""
     wp = init_warp()
     device = resolve_device(device)
     h, w = shape
-    t = tiling_struct(model, seed, device)
-    host = np.empty((h, w, 3), np.float32) if is_cpu(device) else None
-    out = wp.array(host, dtype=wp.vec3, copy=False, device=device) if host is not None else wp.empty((h, w), dtype=wp.vec3,
-                                                                                         device=device)
+    tiling_struct(model, seed, device)  # the model's arrays on the device
+    example, mean, dtype = _lanes(model, device)
+    lanes = 1 if dtype is float else 3
+    if is_cpu(device):
+        host = np.empty((h, w, lanes), np.float32)
+        buf = None
+        out = wp.array(host[..., 0] if lanes == 1 else host, dtype=dtype, copy=False, device=device)
+    else:
+        host = None
+        buf = wp.empty((h, w, lanes), dtype=float, device=device)  # the result; the kernels write a view of it
+        out = wp.array(ptr=buf.ptr, dtype=dtype, shape=(h, w), device=device)
     o = wp.vec2d(float(origin[0]), float(origin[1]))
     sx = wp.vec2d(float(step[0, 0]), float(step[1, 0]))
     sy = wp.vec2d(float(step[0, 1]), float(step[1, 1]))
+    run = RUN_CPU if is_cpu(device) else RUN_CUDA
+    skip = skip_below(model)
 
     def launch(r0, r1):
         if r1 > r0:
+            # each launch packs structs of its own: CPU launches run from several threads at once
+            t = tiling_struct(model, seed, device)
+            lat = lattice_struct(model, period)
             at = wp.vec2i(int(first[0]) + r0, int(first[1]))
-            wp.launch(noise_tiling.tiling_raster, dim=(r1 - r0, w), inputs=[t, o, sx, sy, at, out[r0:r1]], device=device)
+            wp.launch(noise_tiling.tiling_runs, dim=(r1 - r0, -(-w // run)),
+                      inputs=[t, lat, example, mean, skip, o, sx, sy, at, run, out[r0:r1]], device=device)
 
     split_launch(device, noise_tiling, h, launch)
-    values = host if host is not None else out.numpy()
+    if host is not None:
+        tiling_colours(model, host)
+        return host
+    assert buf is not None
+    if model.histogram is None:
+        return buf if output == "warp" else buf.numpy()
+    values = buf.numpy()  # the tables map on the host (to_colours), as texton noise's do
     tiling_colours(model, values)
-    return values if model.channels == 3 else np.ascontiguousarray(values[..., :model.channels])
+    return wp.array(values, dtype=float, device=device) if output == "warp" else values
 
 
-def tiling_at(model: TilingModel, points: np.ndarray, seed: int, device) -> np.ndarray:
-    """The (N, C) float32 values of the model at points (N, 2) (x, y), float64."""
+def tiling_at(model: TilingModel, points: np.ndarray, seed: int, device, period=None) -> np.ndarray:
+    """The (N, C) float32 values of the model at points (N, 2) (x, y), float64; periodic with
+    ``period`` = (Px, Py) when given."""
     wp = init_warp()
     device = resolve_device(device)
     n = points.shape[0]
-    t = tiling_struct(model, seed, device)
     pts = wp.array(np.ascontiguousarray(points, np.float64), dtype=wp.vec2d, device=device)
     out = wp.empty(n, dtype=wp.vec3, device=device)
 
     def launch(k0, k1):
-        wp.launch(noise_tiling.tiling_points, dim=k1 - k0, inputs=[t, pts[k0:k1], out[k0:k1]], device=device)
+        t = tiling_struct(model, seed, device)  # structs of its own per launch (launched from several threads)
+        lat = lattice_struct(model, period)
+        if period is None:  # the reference, tiling_value
+            wp.launch(noise_tiling.tiling_points, dim=k1 - k0, inputs=[t, pts[k0:k1], out[k0:k1]], device=device)
+        else:
+            wp.launch(noise_tiling.lattice_points, dim=k1 - k0,
+                      inputs=[t, lat, t.example, t.mean, skip_below(model), pts[k0:k1], out[k0:k1]], device=device)
 
     split_launch(device, noise_tiling, n, launch)
     if not n:
@@ -99,3 +211,147 @@ def tiling_at(model: TilingModel, points: np.ndarray, seed: int, device) -> np.n
     values = out.numpy()
     tiling_colours(model, values)
     return np.ascontiguousarray(values[:, :model.channels])
+
+
+# ---------------------------------------------------------------- filtered tilings
+
+
+def example_pyramid(example: np.ndarray) -> list[np.ndarray]:
+    """The MIP levels of an example (H, W, C): level 0 is the example, level ℓ + 1 the 2 × 2 block means
+    of level ℓ (an odd side repeats its last row or column), down to one texel; float64."""
+    levels = [np.asarray(example, np.float64)]
+    while max(levels[-1].shape[:2]) > 1:
+        a = levels[-1]
+        r, s = a.shape[:2]
+        a = np.pad(a, ((0, r % 2), (0, s % 2), (0, 0)), mode="edge")
+        levels.append(a.reshape(a.shape[0] // 2, 2, a.shape[1] // 2, 2, -1).mean(axis=(1, 3)))
+    return levels
+
+
+def level_contrast(model: TilingModel, levels: list[np.ndarray]) -> np.ndarray:
+    """Per level ℓ, the factor on a patch's deviation from the mean read at level ℓ (the prefiltering of
+    the blend).
+
+    A footprint of 2^ℓ texels larger than a triangle covers about (2^ℓ / side)² independent patches: the
+    blend averaged over it keeps the variance v(side) of one patch's footprint of ``side`` texels divided by
+    their number, while one patch read at level ℓ keeps v(ℓ), the variance of level ℓ (with the large-scale
+    variation of the example that the tiling does not show). The factor is √(min(1, v(side) 4^(ℓs − ℓ) / v(ℓ))),
+    ℓs = log2 side, v(side) interpolated between levels in log2; 1 up to the side's level."""
+    mean = levels[0].mean(axis=(0, 1))
+    var = np.array([float(((lv - mean) ** 2).sum(axis=2).mean()) for lv in levels])
+    ls = math.log2(model.side)
+    i0 = min(int(math.floor(ls)), len(levels) - 1)
+    i1 = min(i0 + 1, len(levels) - 1)
+    f = ls - math.floor(ls)
+    vs = math.exp((1 - f) * math.log(max(var[i0], 1e-30)) + f * math.log(max(var[i1], 1e-30)))
+    ell = np.arange(len(levels), dtype=np.float64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(var > 0, vs * 4.0 ** (ls - ell) / np.maximum(var, 1e-30), 1.0)
+    return np.where(ell <= ls, 1.0, np.sqrt(np.clip(ratio, 0.0, 1.0))).astype(np.float32)
+
+
+#: The pyramids of each model, per device (models are immutable).
+_PYRAMIDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def pyramid_struct(model: TilingModel, device: str):
+    """The kernels' ``TilingPyramid`` of a model on ``device``: its arrays computed once per model and
+    device, the struct made anew for each call (each launch packs its own)."""
+    wp = init_warp()
+    per_device = _PYRAMIDS.setdefault(model, {})
+    if device not in per_device:
+        levels = example_pyramid(model.example)
+        w = levels[0].shape[1]
+        rows = np.array([lv.shape[0] for lv in levels], np.int32)
+        cols = np.array([lv.shape[1] for lv in levels], np.int32)
+        row0 = np.concatenate([[0], np.cumsum(rows)[:-1]]).astype(np.int32)
+        stack = np.zeros((int(rows.sum()), w, 3), np.float32)
+        for lv, r0 in zip(levels, row0):
+            stack[r0:r0 + lv.shape[0], :lv.shape[1], :model.channels] = lv
+        per_device[device] = (wp.array(stack, dtype=wp.vec3, device=device),
+                              wp.array(row0, dtype=int, device=device), wp.array(rows, dtype=int, device=device),
+                              wp.array(cols, dtype=int, device=device),
+                              wp.array(level_contrast(model, levels), dtype=float, device=device), len(levels))
+    pyr = noise_tiling.TilingPyramid()
+    pyr.texels, pyr.row0, pyr.rows, pyr.cols, pyr.contrast, pyr.levels = per_device[device]
+    return pyr
+
+
+def tiling_filter(options) -> object:
+    """The kernels' ``Filter`` of a footprint kind, with the tiling's level bias (:data:`TILING_LOD_BIAS`
+    unless ``options.lod_bias`` is given)."""
+    from ..kernels import noise_filter
+
+    f = noise_filter.Filter()
+    f.mode = noise_filter.ANISOTROPIC if options.spec.axis_lookups else noise_filter.MIP
+    f.max_aniso = options.max_aniso
+    f.lod_bias = float(TILING_LOD_BIAS[options.kind] if options.lod_bias is None else options.lod_bias)
+    return f
+
+
+#: The level bias of a tiling's footprint filters: added to log2 of a probe's width (measured on
+#: benchmarks/bench_structure.py's plane, docs/tiling.md "Filtering").
+TILING_LOD_BIAS = {"mip": -1.0, "anisotropic": -0.7}
+
+
+def _channels(model: TilingModel, values: np.ndarray) -> np.ndarray:
+    return values if model.channels == 3 else np.ascontiguousarray(values[..., :model.channels])
+
+
+def tiling_filtered_raster(model: TilingModel, shape, origin, step, first, J: np.ndarray, options, seed: int,
+                           device, period=None) -> np.ndarray:
+    """The (H, W, C) raster of :func:`tiling_pixels` filtered for footprints ``J`` ((2, 2) or (H, W, 2, 2))
+    with a footprint kind ("mip" or "anisotropic")."""
+    refuse_filtered_tables(model)
+    wp = init_warp()
+    device = resolve_device(device)
+    h, w = shape
+    tiling_struct(model, seed, device)  # the model's arrays on the device
+    per_pixel = int(J.ndim == 4)
+    jac_host = np.ascontiguousarray(J.astype(np.float32).reshape((h, w, 2, 2) if per_pixel else (1, 1, 2, 2)))
+    jac = wp.array(jac_host, dtype=wp.mat22, device=device)
+    out = wp.empty((h, w), dtype=wp.vec3, device=device)
+    o = wp.vec2d(float(origin[0]), float(origin[1]))
+    sx = wp.vec2d(float(step[0, 0]), float(step[1, 0]))
+    sy = wp.vec2d(float(step[0, 1]), float(step[1, 1]))
+
+    def launch(r0, r1):
+        t = tiling_struct(model, seed, device)  # structs of its own per launch (launched from several threads)
+        lat = lattice_struct(model, period)
+        pyr = pyramid_struct(model, device)
+        f = tiling_filter(options)
+        at = wp.vec2i(int(first[0]) + r0, int(first[1]))
+        wp.launch(noise_tiling.tiling_filtered_raster, dim=(r1 - r0, w),
+                  inputs=[t, lat, pyr, f, o, sx, sy, at, jac[r0:r1] if per_pixel else jac, per_pixel, out[r0:r1]],
+                  device=device)
+
+    split_launch(device, noise_tiling, h, launch)
+    return _channels(model, out.numpy())
+
+
+def tiling_filtered_at(model: TilingModel, points: np.ndarray, J: np.ndarray, options, seed: int, device,
+                       period=None) -> np.ndarray:
+    """(N, C) values of the model at points (N, 2) filtered for footprints J ((N, 2, 2) or (1, 2, 2)) with a
+    footprint kind: the same function as :func:`tiling_filtered_raster`'s pixels."""
+    refuse_filtered_tables(model)
+    wp = init_warp()
+    device = resolve_device(device)
+    n = points.shape[0]
+    if not n:
+        return np.zeros((0, model.channels), np.float32)
+    tiling_struct(model, seed, device)  # the model's arrays on the device
+    per = int(J.shape[0] > 1)
+    pts = wp.array(np.ascontiguousarray(points, np.float64), dtype=wp.vec2d, device=device)
+    jac = wp.array(np.ascontiguousarray(J.reshape(-1, 2, 2).astype(np.float32)), dtype=wp.mat22, device=device)
+    out = wp.empty(n, dtype=wp.vec3, device=device)
+
+    def launch(k0, k1):
+        t = tiling_struct(model, seed, device)  # structs of its own per launch (launched from several threads)
+        lat = lattice_struct(model, period)
+        pyr = pyramid_struct(model, device)
+        f = tiling_filter(options)
+        wp.launch(noise_tiling.tiling_filtered_points, dim=k1 - k0,
+                  inputs=[t, lat, pyr, f, pts[k0:k1], jac[k0:k1] if per else jac, per, out[k0:k1]], device=device)
+
+    split_launch(device, noise_tiling, n, launch)
+    return _channels(model, out.numpy())
