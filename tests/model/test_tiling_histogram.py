@@ -116,3 +116,22 @@ def test_a_users_kernel_maps_tiling_value_with_the_texton_functions(model):
               inputs=[tiling_struct(model, 6, "cpu"), make_colour_map(model, "cpu"),
                       wp.array(pts, dtype=wp.vec2d, device="cpu"), out])
     assert np.array_equal(out.numpy(), evaluate(model, pts, seed=6, device="cpu"))
+
+
+def test_every_unfiltered_output_path_maps_the_tables(model, example):
+    # periodic rasters and points, and supersampled footprints (each sample mapped, then averaged), stay in
+    # the example's colours: without the tables the Gaussianised values reach about ±3
+    lo, hi = example.min(axis=(0, 1)) - 1e-6, example.max(axis=(0, 1)) + 1e-6
+    per = synthesize(model, (40, 48), seed=2, period=(48, 40), device="cpu")
+    assert np.all((per >= lo) & (per <= hi))
+    pts = np.array([[0.5, 0.5], [10.5, 3.5], [47.5, 39.5]])  # pixel centres
+    np.testing.assert_array_equal(evaluate(model, pts, seed=2, period=(48, 40), device="cpu"),
+                                  per[(pts[:, 1] - 0.5).astype(int), (pts[:, 0] - 0.5).astype(int)])
+    sup = synthesize(model, (16, 16), seed=2, scale=0.5, filter="supersample", device="cpu")
+    assert np.all((sup >= lo) & (sup <= hi))
+
+
+@pytest.mark.parametrize("kind", ["mip", "anisotropic"])
+def test_footprint_filters_are_refused_without_prefiltered_tables(model, kind):
+    with pytest.raises(TextonError, match="histogram-preserving tiling model.*supersample"):
+        synthesize(model, (16, 16), seed=2, scale=0.25, filter=kind, device="cpu")

@@ -35,12 +35,18 @@ def test_batch_of_grey_models_and_warp_output(models):
 
 @pytest.mark.parametrize("kwargs, words", [
     ({"mni": 10.0}, "mni"),
-    ({"period": (64, 64)}, "period"),
     ({"offset": (4e9, 0.0)}, "texels"),
 ])
 def test_batch_refusals(models, kwargs, words):
     with pytest.raises(TextonError, match=words):
         synthesize_batch(models[0], 2, (8, 8), device="cpu", **kwargs)
+
+
+def test_batch_passes_periods_and_filters_to_synthesize(models):
+    # a tiling model's periods and footprint filters reach batches: item k is synthesize's raster
+    for kwargs in ({"period": (64, 48)}, {"filter": "anisotropic"}):
+        b, params = synthesize_batch(models[0], 2, (16, 16), seed=np.array([3, 4]), scale=0.25, device="cpu", **kwargs)
+        assert np.array_equal(b[1], synthesize(models[0], (16, 16), **params.item(1), **kwargs, device="cpu")), kwargs
 
 
 def test_batch_refuses_mixed_kinds(models):
