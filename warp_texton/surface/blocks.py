@@ -185,20 +185,20 @@ def draw_cubes(cells: Cells3, lo: np.ndarray, dims: np.ndarray, device) -> surfa
     d = dims[owner]
     coords = lo[owner] + np.stack([local % d[:, 0], (local // d[:, 0]) % d[:, 1], local // (d[:, 0] * d[:, 1])],
                                   axis=1)
-    cube_arr: wp.array = wp.array(coords.astype(np.int32), dtype=wp.vec3i)
-    counts = wp.empty(total + 1, dtype=wp.int32)
+    cube_arr: wp.array = wp.array(coords.astype(np.int32), dtype=wp.vec3i, device=device)
+    counts = wp.empty(total + 1, dtype=wp.int32, device=device)
     split_launch(device, surface_blocks, total, lambda a, b: wp.launch(surface_blocks.count_cubes, dim=b - a,
                                                            inputs=[cells, cube_arr[a:b], counts[a:b]]))
-    offsets = wp.empty(total + 1, dtype=wp.int32)
+    offsets = wp.empty(total + 1, dtype=wp.int32, device=device)
     wp.utils.array_scan(counts, offsets, inclusive=False)
     n_impacts = int(offsets[total:total + 1].numpy()[0])
     blocks = surface_blocks.CubeBlocks()
     blocks.cubes = cube_arr
-    blocks.origin = wp.array(lo.astype(np.int32), dtype=wp.vec3i)
-    blocks.dims = wp.array(dims.astype(np.int32), dtype=wp.vec3i)
-    blocks.base = wp.array(base.astype(np.int32), dtype=wp.int32)
+    blocks.origin = wp.array(lo.astype(np.int32), dtype=wp.vec3i, device=device)
+    blocks.dims = wp.array(dims.astype(np.int32), dtype=wp.vec3i, device=device)
+    blocks.base = wp.array(base.astype(np.int32), dtype=wp.int32, device=device)
     blocks.offsets = offsets
-    blocks.ux, blocks.uy, blocks.uz = (wp.empty(max(n_impacts, 1), dtype=wp.float32) for _ in range(3))
+    blocks.ux, blocks.uy, blocks.uz = (wp.empty(max(n_impacts, 1), dtype=wp.float32, device=device) for _ in range(3))
     if n_impacts:
         split_launch(device, surface_blocks, total, lambda a, b: wp.launch(
             surface_blocks.emit_cubes, dim=b - a, inputs=[cells, cube_arr[a:b], offsets[a:], blocks.ux, blocks.uy, blocks.uz]))
@@ -238,7 +238,7 @@ def gather_blocks(p: surface_points.SurfaceParams, coeffs, pos: np.ndarray, nrm:
     out = np.empty((n, lanes), np.float32)
     res = wp.array(out.reshape(n) if lanes == 1 else out, dtype=coeffs.dtype, copy=False, device=device) if on_cpu \
         else wp.empty(n, dtype=coeffs.dtype, device=device)
-    lists = None if by_cluster else ClusterLists(min(len(pts.clusters), CLUSTERS_PER_ROUND))
+    lists = None if by_cluster else ClusterLists(min(len(pts.clusters), CLUSTERS_PER_ROUND), device)
     for b0, b1 in block_rounds(cubes):
         blocks = draw_cubes(p.cells, pts.lo[b0:b1], dims[b0:b1], device)
         gather_round(p, coeffs, pts, sorted_tan, device, pts.starts[b0:b1], ends[b0:b1], blocks, lists, res,
@@ -250,17 +250,17 @@ class ClusterLists:
     """Room for the impact lists of ``size`` clusters (``surface_points.Clusters`` without ``first``),
     allocated once per call and reused by every round."""
 
-    def __init__(self, size: int):
+    def __init__(self, size: int, device):
         cl = surface_points.Clusters()
         cl.cap = CLUSTER_CAP
         cl.cap_runs = CLUSTER_RUNS
-        cl.first = wp.empty(1, dtype=wp.int32)  # set per round
-        cl.runs = wp.empty(size, dtype=wp.int32)
-        cl.run_cube = wp.empty(size * CLUSTER_RUNS, dtype=wp.int32)
-        cl.run_end = wp.empty(size * CLUSTER_RUNS, dtype=wp.int32)
-        cl.ux = wp.empty(size * CLUSTER_CAP, dtype=wp.float32)
-        cl.uy = wp.empty(size * CLUSTER_CAP, dtype=wp.float32)
-        cl.uz = wp.empty(size * CLUSTER_CAP, dtype=wp.float32)
+        cl.first = wp.empty(1, dtype=wp.int32, device=device)  # set per round
+        cl.runs = wp.empty(size, dtype=wp.int32, device=device)
+        cl.run_cube = wp.empty(size * CLUSTER_RUNS, dtype=wp.int32, device=device)
+        cl.run_end = wp.empty(size * CLUSTER_RUNS, dtype=wp.int32, device=device)
+        cl.ux = wp.empty(size * CLUSTER_CAP, dtype=wp.float32, device=device)
+        cl.uy = wp.empty(size * CLUSTER_CAP, dtype=wp.float32, device=device)
+        cl.uz = wp.empty(size * CLUSTER_CAP, dtype=wp.float32, device=device)
         self.clusters = cl
 
 
@@ -278,13 +278,13 @@ def gather_round(p: surface_points.SurfaceParams, coeffs, sorted_points: Blocked
     m = p1 - p0
     on_cpu = wp.get_device(device).is_cpu
     # the CPU reads the sorted copies in place (contiguous rows of float64 / float32)
-    pts: wp.array = wp.array(pos[p0:p1], dtype=wp.vec3d, copy=not on_cpu)
-    nrms: wp.array = wp.array(nrm[p0:p1], dtype=wp.vec3, copy=not on_cpu)
-    tans = wp.array(tan[p0:p1], dtype=wp.vec3, copy=not on_cpu) if tan is not None else wp.zeros(1, dtype=wp.vec3)
-    owners: wp.array = wp.array(block_of, dtype=wp.int32)
+    pts: wp.array = wp.array(pos[p0:p1], dtype=wp.vec3d, copy=not on_cpu, device=device)
+    nrms: wp.array = wp.array(nrm[p0:p1], dtype=wp.vec3, copy=not on_cpu, device=device)
+    tans = wp.array(tan[p0:p1], dtype=wp.vec3, copy=not on_cpu, device=device) if tan is not None else wp.zeros(1, dtype=wp.vec3, device=device)
+    owners: wp.array = wp.array(block_of, dtype=wp.int32, device=device)
     frames = surface_points.PointFrames()
-    frames.u1, frames.u2 = wp.empty(m, dtype=wp.vec3), wp.empty(m, dtype=wp.vec3)
-    frames.lo, frames.hi = wp.empty(m, dtype=wp.vec3i), wp.empty(m, dtype=wp.vec3i)
+    frames.u1, frames.u2 = wp.empty(m, dtype=wp.vec3, device=device), wp.empty(m, dtype=wp.vec3, device=device)
+    frames.lo, frames.hi = wp.empty(m, dtype=wp.vec3i, device=device), wp.empty(m, dtype=wp.vec3i, device=device)
 
     def frame(a, b):
         sub = surface_points.PointFrames()
@@ -294,7 +294,7 @@ def gather_round(p: surface_points.SurfaceParams, coeffs, sorted_points: Blocked
 
     if not by_cluster:  # gather_cluster_lists frames its own points
         split_launch(device, surface_points, m, frame)
-    dest: wp.array = wp.array(order[p0:p1], dtype=wp.int64, copy=not on_cpu)
+    dest: wp.array = wp.array(order[p0:p1], dtype=wp.int64, copy=not on_cpu, device=device)
     # one thread per cluster on the CPU (cluster_sums: SIMD over its points) for
     # order-1 textons; one per point elsewhere (the GPU, and other orders)
     simd = int(bool(SIMD))
@@ -302,14 +302,14 @@ def gather_round(p: surface_points.SurfaceParams, coeffs, sorted_points: Blocked
     mine = clusters[(clusters >= p0) & (clusters < p1)]
     cfirst = np.r_[mine - p0, m].astype(np.int32)
     cluster_of: wp.array | None = None if by_cluster else wp.array(np.repeat(np.arange(len(mine), dtype=np.int32), np.diff(cfirst)),
-                                                  dtype=wp.int32)
+                                                  dtype=wp.int32, device=device)
     if by_cluster:
-        first: wp.array = wp.array(cfirst, dtype=wp.int32)
+        first: wp.array = wp.array(cfirst, dtype=wp.int32, device=device)
 
         def gather(a, b):
             wp.launch(surface_points.gather_cluster_lists, dim=b - a, inputs=[p, coeffs, pts, nrms, tans, int(tan is not None),
                                                                  frames, owners, blocks, first,
-                                                                 ClusterLists(1).clusters, a, CLUSTER_MIN, simd, res,
+                                                                 ClusterLists(1, device).clusters, a, CLUSTER_MIN, simd, res,
                                                                  dest])
 
         split_launch(device, surface_points, len(mine), gather)
@@ -318,7 +318,7 @@ def gather_round(p: surface_points.SurfaceParams, coeffs, sorted_points: Blocked
         cl = lists.clusters
         for m0 in range(0, len(mine), CLUSTERS_PER_ROUND):
             m1 = min(m0 + CLUSTERS_PER_ROUND, len(mine))
-            cl.first = wp.array(cfirst[m0:m1 + 1], dtype=wp.int32)
+            cl.first = wp.array(cfirst[m0:m1 + 1], dtype=wp.int32, device=device)
             split_launch(device, surface_points, m1 - m0, lambda a, b: wp.launch(
                 surface_points.list_cluster_impacts, dim=b - a, inputs=[p, pts, nrms, frames, owners, blocks, cl, a, CLUSTER_MIN,
                                                            simd]))
