@@ -31,7 +31,7 @@ from .analysis_options import SUPPORTS, AnalysisOptions, check_support  # noqa: 
 from ..core.errors import TextonError
 from .example_checks import warn_large, warn_unsuited
 from ..core.limits import check_memory, check_work
-from .histogram import HistogramTransform
+from .histogram import NOISE_MNI, HistogramTransform, gauss_grid, noise_cdf
 from .gaussian import FFT_WORKERS, normalized_kernel, relative_model_error_half
 from .texton import Texton, lag0_covariance
 
@@ -372,7 +372,10 @@ def analyze(
     texton.metadata.update(periodic=bool(periodic))
     if transform is None:
         return texton
-    texton.metadata.update(histogram=histogram)
+    # the tables take the noise's own marginal (compound Poisson, skewed at MNI 30) to
+    # the example's, not a Gaussian's (docs/histogram.md, "The noise's own marginal")
+    transform = transform.for_noise(u, noise_cdf(texton, NOISE_MNI, gauss_grid(transform.lut.shape[1])))
+    texton.metadata.update(histogram=histogram, histogram_mni=NOISE_MNI)
     return replace(texton, histogram=transform)
 
 

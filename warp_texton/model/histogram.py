@@ -39,9 +39,17 @@ SHARE_STEPS = 33
 #: Quadrature nodes and correlation steps of :meth:`HistogramTransform.correlation_map`.
 CORRELATION_NODES = 96
 CORRELATION_STEPS = 401
+#: The MNI whose noise ``analyze`` fits the tables to (``synthesize``'s default and
+#: every runtime's): :func:`noise_cdf`.
+NOISE_MNI = 30.0
+#: :func:`noise_cdf`'s lattice: points, and its span in standard deviations (±SPAN / 2).
+CDF_POINTS = 1 << 16
+CDF_SPAN = 40.0
+#: Samples of the texton per texel and axis for :func:`noise_cdf` (fewer for large textons).
+CDF_OVERSAMPLING = 8
 #: Accepted values of ``analyze(..., histogram=...)``.
 HISTOGRAMS = ("gaussian", "preserve")
-#: Bound of a stored transform's JSON (3 channels of LUT_SIZE numbers take about 70 kB).
+#: Bound of a stored transform's JSON (3 channels of LUT_SIZE numbers take about 70 kB; two tables 140 kB).
 MAX_HISTOGRAM_CHARS = 1 << 20
 #: Largest magnitude of a transform's centre (an example's mean colour): the bound of
 #: image values, ``_checks.MAX_VALUE``.
@@ -83,8 +91,16 @@ class HistogramTransform:
     centre : float64 array (C,)
         The example's mean colour (0 for the RGB axes of ``fit(..., axes="rgb")``).
     lut : float64 array (C, K)
-        Non-decreasing quantiles of each decorrelated channel at the Gaussian
-        quantiles Φ(g_k), g_k = :func:`gauss_grid` (K).
+        Non-decreasing quantiles of each decorrelated channel at the
+        probabilities F(g_k), g_k = :func:`gauss_grid` (K), F the CDF of the
+        standardised noise the table is applied to: Φ for a Gaussian input
+        (:meth:`fit`), the texton noise's own compound-Poisson CDF for the
+        tables of ``analyze`` (:meth:`for_noise`, :func:`noise_cdf`).
+    gaussian_lut : float64 array (C, K) or None
+        The tables at the Gaussian quantiles Φ(g_k) when :attr:`lut` is fitted
+        to a non-Gaussian noise (:meth:`for_noise`); the prefiltered tables
+        fade from :attr:`lut` to it as a filter averages the noise towards a
+        Gaussian (:attr:`prefiltered`). None: :attr:`lut` is the Gaussian one.
 
     Raises
     ------
@@ -109,6 +125,7 @@ class HistogramTransform:
     matrix: np.ndarray
     centre: np.ndarray
     lut: np.ndarray
+    gaussian_lut: np.ndarray | None = None
 
     def __post_init__(self):
         m = _finite(self.matrix, "matrix")
@@ -131,7 +148,17 @@ class HistogramTransform:
         if np.any(np.diff(lut, axis=1) < 0):
             raise TextonError("histogram transform: a lookup table decreases somewhere; the inverse CDFs "
                               "must be non-decreasing", param="histogram")
-        for name, a in (("matrix", m), ("centre", centre), ("lut", lut)):
+        arrays = [("matrix", m), ("centre", centre), ("lut", lut)]
+        if self.gaussian_lut is not None:
+            glut = _bounded(_finite(self.gaussian_lut, "gaussian_lut"), "gaussian_lut", MAX_TABLE_VALUE)
+            if glut.shape != lut.shape:
+                raise TextonError(f"histogram transform: gaussian_lut must have the shape of lut {lut.shape}, "
+                                  f"got {glut.shape}", param="histogram")
+            if np.any(np.diff(glut, axis=1) < 0):
+                raise TextonError("histogram transform: gaussian_lut decreases somewhere; the inverse CDFs "
+                                  "must be non-decreasing", param="histogram")
+            arrays.append(("gaussian_lut", glut))
+        for name, a in arrays:
             a.setflags(write=False)
             object.__setattr__(self, name, a)
 
@@ -166,6 +193,30 @@ class HistogramTransform:
         lut = np.quantile(z, q, axis=0).T  # linear interpolation between order statistics
         return cls(matrix, centre, np.maximum.accumulate(lut, axis=1))
 
+    def for_noise(self, u: np.ndarray, cdf: np.ndarray) -> HistogramTransform:
+        """The transform whose tables map the standardised noise of CDF ``cdf`` (C, K),
+        sampled at :func:`gauss_grid`, to the example u's channels: ``lut`` holds their
+        quantiles at the probabilities ``cdf`` (F_u⁻¹ ∘ F_noise: each output channel
+        then has u's marginal exactly, whatever the noise's skewness), and
+        ``gaussian_lut`` this transform's tables at Φ(g_k)."""
+        z = self.decorrelate(u).reshape(-1, self.channels)
+        cdf = np.clip(np.asarray(cdf, np.float64), 0.0, 1.0)
+        lut = np.array([np.quantile(z[:, c], cdf[c]) for c in range(self.channels)])
+        base = self.lut if self.gaussian_lut is None else self.gaussian_lut
+        return HistogramTransform(self.matrix, self.centre, np.maximum.accumulate(lut, axis=1), base)
+
+    def mixed(self, other: HistogramTransform, rho: float) -> HistogramTransform:
+        """The displacement interpolation (1 − ρ) self + ρ other of two transforms on the
+        same colour axes: tables and centres interpolated linearly (both the applied
+        and the Gaussian tables, each transform's ``lut`` standing for a missing one)."""
+        glut = None
+        if self.gaussian_lut is not None or other.gaussian_lut is not None:
+            a = self.lut if self.gaussian_lut is None else self.gaussian_lut
+            b = other.lut if other.gaussian_lut is None else other.gaussian_lut
+            glut = (1.0 - rho) * a + rho * b
+        return HistogramTransform(self.matrix, (1.0 - rho) * self.centre + rho * other.centre,
+                                  (1.0 - rho) * self.lut + rho * other.lut, glut)
+
     def to_gaussian(self, u: np.ndarray) -> np.ndarray:
         """The example u (H, W, C) Gaussianised: decorrelated, each channel through its
         empirical CDF to a standard Gaussian (ties share their mean rank), float64."""
@@ -197,7 +248,8 @@ class HistogramTransform:
         x, w = np.polynomial.hermite_e.hermegauss(CORRELATION_NODES)
         w = w / w.sum()
         grid = gauss_grid(self.lut.shape[1])
-        table = self.lut[c] - self.lut[c, self.lut.shape[1] // 2] if centred else self.lut[c]
+        lut = self.lut if self.gaussian_lut is None else self.gaussian_lut  # a map of Gaussian values
+        table = lut[c] - lut[c, lut.shape[1] // 2] if centred else lut[c]
         tx = np.interp(x, grid, table)
         m = tx @ w
         var = tx ** 2 @ w - m * m
@@ -277,16 +329,24 @@ class HistogramTransform:
     # ------------------------------------------------------------------ applying
     @functools.cached_property
     def prefiltered(self) -> np.ndarray:
-        """(SHARE_STEPS, C, K) tables: row i is :attr:`lut` convolved with a Gaussian of
-        variance 1 − v_i, v_i = i / (SHARE_STEPS − 1); the last row is :attr:`lut`."""
+        """(SHARE_STEPS, C, K) tables: row i is a table convolved with a Gaussian of
+        variance 1 − v_i, v_i = i / (SHARE_STEPS − 1); the last row is :attr:`lut`.
+
+        Without :attr:`gaussian_lut` the table is :attr:`lut`. With it, the table
+        is G + √v (lut − G), G = :attr:`gaussian_lut`: a filtered value averages
+        the noise over about 1/v independent parts, so its skewness falls as √v
+        and its table moves towards the Gaussian one; at v = 0 the row is G
+        averaged over a standard Gaussian, the example's mean."""
         from scipy.ndimage import gaussian_filter1d
 
         step = 2.0 * GAUSS_RANGE / (self.lut.shape[1] - 1)
         out = np.empty((SHARE_STEPS,) + self.lut.shape)
+        base = self.lut if self.gaussian_lut is None else self.gaussian_lut
         for i, v in enumerate(np.linspace(0.0, 1.0, SHARE_STEPS)):
             sigma = np.sqrt(max(1.0 - v, 0.0)) / step
+            table = base + np.sqrt(v) * (self.lut - base) if self.gaussian_lut is not None else self.lut
             # "nearest" extends each table by its end values: the clamp that to_colours applies
-            out[i] = gaussian_filter1d(self.lut, sigma, axis=1, mode="nearest", truncate=6.0) if sigma > 0 else self.lut
+            out[i] = gaussian_filter1d(table, sigma, axis=1, mode="nearest", truncate=6.0) if sigma > 0 else table
         out[-1] = self.lut
         out.setflags(write=False)
         return out
@@ -322,8 +382,11 @@ class HistogramTransform:
     # ------------------------------------------------------------------ files
     def to_json(self) -> str:
         """The transform as JSON; float64 values round-trip exactly."""
-        return json.dumps({"version": 1, "gauss_range": GAUSS_RANGE, "matrix": self.matrix.tolist(),
-                           "centre": self.centre.tolist(), "lut": self.lut.tolist()}, allow_nan=False)
+        d = {"version": 1, "gauss_range": GAUSS_RANGE, "matrix": self.matrix.tolist(),
+             "centre": self.centre.tolist(), "lut": self.lut.tolist()}
+        if self.gaussian_lut is not None:
+            d["gaussian_lut"] = self.gaussian_lut.tolist()
+        return json.dumps(d, allow_nan=False)
 
     @classmethod
     def from_json(cls, raw: str, where: str) -> HistogramTransform:
@@ -340,12 +403,72 @@ class HistogramTransform:
         if not isinstance(d, dict) or d.get("version") != 1 or d.get("gauss_range") != GAUSS_RANGE:
             raise bad(f"expected version 1 over the Gaussian range ±{GAUSS_RANGE:g}")
         try:
+            glut = d.get("gaussian_lut")
             return cls(np.array(d["matrix"], np.float64), np.array(d["centre"], np.float64),
-                       np.array(d["lut"], np.float64))
+                       np.array(d["lut"], np.float64), None if glut is None else np.array(glut, np.float64))
         except TextonError as exc:  # a ValueError too: first
             raise bad(str(exc).removeprefix("histogram transform: ")) from None
         except (KeyError, TypeError, ValueError):
-            raise bad("matrix, centre and lut must be arrays of numbers") from None
+            raise bad("matrix, centre, lut (and gaussian_lut) must be arrays of numbers") from None
+
+
+def texton_values(coeffs: np.ndarray, order: int, oversampling: int) -> np.ndarray:
+    """h(y) = Σ α(j) ψ(y − j) on ``oversampling``² midpoints per texel of its
+    bounding box, (N, C) float64; each sample stands for 1 / oversampling² texels²."""
+    from .bspline import bspline
+
+    r, s, c = coeffs.shape
+    reach = 0.5 if order == 0 else (order + 1) / 2.0
+
+    def weights(n: int) -> np.ndarray:
+        y = np.arange(-reach, n - 1 + reach - 1e-9, 1.0 / oversampling) + 0.5 / oversampling
+        return bspline(y[:, None] - np.arange(n)[None, :], order)
+
+    h = np.einsum("ir,rsc,js->ijc", weights(r), np.asarray(coeffs, np.float64), weights(s), optimize=True)
+    return h.reshape(-1, c)
+
+
+def noise_cdf(texton, mni: float, grid: np.ndarray) -> np.ndarray:
+    """(C, len(grid)): the CDF of texton noise at MNI ``mni``, standardised by its
+    exact moments (g = (v − m) / σ, as the outputs standardise it), at ``grid``.
+
+    Texton noise sums h(x − x_j) over a Poisson process of intensity λ = MNI /
+    support_area: a compound Poisson variable of characteristic function
+    exp(λ ∫ (e^{i t h(y)} − 1) dy) (CGF §3.3). h is sampled on a fine grid
+    (:func:`texton_values`), its values spread linearly over a lattice of
+    CDF_POINTS steps spanning CDF_SPAN standard deviations, and the lattice
+    distribution of the sum is the inverse FFT of that function (exact up to the
+    lattice and the sampling of h). Channels without variance get Φ.
+    """
+    from scipy.special import ndtr
+
+    grid = np.asarray(grid, np.float64)
+    size = max(texton.size)
+    q = int(np.clip(1024 // max(size, 1), 2, CDF_OVERSAMPLING))
+    h = texton_values(texton.coeffs, texton.order, q)
+    lam = mni / texton.support_area
+    var = np.diag(np.atleast_2d(texton.covariance()))
+    integral = texton.integral
+    n, delta = CDF_POINTS, CDF_SPAN / CDF_POINTS
+    out = np.empty((h.shape[1], len(grid)))
+    for c in range(h.shape[1]):
+        sigma = np.sqrt(lam * var[c])
+        if not sigma > 0:
+            out[c] = ndtr(grid)
+            continue
+        x = h[:, c] / (sigma * delta)  # the values of one impact, in lattice steps
+        lo = np.floor(x)
+        t = x - lo
+        i = lo.astype(np.int64) % n
+        rate = lam / (q * q)  # impacts per sample of h
+        w = np.bincount(i, (1.0 - t) * rate, n) + np.bincount((i + 1) % n, t * rate, n)
+        pmf = np.fft.ifft(np.exp(np.fft.fft(w) - w.sum())).real
+        # the sum's lattice point j is the value j δ (mod the span); centred: j δ − λ∫h / σ
+        centred = (np.arange(n) - lam * integral[c] / (sigma * delta) + n / 2) % n - n / 2
+        order = np.argsort(centred)
+        cdf = np.cumsum(np.maximum(pmf[order], 0.0))
+        out[c] = np.interp(grid, (centred[order] + 0.5) * delta, cdf / cdf[-1])
+    return out
 
 
 def _finite(a, name: str) -> np.ndarray:
