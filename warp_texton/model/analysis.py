@@ -31,7 +31,7 @@ from .analysis_options import SUPPORTS, AnalysisOptions, check_support  # noqa: 
 from ..core.errors import TextonError
 from .example_checks import warn_large, warn_unsuited
 from ..core.limits import check_memory, check_work
-from .histogram import NOISE_MNI, HistogramTransform, gauss_grid, noise_cdf
+from .histogram import REFINE_ROUNDS, REFINE_SAMPLES, NOISE_MNI, noise_sample, HistogramTransform, gauss_grid, noise_cdf
 from .gaussian import FFT_WORKERS, normalized_kernel, relative_model_error_half
 from .texton import Texton, lag0_covariance
 
@@ -359,7 +359,8 @@ def analyze(
         transform = HistogramTransform.fit(u, axes="rgb" if colour else "pca")
         z = transform.decorrelate(u).astype(np.float32)
         mean, t = normalized_kernel(transform.to_gaussian(u).astype(np.float32), periodic=periodic)
-        t = transform.gaussian_kernel(t, normalized_kernel(z, periodic=periodic)[1], size if colour else None)
+        tz = normalized_kernel(z, periodic=periodic)[1]
+        t = transform.gaussian_kernel(t, tz, size if colour else None)
     else:
         mean, t = normalized_kernel(u, periodic=periodic)
     t_hat = sfft.rfft2(t, axes=(0, 1), workers=FFT_WORKERS)
@@ -372,11 +373,60 @@ def analyze(
     texton.metadata.update(periodic=bool(periodic))
     if transform is None:
         return texton
-    # the tables take the noise's own marginal (compound Poisson, skewed at MNI 30) to
-    # the example's, not a Gaussian's (docs/histogram.md, "The noise's own marginal")
-    transform = transform.for_noise(u, noise_cdf(texton, NOISE_MNI, gauss_grid(transform.lut.shape[1])))
+    if c > 1:
+        refined, transform, errors = refine_colour_texton(u, texton, transform, t, tz, n, mean, size, order,
+                                                          iterations, seed, flat.T @ flat if color_correction
+                                                          else None, support)
+        if refined is not None:
+            refined.metadata.update(periodic=bool(periodic))
+            texton = refined
+        texton.metadata.update(histogram_spectrum_errors=[round(e, 4) for e in errors])
+    else:
+        # the tables take the noise's own marginal (compound Poisson, skewed at MNI 30) to
+        # the example's, not a Gaussian's (docs/histogram.md, "The noise's own marginal")
+        transform = transform.for_noise(u, noise_cdf(texton, NOISE_MNI, gauss_grid(transform.lut.shape[1])))
     texton.metadata.update(histogram=histogram, histogram_mni=NOISE_MNI)
     return replace(texton, histogram=transform)
+
+
+def refine_colour_texton(u, texton: Texton, transform: HistogramTransform, t, tz, n, mean, size, order, iterations,
+                         seed, covariance, support) -> tuple[Texton | None, HistogramTransform, list[float]]:
+    """(refit, transform, errors): the refit of REFINE_ROUNDS whose colours' spectrum
+    is closest to the example's if one is closer than ``texton``'s (else None),
+    the transform of the chosen texton (tables fitted to its noise), and every
+    candidate's error, ``texton``'s first.
+
+    Each refit filters the Gaussian kernel t by the gain between the example's
+    spectrum and the one the last texton's noise makes through the tables, as
+    the translation process predicts it (``HistogramTransform.refined_kernel``).
+    The candidates are judged on what they make: REFINE_SAMPLES samples of their
+    texton noise (``noise_sample``, MNI NOISE_MNI) on the example's grid, mapped
+    through their tables (``HistogramTransform.spectrum_error``); the first
+    texton stays unless a refit does better (docs/histogram.md)."""
+    m = t.shape[0]
+    target = np.abs(np.fft.fft2(tz, axes=(0, 1))) ** 2
+    bins = max(2, min(32, min(m, n) // 4))
+    grid = gauss_grid(transform.lut.shape[1])
+
+    def judged(tx: Texton) -> tuple[float, HistogramTransform]:
+        tr = transform.for_noise(u, noise_cdf(tx, NOISE_MNI, grid))
+        errs = [tr.spectrum_error(noise_sample(tx, NOISE_MNI, (m, n), seed + i), target, bins)
+                for i in range(REFINE_SAMPLES)]
+        return float(np.mean(errs)), tr
+
+    best, best_tr = judged(texton)
+    best_texton: Texton | None = None
+    errors = [best]
+    for _ in range(REFINE_ROUNDS):
+        t = transform.refined_kernel(t, np.abs(texton.spectrum((m, n))) ** 2, target, size)
+        texton_k = texton_from_spectrum(sfft.rfft2(t, axes=(0, 1), workers=FFT_WORKERS), n, mean, size, order,
+                                        iterations, seed, covariance=covariance, support=support)
+        err, tr = judged(texton_k)
+        errors.append(err)
+        texton = texton_k  # the next gain corrects this one's output
+        if err < best:
+            best, best_tr, best_texton = err, tr, texton_k
+    return best_texton, best_tr, errors
 
 
 def texton_from_spectrum(

@@ -47,6 +47,10 @@ CDF_POINTS = 1 << 16
 CDF_SPAN = 40.0
 #: Samples of the texton per texel and axis for :func:`noise_cdf` (fewer for large textons).
 CDF_OVERSAMPLING = 8
+#: Refits of a colour texton against the spectrum its noise makes through the tables.
+REFINE_ROUNDS = 2
+#: Noise samples (on the example's grid) that judge each candidate texton.
+REFINE_SAMPLES = 2
 #: Accepted values of ``analyze(..., histogram=...)``.
 HISTOGRAMS = ("gaussian", "preserve")
 #: Bound of a stored transform's JSON (3 channels of LUT_SIZE numbers take about 70 kB; two tables 140 kB).
@@ -326,6 +330,68 @@ class HistogramTransform:
             out[..., c] = col * np.sqrt(pg.sum() / power) if power > 0 else th[..., c]
         return np.fft.ifft2(out, axes=(0, 1)).real.astype(np.float32)
 
+    def output_spectra(self, spectrum: np.ndarray) -> np.ndarray:
+        """(M, N, C): the spectra, each normalised to unit variance, of the colours this
+        transform makes of Gaussian noise of power spectrum ``spectrum`` (M, N, C)
+        (a texton's |α̂|² b̂ on that grid): per channel the noise's correlation ρ(τ)
+        becomes R(ρ(τ)) (:meth:`correlation_map`), whose transform is the output's
+        spectrum (the translation process's, exact for a Gaussian input)."""
+        out = np.zeros(spectrum.shape)
+        for c in range(self.channels):
+            rho = np.fft.ifft2(spectrum[..., c]).real
+            if not rho[0, 0] > 0:
+                continue
+            q, r = self.correlation_map(c, centred=True)
+            out[..., c] = np.fft.fft2(np.interp(rho / rho[0, 0], q, r)).real
+        return out
+
+    def refined_kernel(self, t: np.ndarray, spectrum: np.ndarray, target: np.ndarray, window: int) -> np.ndarray:
+        """``t`` (M, N, C) filtered per channel by √(S_target / S_out), both windowed by a
+        Gaussian lag window of width ``window`` / 2 (smooth estimates without a
+        triangle's sidelobes): S_out from :meth:`output_spectra` of ``spectrum`` (the
+        texton fitted to t), S_target the normalised periodogram ``target`` (M, N, C)
+        of the example's channels. Gains are kept within [1/2, 2] per round; each
+        channel keeps its variance."""
+        m, n = t.shape[:2]
+        dy = np.minimum(np.arange(m), m - np.arange(m))
+        dx = np.minimum(np.arange(n), n - np.arange(n))
+        win = np.exp(-(dy[:, None] ** 2 + dx[None, :] ** 2) / (2.0 * (window / 2.0) ** 2))
+        s_out = self.output_spectra(spectrum)
+        th = np.fft.fft2(t, axes=(0, 1))
+        for c in range(self.channels):
+            r_t = np.fft.ifft2(target[..., c]).real
+            if not (r_t[0, 0] > 0 and s_out[..., c].any()):
+                continue
+            a = np.fft.fft2(r_t / r_t[0, 0] * win).real
+            b = np.fft.fft2(np.fft.ifft2(s_out[..., c]).real * win).real
+            eps = 1e-2 * max(float(a.mean()), 1e-30)  # the windowed estimates' floor (rounding)
+            gain = np.sqrt(np.clip((np.maximum(a, 0.0) + eps) / (np.maximum(b, 0.0) + eps), 0.25, 4.0))
+            power = np.sum(np.abs(th[..., c]) ** 2)
+            th[..., c] *= gain
+            th[..., c] *= np.sqrt(power / max(np.sum(np.abs(th[..., c]) ** 2), 1e-300))
+        return np.fft.ifft2(th, axes=(0, 1)).real.astype(np.float32)
+
+    def spectrum_error(self, noise: np.ndarray, target: np.ndarray, bins: int = 32) -> float:
+        """Mean |Δ ln P| between ring averages (``bins`` rings of radius up to ½ cycle per
+        texel, the DC left out) of the periodograms of ``noise`` (M, N, C,
+        standardised noise, e.g. :func:`noise_sample`) mapped through the tables
+        and of the example (``target``, its channels' periodogram |t̂_z|² on the
+        same grid, t_z its normalised kernel): the benchmark's spectrum distance."""
+        m, n = target.shape[:2]
+        z = ((self.to_colours(noise.reshape(-1, self.channels)) - self.centre) @ self.matrix.T).reshape(noise.shape)
+        out = np.abs(np.fft.fft2(z - z.mean(axis=(0, 1)), axes=(0, 1))) ** 2 / (m * n)
+        ring = np.ceil(np.hypot(*np.meshgrid(np.fft.fftfreq(m), np.fft.fftfreq(n), indexing="ij")) / 0.5
+                       * bins).astype(np.int64) - 1
+        keep = (ring >= 0) & (ring < bins)
+        counts = np.maximum(np.bincount(ring[keep], minlength=bins), 1)
+        errs = []
+        for c in range(self.channels):
+            a = np.bincount(ring[keep], target[..., c][keep], bins) / counts
+            b = np.bincount(ring[keep], out[..., c][keep], bins) / counts
+            ok = (a > 0) & (b > 0)
+            errs.append(np.mean(np.abs(np.log(a[ok]) - np.log(b[ok]))) if ok.any() else 0.0)
+        return float(np.mean(errs))
+
     # ------------------------------------------------------------------ applying
     @functools.cached_property
     def prefiltered(self) -> np.ndarray:
@@ -426,6 +492,37 @@ def texton_values(coeffs: np.ndarray, order: int, oversampling: int) -> np.ndarr
 
     h = np.einsum("ir,rsc,js->ijc", weights(r), np.asarray(coeffs, np.float64), weights(s), optimize=True)
     return h.reshape(-1, c)
+
+
+def noise_sample(texton, mni: float, shape: tuple[int, int], seed: int) -> np.ndarray:
+    """(M, N, C) float64: texton noise at MNI ``mni`` on a periodic M × N grid of
+    texels, standardised by its exact moments, in NumPy: Poisson impacts (their
+    count and uniform positions from ``seed``) splatted on the grid with the
+    weights ψ(x − x_j) of the texton's order, convolved with its coefficients
+    (Σ_j h(x − x_j) = (α ∗ Σ_j ψ(· − x_j))(x)). Not the kernels' impact stream:
+    the analysis measures candidate textons with it."""
+    from .bspline import bspline
+
+    m, n = shape
+    rng = np.random.default_rng(seed)
+    lam = mni / texton.support_area
+    count = rng.poisson(lam * m * n)
+    py, px = rng.uniform(0, m, count), rng.uniform(0, n, count)
+    k = texton.order
+    half = (k + 1) / 2.0
+    y0, x0 = np.floor(py - half), np.floor(px - half)
+    splat = np.zeros(m * n)
+    for a in range(k + 2):
+        wy = bspline(y0 + a - py, k)
+        for b in range(k + 2):
+            w = wy * bspline(x0 + b - px, k)
+            idx = ((y0 + a).astype(np.int64) % m) * n + (x0 + b).astype(np.int64) % n
+            splat += np.bincount(idx, w, m * n)
+    coeffs = np.asarray(texton.coeffs, np.float64)
+    field = np.fft.ifft2(np.fft.fft2(splat.reshape(m, n))[..., None] * np.fft.fft2(coeffs, s=(m, n), axes=(0, 1)),
+                         axes=(0, 1)).real
+    var = np.diag(np.atleast_2d(texton.covariance()))
+    return (field - lam * texton.integral) / np.sqrt(np.maximum(lam * var, 1e-300))
 
 
 def noise_cdf(texton, mni: float, grid: np.ndarray) -> np.ndarray:
