@@ -345,7 +345,7 @@ def test_noise_cdf_is_the_noise_marginal(grass, order, size):
     critical value 1.95 / √n, while the Gaussian CDF's exceeds it (skewness ~0.2)."""
     from scipy.special import ndtr
 
-    from warp_texton.model.histogram import noise_cdf
+    from warp_texton.model.analysis import noise_cdf
     from warp_texton.noise.colours import noise_moments
 
     t = analyze(grass, size=size, order=order, seed=0, iterations=10)
@@ -457,7 +457,7 @@ def test_numpy_noise_sample_has_the_noise_statistics(grass):
     """noise_sample (the analysis's judge of candidate textons) is texton noise: standardised
     mean 0 and variance 1, and its one-point distribution is noise_cdf's (KS within the
     0.1 % critical value for the sample's effective size, a point per 16 × 16 texels)."""
-    from warp_texton.model.histogram import noise_cdf, noise_sample
+    from warp_texton.model.analysis import noise_cdf, noise_sample
 
     t = analyze(grass, size=16, seed=0, iterations=10)
     g = noise_sample(t, 30.0, (512, 512), seed=4)[::16, ::16, 0].ravel()

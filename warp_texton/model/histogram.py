@@ -40,12 +40,12 @@ SHARE_STEPS = 33
 CORRELATION_NODES = 96
 CORRELATION_STEPS = 401
 #: The MNI whose noise ``analyze`` fits the tables to (``synthesize``'s default and
-#: every runtime's): :func:`noise_cdf`.
+#: every runtime's): ``analysis.noise_cdf``.
 NOISE_MNI = 30.0
-#: :func:`noise_cdf`'s lattice: points, and its span in standard deviations (±SPAN / 2).
+#: ``analysis.noise_cdf``'s lattice: points, and its span in standard deviations (±SPAN / 2).
 CDF_POINTS = 1 << 16
 CDF_SPAN = 40.0
-#: Samples of the texton per texel and axis for :func:`noise_cdf` (fewer for large textons).
+#: Samples of the texton per texel and axis for ``analysis.noise_cdf`` (fewer for large textons).
 CDF_OVERSAMPLING = 8
 #: Refits of a colour texton against the spectrum its noise makes through the tables.
 REFINE_ROUNDS = 2
@@ -99,7 +99,7 @@ class HistogramTransform:
         probabilities F(g_k), g_k = :func:`gauss_grid` (K), F the CDF of the
         standardised noise the table is applied to: Φ for a Gaussian input
         (:meth:`fit`), the texton noise's own compound-Poisson CDF for the
-        tables of ``analyze`` (:meth:`for_noise`, :func:`noise_cdf`).
+        tables of ``analyze`` (:meth:`for_noise`, ``analysis.noise_cdf``).
     gaussian_lut : float64 array (C, K) or None
         The tables at the Gaussian quantiles Φ(g_k) when :attr:`lut` is fitted
         to a non-Gaussian noise (:meth:`for_noise`); the prefiltered tables
@@ -374,7 +374,7 @@ class HistogramTransform:
     def spectrum_error(self, noise: np.ndarray, target: np.ndarray, bins: int = 32) -> float:
         """Mean |Δ ln P| between ring averages (``bins`` rings of radius up to ½ cycle per
         texel, the DC left out) of the periodograms of ``noise`` (M, N, C,
-        standardised noise, e.g. :func:`noise_sample`) mapped through the tables
+        standardised noise, e.g. ``analysis.noise_sample``) mapped through the tables
         and of the example (``target``, its channels' periodogram |t̂_z|² on the
         same grid, t_z its normalised kernel): the benchmark's spectrum distance."""
         m, n = target.shape[:2]
@@ -476,96 +476,6 @@ class HistogramTransform:
             raise bad(str(exc).removeprefix("histogram transform: ")) from None
         except (KeyError, TypeError, ValueError):
             raise bad("matrix, centre, lut (and gaussian_lut) must be arrays of numbers") from None
-
-
-def texton_values(coeffs: np.ndarray, order: int, oversampling: int) -> np.ndarray:
-    """h(y) = Σ α(j) ψ(y − j) on ``oversampling``² midpoints per texel of its
-    bounding box, (N, C) float64; each sample stands for 1 / oversampling² texels²."""
-    from .bspline import bspline
-
-    r, s, c = coeffs.shape
-    reach = 0.5 if order == 0 else (order + 1) / 2.0
-
-    def weights(n: int) -> np.ndarray:
-        y = np.arange(-reach, n - 1 + reach - 1e-9, 1.0 / oversampling) + 0.5 / oversampling
-        return bspline(y[:, None] - np.arange(n)[None, :], order)
-
-    h = np.einsum("ir,rsc,js->ijc", weights(r), np.asarray(coeffs, np.float64), weights(s), optimize=True)
-    return h.reshape(-1, c)
-
-
-def noise_sample(texton, mni: float, shape: tuple[int, int], seed: int) -> np.ndarray:
-    """(M, N, C) float64: texton noise at MNI ``mni`` on a periodic M × N grid of
-    texels, standardised by its exact moments, in NumPy: Poisson impacts (their
-    count and uniform positions from ``seed``) splatted on the grid with the
-    weights ψ(x − x_j) of the texton's order, convolved with its coefficients
-    (Σ_j h(x − x_j) = (α ∗ Σ_j ψ(· − x_j))(x)). Not the kernels' impact stream:
-    the analysis measures candidate textons with it."""
-    from .bspline import bspline
-
-    m, n = shape
-    rng = np.random.default_rng(seed)
-    lam = mni / texton.support_area
-    count = rng.poisson(lam * m * n)
-    py, px = rng.uniform(0, m, count), rng.uniform(0, n, count)
-    k = texton.order
-    half = (k + 1) / 2.0
-    y0, x0 = np.floor(py - half), np.floor(px - half)
-    splat = np.zeros(m * n)
-    for a in range(k + 2):
-        wy = bspline(y0 + a - py, k)
-        for b in range(k + 2):
-            w = wy * bspline(x0 + b - px, k)
-            idx = ((y0 + a).astype(np.int64) % m) * n + (x0 + b).astype(np.int64) % n
-            splat += np.bincount(idx, w, m * n)
-    coeffs = np.asarray(texton.coeffs, np.float64)
-    field = np.fft.ifft2(np.fft.fft2(splat.reshape(m, n))[..., None] * np.fft.fft2(coeffs, s=(m, n), axes=(0, 1)),
-                         axes=(0, 1)).real
-    var = np.diag(np.atleast_2d(texton.covariance()))
-    return (field - lam * texton.integral) / np.sqrt(np.maximum(lam * var, 1e-300))
-
-
-def noise_cdf(texton, mni: float, grid: np.ndarray) -> np.ndarray:
-    """(C, len(grid)): the CDF of texton noise at MNI ``mni``, standardised by its
-    exact moments (g = (v − m) / σ, as the outputs standardise it), at ``grid``.
-
-    Texton noise sums h(x − x_j) over a Poisson process of intensity λ = MNI /
-    support_area: a compound Poisson variable of characteristic function
-    exp(λ ∫ (e^{i t h(y)} − 1) dy) (CGF §3.3). h is sampled on a fine grid
-    (:func:`texton_values`), its values spread linearly over a lattice of
-    CDF_POINTS steps spanning CDF_SPAN standard deviations, and the lattice
-    distribution of the sum is the inverse FFT of that function (exact up to the
-    lattice and the sampling of h). Channels without variance get Φ.
-    """
-    from scipy.special import ndtr
-
-    grid = np.asarray(grid, np.float64)
-    size = max(texton.size)
-    q = int(np.clip(1024 // max(size, 1), 2, CDF_OVERSAMPLING))
-    h = texton_values(texton.coeffs, texton.order, q)
-    lam = mni / texton.support_area
-    var = np.diag(np.atleast_2d(texton.covariance()))
-    integral = texton.integral
-    n, delta = CDF_POINTS, CDF_SPAN / CDF_POINTS
-    out = np.empty((h.shape[1], len(grid)))
-    for c in range(h.shape[1]):
-        sigma = np.sqrt(lam * var[c])
-        if not sigma > 0:
-            out[c] = ndtr(grid)
-            continue
-        x = h[:, c] / (sigma * delta)  # the values of one impact, in lattice steps
-        lo = np.floor(x)
-        t = x - lo
-        i = lo.astype(np.int64) % n
-        rate = lam / (q * q)  # impacts per sample of h
-        w = np.bincount(i, (1.0 - t) * rate, n) + np.bincount((i + 1) % n, t * rate, n)
-        pmf = np.fft.ifft(np.exp(np.fft.fft(w) - w.sum())).real
-        # the sum's lattice point j is the value j δ (mod the span); centred: j δ − λ∫h / σ
-        centred = (np.arange(n) - lam * integral[c] / (sigma * delta) + n / 2) % n - n / 2
-        order = np.argsort(centred)
-        cdf = np.cumsum(np.maximum(pmf[order], 0.0))
-        out[c] = np.interp(grid, (centred[order] + 0.5) * delta, cdf / cdf[-1])
-    return out
 
 
 def _finite(a, name: str) -> np.ndarray:
