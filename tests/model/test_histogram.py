@@ -508,3 +508,21 @@ def test_cli_analyze_preserve(tmp_path, capsys):
     assert len(err) == 1 and "cannot hold a histogram transform" in err[0], err
     assert not (tmp_path / "t.texton").exists()
     assert run_cli(["analyze", demo_texture_path(), "-o", tmp_path / "u.exr", "--histogram", "uniform"]) == 2
+
+
+def test_colour_refits_are_judged_and_bounded(monkeypatch):
+    """A colour analysis judges three candidates (the first texton and two refits,
+    errors in its metadata) and keeps the best judged one; an example above
+    REFINE_MAX_PIXELS gets no refits but still tables fitted to its noise."""
+    import warp_texton.model.analysis as analysis
+
+    u = colour_example("saturated")
+    t = analyze(u, size=16, seed=0, histogram="preserve")
+    errors = t.metadata["histogram_spectrum_errors"]
+    assert len(errors) == 3 and all(e > 0 for e in errors)
+    monkeypatch.setattr(analysis, "REFINE_MAX_PIXELS", u.shape[0] * u.shape[1] - 1)
+    first = analyze(u, size=16, seed=0, histogram="preserve")
+    assert "histogram_spectrum_errors" not in first.metadata
+    assert first.histogram.gaussian_lut is not None
+    # the texton kept is the first one exactly when the first was judged best
+    assert np.array_equal(first.coeffs, t.coeffs) == (min(errors) == errors[0])

@@ -31,7 +31,8 @@ from .analysis_options import SUPPORTS, AnalysisOptions, check_support  # noqa: 
 from ..core.errors import TextonError
 from .example_checks import warn_large, warn_unsuited
 from ..core.limits import check_memory, check_work
-from .histogram import CDF_OVERSAMPLING, CDF_POINTS, CDF_SPAN, NOISE_MNI, REFINE_ROUNDS, REFINE_SAMPLES, HistogramTransform, gauss_grid
+from .histogram import (CDF_OVERSAMPLING, CDF_POINTS, CDF_SPAN, NOISE_MNI, REFINE_MAX_PIXELS, REFINE_ROUNDS,
+                        REFINE_SAMPLES, HistogramTransform, gauss_grid)
 from .gaussian import FFT_WORKERS, normalized_kernel, relative_model_error_half
 from .texton import Texton, lag0_covariance
 
@@ -373,7 +374,7 @@ def analyze(
     texton.metadata.update(periodic=bool(periodic))
     if transform is None:
         return texton
-    if c > 1:
+    if c > 1 and m * n <= REFINE_MAX_PIXELS:
         refined, transform, errors = refine_colour_texton(u, texton, transform, t, tz, n, mean, size, order,
                                                           iterations, seed, flat.T @ flat if color_correction
                                                           else None, support)
@@ -642,7 +643,7 @@ def noise_cdf(texton, mni: float, grid: np.ndarray) -> np.ndarray:
 
     grid = np.asarray(grid, np.float64)
     size = max(texton.size)
-    q = int(np.clip(1024 // max(size, 1), 2, CDF_OVERSAMPLING))
+    q = int(np.clip(1024 // max(size, 1), 1, CDF_OVERSAMPLING))
     h = texton_values(texton.coeffs, texton.order, q)
     lam = mni / texton.support_area
     var = np.diag(np.atleast_2d(texton.covariance()))

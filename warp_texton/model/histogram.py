@@ -51,6 +51,9 @@ CDF_OVERSAMPLING = 8
 REFINE_ROUNDS = 2
 #: Noise samples (on the example's grid) that judge each candidate texton.
 REFINE_SAMPLES = 2
+#: Examples larger than this (pixels) get no refits: their samples and fits would
+#: cost seconds to minutes; their tables are still fitted to the noise.
+REFINE_MAX_PIXELS = 1 << 20
 #: Accepted values of ``analyze(..., histogram=...)``.
 HISTOGRAMS = ("gaussian", "preserve")
 #: Bound of a stored transform's JSON (3 channels of LUT_SIZE numbers take about 70 kB; two tables 140 kB).
