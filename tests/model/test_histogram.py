@@ -293,9 +293,9 @@ def test_colour_examples_keep_their_colours_and_their_spectrum(kind):
     pooled histogram above a third of the Gaussian noise's by less than two standard
     errors of the difference (resampling the seeds); the spectrum distance above 1.15
     times the Gaussian noise's + 0.02 by less than two standard errors of the paired
-    differences. The
-    strong low-frequency example is held to half the Gaussian W1 only: its skewed
-    tables meet the skewness of texton noise at MNI 30 (docs/histogram.md, "Limits")."""
+    differences. The strong low-frequency example, whose steep tables show texton
+    noise's own skewness most, is held to a third too: the tables are fitted to the
+    noise's marginal (docs/histogram.md)."""
     from benchmarks.bench_quality import clipped_fraction, spectrum_distance
 
     u = colour_example(kind)
@@ -314,9 +314,8 @@ def test_colour_examples_keep_their_colours_and_their_spectrum(kind):
 
     assert g["clipped"].mean() > 0.03  # the example is one that Gaussian noise clips
     assert p["clipped"].mean() + 3 * se(p["clipped"]) < 0.01, p["clipped"]
-    share = 2.0 if kind == "low" else 3.0
     (w1_p, se_p), (w1_g, se_g) = p["w1"], g["w1"]
-    assert w1_p - w1_g / share < 2 * np.hypot(se_g / share, se_p), (p["w1"], g["w1"])
+    assert w1_p - w1_g / 3 < 2 * np.hypot(se_g / 3, se_p), (p["w1"], g["w1"])
     excess = p["spectrum"] - (1.15 * g["spectrum"] + 0.02)
     assert excess.mean() < 2 * se(excess), (p["spectrum"], g["spectrum"])
 
@@ -331,8 +330,38 @@ def test_colour_tables_are_the_rgb_channels():
     np.testing.assert_array_equal(tr.centre, np.zeros(3))
     lo, hi = u.min(axis=(0, 1)), u.max(axis=(0, 1))
     assert np.all(tr.lut >= lo[:, None]) and np.all(tr.lut <= hi[:, None])
+    assert np.all(tr.gaussian_lut >= lo[:, None]) and np.all(tr.gaussian_lut <= hi[:, None])
     np.testing.assert_allclose(tr.lut[:, 0], lo, atol=1e-4)
-    np.testing.assert_allclose(tr.lut[:, -1], hi, atol=1e-4)
+    np.testing.assert_allclose(tr.gaussian_lut[:, -1], hi, atol=1e-4)
+    # the noise's right tail is longer than a Gaussian's: its table reaches the maximum past g = 5
+    assert np.all(tr.lut[:, -1] <= tr.gaussian_lut[:, -1]) and np.all(tr.lut[:, -1] >= np.quantile(
+        u.reshape(-1, 3), 0.999, axis=0))
+
+
+@pytest.mark.parametrize("order, size", [(1, 32), (0, 16), (3, 24)])
+def test_noise_cdf_is_the_noise_marginal(grass, order, size):
+    """noise_cdf (compound Poisson by FFT) against 60 000 independent values of the noise
+    (points 300 texels apart): the Kolmogorov–Smirnov distance stays within the 0.1 %
+    critical value 1.95 / √n, while the Gaussian CDF's exceeds it (skewness ~0.2)."""
+    from scipy.special import ndtr
+
+    from warp_texton.model.analysis import noise_cdf
+    from warp_texton.noise.colours import noise_moments
+
+    t = analyze(grass, size=size, order=order, seed=0, iterations=10)
+    n = 60_000
+    rng = np.random.default_rng(1)
+    points = (np.stack([np.arange(n) % 300, np.arange(n) // 300], 1) * 300.0 + rng.uniform(0, 300, (n, 2)))
+    m, s = noise_moments(t)
+    g = np.sort(((evaluate(t, points.astype(np.float32), mni=30, seed=3, device="cpu") - m) / s)[:, 0])
+    emp_hi, emp_lo = np.arange(1, n + 1) / n, np.arange(n) / n
+    crit = 1.95 / np.sqrt(n)
+
+    def ks(cdf):
+        return max(np.max(emp_hi - cdf), np.max(cdf - emp_lo))
+
+    assert ks(noise_cdf(t, 30.0, g)[0]) < crit
+    assert ks(ndtr(g)) > crit
 
 
 # ---------------------------------------------------------------- mixing
@@ -391,8 +420,52 @@ def test_exr_holds_rgb_tables_and_older_principal_axes(tmp_path):
         back = load_texton(tmp_path / f"{n}.exr")
         for name in ("matrix", "centre", "lut"):
             np.testing.assert_array_equal(getattr(back.histogram, name), getattr(t.histogram, name))
+        if t.histogram.gaussian_lut is None:
+            assert back.histogram.gaussian_lut is None
+        else:
+            np.testing.assert_array_equal(back.histogram.gaussian_lut, t.histogram.gaussian_lut)
+        np.testing.assert_array_equal(back.histogram.prefiltered, t.histogram.prefiltered)
         np.testing.assert_array_equal(synthesize(back, (16, 16), device="cpu"), synthesize(t, (16, 16), device="cpu"))
     assert not np.allclose(older.histogram.matrix, np.eye(3))
+    assert rgb.histogram.gaussian_lut is not None and not np.allclose(rgb.histogram.lut, rgb.histogram.gaussian_lut)
+
+
+def test_noise_tables_keep_the_mean_and_fade_with_filtering():
+    """The tables fitted to the noise's marginal: the last prefiltered row is ``lut``;
+    the share-0 row is the Gaussian table averaged over a standard Gaussian, the
+    example's mean (the far-view limit), as for tables without a noise fit; rows
+    in between stay non-decreasing."""
+    from scipy.special import ndtr
+
+    from warp_texton.model.histogram import gauss_grid
+
+    u = colour_example("low")
+    tr = analyze(u, size=16, histogram="preserve").histogram
+    rows = tr.prefiltered
+    np.testing.assert_array_equal(rows[-1], tr.lut)
+    k = tr.lut.shape[1] // 2  # g = 0 lies between entries k − 1 and k
+    np.testing.assert_allclose(rows[0][:, k - 1:k + 1].mean(axis=1), u.reshape(-1, 3).mean(axis=0), atol=1e-3)
+    assert np.all(np.diff(rows, axis=2) >= -1e-12)
+    # without the noise fit the applied table is the Gaussian one; with it, its median is higher
+    # (texton noise's right tail is longer: its median standardised value is below 0)
+    plain_tr = HistogramTransform(tr.matrix, tr.centre, tr.gaussian_lut)
+    np.testing.assert_allclose(plain_tr.prefiltered[0], rows[0], atol=1e-12)
+    assert np.all(tr.lut[:, k] >= tr.gaussian_lut[:, k]), ndtr(gauss_grid()[k])
+
+
+def test_numpy_noise_sample_has_the_noise_statistics(grass):
+    """noise_sample (the analysis's judge of candidate textons) is texton noise: standardised
+    mean 0 and variance 1, and its one-point distribution is noise_cdf's (KS within the
+    0.1 % critical value for the sample's effective size, a point per 16 × 16 texels)."""
+    from warp_texton.model.analysis import noise_cdf, noise_sample
+
+    t = analyze(grass, size=16, seed=0, iterations=10)
+    g = noise_sample(t, 30.0, (512, 512), seed=4)[::16, ::16, 0].ravel()
+    n = g.size
+    assert abs(g.mean()) < 4 / np.sqrt(n) and abs(g.var() - 1) < 4 * np.sqrt(2 / n)
+    g = np.sort(g)
+    cdf = noise_cdf(t, 30.0, g)[0]
+    assert max(np.max(np.arange(1, n + 1) / n - cdf), np.max(cdf - np.arange(n) / n)) < 1.95 / np.sqrt(n)
 
 
 def test_texton_format_refuses_the_transform(texton, tmp_path):
@@ -435,3 +508,21 @@ def test_cli_analyze_preserve(tmp_path, capsys):
     assert len(err) == 1 and "cannot hold a histogram transform" in err[0], err
     assert not (tmp_path / "t.texton").exists()
     assert run_cli(["analyze", demo_texture_path(), "-o", tmp_path / "u.exr", "--histogram", "uniform"]) == 2
+
+
+def test_colour_refits_are_judged_and_bounded(monkeypatch):
+    """A colour analysis judges three candidates (the first texton and two refits,
+    errors in its metadata) and keeps the best judged one; an example above
+    REFINE_MAX_PIXELS gets no refits but still tables fitted to its noise."""
+    import warp_texton.model.analysis as analysis
+
+    u = colour_example("saturated")
+    t = analyze(u, size=16, seed=0, histogram="preserve")
+    errors = t.metadata["histogram_spectrum_errors"]
+    assert len(errors) == 3 and all(e > 0 for e in errors)
+    monkeypatch.setattr(analysis, "REFINE_MAX_PIXELS", u.shape[0] * u.shape[1] - 1)
+    first = analyze(u, size=16, seed=0, histogram="preserve")
+    assert "histogram_spectrum_errors" not in first.metadata
+    assert first.histogram.gaussian_lut is not None
+    # the texton kept is the first one exactly when the first was judged best
+    assert np.array_equal(first.coeffs, t.coeffs) == (min(errors) == errors[0])

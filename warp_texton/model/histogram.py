@@ -39,9 +39,24 @@ SHARE_STEPS = 33
 #: Quadrature nodes and correlation steps of :meth:`HistogramTransform.correlation_map`.
 CORRELATION_NODES = 96
 CORRELATION_STEPS = 401
+#: The MNI whose noise ``analyze`` fits the tables to (``synthesize``'s default and
+#: every runtime's): ``analysis.noise_cdf``.
+NOISE_MNI = 30.0
+#: ``analysis.noise_cdf``'s lattice: points, and its span in standard deviations (±SPAN / 2).
+CDF_POINTS = 1 << 16
+CDF_SPAN = 40.0
+#: Samples of the texton per texel and axis for ``analysis.noise_cdf`` (fewer for large textons).
+CDF_OVERSAMPLING = 8
+#: Refits of a colour texton against the spectrum its noise makes through the tables.
+REFINE_ROUNDS = 2
+#: Noise samples (on the example's grid) that judge each candidate texton.
+REFINE_SAMPLES = 2
+#: Examples larger than this (pixels) get no refits: their samples and fits would
+#: cost seconds to minutes; their tables are still fitted to the noise.
+REFINE_MAX_PIXELS = 1 << 20
 #: Accepted values of ``analyze(..., histogram=...)``.
 HISTOGRAMS = ("gaussian", "preserve")
-#: Bound of a stored transform's JSON (3 channels of LUT_SIZE numbers take about 70 kB).
+#: Bound of a stored transform's JSON (3 channels of LUT_SIZE numbers take about 70 kB; two tables 140 kB).
 MAX_HISTOGRAM_CHARS = 1 << 20
 #: Largest magnitude of a transform's centre (an example's mean colour): the bound of
 #: image values, ``_checks.MAX_VALUE``.
@@ -83,8 +98,16 @@ class HistogramTransform:
     centre : float64 array (C,)
         The example's mean colour (0 for the RGB axes of ``fit(..., axes="rgb")``).
     lut : float64 array (C, K)
-        Non-decreasing quantiles of each decorrelated channel at the Gaussian
-        quantiles Φ(g_k), g_k = :func:`gauss_grid` (K).
+        Non-decreasing quantiles of each decorrelated channel at the
+        probabilities F(g_k), g_k = :func:`gauss_grid` (K), F the CDF of the
+        standardised noise the table is applied to: Φ for a Gaussian input
+        (:meth:`fit`), the texton noise's own compound-Poisson CDF for the
+        tables of ``analyze`` (:meth:`for_noise`, ``analysis.noise_cdf``).
+    gaussian_lut : float64 array (C, K) or None
+        The tables at the Gaussian quantiles Φ(g_k) when :attr:`lut` is fitted
+        to a non-Gaussian noise (:meth:`for_noise`); the prefiltered tables
+        fade from :attr:`lut` to it as a filter averages the noise towards a
+        Gaussian (:attr:`prefiltered`). None: :attr:`lut` is the Gaussian one.
 
     Raises
     ------
@@ -109,6 +132,7 @@ class HistogramTransform:
     matrix: np.ndarray
     centre: np.ndarray
     lut: np.ndarray
+    gaussian_lut: np.ndarray | None = None
 
     def __post_init__(self):
         m = _finite(self.matrix, "matrix")
@@ -131,7 +155,17 @@ class HistogramTransform:
         if np.any(np.diff(lut, axis=1) < 0):
             raise TextonError("histogram transform: a lookup table decreases somewhere; the inverse CDFs "
                               "must be non-decreasing", param="histogram")
-        for name, a in (("matrix", m), ("centre", centre), ("lut", lut)):
+        arrays = [("matrix", m), ("centre", centre), ("lut", lut)]
+        if self.gaussian_lut is not None:
+            glut = _bounded(_finite(self.gaussian_lut, "gaussian_lut"), "gaussian_lut", MAX_TABLE_VALUE)
+            if glut.shape != lut.shape:
+                raise TextonError(f"histogram transform: gaussian_lut must have the shape of lut {lut.shape}, "
+                                  f"got {glut.shape}", param="histogram")
+            if np.any(np.diff(glut, axis=1) < 0):
+                raise TextonError("histogram transform: gaussian_lut decreases somewhere; the inverse CDFs "
+                                  "must be non-decreasing", param="histogram")
+            arrays.append(("gaussian_lut", glut))
+        for name, a in arrays:
             a.setflags(write=False)
             object.__setattr__(self, name, a)
 
@@ -166,6 +200,30 @@ class HistogramTransform:
         lut = np.quantile(z, q, axis=0).T  # linear interpolation between order statistics
         return cls(matrix, centre, np.maximum.accumulate(lut, axis=1))
 
+    def for_noise(self, u: np.ndarray, cdf: np.ndarray) -> HistogramTransform:
+        """The transform whose tables map the standardised noise of CDF ``cdf`` (C, K),
+        sampled at :func:`gauss_grid`, to the example u's channels: ``lut`` holds their
+        quantiles at the probabilities ``cdf`` (F_u⁻¹ ∘ F_noise: each output channel
+        then has u's marginal exactly, whatever the noise's skewness), and
+        ``gaussian_lut`` this transform's tables at Φ(g_k)."""
+        z = self.decorrelate(u).reshape(-1, self.channels)
+        cdf = np.clip(np.asarray(cdf, np.float64), 0.0, 1.0)
+        lut = np.array([np.quantile(z[:, c], cdf[c]) for c in range(self.channels)])
+        base = self.lut if self.gaussian_lut is None else self.gaussian_lut
+        return HistogramTransform(self.matrix, self.centre, np.maximum.accumulate(lut, axis=1), base)
+
+    def mixed(self, other: HistogramTransform, rho: float) -> HistogramTransform:
+        """The displacement interpolation (1 − ρ) self + ρ other of two transforms on the
+        same colour axes: tables and centres interpolated linearly (both the applied
+        and the Gaussian tables, each transform's ``lut`` standing for a missing one)."""
+        glut = None
+        if self.gaussian_lut is not None or other.gaussian_lut is not None:
+            a = self.lut if self.gaussian_lut is None else self.gaussian_lut
+            b = other.lut if other.gaussian_lut is None else other.gaussian_lut
+            glut = (1.0 - rho) * a + rho * b
+        return HistogramTransform(self.matrix, (1.0 - rho) * self.centre + rho * other.centre,
+                                  (1.0 - rho) * self.lut + rho * other.lut, glut)
+
     def to_gaussian(self, u: np.ndarray) -> np.ndarray:
         """The example u (H, W, C) Gaussianised: decorrelated, each channel through its
         empirical CDF to a standard Gaussian (ties share their mean rank), float64."""
@@ -197,7 +255,8 @@ class HistogramTransform:
         x, w = np.polynomial.hermite_e.hermegauss(CORRELATION_NODES)
         w = w / w.sum()
         grid = gauss_grid(self.lut.shape[1])
-        table = self.lut[c] - self.lut[c, self.lut.shape[1] // 2] if centred else self.lut[c]
+        lut = self.lut if self.gaussian_lut is None else self.gaussian_lut  # a map of Gaussian values
+        table = lut[c] - lut[c, lut.shape[1] // 2] if centred else lut[c]
         tx = np.interp(x, grid, table)
         m = tx @ w
         var = tx ** 2 @ w - m * m
@@ -274,19 +333,89 @@ class HistogramTransform:
             out[..., c] = col * np.sqrt(pg.sum() / power) if power > 0 else th[..., c]
         return np.fft.ifft2(out, axes=(0, 1)).real.astype(np.float32)
 
+    def output_spectra(self, spectrum: np.ndarray) -> np.ndarray:
+        """(M, N, C): the spectra, each normalised to unit variance, of the colours this
+        transform makes of Gaussian noise of power spectrum ``spectrum`` (M, N, C)
+        (a texton's |α̂|² b̂ on that grid): per channel the noise's correlation ρ(τ)
+        becomes R(ρ(τ)) (:meth:`correlation_map`), whose transform is the output's
+        spectrum (the translation process's, exact for a Gaussian input)."""
+        out = np.zeros(spectrum.shape)
+        for c in range(self.channels):
+            rho = np.fft.ifft2(spectrum[..., c]).real
+            if not rho[0, 0] > 0:
+                continue
+            q, r = self.correlation_map(c, centred=True)
+            out[..., c] = np.fft.fft2(np.interp(rho / rho[0, 0], q, r)).real
+        return out
+
+    def refined_kernel(self, t: np.ndarray, spectrum: np.ndarray, target: np.ndarray, window: int) -> np.ndarray:
+        """``t`` (M, N, C) filtered per channel by √(S_target / S_out), both windowed by a
+        Gaussian lag window of width ``window`` / 2 (smooth estimates without a
+        triangle's sidelobes): S_out from :meth:`output_spectra` of ``spectrum`` (the
+        texton fitted to t), S_target the normalised periodogram ``target`` (M, N, C)
+        of the example's channels. Gains are kept within [1/2, 2] per round; each
+        channel keeps its variance."""
+        m, n = t.shape[:2]
+        dy = np.minimum(np.arange(m), m - np.arange(m))
+        dx = np.minimum(np.arange(n), n - np.arange(n))
+        win = np.exp(-(dy[:, None] ** 2 + dx[None, :] ** 2) / (2.0 * (window / 2.0) ** 2))
+        s_out = self.output_spectra(spectrum)
+        th = np.fft.fft2(t, axes=(0, 1))
+        for c in range(self.channels):
+            r_t = np.fft.ifft2(target[..., c]).real
+            if not (r_t[0, 0] > 0 and s_out[..., c].any()):
+                continue
+            a = np.fft.fft2(r_t / r_t[0, 0] * win).real
+            b = np.fft.fft2(np.fft.ifft2(s_out[..., c]).real * win).real
+            eps = 1e-2 * max(float(a.mean()), 1e-30)  # the windowed estimates' floor (rounding)
+            gain = np.sqrt(np.clip((np.maximum(a, 0.0) + eps) / (np.maximum(b, 0.0) + eps), 0.25, 4.0))
+            power = np.sum(np.abs(th[..., c]) ** 2)
+            th[..., c] *= gain
+            th[..., c] *= np.sqrt(power / max(np.sum(np.abs(th[..., c]) ** 2), 1e-300))
+        return np.fft.ifft2(th, axes=(0, 1)).real.astype(np.float32)
+
+    def spectrum_error(self, noise: np.ndarray, target: np.ndarray, bins: int = 32) -> float:
+        """Mean |Δ ln P| between ring averages (``bins`` rings of radius up to ½ cycle per
+        texel, the DC left out) of the periodograms of ``noise`` (M, N, C,
+        standardised noise, e.g. ``analysis.noise_sample``) mapped through the tables
+        and of the example (``target``, its channels' periodogram |t̂_z|² on the
+        same grid, t_z its normalised kernel): the benchmark's spectrum distance."""
+        m, n = target.shape[:2]
+        z = ((self.to_colours(noise.reshape(-1, self.channels)) - self.centre) @ self.matrix.T).reshape(noise.shape)
+        out = np.abs(np.fft.fft2(z - z.mean(axis=(0, 1)), axes=(0, 1))) ** 2 / (m * n)
+        ring = np.ceil(np.hypot(*np.meshgrid(np.fft.fftfreq(m), np.fft.fftfreq(n), indexing="ij")) / 0.5
+                       * bins).astype(np.int64) - 1
+        keep = (ring >= 0) & (ring < bins)
+        counts = np.maximum(np.bincount(ring[keep], minlength=bins), 1)
+        errs = []
+        for c in range(self.channels):
+            a = np.bincount(ring[keep], target[..., c][keep], bins) / counts
+            b = np.bincount(ring[keep], out[..., c][keep], bins) / counts
+            ok = (a > 0) & (b > 0)
+            errs.append(np.mean(np.abs(np.log(a[ok]) - np.log(b[ok]))) if ok.any() else 0.0)
+        return float(np.mean(errs))
+
     # ------------------------------------------------------------------ applying
     @functools.cached_property
     def prefiltered(self) -> np.ndarray:
-        """(SHARE_STEPS, C, K) tables: row i is :attr:`lut` convolved with a Gaussian of
-        variance 1 − v_i, v_i = i / (SHARE_STEPS − 1); the last row is :attr:`lut`."""
+        """(SHARE_STEPS, C, K) tables: row i is a table convolved with a Gaussian of
+        variance 1 − v_i, v_i = i / (SHARE_STEPS − 1); the last row is :attr:`lut`.
+
+        Without :attr:`gaussian_lut` the table is :attr:`lut`. With it, the table
+        is G + √v (lut − G), G = :attr:`gaussian_lut`: a filtered value averages
+        the noise over about 1/v independent parts, so its skewness falls as √v
+        and its table moves towards the Gaussian one; at v = 0 the row is G
+        averaged over a standard Gaussian, the example's mean."""
         from scipy.ndimage import gaussian_filter1d
 
         step = 2.0 * GAUSS_RANGE / (self.lut.shape[1] - 1)
         out = np.empty((SHARE_STEPS,) + self.lut.shape)
+        base = self.lut if self.gaussian_lut is None else self.gaussian_lut
         for i, v in enumerate(np.linspace(0.0, 1.0, SHARE_STEPS)):
             sigma = np.sqrt(max(1.0 - v, 0.0)) / step
+            table = base + np.sqrt(v) * (self.lut - base) if self.gaussian_lut is not None else self.lut
             # "nearest" extends each table by its end values: the clamp that to_colours applies
-            out[i] = gaussian_filter1d(self.lut, sigma, axis=1, mode="nearest", truncate=6.0) if sigma > 0 else self.lut
+            out[i] = gaussian_filter1d(table, sigma, axis=1, mode="nearest", truncate=6.0) if sigma > 0 else table
         out[-1] = self.lut
         out.setflags(write=False)
         return out
@@ -322,8 +451,11 @@ class HistogramTransform:
     # ------------------------------------------------------------------ files
     def to_json(self) -> str:
         """The transform as JSON; float64 values round-trip exactly."""
-        return json.dumps({"version": 1, "gauss_range": GAUSS_RANGE, "matrix": self.matrix.tolist(),
-                           "centre": self.centre.tolist(), "lut": self.lut.tolist()}, allow_nan=False)
+        d = {"version": 1, "gauss_range": GAUSS_RANGE, "matrix": self.matrix.tolist(),
+             "centre": self.centre.tolist(), "lut": self.lut.tolist()}
+        if self.gaussian_lut is not None:
+            d["gaussian_lut"] = self.gaussian_lut.tolist()
+        return json.dumps(d, allow_nan=False)
 
     @classmethod
     def from_json(cls, raw: str, where: str) -> HistogramTransform:
@@ -340,12 +472,13 @@ class HistogramTransform:
         if not isinstance(d, dict) or d.get("version") != 1 or d.get("gauss_range") != GAUSS_RANGE:
             raise bad(f"expected version 1 over the Gaussian range ±{GAUSS_RANGE:g}")
         try:
+            glut = d.get("gaussian_lut")
             return cls(np.array(d["matrix"], np.float64), np.array(d["centre"], np.float64),
-                       np.array(d["lut"], np.float64))
+                       np.array(d["lut"], np.float64), None if glut is None else np.array(glut, np.float64))
         except TextonError as exc:  # a ValueError too: first
             raise bad(str(exc).removeprefix("histogram transform: ")) from None
         except (KeyError, TypeError, ValueError):
-            raise bad("matrix, centre and lut must be arrays of numbers") from None
+            raise bad("matrix, centre, lut (and gaussian_lut) must be arrays of numbers") from None
 
 
 def _finite(a, name: str) -> np.ndarray:

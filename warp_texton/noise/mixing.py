@@ -315,8 +315,7 @@ def mix_textons(
         texton.metadata.update(rho=rho, periodic=bool(periodic))
         if transforms is not None:
             tu, tv = transforms
-            texton = replace(texton, histogram=HistogramTransform(
-                tu.matrix, (1.0 - rho) * tu.centre + rho * tv.centre, (1.0 - rho) * tu.lut + rho * tv.lut))
+            texton = replace(texton, histogram=tu.mixed(tv, rho))
         out.append(texton)
     return out
 
