@@ -181,6 +181,46 @@ def test_device_code_lives_in_kernels():
             assert banned not in src, f"kernels/{path.name} uses {banned}: kernels read no files, parse no options"
 
 
+#: Warp's allocators: without ``device=`` they use Warp's default device, which is "cuda:0" on a GPU machine.
+ALLOCATORS = {"array", "empty", "zeros", "full", "ones", "clone", "empty_like", "zeros_like"}
+
+
+def unscoped_allocations(tree) -> list[int]:
+    """Lines of ``wp.<allocator>(...)`` calls that give no ``device=`` and are not inside
+    ``with wp.ScopedDevice(...)``, nor in a function whose docstring says it works "on the current device"."""
+    found: list[int] = []
+
+    def visit(node, scoped):
+        if isinstance(node, ast.With) and any(isinstance(i.context_expr, ast.Call)
+                                              and getattr(i.context_expr.func, "attr", "") == "ScopedDevice"
+                                              for i in node.items):
+            scoped = True
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and "current device" in (ast.get_docstring(node) or ""):
+            scoped = True
+        if (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr in ALLOCATORS
+                and isinstance(node.func.value, ast.Name) and node.func.value.id == "wp"
+                and not scoped and not any(k.arg == "device" for k in node.keywords)):
+            found.append(node.lineno)
+        for child in ast.iter_child_nodes(node):
+            visit(child, scoped)
+
+    visit(tree, False)
+    return found
+
+
+def test_every_warp_allocation_names_its_device():
+    # the last GPU pass crashed a CPU launch whose output array went to Warp's default device (cuda:0)
+    for name, tree in host_modules().items():
+        assert not unscoped_allocations(tree), f"{name}: lines {unscoped_allocations(tree)} allocate on Warp's default device"
+
+
+def test_the_allocation_rule_sees_a_missing_device():
+    bad = ast.parse("def f(x, device):\n    return wp.array(x, dtype=float)\n")
+    good = ast.parse("def f(x, device):\n    with wp.ScopedDevice(device):\n        return wp.array(x)\n"
+                     "def g(x, device):\n    return wp.empty(3, device=device)\n")
+    assert unscoped_allocations(bad) == [2] and unscoped_allocations(good) == []
+
+
 def kernel_modules():
     import warp_texton.kernels as pkg
 
