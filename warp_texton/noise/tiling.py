@@ -138,6 +138,22 @@ def _lanes(model: TilingModel, device):
 #: Pixels per thread of ``tiling_runs`` (one vertex cache per run).
 RUN_CPU = 64
 RUN_CUDA = 4
+#: Whether CPU rasters run the native run loop's vector form (kernels/noise_tiling_native.py) where it was
+#: built; False: its plain C++ form. Both give ``tiling_runs``' values bit for bit.
+SIMD = True
+
+
+def simd_loops(device="cpu") -> str:
+    """The form of the tiling raster's CPU run loop (kernels/noise_tiling_native.py) that runs:
+    "avx512", "avx2" or "neon" where its vector form was compiled for that instruction set,
+    "scalar" otherwise (other CPUs, CUDA, or :data:`SIMD` off): all give the same values."""
+    wp = init_warp()
+    device = resolve_device(device)
+    if not is_cpu(device) or not SIMD:
+        return "scalar"
+    flag = wp.zeros(1, dtype=int, device=device)
+    wp.launch(noise_tiling.tiling_simd_probe, dim=1, inputs=[flag], device=device)
+    return ("scalar", "neon", "avx2", "avx512")[int(flag.numpy()[0])]
 
 
 def tiling_pixels(model: TilingModel, shape, origin, step, first, seed: int, device, period=None,
@@ -165,6 +181,7 @@ def tiling_pixels(model: TilingModel, shape, origin, step, first, seed: int, dev
     sy = wp.vec2d(float(step[0, 1]), float(step[1, 1]))
     run = RUN_CPU if is_cpu(device) else RUN_CUDA
     skip = skip_below(model)
+    native = is_cpu(device) and model.guide_weight == 0.0
 
     def launch(r0, r1):
         if r1 > r0:
@@ -172,8 +189,13 @@ def tiling_pixels(model: TilingModel, shape, origin, step, first, seed: int, dev
             t = tiling_struct(model, seed, device)
             lat = lattice_struct(model, period)
             at = wp.vec2i(int(first[0]) + r0, int(first[1]))
-            wp.launch(noise_tiling.tiling_runs, dim=(r1 - r0, -(-w // run)),
-                      inputs=[t, lat, example, mean, skip, o, sx, sy, at, run, out[r0:r1]], device=device)
+            if native:  # the CPU's native run loop (guide_weight 0)
+                wp.launch(noise_tiling.tiling_runs_native, dim=(r1 - r0, -(-w // run)),
+                          inputs=[t, lat, example, mean, skip, o, sx, sy, at, run, int(SIMD), out[r0:r1]],
+                          device=device)
+            else:
+                wp.launch(noise_tiling.tiling_runs, dim=(r1 - r0, -(-w // run)),
+                          inputs=[t, lat, example, mean, skip, o, sx, sy, at, run, out[r0:r1]], device=device)
 
     split_launch(device, noise_tiling, h, launch)
     if host is not None:
