@@ -15,7 +15,7 @@ import weakref
 
 import numpy as np
 
-from ..core.runtime import init_warp, is_cpu, resolve_device, split_launch
+from ..core.runtime import CHUNKS_PER_THREAD, init_warp, is_cpu, resolve_device, split_launch
 from ..kernels import noise_tiling
 from ..core.errors import TextonError
 from ..model.tiling import TilingModel
@@ -141,6 +141,8 @@ RUN_CUDA = 4
 #: Whether CPU rasters run the native run loop's vector form (kernels/noise_tiling_native.py) where it was
 #: built; False: its plain C++ form. Both give ``tiling_runs``' values bit for bit.
 SIMD = True
+#: Parts per CPU thread of a native raster (a launch costs about 0.1 ms of Python, the loop about 6-11 ns a pixel).
+PARTS_NATIVE = 1
 
 
 def simd_loops(device="cpu") -> str:
@@ -197,7 +199,8 @@ def tiling_pixels(model: TilingModel, shape, origin, step, first, seed: int, dev
                 wp.launch(noise_tiling.tiling_runs, dim=(r1 - r0, -(-w // run)),
                           inputs=[t, lat, example, mean, skip, o, sx, sy, at, run, out[r0:r1]], device=device)
 
-    split_launch(device, noise_tiling, h, launch)
+    # the native loop's launches cost more than their rows at small sizes: fewer, longer parts
+    split_launch(device, noise_tiling, h, launch, per_thread=PARTS_NATIVE if native else CHUNKS_PER_THREAD)
     if host is not None:
         tiling_colours(model, host)
         return host
