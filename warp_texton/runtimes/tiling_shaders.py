@@ -224,7 +224,9 @@ def tiling_glsl_files(model: TilingModel, seed: int = 0) -> dict[str, bytes]:
     return files
 
 
-_PREVIEW_MAIN = """
+#: The preview's (and the viewer's WebGL2 mode's) main(): pixel (i, j) of a w × h window (top row
+#: first) at tn_centre + tn_step_x (j + ½ − w/2) + tn_step_y (i + ½ − h/2) from P(tn_anchor).
+PREVIEW_MAIN = """
 uniform ivec2 tn_anchor;
 uniform vec2 tn_frac;
 uniform vec2 tn_centre;
@@ -304,7 +306,7 @@ def _preview(model, seed, source, tex, shape, scale, rotation, offset, anchored:
     h, w = shape
     caption = (f"tiling model, {w} x {h} pixels: example {model.example.shape[1]} x {model.example.shape[0]}, "
                f"side {model.side:g}, sharpness {model.sharpness}, seed {seed}")
-    data = {"library": source, "main": _PREVIEW_MAIN, "width": w, "height": h, "channels": model.channels,
+    data = {"library": source, "main": PREVIEW_MAIN, "width": w, "height": h, "channels": model.channels,
             "placement": _placement(model, shape, scale, rotation, offset, anchored), "caption": caption,
             "textures": texture_data(tex)}
     return page_html(f"warp-texton: tiling model ({w} x {h})", w, h, data, _PREVIEW_BOOT)
