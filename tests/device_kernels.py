@@ -96,3 +96,10 @@ def shares_at(noise: td.FilteredNoise, cmap: td.ColourMap, footprints: wp.array(
 def tiling_at(t: td.Tiling, points: wp.array(dtype=wp.vec2d), out: wp.array(dtype=wp.vec3)):
     k = wp.tid()
     out[k] = td.tiling_value(t, points[k])
+
+
+@wp.kernel
+def tiling_colour_at(t: td.Tiling, cmap: td.ColourMap, points: wp.array(dtype=wp.vec2d),
+                     out: wp.array(dtype=wp.vec3)):
+    k = wp.tid()
+    out[k] = td.colour_value(cmap, td.tiling_value(t, points[k]))

@@ -134,7 +134,7 @@ def test_surface_colour_is_surface_noise(rgb, device):
 
 
 def test_pack_colours_refuses():
-    with pytest.raises(TextonError, match="texton must be a Texton, got ndarray"):
+    with pytest.raises(TextonError, match="texton must be a Texton or a TilingModel, got ndarray"):
         td.pack_colours(np.zeros((4, 4, 1)))
 
 

@@ -15,9 +15,9 @@ import pytest
 import warp as wp
 
 import device_kernels as user
-from warp_texton import TextonError, evaluate, synthesize
+from warp_texton import TextonError, analyze, evaluate, synthesize
 from warp_texton.model.tiling import TilingModel
-from warp_texton.runtimes import pack_tiling
+from warp_texton.runtimes import pack_colours, pack_tiling
 from warp_texton.runtimes import warp_api as td
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -64,14 +64,54 @@ def test_user_kernel_is_evaluate(name, device):
         assert want.std() > 0.1  # not a constant
 
 
+def preserving(channels: int, seed: int = 0, **kw) -> TilingModel:
+    """A histogram-preserving model (the Gaussianised example and the per-channel tables) of skewed,
+    8-bit-like values: the tables change the blend's values by a good part of the range."""
+    u = np.round(example(channels, seed) ** 2.5 * 255) / 255
+    return analyze(u.astype(np.float32), method="tiling", histogram="preserve", **kw)
+
+
+@pytest.mark.parametrize("channels, side, guide", [(1, 20, 0.0), (3, 13.7, 1.5)], ids=["grey", "rgb_guide"])
+def test_user_kernel_maps_the_blend_with_the_tables(channels, side, guide, device):
+    """pack_tiling + pack_colours: colour_value(cmap, tiling_value(t, x)) in a user's kernel is
+    evaluate's value of a histogram-preserving model, bit for bit on the CPU (the host maps with the
+    same functions there); on CUDA within 1e-5 of the range (texton noise's bound,
+    tests/runtimes/test_histogram_runtimes.py)."""
+    m = preserving(channels, 3)
+    model = TilingModel(m.example, side, 8, guide, {}, m.blend, m.histogram)
+    rng = np.random.default_rng(4)
+    pts = np.concatenate([rng.uniform(-500, 500, (2000, 2)), rng.uniform(-1e8, 1e8, (200, 2))])
+    t = pack_tiling(model, seed=7, device=device)
+    cmap = pack_colours(model, device=device)
+    assert int(cmap.enabled) == 1 and cmap.tables.shape == (33, channels, 1024)
+    out = wp.zeros(len(pts), dtype=wp.vec3, device=device)
+    wp.launch(user.tiling_colour_at, dim=len(pts), inputs=[t, cmap, wp.array(pts, dtype=wp.vec2d, device=device)],
+              outputs=[out], device=device)
+    got = out.numpy()[:, :channels]
+    want = evaluate(model, pts, seed=7, device=device)
+    if device == "cpu":
+        assert np.array_equal(got, want)
+    else:
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-5 * float(np.ptp(want)))
+    # the tables were applied: the blend alone (Gaussianised values) is far from the colours
+    blend = evaluate(TilingModel(model.example, side, 8, guide, {}, model.blend), pts, seed=7, device=device)
+    assert np.abs(blend - want).max() > 0.5
+    assert want.min() >= 0.0 and want.max() <= 1.0 + 1e-6
+
+
 def test_docs_example_is_synthesize(device):
     ex = example_module()
     model = TilingModel(example(3, 4), 16.0, 8, 0.0, {}, "variance")
-    for place in (dict(), dict(scale=0.7, rotation=30.0, offset=(1.0e6 + 0.25, -3.5)),
-                  dict(scale=2.5, rotation=-100.0, offset=(-77.0, 12.125))):
-        got = ex.window(model, (24, 40), seed=9, device=device, **place)
-        want = synthesize(model, (24, 40), seed=9, device=device, **place)
-        assert np.array_equal(got, want)
+    hist = preserving(3, 5, side=16)
+    places = (dict(), dict(scale=0.7, rotation=30.0, offset=(1.0e6 + 0.25, -3.5)),
+              dict(scale=2.5, rotation=-100.0, offset=(-77.0, 12.125)))
+    for m, place in [(model, p) for p in places] + [(hist, dict(scale=1.3, rotation=-20.0, offset=(5.5e4, 9.0)))]:
+        got = ex.window(m, (24, 40), seed=9, device=device, **place)
+        want = synthesize(m, (24, 40), seed=9, device=device, **place)
+        if device == "cpu" or m.histogram is None:
+            assert np.array_equal(got, want)
+        else:  # the tables map on the host (CPU) for synthesize, on the GPU in the kernel
+            np.testing.assert_allclose(got, want, rtol=0, atol=1e-5 * float(np.ptp(want)))
 
 
 def test_docs_example_runs(tmp_path):

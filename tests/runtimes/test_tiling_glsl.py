@@ -39,6 +39,9 @@ def models():
         "rgb": analyze(brick(3), method="tiling"),
         # a fractional side, linear blend, sharpness 4 and the luminance guide (exp in the weights)
         "guide": TilingModel(brick(3), 37.3, 4, 2.0, {}, "linear"),
+        # histogram-preserving: the Gaussianised example blended, then the per-channel tables
+        "hist_grey": analyze(brick(1), method="tiling", histogram="preserve"),
+        "hist_rgb": with_tables(analyze(brick(3), method="tiling", histogram="preserve"), 41.3, 8, 1.0),
     }
 
 
@@ -68,6 +71,8 @@ CASES = {
     "rgb_placed": dict(model="rgb", seed=4, scale=1.6, rotation=-40.0, offset=(55.5, 1000.0)),
     "rgb_far": dict(model="rgb", seed=5, scale=0.5, rotation=10.0, offset=(1.0e6, -3.0e7)),
     "guide_placed": dict(model="guide", seed=2**32 - 1, scale=0.9, rotation=70.0, offset=(-5000.0, 20.0)),
+    "hist_grey_scale1": dict(model="hist_grey", seed=6),
+    "hist_rgb_placed": dict(model="hist_rgb", seed=7, scale=0.8, rotation=15.0, offset=(2.0e5, -640.5)),
 }
 
 
@@ -93,6 +98,19 @@ def test_preview_equals_synthesize(case, models, browser, tmp_path, record_prope
     assert fraction >= MIN_AGREEMENT
     if c == 1:  # the canvas shows the grey value in every channel
         assert np.array_equal(got[..., 0], got[..., 1])
+    if model.histogram is not None:  # the page applied the tables: the blend alone is far from it
+        blend = synthesize(without_tables(model), SHAPE, device="cpu", **kw)
+        assert np.abs(blend - ref).max() > 0.5
+
+
+def with_tables(model: TilingModel, side: float, sharpness: int, guide_weight: float) -> TilingModel:
+    """A histogram-preserving model's example and tables with another side, sharpness and guide weight."""
+    return TilingModel(model.example, side, sharpness, guide_weight, {}, model.blend, model.histogram)
+
+
+def without_tables(model: TilingModel) -> TilingModel:
+    """The same blend of the same (Gaussianised) example, without the histogram tables."""
+    return TilingModel(model.example, model.side, model.sharpness, model.guide_weight, {}, model.blend)
 
 
 @pytest.mark.slow
@@ -151,6 +169,28 @@ def test_export_writes_its_files(models, tmp_path):
     assert not (out / "tiling_example.f32").exists() and (out / "texton_coeffs.f32").is_file()
     export_shader(model, "glsl", out, overwrite=True)
     assert not (out / "texton_coeffs.f32").exists() and (out / "tiling_example.f32").is_file()
+
+
+def test_export_carries_the_tables(models, tmp_path):
+    """A histogram-preserving model's export adds its tables as tiling_colours.f32 (the unfiltered
+    inverse-CDF table the host maps with, channel c in component c); a model without tables has none,
+    and its library passes the blend through (TL_HISTOGRAM false)."""
+    model = models["hist_rgb"]
+    out = export_shader(model, "glsl", tmp_path / "ex", seed=3)
+    assert sorted(p.name for p in out.iterdir()) == ["preview.html", "texton_noise.js", "texton_noise.json",
+                                                     "tiling_colours.f32", "tiling_example.f32", "tiling_noise.glsl"]
+    meta = json.loads((out / "texton_noise.json").read_text())
+    assert meta["textures"]["tiling_colours"] == {"file": "tiling_colours.f32", "width": 1024, "height": 1,
+                                                  "format": "RGBA32F"}
+    tables = np.fromfile(out / "tiling_colours.f32", "<f4").reshape(1024, 4)
+    assert np.array_equal(tables[:, :3], model.histogram.prefiltered[-1].T.astype(np.float32))
+    assert not tables[:, 3].any()
+    assert np.array_equal(np.fromfile(out / "tiling_example.f32", "<f4").reshape(256, 256, 4)[..., :3], model.example)
+    assert "const bool TL_HISTOGRAM = true;" in (out / "tiling_noise.glsl").read_text()
+    # back to a model without tables: its export removes the tables' file
+    export_shader(models["rgb"], "glsl", out, overwrite=True)
+    assert not (out / "tiling_colours.f32").exists()
+    assert "const bool TL_HISTOGRAM = false;" in (out / "tiling_noise.glsl").read_text()
 
 
 @pytest.mark.parametrize("kwargs, match", [

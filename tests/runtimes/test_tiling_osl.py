@@ -13,7 +13,7 @@ import pytest
 
 from test_shader_osl import (EXACT_PIXELS, EXACT_TEXEL, MIN_AGREEMENT, SIZE, TOLERANCE, agreement, exact_point_source,
                              jitter_box, pixel_centres, plane_mesh, render)
-from warp_texton import TextonError, evaluate, export_shader
+from warp_texton import TextonError, analyze, evaluate, export_shader
 from warp_texton.model.tiling import TilingModel
 from warp_texton.runtimes import tiling_shaders as ts
 from warp_texton.surface.mesh import srgb_to_linear
@@ -36,7 +36,16 @@ CASES = [
     (lambda: TilingModel(brick(1), 32.0, 16, 0.0, {}, "variance"), 3, "object", 0.01, "Color"),
     (lambda: TilingModel(brick(3), 32.0, 16, 0.0, {}, "variance"), 2**31 + 9, "input", 0.004, "Color"),
     (lambda: TilingModel(brick(3), 21.7, 4, 2.0, {}, "linear"), 11, "object", 0.02, "Linear"),
+    # histogram-preserving: the tables embedded, applied after the blend
+    (lambda: preserving(3), 5, "object", 0.01, "Color"),
+    (lambda: preserving(1), 2**32 - 2, "input", 0.004, "Color"),
 ]
+
+
+def preserving(channels: int) -> TilingModel:
+    """A histogram-preserving model of the brick (its Gaussianised example and tables), side 23.5, guide 1."""
+    m = analyze(brick(channels), method="tiling", histogram="preserve")
+    return TilingModel(m.example, 23.5, 8, 1.0, {}, m.blend, m.histogram)
 
 
 @pytest.mark.slow
@@ -80,7 +89,8 @@ def test_shader_at_exact_points(tmp_path):
     # number here and there) the render differs from evaluate by float rounding only: a vertex
     # whose hash, draws or whole-texel position differed would shift its patch by texels,
     # changing its pixels by a good part of the range.
-    models = [TilingModel(brick(1), 32.0, 16, 0.0, {}, "variance"), TilingModel(brick(3), 21.7, 4, 2.0, {}, "linear")]
+    models = [TilingModel(brick(1), 32.0, 16, 0.0, {}, "variance"), TilingModel(brick(3), 21.7, 4, 2.0, {}, "linear"),
+              preserving(3)]
     jobs = []
     for n, model in enumerate(models):
         osl = tmp_path / f"exact_{n}.osl"
@@ -111,6 +121,10 @@ def test_files_and_refusals(tmp_path):
     assert meta["settings"]["method"] == "tiling" and meta["settings"]["texel_size"] == 0.25
     guided = ts.tiling_osl_files(TilingModel(brick(3, 8), 12.0, 16, 1.0), 0)[ts.OSL_FILE].decode()
     assert f"float T[{64 * 64 * 4}]" in guided  # the guide travels as a fourth value a texel
+    assert "float L[" not in source  # no tables: the blend as it is
+    hist = analyze(brick(3, 8), method="tiling", side=12, histogram="preserve")
+    mapped = ts.tiling_osl_files(hist, 0)[ts.OSL_FILE].decode()
+    assert f"float L[{3 * 1024}]" in mapped and f"float T[{64 * 64 * 3}]" in mapped  # the tables embedded
     with pytest.raises(TextonError, match="too large for an OSL shader"):
         ts.tiling_osl_files(TilingModel(np.zeros((600, 512, 3), np.float32), 8.0))
     with pytest.raises(TextonError, match="filter do not apply"):

@@ -33,8 +33,8 @@ META_FILES = ("texton_noise.json", "texton_noise_osl.json")
 #: this export does not write it, removes. Other files in the folder are the user's and stay.
 EXPORT_FILES = frozenset({"texton_noise.glsl", "texton_noise.js", "texton_coeffs.f32", "texton_pyramid.f32",
                           "texton_colours.f32", "texton_shares.f32", "preview.html", "texton_surface.osl",
-                          "texton_plane.osl", "tiling_noise.glsl", "tiling_example.f32", "tiling_plane.osl",
-                          *META_FILES})
+                          "texton_plane.osl", "tiling_noise.glsl", "tiling_example.f32", "tiling_colours.f32",
+                          "tiling_plane.osl", *META_FILES})
 
 
 def _files_of(lang: str):

@@ -54,6 +54,7 @@ from ..noise.engine import CELL_FACTOR, noise_setup, params_record
 from ..noise.noise_options import NoiseOptions
 from ..surface.points import surface_params, surface_setup
 from ..model.texton import Texton
+from ..model.tiling import TilingModel
 
 #: Floats of padded coefficients a shader embeds at most: a 256 × 256 RGB texton
 #: with its margin (a 4.7 MB source, which Blender compiles in about 2 s; the
@@ -126,7 +127,7 @@ def coefficient_array(coeffs: np.ndarray, channels: int) -> str:
     return ",\n".join(lines)
 
 
-def colour_map_code(texton: Texton) -> str:
+def colour_map_code(texton: Texton | TilingModel) -> str:
     """The statements that map the noise value g to the example's colours through the
     texton's histogram transform, as kernels/noise_colours.py ``colour_value`` does (the
     unfiltered table, embedded; float32 arithmetic in the same order); none without one."""

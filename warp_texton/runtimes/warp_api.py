@@ -14,7 +14,7 @@ kernel.
 | :func:`pack_filtered` | ``FilteredNoise`` | ``filtered_value(noise, x: wp.vec2d, J: wp.mat22) -> wp.vec3`` |
 | :func:`pack_surface` | ``SurfaceNoise`` | ``surface_value(noise, x: wp.vec3d, normal: wp.vec3d) -> wp.vec3``, ``surface_frame_value(noise, y: wp.vec3d, n: wp.vec3, u1: wp.vec3) -> wp.vec3`` |
 | :func:`pack_surface` (``channels=1``) | ``SurfaceNoise1`` | ``surface_value(noise, x, normal) -> float``, ``surface_frame_value(noise, y, n, u1) -> float`` |
-| :func:`pack_tiling` | ``Tiling`` | ``tiling_value(t, x: wp.vec2d) -> wp.vec3`` (a tiling model, docs/tiling.md) |
+| :func:`pack_tiling` | ``Tiling`` | ``tiling_value(t, x: wp.vec2d) -> wp.vec3`` (a tiling model's blend, docs/tiling.md; its colours: ``colour_value`` of :func:`pack_colours`) |
 | :func:`pack_colours` | ``ColourMap`` | ``colour_value(cmap, v: wp.vec3) -> wp.vec3``, ``filtered_colour(fnoise, cmap, x: wp.vec2d, J: wp.mat22) -> wp.vec3``, ``colour_share``, ``filtered_share``, ``footprint_share`` |
 
 The structs and functions are those of the package's own kernels
@@ -342,7 +342,7 @@ def pack_surface(
     return struct
 
 
-def pack_colours(texton: Texton, *, device=None) -> ColourMap:
+def pack_colours(texton: Texton | TilingModel, *, device=None) -> ColourMap:
     """The histogram transform of ``texton`` packed for ``colour_value`` and ``filtered_colour``.
 
     A texton analysed with ``analyze(..., histogram="preserve")`` evaluates
@@ -355,9 +355,14 @@ def pack_colours(texton: Texton, *, device=None) -> ColourMap:
 
     Parameters
     ----------
-    texton : Texton
+    texton : Texton or TilingModel
         Any texton: without a transform the functions return the values as
         they are (``cmap.enabled`` is 0), so one kernel serves both kinds.
+        A tiling model's tables (``histogram="preserve"``) map its blend:
+        ``colour_value(cmap, tiling_value(t, x))`` is ``evaluate``'s value
+        (:func:`pack_tiling`). Its struct holds no footprint shares (the
+        package filters such a model by supersampling only), so only
+        ``colour_value`` and ``colour_share`` apply to it.
     device : str, optional
         Where the struct's arrays live, as in :func:`pack_plane`.
 
@@ -387,8 +392,8 @@ def pack_colours(texton: Texton, *, device=None) -> ColourMap:
     Raises
     ------
     TextonError
-        For a ``texton`` that is not a Texton, a bad ``device``, or a texton
-        whose share table exceeds the memory budget.
+        For a ``texton`` that is not a Texton or a TilingModel, a bad ``device``,
+        or a texton whose share table exceeds the memory budget.
 
     Examples
     --------
@@ -399,8 +404,10 @@ def pack_colours(texton: Texton, *, device=None) -> ColourMap:
     >>> int(cmap.enabled), cmap.tables.shape
     (1, (33, 1, 1024))
     """
+    if isinstance(texton, TilingModel):
+        return make_colour_map(texton, resolve_device(device), False)
     if not isinstance(texton, Texton):
-        raise TextonError(f"texton must be a Texton, got {type(texton).__name__}", param="texton")
+        raise TextonError(f"texton must be a Texton or a TilingModel, got {type(texton).__name__}", param="texton")
     return make_colour_map(texton, resolve_device(device), True)
 
 
@@ -428,11 +435,15 @@ def pack_tiling(model: TilingModel, *, seed: int = 0, device=None) -> Tiling:
         scale, (i + ½) / scale)``, computed in float64, and gives ``tiling_value`` there
         bit for bit too. Points stay within ±2³⁰ texels (what ``evaluate`` accepts).
 
+        A histogram-preserving model (``analyze(..., method="tiling", histogram="preserve")``)
+        blends its Gaussianised example: ``tiling_value`` is the blend, and the package's
+        outputs are its colours, ``colour_value(pack_colours(model), tiling_value(t, x))``
+        (the texton noise's tables and function; a model without tables passes through it).
+
     Raises
     ------
     TextonError
-        For a ``model`` that is not a TilingModel (or one with a histogram transform,
-        which the struct does not carry), a bad ``seed`` or ``device``.
+        For a ``model`` that is not a TilingModel, a bad ``seed`` or ``device``.
 
     Examples
     --------
@@ -449,7 +460,4 @@ def pack_tiling(model: TilingModel, *, seed: int = 0, device=None) -> Tiling:
     if not isinstance(model, TilingModel):
         raise TextonError(f"model must be a TilingModel (analyze(..., method='tiling')), got {type(model).__name__}",
                           param="model")
-    if getattr(model, "histogram", None) is not None:
-        raise TextonError("a tiling model with a histogram transform is not packed by pack_tiling yet: the "
-                          "Tiling struct holds the blend only (docs/tiling.md)", param="model")
     return tiling_struct(model, check_seed(seed), resolve_device(device))

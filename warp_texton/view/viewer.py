@@ -17,8 +17,8 @@ that reproduce them (:mod:`~warp_texton.view.commands`).
 
 A tiling model file (``analyze(..., method="tiling")``) is shown too: its tiles,
 exports and panel are the same functions of ``synthesize`` (offset, scale,
-rotation, seed), drawn by the server's kernels. The page's WebGL mode draws
-texton models only (:data:`WEBGL_TILING`, the hook for a GLSL port of tiling);
+rotation, seed), drawn by the server's kernels; the page's WebGL2 mode draws
+its unfiltered views with the model's GLSL port (:data:`WEBGL_TILING`);
 the filters, the ground plane and seamless tiles are offered for a tiling model
 where the package supports them for it (probed at start:
 :meth:`Viewer.tiling_support`); mixing takes textons and images only.
@@ -56,7 +56,7 @@ from .commands import plan_mix, plan_noise, plan_plane
 from .images import PNG_LEVEL, data_url, log_spectra, png_bytes, texton_picture
 from .inputs import (MAX_UPLOAD_BYTES, MAX_UPLOADS, Source, decode_upload, digest, load_source,
                           price_upload, safe_name)
-from .webgl import shader_payload
+from .webgl import shader_payload, tiling_payload
 from .queries import (ENLARGE, MAX_EXPORT_PIXELS, MAX_EXPORT_SIDE, MAX_PLANE_PIXELS, MAX_REACH,
                          MIX_STEPS, MIX_ZOOM, MNI_RANGE, ORDERS, TEXTON_SIZES, TILE_SIZES, VIEW_FILTERS, ZOOM_MAX,
                          ZOOM_MIN, Analysis, BadRequest, Mix, Noise, Plane, Query, Tile, Window, parse_analysis,
@@ -78,10 +78,10 @@ MAX_VIEW_WORK = 2.0e9
 MAX_KEPT_UPLOAD_BYTES = 256 << 20
 #: The smallest share of memory a slot may have.
 MIN_SLOT_BYTES = 64 << 20
-#: The page's WebGL2 mode for tiling models: None while the viewer has no GLSL program for them
-#: (the page then draws the server's tiles). The hook for the GLSL port of tiling
-#: (warp_texton.runtimes): a function model -> the payload of ``webgl.shader_payload``.
-WEBGL_TILING: Callable[[TilingModel], dict] | None = None
+#: The page's WebGL2 mode for tiling models: a function model -> the page's program
+#: (``webgl.tiling_payload``, the GLSL port of warp_texton.runtimes.tiling_shaders); None: the
+#: page draws the server's tiles for them.
+WEBGL_TILING: Callable[[TilingModel], dict] | None = tiling_payload
 
 
 class ClientGone(Exception):

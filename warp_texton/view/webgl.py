@@ -13,6 +13,14 @@ Poisson sampler's constants, λ and √λ) and the filter's mode and level bias.
 The page computes them from the MNI as the exporter does in float32
 (``shader_glsl.poisson_constants``; the viewer's WebGL test compares both),
 from the cell size and the texton's support area given here.
+
+A tiling model (``analyze(..., method="tiling")``) is drawn with its GLSL port
+(:mod:`warp_texton.runtimes.tiling_shaders`, the export's library and
+textures, a histogram-preserving model's tables included) by
+:func:`tiling_payload`: its one view uniform is the seed (``TL_SEED``); the
+page places the view's centre on the model's triangle lattice in float64 (as
+``tiling_anchor`` does) and draws the unfiltered blend, so the filter "none"
+alone is drawn (the tiles draw the others).
 """
 
 from __future__ import annotations
@@ -25,7 +33,9 @@ from ..noise.filter_options import FilterOptions
 from ..noise.engine import CELL_FACTOR, MAX_CELL_MEAN
 from ..noise.noise_options import NoiseOptions
 from ..runtimes.glsl import FILTER_MODES, glsl_noise, texture_data
+from ..runtimes import tiling_shaders
 from ..model.texton import Texton
+from ..model.tiling import TilingModel
 
 #: The library's constants the page sets as uniforms, with their GLSL types.
 VIEW_UNIFORMS = {"TN_SEED": "uint", "TN_MEAN_COUNT": "float", "TN_SQRT_MEAN_COUNT": "float",
@@ -86,4 +96,30 @@ def shader_payload(texton: Texton, *, filters, cell_factor: float = CELL_FACTOR)
                            "bias": float(np.float32(o.bias if o.spec.footprint else 0.0))}
                     for name, o in options.items()},
         "texton": f"{texton.size[1]}×{texton.size[0]}, order {texton.order}",
+    }
+
+
+#: The uniforms of a tiling model's library in the viewer: the seed.
+TILING_UNIFORMS = {"TL_SEED": "uint"}
+
+
+def tiling_payload(model: TilingModel) -> dict:
+    """The page's WebGL2 program for a tiling model: its GLSL library (the export's, the
+    seed a uniform), the preview's main, the textures (the example and guide, a
+    histogram-preserving model's tables), and what the page places the view with: the
+    lattice side (float32, as the kernels hold it) and √3/2. Its one filter is "none"."""
+    model = tiling_shaders.check_model(model)
+    h, w, c = model.example.shape
+    return {
+        "kind": "tiling",
+        "library": with_uniforms(tiling_shaders.glsl_source(model, 0), TILING_UNIFORMS),
+        "main": tiling_shaders.PREVIEW_MAIN,
+        "textures": texture_data(tiling_shaders.textures(model)),
+        "channels": c,
+        "side": float(np.float32(model.side)),
+        "sqrt3_2": tiling_shaders.SQRT3_2,
+        "filters": {"none": {"mode": 0, "bias": 0.0}},
+        "refused": "the WebGL2 mode draws a tiling model unfiltered (filter none)",
+        "texton": f"tiling model of a {w}×{h} example, side {model.side:g}"
+                  + (", histogram preserved" if model.histogram is not None else ""),
     }

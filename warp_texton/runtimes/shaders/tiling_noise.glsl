@@ -12,15 +12,21 @@
 // Entry points (x in noise units: texels of the example at scale 1, y down as in the package's rasters):
 //   vec3 tiling_noise(vec2 x)                                 x near the origin (|x| up to ~10^4)
 //   vec3 tiling_noise_at(ivec2 anchor, vec2 frac, vec2 rel)   x = P(anchor) + rel, anywhere
+//   vec3 tiling_blend(vec2 x), tiling_blend_at(...)             the blend before the histogram tables
+//   vec3 tiling_colour(vec3 v)                                  the tables applied to a blended value
 // where anchor = (a, b) is a lattice vertex, p(a, b) = side (a + b/2, b sqrt(3)/2) its position,
 // P(a, b) = floor(p(a, b) + 1/2) that position rounded to whole texels (computed in float64 by
 // the host: warp_texton.runtimes.tiling_shaders.tiling_anchor) and frac = p(a, b) - P(a, b).
 // Texture (RGBA32F, read with texelFetch, no filtering): tiling_example, the example's texels
 // in RGB (grey examples in R), the standardised luminance guide in A; row 0 is the example's top row.
+// A histogram-preserving model (TL_HISTOGRAM) adds tiling_colours: its inverse-CDF tables (one row,
+// K texels, channels in RGB), which tiling_noise* apply after the blend as kernels/noise_colours.py
+// colour_value does (texton noise's tables: texton_noise.glsl, texton_colour).
 precision highp float;
 precision highp int;
 
 uniform highp sampler2D tiling_example;
+uniform highp sampler2D tiling_colours;
 
 //@CONSTANTS@
 
@@ -101,7 +107,7 @@ float tl_sharpened(float w, float dg) {
     return k;
 }
 
-vec3 tiling_noise_at(ivec2 anchor, vec2 frac, vec2 rel) {
+vec3 tiling_blend_at(ivec2 anchor, vec2 frac, vec2 rel) {
     // the triangle: skewed coordinates of x - p(anchor), the lattice's vertices on Z^2
     vec2 d = rel - frac;
     float qx = d.x / TL_SIDE;
@@ -152,7 +158,42 @@ vec3 tiling_noise_at(ivec2 anchor, vec2 frac, vec2 rel) {
     return TL_MEAN + acc;
 }
 
-vec3 tiling_noise(vec2 x) {
+// ---------------------------------------------------------------- colours (histogram tables)
+// A histogram-preserving model blends its Gaussianised example; each channel of the blend is
+// standardised with the blend's mean and standard deviation, looked up in its inverse-CDF table
+// (linear, clamped to the Gaussian grid [-TL_GAUSS_RANGE, TL_GAUSS_RANGE]) and rotated back by
+// TL_COLOUR_MATRIX. Without tables (TL_HISTOGRAM false) the values pass through.
+float tl_table(int c, float g) {
+    float k = float(TL_LUT_SIZE - 1);
+    float pos = clamp((g + TL_GAUSS_RANGE) * (k / (2.0 * TL_GAUSS_RANGE)), 0.0, k);
+    int i0 = min(int(pos), TL_LUT_SIZE - 2);
+    float t = pos - float(i0);
+    return texelFetch(tiling_colours, ivec2(i0, 0), 0)[c] * (1.0 - t) +
+           texelFetch(tiling_colours, ivec2(i0 + 1, 0), 0)[c] * t;
+}
+
+vec3 tiling_colour(vec3 v) {
+    if (!TL_HISTOGRAM) return v;
+    vec3 z = vec3(0.0);
+    for (int c = 0; c < TL_CHANNELS; c++) z[c] = tl_table(c, (v[c] - TL_NOISE_MEAN[c]) / TL_NOISE_STD[c]);
+    vec3 out_ = v;
+    for (int r = 0; r < TL_CHANNELS; r++) {
+        float acc = TL_COLOUR_CENTRE[r];
+        for (int c = 0; c < TL_CHANNELS; c++) acc += z[c] * TL_COLOUR_MATRIX[r][c];
+        out_[r] = acc;
+    }
+    return out_;
+}
+
+vec3 tiling_blend(vec2 x) {
     // the anchor (0, 0): p(0, 0) = P(0, 0) = 0
-    return tiling_noise_at(ivec2(0), vec2(0.0), x);
+    return tiling_blend_at(ivec2(0), vec2(0.0), x);
+}
+
+vec3 tiling_noise_at(ivec2 anchor, vec2 frac, vec2 rel) {
+    return tiling_colour(tiling_blend_at(anchor, frac, rel));
+}
+
+vec3 tiling_noise(vec2 x) {
+    return tiling_colour(tiling_blend(x));
 }

@@ -176,7 +176,7 @@
       $("render-note").textContent = "The WebGL2 context was lost: the server draws tiles.";
       changed();
     };
-    // a tiling model: no WebGL2 program on the server yet (info.supports.webgl), the tiles draw
+    // a model the server has no WebGL2 program for (info.supports.webgl false): the tiles draw
     const served = !(state.info.supports && state.info.supports.webgl === false);
     if (RENDER !== "tiles" && served) {
       try { gl = ViewerGL.mode(glCanvas, requestFrame, lost); } catch (e) { gl = null; }
@@ -186,7 +186,7 @@
     state.render = gl !== null && (RENDER === "webgl" || (RENDER === "auto" && !software)) ? "webgl" : "tiles";
     select.value = state.render;
     $("render-note").textContent = gl ? `WebGL2: ${gl.renderer}` + (software ? " (software: slower than tiles)" : "") :
-      !served ? "A tiling model: the server draws tiles (the WebGL2 mode draws texton models)." :
+      !served ? "No WebGL2 program for this model: the server draws tiles." :
       RENDER === "tiles" ? "" : "WebGL2 is not available here: the server draws tiles.";
   }
   function drawGL() {

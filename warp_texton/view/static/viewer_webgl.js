@@ -1,7 +1,8 @@
 // warp-texton view, WebGL2 mode: the page draws the noise itself with the exported GLSL library
 // (TextonNoise, /texton_noise.js, builds the program and uploads the texton). Only the texton comes
 // from the server (/api/shader, once per analysis setting); the view and the noise settings are
-// uniforms, so panning, zooming and the sliders redraw without a request.
+// uniforms, so panning, zooming and the sliders redraw without a request. A tiling model's payload
+// (kind "tiling") is its GLSL port: the seed is its one uniform, the view placed on its lattice.
 "use strict";
 (function (root) {
   const f = Math.fround;
@@ -24,6 +25,8 @@
   // noise refuses the MNI (the tiles then say why). λ = mni / area and a cell's mean count
   // λ · cw · ch in float64, then float32: noise_setup's and params_record's arithmetic.
   function noiseUniforms(payload, mni, seed, filter) {
+    // a tiling model: the seed alone, for its one filter (none)
+    if (payload.kind === "tiling") return payload.filters[filter] ? { TL_SEED: seed >>> 0 } : null;
     const lam = mni / payload.area;
     const mean = lam * payload.cell[0] * payload.cell[1];
     const flt = payload.filters[filter];
@@ -49,7 +52,28 @@
     };
   }
 
-  // The renderer of one texton on canvas (a WebGL2 context made by the caller).
+  // A tiling model's view (payload.kind "tiling"): the raster's centre placed on the model's
+  // triangle lattice in float64, as tiling_shaders.tiling_anchor places it: the lower-left vertex
+  // (a, b) of its lattice cell, frac = p(a, b) - P(a, b) and the centre relative to P(a, b), the
+  // vertex rounded to whole texels; then float32, with the steps per pixel (the preview's placement).
+  function tilingPlacement(payload, v) {
+    const th = v.rot * (Math.PI / 180), c = Math.cos(th), s = Math.sin(th);
+    const origin = [c * v.left - s * v.top, s * v.left + c * v.top];
+    const sx = [c / v.scale, s / v.scale], sy = [-s / v.scale, c / v.scale];
+    const x = [origin[0] + (sx[0] * (v.width / 2) + sy[0] * (v.height / 2)),
+               origin[1] + (sx[1] * (v.width / 2) + sy[1] * (v.height / 2))];
+    const side = payload.side, r = payload.sqrt3_2;
+    const qy = (x[1] / side) / r, qx = x[0] / side - qy * 0.5;
+    const a = Math.floor(qx), b = Math.floor(qy);
+    const p = [side * (a + b * 0.5), side * b * r];
+    const P = [Math.floor(p[0] + 0.5), Math.floor(p[1] + 0.5)];
+    return {
+      anchor: [a, b], frac: [f(p[0] - P[0]), f(p[1] - P[1])], centre: [f(x[0] - P[0]), f(x[1] - P[1])],
+      step_x: [f(sx[0]), f(sx[1])], step_y: [f(sy[0]), f(sy[1])],
+    };
+  }
+
+  // The renderer of one texton (or tiling model) on canvas (a WebGL2 context made by the caller).
   function create(gl, payload) {
     const specs = {};
     for (const [name, t] of Object.entries(payload.textures)) {
@@ -62,8 +86,20 @@
       if (!locations.has(name)) locations.set(name, gl.getUniformLocation(prog, name));
       return locations.get(name);
     };
+    function setTiling(u, v) {
+      gl.uniform1ui(loc("TL_SEED"), u.TL_SEED);
+      const at = tilingPlacement(payload, v);
+      gl.uniform2i(loc("tn_anchor"), at.anchor[0], at.anchor[1]);
+      gl.uniform2fv(loc("tn_frac"), at.frac);
+      gl.uniform2fv(loc("tn_centre"), at.centre);
+      gl.uniform2fv(loc("tn_step_x"), at.step_x);
+      gl.uniform2fv(loc("tn_step_y"), at.step_y);
+      gl.uniform1i(loc("tn_width"), v.width);
+      gl.uniform1i(loc("tn_height"), v.height);
+    }
     function set(u, v) {
       bind(prog);
+      if (payload.kind === "tiling") { setTiling(u, v); return; }
       gl.uniform1ui(loc("TN_SEED"), u.TN_SEED);
       for (const name of ["TN_MEAN_COUNT", "TN_SQRT_MEAN_COUNT", "TN_EXP_NEG_MEAN", "TN_LAM", "TN_SQRT_LAM",
                           "TN_LOD_BIAS"]) gl.uniform1f(loc(name), u[name]);
@@ -153,7 +189,7 @@
                                                           uniforms(noise) !== null),
       // why it does not
       failure: (key) => (lost ? "the WebGL2 context was lost" : failed.get(key) ||
-                         "the MNI is too high for this texton's cells"),
+                         (current && current.payload.refused) || "the MNI is too high for this texton's cells"),
       // draw a frame; returns 1 while the texton of key loads (the last frame stays), else 0
       draw(key, noise, view) {
         if (!current || current.key !== key) {
@@ -185,5 +221,5 @@
     };
   }
 
-  root.ViewerGL = { poissonConstants, noiseUniforms, placement, create, context, finish, mode };
+  root.ViewerGL = { poissonConstants, noiseUniforms, placement, tilingPlacement, create, context, finish, mode };
 })(typeof window !== "undefined" ? window : globalThis);
