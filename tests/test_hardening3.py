@@ -296,8 +296,12 @@ def test_every_file_an_export_writes_is_listed(tmp_path, grey_texton, preserving
     written = set()
     from warp_texton.model.tiling import TilingModel
 
-    tiling = TilingModel(np.random.default_rng(0).random((40, 40, 3)), 8.0)
-    for k, texton in enumerate((grey_texton, preserving_texton, tiling)):
+    from warp_texton import analyze
+
+    example = np.random.default_rng(0).random((40, 40, 3)).astype(np.float32)
+    tiling = TilingModel(example, 8.0)
+    preserving_tiling = analyze(example, method="tiling", side=8, histogram="preserve")  # + its tables' file
+    for k, texton in enumerate((grey_texton, preserving_texton, tiling, preserving_tiling)):
         for lang in ("glsl", "osl"):
             written |= set(os.listdir(export_shader(texton, lang, tmp_path / f"{lang}{k}")))
     assert written == EXPORT_FILES
