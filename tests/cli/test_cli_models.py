@@ -52,3 +52,15 @@ def test_what_cannot_take_a_tiling_model_says_so_in_one_line(files, capsys, argv
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and words in err and err.startswith("warp-texton: error:")
+
+
+def test_render_plane_takes_a_tiling_model_file(files, tmp_path, capsys):
+    # the CLI's view of the plane is render_plane of the loaded model (supersample: a histogram model's filter)
+    from warp_texton import load_texton, read_image, render_plane
+
+    out = tmp_path / "plane.exr"
+    assert main(["render-plane", str(files / "tiling.exr"), "-o", str(out), "--width", "24", "--height", "16",
+                 "--seed", "5", "--filter", "supersample"]) == 0
+    assert "24x16 plane, filter supersample, tiling model" in capsys.readouterr().out
+    want = render_plane(load_texton(files / "tiling.exr"), (16, 24), seed=5, filter="supersample", device="cpu")
+    np.testing.assert_array_equal(read_image(out), want)

@@ -257,6 +257,7 @@ def _render_plane_arguments(p: argparse.ArgumentParser) -> None:
 
 def _render_plane(args) -> None:
     from ..files.images import check_dtype, check_image_path, write_image
+    from ..model.tiling import TilingModel
     from ..noise.ground_plane import render_plane
 
     out = check_image_path(args.output)
@@ -269,8 +270,8 @@ def _render_plane(args) -> None:
                          filter=options, device=args.device, progress=show_progress(args))
     write_image(out, image, dtype=dtype, compression=args.compression)
     if not args.quiet:
-        print(f"{out}: {args.width}x{args.height} plane, filter {args.filter}, MNI {args.mni:g} "
-              f"({seconds_since(t0)})")
+        noise = "tiling model" if isinstance(texton, TilingModel) else f"MNI {args.mni:g}"
+        print(f"{out}: {args.width}x{args.height} plane, filter {args.filter}, {noise} ({seconds_since(t0)})")
 
 
 RENDER_PLANE = Command(
