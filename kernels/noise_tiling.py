@@ -167,6 +167,20 @@ def sharpened(w: float, squarings: int, guide_weight: float, dg: float):
 
 
 @wp.func
+def kept_normalised(k0: float, k1: float, k2: float):
+    # the cutoff (weights below CUTOFF × the largest become 0), then k / Σ k: every blend's weights
+    km = wp.max(k0, wp.max(k1, k2)) * CUTOFF
+    if k0 < km:
+        k0 = 0.0
+    if k1 < km:
+        k1 = 0.0
+    if k2 < km:
+        k2 = 0.0
+    total = k0 + k1 + k2
+    return k0 / total, k1 / total, k2 / total
+
+
+@wp.func
 def tiling_value(t: Tiling, x: wp.vec2d):
     # the tiling's value at x (noise units): the patches of the three vertices of x's triangle, blended
     a, b, u, v = triangle_of(t, x)
@@ -200,17 +214,7 @@ def tiling_value(t: Tiling, x: wp.vec2d):
     k1 = sharpened(w1, t.squarings, t.guide_weight, g1 - gm)
     k2 = sharpened(w2, t.squarings, t.guide_weight, g2 - gm)
     # weights below CUTOFF × the largest are dropped (their patches are not read)
-    km = wp.max(k0, wp.max(k1, k2)) * CUTOFF
-    if k0 < km:
-        k0 = 0.0
-    if k1 < km:
-        k1 = 0.0
-    if k2 < km:
-        k2 = 0.0
-    total = k0 + k1 + k2
-    k0 = k0 / total
-    k1 = k1 / total
-    k2 = k2 / total
+    k0, k1, k2 = kept_normalised(k0, k1, k2)
     acc = wp.vec3(0.0)
     if k0 > 0.0:
         if t.guide_weight == 0.0:
@@ -463,17 +467,7 @@ def blend_at(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean: Any,
         k0 = quick_weight(w0, t.squarings, skip)
         k1 = quick_weight(w1, t.squarings, skip)
         k2 = quick_weight(w2, t.squarings, skip)
-    km = wp.max(k0, wp.max(k1, k2)) * CUTOFF
-    if k0 < km:
-        k0 = 0.0
-    if k1 < km:
-        k1 = 0.0
-    if k2 < km:
-        k2 = 0.0
-    total = k0 + k1 + k2
-    k0 = k0 / total
-    k1 = k1 / total
-    k2 = k2 / total
+    k0, k1, k2 = kept_normalised(k0, k1, k2)
     acc = mean - mean
     if k0 > 0.0:
         c, s0 = cached_slot(t, lat, c, a0, b0)
@@ -621,17 +615,7 @@ def blend_levels(t: Tiling, lat: Lattice, pyr: TilingPyramid, x: wp.vec2d, l0: i
     k0 = sharpened(w0, t.squarings, t.guide_weight, g0 - gm)
     k1 = sharpened(wa, t.squarings, t.guide_weight, g1 - gm)
     k2 = sharpened(wb, t.squarings, t.guide_weight, g2 - gm)
-    km = wp.max(k0, wp.max(k1, k2)) * CUTOFF
-    if k0 < km:
-        k0 = 0.0
-    if k1 < km:
-        k1 = 0.0
-    if k2 < km:
-        k2 = 0.0
-    total = k0 + k1 + k2
-    k0 = k0 / total
-    k1 = k1 / total
-    k2 = k2 / total
+    k0, k1, k2 = kept_normalised(k0, k1, k2)
     acc = wp.vec3(0.0)
     if k0 > 0.0:
         acc = acc + patch_deviation(t, pyr, q0, l0, l1, w1) * k0
