@@ -511,18 +511,61 @@ def test_cli_analyze_preserve(tmp_path, capsys):
 
 
 def test_colour_refits_are_judged_and_bounded(monkeypatch):
-    """A colour analysis judges three candidates (the first texton and two refits,
-    errors in its metadata) and keeps the best judged one; an example above
+    """A colour analysis judges two families of three candidates (a first texton and
+    two refits; plain and zero-sum), their errors and the Gaussian texton's
+    reference in its metadata, and keeps what the rule says: the plain family's
+    best, or the zero-sum family's where its spectrum error is within the slack
+    of the reference and its marginals are closer. An example above
     REFINE_MAX_PIXELS gets no refits but still tables fitted to its noise."""
     import warp_texton.model.analysis as analysis
 
     u = colour_example("saturated")
     t = analyze(u, size=16, seed=0, histogram="preserve")
-    errors = t.metadata["histogram_spectrum_errors"]
-    assert len(errors) == 3 and all(e > 0 for e in errors)
+    md = t.metadata
+    errors, free = md["histogram_spectrum_errors"], md["histogram_zero_sum_spectrum_errors"]
+    assert len(errors) == 3 and len(free) == 3 and all(e > 0 for e in errors + free)
+    marginal, reference = md["histogram_marginal_errors"], md["histogram_reference_spectrum_error"]
+    assert len(marginal) == 2 and all(m > 0 for m in marginal) and reference > 0
+    free_wins = min(free) <= 1.15 * reference + 0.02 and marginal[1] < marginal[0]
+    assert md.get("zero_sum", False) == free_wins
+    # the rule on both sides: no slack keeps the plain family, any slack takes the closer marginals
+    monkeypatch.setattr(analysis, "ZERO_SUM_SPECTRUM_SLACK", 0.0)
+    monkeypatch.setattr(analysis, "ZERO_SUM_SPECTRUM_MARGIN", 0.0)
+    plain = analyze(u, size=16, seed=0, histogram="preserve")
+    assert "zero_sum" not in plain.metadata
+    monkeypatch.setattr(analysis, "ZERO_SUM_SPECTRUM_MARGIN", 1e9)
+    loose = analyze(u, size=16, seed=0, histogram="preserve")
+    assert loose.metadata.get("zero_sum", False) == (marginal[1] < marginal[0])
     monkeypatch.setattr(analysis, "REFINE_MAX_PIXELS", u.shape[0] * u.shape[1] - 1)
     first = analyze(u, size=16, seed=0, histogram="preserve")
-    assert "histogram_spectrum_errors" not in first.metadata
+    assert "histogram_spectrum_errors" not in first.metadata and "zero_sum" not in first.metadata
     assert first.histogram.gaussian_lut is not None
-    # the texton kept is the first one exactly when the first was judged best
-    assert np.array_equal(first.coeffs, t.coeffs) == (min(errors) == errors[0])
+    # the plain texton kept is the first one exactly when the first was judged best
+    assert np.array_equal(first.coeffs, plain.coeffs) == (min(errors) == errors[0])
+
+
+def test_zero_sum_textons_hold_the_mean():
+    """The zero-sum fit (no power at frequency 0, as the model, t̂_u(0) = 0, has
+    none) sums to 0 per channel, and its outputs' means stray far less from the
+    texton's mean than the plain fit's: over 12 seeds of 128² outputs the
+    variance of the mean is below a quarter of the plain fit's (an F(11, 11)
+    ratio falls below 0.25 by chance with probability 0.015 when the variances
+    are equal; measured 0.02–0.035 on the strong low-frequency example)."""
+    import scipy.fft as sfft
+
+    from warp_texton.model.analysis import texton_from_spectrum
+    from warp_texton.model.gaussian import normalized_kernel
+
+    u = colour_example("low")
+    mean, t = normalized_kernel(u)
+    t_hat = sfft.rfft2(t, axes=(0, 1))
+    flat = t.reshape(-1, 3)
+    fits = {zs: texton_from_spectrum(t_hat, u.shape[1], mean, 16, 1, 50, 0, covariance=flat.T @ flat,
+                                     zero_sum=zs) for zs in (False, True)}
+    free = fits[True]
+    assert free.metadata["zero_sum"] is True and "zero_sum" not in fits[False].metadata
+    np.testing.assert_allclose(free.coeffs.sum(axis=(0, 1)), 0.0, atol=1e-5 * np.abs(free.coeffs).sum())
+    assert np.all(np.abs(fits[False].coeffs.sum(axis=(0, 1))) > 1e-3 * np.abs(fits[False].coeffs).sum(axis=(0, 1)))
+    spread = {zs: np.var([synthesize(tx, (128, 128), mni=30, seed=s, device="cpu").mean(axis=(0, 1))
+                          for s in range(12)], axis=0, ddof=1) for zs, tx in fits.items()}
+    assert np.all(spread[True] < 0.25 * spread[False]), spread

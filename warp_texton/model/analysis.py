@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from typing import Literal, overload
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.fft as sfft
@@ -32,7 +32,8 @@ from ..core.errors import TextonError
 from .example_checks import warn_large, warn_unsuited
 from ..core.limits import check_memory, check_work
 from .histogram import (CDF_OVERSAMPLING, CDF_POINTS, CDF_SPAN, NOISE_MNI, REFINE_MAX_PIXELS, REFINE_ROUNDS,
-                        REFINE_SAMPLES, HistogramTransform, check_histogram, gauss_grid)
+                        REFINE_SAMPLES, ZERO_SUM_SPECTRUM_MARGIN, ZERO_SUM_SPECTRUM_SLACK, HistogramTransform,
+                        check_histogram, gauss_grid, ring_spectrum_error)
 from .gaussian import FFT_WORKERS, normalized_kernel, relative_model_error_half
 from .texton import Texton, lag0_covariance
 
@@ -377,13 +378,10 @@ def analyze(
     if transform is None:
         return texton
     if c > 1 and m * n <= REFINE_MAX_PIXELS:
-        refined, transform, errors = refine_colour_texton(u, texton, transform, t, tz, n, mean, size, order,
-                                                          iterations, seed, flat.T @ flat if color_correction
-                                                          else None, support)
-        if refined is not None:
-            refined.metadata.update(periodic=bool(periodic))
-            texton = refined
-        texton.metadata.update(histogram_spectrum_errors=[round(e, 4) for e in errors])
+        texton, transform, judges = refine_colour_texton(u, texton, transform, t, tz, n, mean, size, order,
+                                                         iterations, seed, flat.T @ flat if color_correction
+                                                         else None, support)
+        texton.metadata.update(periodic=bool(periodic), **judges)
     else:
         # the tables take the noise's own marginal (compound Poisson, skewed at MNI 30) to
         # the example's, not a Gaussian's (docs/histogram.md, "The noise's own marginal")
@@ -392,44 +390,93 @@ def analyze(
     return replace(texton, histogram=transform)
 
 
-def refine_colour_texton(u, texton: Texton, transform: HistogramTransform, t, tz, n, mean, size, order, iterations,
-                         seed, covariance, support) -> tuple[Texton | None, HistogramTransform, list[float]]:
-    """(refit, transform, errors): the refit of REFINE_ROUNDS whose colours' spectrum
-    is closest to the example's if one is closer than ``texton``'s (else None),
-    the transform of the chosen texton (tables fitted to its noise), and every
-    candidate's error, ``texton``'s first.
+@dataclass(frozen=True)
+class Candidate:
+    """A colour texton judged on samples of its noise (``refine_colour_texton``)."""
 
-    Each refit filters the Gaussian kernel t by the gain between the example's
-    spectrum and the one the last texton's noise makes through the tables, as
-    the translation process predicts it (``HistogramTransform.refined_kernel``).
-    The candidates are judged on what they make: REFINE_SAMPLES samples of their
-    texton noise (``noise_sample``, MNI NOISE_MNI) on the example's grid, mapped
-    through their tables (``HistogramTransform.spectrum_error``); the first
-    texton stays unless a refit does better (docs/histogram.md)."""
+    texton: Texton
+    transform: HistogramTransform  # tables fitted to this texton's noise
+    spectrum: float  # mean spectrum distance of its mapped samples to the example
+    marginal: float  # mean W1 of its mapped samples' channels to the example's
+
+
+def refine_colour_texton(u, texton: Texton, transform: HistogramTransform, t, tz, n, mean, size, order, iterations,
+                         seed, covariance, support) -> tuple[Texton, HistogramTransform, dict]:
+    """(texton, transform, metadata): the colour texton ``analyze`` keeps, the
+    transform fitted to its noise, and the judges' figures for its metadata.
+
+    Two families of candidates, each a first texton and REFINE_ROUNDS refits:
+    the plain fit (``texton``) and the zero-sum fit (``texton_from_spectrum``'s
+    ``zero_sum``: no power at frequency 0). Each refit filters the Gaussian kernel
+    t by the gain between the example's spectrum and the one the last texton's
+    noise makes through the tables, as the translation process predicts it
+    (``HistogramTransform.refined_kernel``). Every candidate is judged on what it
+    makes: REFINE_SAMPLES samples of its texton noise (``noise_sample``, MNI
+    NOISE_MNI, the same impacts for every candidate) on the example's grid,
+    mapped through tables fitted to its noise, by their spectrum distance to the
+    example (``HistogramTransform.spectrum_error``) and the W1 distance of their
+    channels' marginals to the example's. Each family keeps its candidate of
+    least spectrum distance; the zero-sum one is kept when its marginals are
+    closer and its spectrum distance stays within ZERO_SUM_SPECTRUM_SLACK × (that
+    of the example's Gaussian texton, judged on the same impacts) +
+    ZERO_SUM_SPECTRUM_MARGIN (docs/histogram.md, "Colour: one output's large
+    scales")."""
     m = t.shape[0]
     target = np.abs(np.fft.fft2(tz, axes=(0, 1))) ** 2
     bins = max(2, min(32, min(m, n) // 4))
     grid = gauss_grid(transform.lut.shape[1])
+    c = u.shape[2]
+    example = np.sort(np.asarray(u, np.float64).reshape(-1, c), axis=0)  # the identity's colours, sorted
+    impacts = [impact_spectrum(texton.support_area, order, NOISE_MNI, (m, n), seed + i) for i in range(REFINE_SAMPLES)]
 
-    def judged(tx: Texton) -> tuple[float, HistogramTransform]:
-        tr = transform.for_noise(u, noise_cdf(tx, NOISE_MNI, grid))
-        errs = [tr.spectrum_error(noise_sample(tx, NOISE_MNI, (m, n), seed + i), target, bins)
-                for i in range(REFINE_SAMPLES)]
-        return float(np.mean(errs)), tr
+    def samples(tx: Texton) -> list[np.ndarray]:
+        return [noise_sample(tx, NOISE_MNI, (m, n), seed + i, im) for i, im in enumerate(impacts)]
 
-    best, best_tr = judged(texton)
-    best_texton: Texton | None = None
-    errors = [best]
-    for _ in range(REFINE_ROUNDS):
-        t = transform.refined_kernel(t, np.abs(texton.spectrum((m, n))) ** 2, target, size)
-        texton_k = texton_from_spectrum(sfft.rfft2(t, axes=(0, 1), workers=FFT_WORKERS), n, mean, size, order,
-                                        iterations, seed, covariance=covariance, support=support)
-        err, tr = judged(texton_k)
-        errors.append(err)
-        texton = texton_k  # the next gain corrects this one's output
-        if err < best:
-            best, best_tr, best_texton = err, tr, texton_k
-    return best_texton, best_tr, errors
+    def marginal(colours: np.ndarray) -> float:
+        return float(np.mean(np.abs(np.sort(colours.reshape(-1, c), axis=0) - example)))
+
+    def judged(tx: Texton) -> Candidate:
+        tr = transform.for_noise(u, noise_cdf(tx, NOISE_MNI, grid), ordered=example)
+        gs = samples(tx)
+        spectrum = float(np.mean([tr.spectrum_error(g, target, bins) for g in gs]))
+        w1 = float(np.mean([marginal(tr.to_colours(g.reshape(-1, c))) for g in gs]))
+        return Candidate(tx, tr, spectrum, w1)
+
+    def family(first: Texton, zero_sum: bool) -> list[Candidate]:
+        kernel, current = t, first
+        out = [judged(first)]
+        for _ in range(REFINE_ROUNDS):
+            kernel = transform.refined_kernel(kernel, np.abs(current.spectrum((m, n))) ** 2, target, size)
+            current = texton_from_spectrum(sfft.rfft2(kernel, axes=(0, 1), workers=FFT_WORKERS), n, mean, size,
+                                           order, iterations, seed, covariance=covariance, support=support,
+                                           zero_sum=zero_sum)
+            out.append(judged(current))  # the next gain corrects this one's output
+        return out
+
+    t_hat = sfft.rfft2(t, axes=(0, 1), workers=FFT_WORKERS)
+    plain = family(texton, False)
+    free = family(texton_from_spectrum(t_hat, n, mean, size, order, iterations, seed, covariance=covariance,
+                                       support=support, zero_sum=True), True)
+    # the reference: the example's own Gaussian texton (histogram="gaussian"), its colours m + σ g
+    flat = tz.reshape(-1, c)
+    gaussian = texton_from_spectrum(sfft.rfft2(tz, axes=(0, 1), workers=FFT_WORKERS), n, mean, size, order,
+                                    iterations, seed, covariance=None if covariance is None else flat.T @ flat,
+                                    support=support)
+    sigma = np.sqrt(np.maximum(np.diag(np.atleast_2d(gaussian.covariance())), 0.0))
+    reference = float(np.mean([ring_spectrum_error(g * sigma, target, bins) for g in samples(gaussian)]))
+    best = min(plain, key=lambda k: k.spectrum)
+    best_free = min(free, key=lambda k: k.spectrum)
+    limit = ZERO_SUM_SPECTRUM_SLACK * reference + ZERO_SUM_SPECTRUM_MARGIN
+    if best_free.spectrum <= limit and best_free.marginal < best.marginal:
+        best = best_free
+    metadata = {
+        "histogram_spectrum_errors": [round(k.spectrum, 4) for k in plain],
+        "histogram_zero_sum_spectrum_errors": [round(k.spectrum, 4) for k in free],
+        "histogram_marginal_errors": [round(min(plain, key=lambda k: k.spectrum).marginal, 6),
+                                      round(best_free.marginal, 6)],
+        "histogram_reference_spectrum_error": round(reference, 4),
+    }
+    return best.texton, best.transform, metadata
 
 
 def texton_from_spectrum(
@@ -443,13 +490,17 @@ def texton_from_spectrum(
     covariance: np.ndarray | None = None,
     support: str = "square",
     progress: bool = False,
+    zero_sum: bool = False,
 ) -> Texton:
     """The alternating projections for a model given by its kernel spectrum.
 
     ``t_hat`` is the rfft half-plane (M, n//2 + 1, C) of a real kernel t on an
     M × n grid (for an image, t_u); the texton's model |α̂|² b̂ approaches |t̂|²
     on that grid. ``covariance`` (C × C), when given, is the lag-0 colour
-    covariance the colour correction enforces. Arguments are trusted: the
+    covariance the colour correction enforces. With ``zero_sum`` the spatial
+    projection is onto the textons supported by S whose coefficients sum to 0
+    (each channel's mean over S subtracted): the noise then has no power at
+    frequency 0, as the model (t̂_u(0) = 0) has none. Arguments are trusted: the
     public entry points check them.
     """
     m = t_hat.shape[0]
@@ -459,11 +510,15 @@ def texton_from_spectrum(
     target = (t_cf / np.sqrt(bhat((m, n), order))[None, :, :nc]).astype(np.complex64)
     target_conj = np.conj(target)
     mask_f = mask.astype(np.float32)
+    mask_count = float(mask_f.sum())
 
     def restrict(a_hat: np.ndarray) -> np.ndarray:
         # inverse transform, keeping only the `size` rows and columns of S
         rows = sfft.ifft(a_hat, axis=-2, workers=FFT_WORKERS, overwrite_x=True)[:, :size]
-        return sfft.irfft(rows, n=n, axis=-1, workers=FFT_WORKERS)[:, :, :size] * mask_f
+        alpha = sfft.irfft(rows, n=n, axis=-1, workers=FFT_WORKERS)[:, :, :size] * mask_f
+        if zero_sum:
+            alpha -= alpha.sum(axis=(1, 2), keepdims=True) / mask_count * mask_f
+        return alpha
 
     bar = None
     if progress:
@@ -498,6 +553,8 @@ def texton_from_spectrum(
         "color_correction": covariance is not None,
         "support": support,
     }
+    if zero_sum:
+        metadata["zero_sum"] = True
     texton = Texton(alpha, np.asarray(mean, dtype=np.float32), order, metadata)
     texton.metadata["model_error"] = _rme(t_hat, texton, n)
     return texton
@@ -600,33 +657,44 @@ def texton_values(coeffs: np.ndarray, order: int, oversampling: int) -> np.ndarr
     return h.reshape(-1, c)
 
 
-def noise_sample(texton, mni: float, shape: tuple[int, int], seed: int) -> np.ndarray:
+def noise_sample(texton, mni: float, shape: tuple[int, int], seed: int,
+                 impacts: np.ndarray | None = None) -> np.ndarray:
     """(M, N, C) float64: texton noise at MNI ``mni`` on a periodic M × N grid of
     texels, standardised by its exact moments, in NumPy: Poisson impacts (their
     count and uniform positions from ``seed``) splatted on the grid with the
     weights ψ(x − x_j) of the texton's order, convolved with its coefficients
-    (Σ_j h(x − x_j) = (α ∗ Σ_j ψ(· − x_j))(x)). Not the kernels' impact stream:
-    the analysis measures candidate textons with it."""
+    (Σ_j h(x − x_j) = (α ∗ Σ_j ψ(· − x_j))(x)). ``impacts``, when given, is
+    :func:`impact_spectrum` of the same texton area, order, MNI, grid and seed
+    (shared by textons that differ only in their coefficients). Not the kernels'
+    impact stream: the analysis measures candidate textons with it."""
     m, n = shape
-    rng = np.random.default_rng(seed)
+    if impacts is None:
+        impacts = impact_spectrum(texton.support_area, texton.order, mni, shape, seed)
     lam = mni / texton.support_area
-    count = rng.poisson(lam * m * n)
-    py, px = rng.uniform(0, m, count), rng.uniform(0, n, count)
-    k = texton.order
-    half = (k + 1) / 2.0
-    y0, x0 = np.floor(py - half), np.floor(px - half)
-    splat = np.zeros(m * n)
-    for a in range(k + 2):
-        wy = bspline(y0 + a - py, k)
-        for b in range(k + 2):
-            w = wy * bspline(x0 + b - px, k)
-            idx = ((y0 + a).astype(np.int64) % m) * n + (x0 + b).astype(np.int64) % n
-            splat += np.bincount(idx, w, m * n)
     coeffs = np.asarray(texton.coeffs, np.float64)
-    field = np.fft.ifft2(np.fft.fft2(splat.reshape(m, n))[..., None] * np.fft.fft2(coeffs, s=(m, n), axes=(0, 1)),
-                         axes=(0, 1)).real
+    field = np.fft.ifft2(impacts[..., None] * np.fft.fft2(coeffs, s=(m, n), axes=(0, 1)), axes=(0, 1)).real
     var = np.diag(np.atleast_2d(texton.covariance()))
     return (field - lam * texton.integral) / np.sqrt(np.maximum(lam * var, 1e-300))
+
+
+def impact_spectrum(area: float, order: int, mni: float, shape: tuple[int, int], seed: int) -> np.ndarray:
+    """(M, N) complex: the DFT of the Poisson impacts of :func:`noise_sample` (intensity
+    MNI / ``area``), splatted with the B-spline weights of ``order``."""
+    m, n = shape
+    rng = np.random.default_rng(seed)
+    lam = mni / area
+    count = rng.poisson(lam * m * n)
+    py, px = rng.uniform(0, m, count), rng.uniform(0, n, count)
+    half = (order + 1) / 2.0
+    y0, x0 = np.floor(py - half), np.floor(px - half)
+    splat = np.zeros(m * n)
+    for a in range(order + 2):
+        wy = bspline(y0 + a - py, order)
+        for b in range(order + 2):
+            w = wy * bspline(x0 + b - px, order)
+            idx = ((y0 + a).astype(np.int64) % m) * n + (x0 + b).astype(np.int64) % n
+            splat += np.bincount(idx, w, m * n)
+    return np.fft.fft2(splat.reshape(m, n))
 
 
 def noise_cdf(texton, mni: float, grid: np.ndarray) -> np.ndarray:

@@ -51,6 +51,11 @@ CDF_OVERSAMPLING = 8
 REFINE_ROUNDS = 2
 #: Noise samples (on the example's grid) that judge each candidate texton.
 REFINE_SAMPLES = 2
+#: A colour example's zero-sum texton is kept (when its marginals are closer) while its
+#: spectrum distance is at most SLACK × that of the example's Gaussian texton + MARGIN,
+#: both judged on the same samples (``analysis.refine_colour_texton``).
+ZERO_SUM_SPECTRUM_SLACK = 1.15
+ZERO_SUM_SPECTRUM_MARGIN = 0.02
 #: Examples larger than this (pixels) get no refits: their samples and fits would
 #: cost seconds to minutes; their tables are still fitted to the noise.
 REFINE_MAX_PIXELS = 1 << 20
@@ -200,15 +205,22 @@ class HistogramTransform:
         lut = np.quantile(z, q, axis=0).T  # linear interpolation between order statistics
         return cls(matrix, centre, np.maximum.accumulate(lut, axis=1))
 
-    def for_noise(self, u: np.ndarray, cdf: np.ndarray) -> HistogramTransform:
+    def for_noise(self, u: np.ndarray, cdf: np.ndarray, *, ordered: np.ndarray | None = None) -> HistogramTransform:
         """The transform whose tables map the standardised noise of CDF ``cdf`` (C, K),
         sampled at :func:`gauss_grid`, to the example u's channels: ``lut`` holds their
         quantiles at the probabilities ``cdf`` (F_u⁻¹ ∘ F_noise: each output channel
         then has u's marginal exactly, whatever the noise's skewness), and
-        ``gaussian_lut`` this transform's tables at Φ(g_k)."""
-        z = self.decorrelate(u).reshape(-1, self.channels)
+        ``gaussian_lut`` this transform's tables at Φ(g_k). ``ordered``, when
+        given, is u's decorrelated colours sorted per channel ((H W, C)): the
+        quantiles are then interpolated in it (no partition per call)."""
         cdf = np.clip(np.asarray(cdf, np.float64), 0.0, 1.0)
-        lut = np.array([np.quantile(z[:, c], cdf[c]) for c in range(self.channels)])
+        if ordered is None:
+            z = self.decorrelate(u).reshape(-1, self.channels)
+            lut = np.array([np.quantile(z[:, c], cdf[c]) for c in range(self.channels)])
+        else:
+            at = np.arange(ordered.shape[0], dtype=np.float64)
+            lut = np.array([np.interp(cdf[c] * (ordered.shape[0] - 1), at, ordered[:, c])
+                            for c in range(self.channels)])
         base = self.lut if self.gaussian_lut is None else self.gaussian_lut
         return HistogramTransform(self.matrix, self.centre, np.maximum.accumulate(lut, axis=1), base)
 
@@ -380,20 +392,8 @@ class HistogramTransform:
         standardised noise, e.g. ``analysis.noise_sample``) mapped through the tables
         and of the example (``target``, its channels' periodogram |t̂_z|² on the
         same grid, t_z its normalised kernel): the benchmark's spectrum distance."""
-        m, n = target.shape[:2]
         z = ((self.to_colours(noise.reshape(-1, self.channels)) - self.centre) @ self.matrix.T).reshape(noise.shape)
-        out = np.abs(np.fft.fft2(z - z.mean(axis=(0, 1)), axes=(0, 1))) ** 2 / (m * n)
-        ring = np.ceil(np.hypot(*np.meshgrid(np.fft.fftfreq(m), np.fft.fftfreq(n), indexing="ij")) / 0.5
-                       * bins).astype(np.int64) - 1
-        keep = (ring >= 0) & (ring < bins)
-        counts = np.maximum(np.bincount(ring[keep], minlength=bins), 1)
-        errs = []
-        for c in range(self.channels):
-            a = np.bincount(ring[keep], target[..., c][keep], bins) / counts
-            b = np.bincount(ring[keep], out[..., c][keep], bins) / counts
-            ok = (a > 0) & (b > 0)
-            errs.append(np.mean(np.abs(np.log(a[ok]) - np.log(b[ok]))) if ok.any() else 0.0)
-        return float(np.mean(errs))
+        return ring_spectrum_error(z, target, bins)
 
     # ------------------------------------------------------------------ applying
     @functools.cached_property
@@ -497,6 +497,26 @@ def _bounded(arr: np.ndarray, name: str, bound: float) -> np.ndarray:
         raise TextonError(f"histogram transform: {name} holds values up to {float(np.abs(arr).max()):.3g}; "
                           f"accepted: within ±{bound:.3g}", param="histogram")
     return arr
+
+
+def ring_spectrum_error(z: np.ndarray, target: np.ndarray, bins: int = 32) -> float:
+    """Mean |Δ ln P| over the channels and ``bins`` rings (radius up to ½ cycle per
+    texel, the DC left out) between the periodogram of ``z`` (M, N, C, colours in
+    the example's units, any mean) and ``target`` (M, N, C, the example's |t̂|² on
+    the same grid): the benchmark's spectrum distance."""
+    m, n = target.shape[:2]
+    out = np.abs(np.fft.fft2(z - z.mean(axis=(0, 1)), axes=(0, 1))) ** 2 / (m * n)
+    ring = np.ceil(np.hypot(*np.meshgrid(np.fft.fftfreq(m), np.fft.fftfreq(n), indexing="ij")) / 0.5
+                   * bins).astype(np.int64) - 1
+    keep = (ring >= 0) & (ring < bins)
+    counts = np.maximum(np.bincount(ring[keep], minlength=bins), 1)
+    errs = []
+    for c in range(z.shape[2]):
+        a = np.bincount(ring[keep], target[..., c][keep], bins) / counts
+        b = np.bincount(ring[keep], out[..., c][keep], bins) / counts
+        ok = (a > 0) & (b > 0)
+        errs.append(np.mean(np.abs(np.log(a[ok]) - np.log(b[ok]))) if ok.any() else 0.0)
+    return float(np.mean(errs))
 
 
 def principal_axes(x: np.ndarray) -> np.ndarray:
