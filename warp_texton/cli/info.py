@@ -28,10 +28,10 @@ def summary(model) -> dict:
     else:
         out.update(size=[model.size[1], model.size[0]], order=model.order, mean=[float(v) for v in model.mean],
                    support_area=float(model.support_area))
-        judged = model.metadata.get("histogram_marginal_errors")
-        if isinstance(judged, list) and len(judged) == 2:
+        judged = model.metadata.get("histogram_zero_sum_spectrum_errors")
+        if isinstance(judged, list):
             out["colour_judge"] = {"kept": "zero-sum" if model.metadata.get("zero_sum") else "plain",
-                                   "marginal_errors": [float(v) for v in judged]}
+                                   "marginal_errors": model.metadata.get("histogram_marginal_errors")}
     score = meta.get("structure")
     if isinstance(score, (int, float)) and not isinstance(score, bool):
         out["suggested_method"] = suggest_method(float(score))
@@ -56,10 +56,11 @@ def _text(path: str, s: dict) -> list[str]:
         if isinstance(s["metadata"].get("model_error"), (int, float)):
             lines.append(f"  model error {s['metadata']['model_error']:.3f}")
         if "colour_judge" in s:
-            kept, (plain, free) = s["colour_judge"]["kept"], s["colour_judge"]["marginal_errors"]
-            kept = "zero-sum (no power at frequency 0)" if kept == "zero-sum" else kept
-            lines.append(f"  colour judge: kept the {kept} texton; marginal W1 on samples {plain:.4g} (plain), "
-                         f"{free:.4g} (zero-sum)")
+            kept, marginals = s["colour_judge"]["kept"], s["colour_judge"]["marginal_errors"]
+            why = ("its spectrum past its bound" if not marginals else
+                   f"marginal W1 on samples {marginals[0]:.4g} (plain), {marginals[1]:.4g} (zero-sum)")
+            kept = "zero-sum (no power at frequency 0)" if kept == "zero-sum" else "plain"
+            lines.append(f"  colour judge: kept the {kept} texton; zero-sum: {why}")
     if "suggested_method" in s:
         lines.append(f"  structure score {s['metadata']['structure']:.2f} (above {STRUCTURE_THRESHOLD:g}: shapes that "
                      f"texton noise loses): method {s['suggested_method']!r} fits the example")

@@ -49,11 +49,14 @@ CDF_SPAN = 40.0
 CDF_OVERSAMPLING = 8
 #: Refits of a colour texton against the spectrum its noise makes through the tables.
 REFINE_ROUNDS = 2
-#: Noise samples (on the example's grid) that judge each candidate texton.
+#: Noise samples (on the example's grid) that judge each candidate texton's spectrum.
 REFINE_SAMPLES = 2
-#: A colour example's zero-sum texton is kept (when its marginals are closer) while its
-#: spectrum distance is at most SLACK × that of the example's Gaussian texton + MARGIN,
-#: both judged on the same samples (``analysis.refine_colour_texton``).
+#: Noise samples that judge the marginals of each family's best candidate (the first
+#: REFINE_SAMPLES shared with the spectrum's judges).
+MARGINAL_SAMPLES = 8
+#: A colour example's zero-sum texton is admissible while its spectrum distance is at most
+#: SLACK × that of the example's Gaussian texton + MARGIN, both judged on the same samples;
+#: then kept if its marginals are closer (``analysis.refine_colour_texton``).
 ZERO_SUM_SPECTRUM_SLACK = 1.15
 ZERO_SUM_SPECTRUM_MARGIN = 0.02
 #: Examples larger than this (pixels) get no refits: their samples and fits would
