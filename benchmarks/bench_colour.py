@@ -1,4 +1,4 @@
-"""Histogram-preserving texton noise on colour photographs, against issue 29's goals.
+"""Histogram-preserving texton noise on photographs, against issue 29's goals.
 
 Not a speed benchmark. For each 512² colour photograph of Debian's
 ``openarena-081-textures`` (GPL-2+; ``benchmarks/common.py`` finds it), the
@@ -14,11 +14,13 @@ seed (MNI ``--mni``, seeds 1 to ``--seeds``). Each seed is measured with
 Two sets of photographs: ``BENCHMARK``, the six of ``bench_quality`` (which the
 colour analysis was designed on), and ``HELD_OUT``, ten more chosen before they
 were first measured, to check that what holds on the first holds on
-photographs the design did not see. The table gives, per photograph, the
+photographs the design did not see; then the same sixteen in grey (their
+luminance, 0.299 R + 0.587 G + 0.114 B), and scikit-image's grey grass and
+gravel (CC0), since the same analysis serves grey examples. The table gives, per photograph, the
 texton the colour judges kept (``plain`` or ``zero-sum``, docs/histogram.md),
 the W1 ratio and the spectrum over its bound (≤ 1 meets the goal) per seed and
-their means. ``--quick``: the first photograph of each set at 256² (cropped),
-two seeds.
+their means. ``--quick``: the first photograph of the two colour sets and of
+the grey benchmark set at 256² (cropped), two seeds.
 
     python -m benchmarks.bench_colour            # both sets, 4 seeds, results/colour.{json,md}
     python -m benchmarks.bench_colour --quick
@@ -49,6 +51,10 @@ HELD_OUT = (
     "textures/tim/rconcrete_ow.tga", "textures/acc_dm5/stnlarge_dirty.jpg", "textures/acc_dm3/wallbot.jpg",
     "textures/acc_dm3/concrtmould.jpg",
 )
+#: Grey photographs of scikit-image (CC0, 512²), measured besides the luminance of the sets above.
+SKIMAGE_GREY = ("grass", "gravel")
+#: Luminance weights (ITU-R BT.601) for the grey versions.
+LUMA = np.array([0.299, 0.587, 0.114])
 #: The goals (issue 29).
 MAX_CLIPPED, MAX_W1_RATIO, SPECTRUM_SLACK, SPECTRUM_MARGIN = 0.01, 1.0 / 3.0, 1.15, 0.02
 
@@ -82,7 +88,13 @@ def measure_photograph(u: np.ndarray, *, size: int, mni: float, seeds: int) -> d
 
 
 def run(args) -> dict:
-    sets = {"benchmark": BENCHMARK, "held out": HELD_OUT}
+    grey = lambda u: (u @ LUMA).astype(np.float32)  # noqa: E731
+    sets = {"benchmark": [(m, read_openarena, None) for m in BENCHMARK],
+            "held out": [(m, read_openarena, None) for m in HELD_OUT],
+            "benchmark, grey": [(m, read_openarena, grey) for m in BENCHMARK]
+            + [(f"skimage:{m}", _skimage, None) for m in SKIMAGE_GREY],
+            "held out, grey": [(m, read_openarena, grey) for m in HELD_OUT]}
+    quick_sets = ("benchmark", "held out", "benchmark, grey")
     seeds = 2 if args.quick else args.seeds
     report = {**report_header("colour", "cpu"),
               "parameters": {"texton": args.size, "mni": args.mni, "seeds": seeds, "quick": args.quick,
@@ -95,8 +107,12 @@ def run(args) -> dict:
         report["skipped"].append({"case": "every photograph", "reason": str(e)})
         return report
     for name, members in sets.items():
-        for member in members[:1] if args.quick else members:
-            u = read_openarena(member)
+        if args.quick and name not in quick_sets:
+            continue
+        for member, load, convert in members[:1] if args.quick else members:
+            u = load(member)
+            if convert is not None:
+                u = convert(u)
             if args.quick:
                 u = u[:256, :256]
             r = measure_photograph(u, size=min(args.size, *u.shape[:2]), mni=args.mni, seeds=seeds)
@@ -108,7 +124,7 @@ def run(args) -> dict:
 
 def markdown(report: dict) -> str:
     p = report["parameters"]
-    lines = [f"# Colour photographs against issue 29's goals ({report['date']})", "", machine_line(report),
+    lines = [f"# Photographs against issue 29's goals ({report['date']})", "", machine_line(report),
              f"Outputs of each example's size, seeds 1–{p['seeds']}, MNI {p['mni']:g}, texton {p['texton']}², "
              "analysis seed 0. W1 ratio: preserve / Gaussian texton noise (goal ≤ 0.33); spectrum / bound: "
              "preserve / (1.15 × Gaussian + 0.02) (goal ≤ 1); clipped: the most of any seed (goal < 1 %). "
@@ -126,7 +142,7 @@ def markdown(report: dict) -> str:
                      f"{mark['spectrum']} | {100 * clip:.2f} %{mark['clipped']} | "
                      f"{r['analysis_s']['preserve']:.1f} |")
     lines.append("")
-    for name in ("benchmark", "held out"):
+    for name in dict.fromkeys(r["set"] for r in report["results"]):
         rs = [r for r in report["results"] if r["set"] == name]
         if rs:
             lines.append(f"* {name}: goals met by " + ", ".join(
@@ -134,6 +150,12 @@ def markdown(report: dict) -> str:
     if report["skipped"]:
         lines += ["", *[f"* not measured: {s['case']} ({s['reason']})" for s in report["skipped"]]]
     return "\n".join(lines) + "\n"
+
+
+def _skimage(name: str) -> np.ndarray:
+    from skimage import data
+
+    return getattr(data, name.removeprefix("skimage:"))().astype(np.float32) / 255.0
 
 
 def main(argv=None) -> int:

@@ -613,3 +613,18 @@ def test_zero_sum_colour_far_views_converge_to_the_mean_colour():
     tol = 4.0 * far.std(axis=0, ddof=1) / np.sqrt(len(far)) + 1e-4  # sampling error + the tables' resolution
     assert np.all(np.abs(far.mean(axis=0) - mean) < tol), (far.mean(axis=0), mean, tol)
     assert np.all(np.abs(median - mean) > 10 * tol)  # the median would fail it
+
+
+def test_grey_examples_are_judged_too(grass):
+    """A grey example (its first texton from the per-frequency correction) gets the same
+    judges as colour: both families' errors and the reference in its metadata, the
+    rule applied, and a zero-sum texton that sums to 0 where it is kept."""
+    t = analyze(grass, size=32, seed=0, histogram="preserve")
+    md = t.metadata
+    assert len(md["histogram_spectrum_errors"]) == 3 and len(md["histogram_zero_sum_spectrum_errors"]) == 3
+    admissible = min(md["histogram_zero_sum_spectrum_errors"]) <= 1.15 * md["histogram_reference_spectrum_error"] + 0.02
+    marginal = md.get("histogram_marginal_errors", [0.0, 1.0])
+    assert md["zero_sum"] == (admissible and marginal[1] < marginal[0])
+    if md["zero_sum"]:
+        np.testing.assert_allclose(t.coeffs.sum(), 0.0, atol=1e-5 * np.abs(t.coeffs).sum())
+    assert t.histogram.matrix.shape == (1, 1)

@@ -246,6 +246,8 @@ def test_ground_plane_mode(page, rgb_path):
 
 def test_mixing_mode_with_an_upload(page, tmp_path, rgb_path):
     page.check("input[name=mode][value=mix]")
+    # the page writes the message when it has handled the mode change (later under load)
+    page.wait_for_function("document.querySelector('#message').innerText.includes('upload')", timeout=30_000)
     assert "upload" in page.inner_text("#message")
     b = tmp_path / "b.png"
     g = read_image(rgb_path)

@@ -256,7 +256,10 @@ def analyze(
         example is analysed, and the texton keeps the inverse map
         (:class:`~warp_texton.model.histogram.HistogramTransform`), which every
         output applies after the noise, so that outputs have the example's
-        colour histogram (docs/histogram.md). With ``method="tiling"`` the
+        colour histogram (docs/histogram.md). For examples of at most 2²⁰
+        pixels the texton is chosen by judges, on samples of its noise, among
+        refits of the plain fit and of a zero-sum fit (whose outputs keep the
+        example's mean; ``metadata["zero_sum"]``). With ``method="tiling"`` the
         model blends the Gaussianised example and maps the blend back through
         the same tables (docs/tiling.md, "Histogram-preserving blend").
     progress : bool
@@ -358,7 +361,8 @@ def analyze(
     transform = None
     if histogram == "preserve":
         # colour: one table per RGB channel, and a correction that keeps the channels
-        # coherent (docs/histogram.md); grey keeps the per-frequency correction
+        # coherent (docs/histogram.md); grey keeps the per-frequency correction. Both are
+        # then refitted and judged on samples of their noise (judged_texton)
         colour = c > 1
         transform = HistogramTransform.fit(u, axes="rgb" if colour else "pca")
         z = transform.decorrelate(u).astype(np.float32)
@@ -377,10 +381,10 @@ def analyze(
     texton.metadata.update(periodic=bool(periodic))
     if transform is None:
         return texton
-    if c > 1 and m * n <= REFINE_MAX_PIXELS:
-        texton, transform, judges = refine_colour_texton(u, texton, transform, t, tz, n, mean, size, order,
-                                                         iterations, seed, flat.T @ flat if color_correction
-                                                         else None, support)
+    if m * n <= REFINE_MAX_PIXELS:
+        texton, transform, judges = judged_texton(u, texton, transform, t, tz, n, mean, size, order,
+                                                  iterations, seed, flat.T @ flat if color_correction else None,
+                                                  support)
         texton.metadata.update(periodic=bool(periodic), **judges)
     else:
         # the tables take the noise's own marginal (compound Poisson, skewed at MNI 30) to
@@ -392,16 +396,17 @@ def analyze(
 
 @dataclass(frozen=True)
 class Candidate:
-    """A colour texton judged on samples of its noise (``refine_colour_texton``)."""
+    """A texton judged on samples of its noise (``judged_texton``)."""
 
     texton: Texton
     transform: HistogramTransform  # tables fitted to this texton's noise
     spectrum: float  # mean spectrum distance of its mapped samples to the example
 
 
-def refine_colour_texton(u, texton: Texton, transform: HistogramTransform, t, tz, n, mean, size, order, iterations,
-                         seed, covariance, support) -> tuple[Texton, HistogramTransform, dict]:
-    """(texton, transform, metadata): the colour texton ``analyze`` keeps, the
+def judged_texton(u, texton: Texton, transform: HistogramTransform, t, tz, n, mean, size, order, iterations,
+                  seed, covariance, support) -> tuple[Texton, HistogramTransform, dict]:
+    """(texton, transform, metadata): the texton ``analyze(..., histogram="preserve")``
+    keeps for a grey or colour example of at most REFINE_MAX_PIXELS pixels, the
     transform fitted to its noise, and the judges' figures for its metadata.
 
     Two families of candidates, each a first texton and REFINE_ROUNDS refits:
@@ -425,8 +430,8 @@ def refine_colour_texton(u, texton: Texton, transform: HistogramTransform, t, tz
     bins = max(2, min(32, min(m, n) // 4))
     grid = gauss_grid(transform.lut.shape[1])
     c = u.shape[2]
-    example = np.sort(np.asarray(u, np.float64).reshape(-1, c), axis=0)  # the identity's colours, sorted
-    quarter = np.sort(np.asarray(u, np.float64)[::2, ::2].reshape(-1, c), axis=0)
+    ordered = np.sort(transform.decorrelate(u).reshape(-1, c), axis=0)  # the tables' channels, sorted
+    quarter = np.sort(np.asarray(u, np.float64)[::2, ::2].reshape(-1, c), axis=0)  # every other row and column
     impacts: dict[int, np.ndarray] = {}  # sample i's impacts (seed + i), made once, shared by every candidate
 
     def samples(tx: Texton, count: int = REFINE_SAMPLES) -> list[np.ndarray]:
@@ -443,7 +448,7 @@ def refine_colour_texton(u, texton: Texton, transform: HistogramTransform, t, tz
                                              - quarter)) for g in samples(k.texton, MARGINAL_SAMPLES)]))
 
     def judged(tx: Texton) -> Candidate:
-        tr = transform.for_noise(u, noise_cdf(tx, NOISE_MNI, grid), ordered=example)
+        tr = transform.for_noise(u, noise_cdf(tx, NOISE_MNI, grid), ordered=ordered)
         return Candidate(tx, tr, float(np.mean([tr.spectrum_error(g, target, bins) for g in samples(tx)])))
 
     def family(first: Texton, zero_sum: bool) -> list[Candidate]:
