@@ -17,7 +17,7 @@ were first measured, to check that what holds on the first holds on
 photographs the design did not see; then the same sixteen in grey (their
 luminance, 0.299 R + 0.587 G + 0.114 B), and scikit-image's grey grass and
 gravel (CC0), since the same analysis serves grey examples. The table gives, per photograph, the
-texton the colour judges kept (``plain`` or ``zero-sum``, docs/histogram.md),
+texton the judges kept (``plain`` or ``zero-sum``, docs/histogram.md),
 the W1 ratio and the spectrum over its bound (≤ 1 meets the goal) per seed and
 their means. ``--quick``: the first photograph of the two colour sets and of
 the grey benchmark set at 256² (cropped), two seeds.

@@ -41,8 +41,8 @@ def test_info_describes_a_texton(files, capsys):
     assert "texton (method 'texton') of 16x16, order 1, grey" in capsys.readouterr().out
 
 
-def test_info_names_the_colour_judges_choice(tmp_path, capsys):
-    """A histogram-preserving colour texton says which family the judge kept (docs/histogram.md)."""
+def test_info_names_the_histogram_judges_choice(tmp_path, capsys):
+    """A histogram-preserving texton says which family the judges kept (docs/histogram.md)."""
     rng = np.random.default_rng(5)
     u = rng.gamma(2.0, 0.15, (64, 64, 3)).astype(np.float32)
     t = analyze(u, size=16, seed=0, histogram="preserve")
@@ -50,7 +50,7 @@ def test_info_names_the_colour_judges_choice(tmp_path, capsys):
     assert main(["info", str(tmp_path / "c.exr")]) == 0
     out = capsys.readouterr().out
     kept = "zero-sum (no power at frequency 0)" if t.metadata["zero_sum"] else "plain"
-    assert f"colour judge: kept the {kept} texton" in out
+    assert f"histogram judge: kept the {kept} texton" in out
     if "histogram_marginal_errors" in t.metadata:
         assert f"{t.metadata['histogram_marginal_errors'][0]:.4g} (plain)" in out
     else:

@@ -30,7 +30,7 @@ def summary(model) -> dict:
                    support_area=float(model.support_area))
         judged = model.metadata.get("histogram_zero_sum_spectrum_errors")
         if isinstance(judged, list):
-            out["colour_judge"] = {"kept": "zero-sum" if model.metadata.get("zero_sum") else "plain",
+            out["histogram_judge"] = {"kept": "zero-sum" if model.metadata.get("zero_sum") else "plain",
                                    "marginal_errors": model.metadata.get("histogram_marginal_errors")}
     score = meta.get("structure")
     if isinstance(score, (int, float)) and not isinstance(score, bool):
@@ -55,12 +55,12 @@ def _text(path: str, s: dict) -> list[str]:
                  f"  mean {mean}, support area {s['support_area']:.6g} texels"]
         if isinstance(s["metadata"].get("model_error"), (int, float)):
             lines.append(f"  model error {s['metadata']['model_error']:.3f}")
-        if "colour_judge" in s:
-            kept, marginals = s["colour_judge"]["kept"], s["colour_judge"]["marginal_errors"]
+        if "histogram_judge" in s:
+            kept, marginals = s["histogram_judge"]["kept"], s["histogram_judge"]["marginal_errors"]
             why = ("its spectrum past its bound" if not marginals else
                    f"marginal W1 on samples {marginals[0]:.4g} (plain), {marginals[1]:.4g} (zero-sum)")
             kept = "zero-sum (no power at frequency 0)" if kept == "zero-sum" else "plain"
-            lines.append(f"  colour judge: kept the {kept} texton; zero-sum: {why}")
+            lines.append(f"  histogram judge: kept the {kept} texton; zero-sum: {why}")
     if "suggested_method" in s:
         lines.append(f"  structure score {s['metadata']['structure']:.2f} (above {STRUCTURE_THRESHOLD:g}: shapes that "
                      f"texton noise loses): method {s['suggested_method']!r} fits the example")

@@ -382,7 +382,7 @@ def analyze(
     if transform is None:
         return texton
     if m * n <= REFINE_MAX_PIXELS:
-        texton, transform, judges = judged_texton(u, texton, transform, t, tz, n, mean, size, order,
+        texton, transform, judges = judged_texton(u, texton, transform, t, t_hat, tz, n, mean, size, order,
                                                   iterations, seed, flat.T @ flat if color_correction else None,
                                                   support)
         texton.metadata.update(periodic=bool(periodic), **judges)
@@ -403,8 +403,8 @@ class Candidate:
     spectrum: float  # mean spectrum distance of its mapped samples to the example
 
 
-def judged_texton(u, texton: Texton, transform: HistogramTransform, t, tz, n, mean, size, order, iterations,
-                  seed, covariance, support) -> tuple[Texton, HistogramTransform, dict]:
+def judged_texton(u, texton: Texton, transform: HistogramTransform, t, t_hat, tz, n, mean, size, order,
+                  iterations, seed, covariance, support) -> tuple[Texton, HistogramTransform, dict]:
     """(texton, transform, metadata): the texton ``analyze(..., histogram="preserve")``
     keeps for a grey or colour example of at most REFINE_MAX_PIXELS pixels, the
     transform fitted to its noise, and the judges' figures for its metadata.
@@ -462,7 +462,6 @@ def judged_texton(u, texton: Texton, transform: HistogramTransform, t, tz, n, me
             out.append(judged(current))  # the next gain corrects this one's output
         return out
 
-    t_hat = sfft.rfft2(t, axes=(0, 1), workers=FFT_WORKERS)
     plain = family(texton, False)
     free = family(texton_from_spectrum(t_hat, n, mean, size, order, iterations, seed, covariance=covariance,
                                        support=support, zero_sum=True), True)

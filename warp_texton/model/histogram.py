@@ -47,7 +47,7 @@ CDF_POINTS = 1 << 16
 CDF_SPAN = 40.0
 #: Samples of the texton per texel and axis for ``analysis.noise_cdf`` (fewer for large textons).
 CDF_OVERSAMPLING = 8
-#: Refits of a colour texton against the spectrum its noise makes through the tables.
+#: Refits of a histogram-preserving texton against the spectrum its noise makes through the tables.
 REFINE_ROUNDS = 2
 #: Noise samples (on the example's grid) that judge each candidate texton's spectrum.
 REFINE_SAMPLES = 2
