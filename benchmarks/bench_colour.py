@@ -158,10 +158,19 @@ def _skimage(name: str) -> np.ndarray:
     return getattr(data, name.removeprefix("skimage:"))().astype(np.float32) / 255.0
 
 
+def _seeds(text: str) -> int:
+    import argparse
+
+    if not (text.isdigit() and 1 <= int(text) <= 64):
+        raise argparse.ArgumentTypeError(f"{text!r:.20} is not a whole number from 1 to 64")
+    return int(text)
+
+
 def main(argv=None) -> int:
 
     def extra(parser):
-        parser.add_argument("--seeds", type=int, default=4, help="outputs per photograph (seeds 1..N)")
+        parser.add_argument("--seeds", type=_seeds, default=4, metavar="N",
+                            help="outputs per photograph (seeds 1..N, N from 1 to 64)")
 
     return run_main(__doc__, "colour", run, markdown, argv, repeat=1, extra_args=extra)
 
