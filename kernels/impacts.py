@@ -24,9 +24,15 @@ import warp as wp
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
 
-_M1 = wp.constant(wp.uint32(0x7FEB352D))
-_M2 = wp.constant(wp.uint32(0x846CA68B))
+#: The avalanche finaliser's multipliers.
+AVALANCHE_M1 = wp.constant(wp.uint32(0x7FEB352D))
+AVALANCHE_M2 = wp.constant(wp.uint32(0x846CA68B))
 GOLDEN = wp.constant(wp.uint32(0x9E3779B9))
+#: Warp's PCG step (warp/native/rand.h ``rand_pcg``), which ``wp.randf`` and the other draws take: the
+#: kernels call Warp's functions; ports that reproduce the stream (kernels/tiling_draw.py) write these.
+PCG_MUL = wp.constant(wp.uint32(747796405))
+PCG_INC = wp.constant(wp.uint32(2891336453))
+PCG_OUT = wp.constant(wp.uint32(277803737))
 #: Mixed into the seed of 3-D cells, so that the plane's and space's processes are independent.
 _SPACE_TAG = wp.constant(wp.uint32(0x5BD1E995))
 
@@ -54,9 +60,9 @@ class Cells3:
 def avalanche(x: wp.uint32):
     # "lowbias32" integer finaliser: every input bit flips each output bit with p ≈ 1/2
     x = x ^ (x >> wp.uint32(16))
-    x = x * _M1
+    x = x * AVALANCHE_M1
     x = x ^ (x >> wp.uint32(15))
-    x = x * _M2
+    x = x * AVALANCHE_M2
     x = x ^ (x >> wp.uint32(16))
     return x
 

@@ -9,7 +9,11 @@ the three vertices of its triangle; their patches are blended with weights
 w_k ∝ β_k^sharpness · exp(guide_weight · (g_k − max g)), β_k the barycentric
 coordinates and g_k the guide (the example's standardised luminance) read
 from each patch at x. docs/tiling.md is the exact specification; GLSL, OSL and
-users' Warp kernels reproduce it from ``tiling_value``.
+users' Warp kernels reproduce it from ``tiling_value``. The vertex draw (the hash,
+the centre texel, the rounded position, the periodic lattice's vertex, the example's
+addressing) and its constants are ``kernels/tiling_draw.py``'s, which every other
+evaluator's code is generated from; ``vertex_centre``, ``vertex_position`` and
+``lattice_vertex`` here apply it to the ``Tiling`` and ``Lattice`` structs.
 
 ``tiling_value`` is the reference, called by the points kernel ``tiling_points`` and by
 ``tiling_raster``. The raster kernel ``tiling_runs`` computes the same values bit for bit
@@ -26,17 +30,12 @@ import warp as wp
 
 from typing import Any
 
-from .impacts import GOLDEN, avalanche
+from . import tiling_draw
 from .noise_filter import Filter, footprint_lookups
 from .noise_tiling_native import tiling_run1, tiling_run3, tiling_vector_form
+from .tiling_draw import CUTOFF, SQRT3_2, texel_index
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
-
-#: Mixed into the seed, so that the tiling's vertex stream is independent of the impacts' cells.
-TILING_TAG = wp.constant(wp.uint32(0x2C1B3C6D))
-SQRT3_2 = wp.constant(wp.float64(0.8660254037844386))
-#: Blend weights below this fraction of the largest are zero (their patches are not read).
-CUTOFF = wp.constant(1.0e-4)
 
 
 @wp.struct
@@ -54,30 +53,19 @@ class Tiling:
 
 @wp.func
 def vertex_centre(t: Tiling, a: int, b: int):
-    # the example texel (column, row) that vertex (a, b) shows on itself: a hash of
-    # the seed and the vertex, then two PCG uniforms (column first)
-    h = avalanche((t.seed ^ TILING_TAG) + GOLDEN)
-    h = avalanche(h ^ wp.uint32(a))
-    h = avalanche(h ^ wp.uint32(b))
-    s = h
-    ux = wp.randf(s)
-    uy = wp.randf(s)
+    # the example texel (column, row) that vertex (a, b) shows on itself (kernels/tiling_draw.py): centres
+    # range over the texels at least `margin` from the border
     rows = t.example.shape[0]
     cols = t.example.shape[1]
-    nx = cols - 2 * t.margin
-    ny = rows - 2 * t.margin
-    cx = t.margin + wp.min(int(wp.floor(ux * float(nx))), nx - 1)
-    cy = t.margin + wp.min(int(wp.floor(uy * float(ny))), ny - 1)
-    return wp.vec2i(cx, cy)
+    lo = wp.vec2i(t.margin, t.margin)
+    n = wp.vec2i(cols - 2 * t.margin, rows - 2 * t.margin)
+    return tiling_draw.vertex_centre(tiling_draw.seed_state(t.seed), a, b, lo, n)
 
 
 @wp.func
 def vertex_position(t: Tiling, a: int, b: int):
     # p(a, b) rounded to whole texels (float64, so far points are exact)
-    s = wp.float64(t.side)
-    px = s * (wp.float64(a) + wp.float64(b) * wp.float64(0.5))
-    py = s * wp.float64(b) * SQRT3_2
-    return wp.vec2d(wp.floor(px + wp.float64(0.5)), wp.floor(py + wp.float64(0.5)))
+    return tiling_draw.rounded_position(wp.float64(t.side), a, b)
 
 
 @wp.func
@@ -91,12 +79,12 @@ def bilinear3(img: wp.array2d(dtype=wp.vec3), q: wp.vec2):
     y0 = wp.floor(fy)
     tx = fx - x0
     ty = fy - y0
-    j0 = wp.clamp(int(x0), 0, cols - 1)
-    i0 = wp.clamp(int(y0), 0, rows - 1)
+    j0 = texel_index(int(x0), cols)
+    i0 = texel_index(int(y0), rows)
     if tx == 0.0 and ty == 0.0:  # on a texel centre (scale 1): the texel itself, the same value as below
         return img[i0, j0]
-    j1 = wp.clamp(int(x0) + 1, 0, cols - 1)
-    i1 = wp.clamp(int(y0) + 1, 0, rows - 1)
+    j1 = texel_index(int(x0) + 1, cols)
+    i1 = texel_index(int(y0) + 1, rows)
     top = img[i0, j0] * (1.0 - tx) + img[i0, j1] * tx
     bottom = img[i1, j0] * (1.0 - tx) + img[i1, j1] * tx
     return top * (1.0 - ty) + bottom * ty
@@ -112,12 +100,12 @@ def bilinear1(img: wp.array2d(dtype=float), q: wp.vec2):
     y0 = wp.floor(fy)
     tx = fx - x0
     ty = fy - y0
-    j0 = wp.clamp(int(x0), 0, cols - 1)
-    i0 = wp.clamp(int(y0), 0, rows - 1)
+    j0 = texel_index(int(x0), cols)
+    i0 = texel_index(int(y0), rows)
     if tx == 0.0 and ty == 0.0:  # on a texel centre (scale 1): the texel itself, the same value as below
         return img[i0, j0]
-    j1 = wp.clamp(int(x0) + 1, 0, cols - 1)
-    i1 = wp.clamp(int(y0) + 1, 0, rows - 1)
+    j1 = texel_index(int(x0) + 1, cols)
+    i1 = texel_index(int(y0) + 1, rows)
     top = img[i0, j0] * (1.0 - tx) + img[i0, j1] * tx
     bottom = img[i1, j0] * (1.0 - tx) + img[i1, j1] * tx
     return top * (1.0 - ty) + bottom * ty
@@ -296,14 +284,6 @@ def empty_cache():
 
 
 @wp.func
-def floor_div(n: int, d: int):
-    q = n / d
-    if q * d > n:
-        q = q - 1
-    return q
-
-
-@wp.func
 def lattice_triangle(t: Tiling, lat: Lattice, x: wp.vec2d):
     # triangle_of on the plain lattice; on a periodic one the skewed coordinates of its (dx, dy) grid
     if lat.periodic == 0:
@@ -323,17 +303,9 @@ def lattice_vertex(t: Tiling, lat: Lattice, a: int, b: int):
     if lat.periodic == 0:
         cen = vertex_centre(t, a, b)
         return cen, vertex_position(t, a, b)
-    kb = floor_div(b, lat.rows)
-    bb = b - kb * lat.rows
-    a1 = a + kb * (lat.rows / 2)
-    ka = floor_div(a1, lat.cols)
-    aa = a1 - ka * lat.cols
-    cen = vertex_centre(t, aa, bb)
-    px = lat.dx * (wp.float64(aa) + wp.float64(bb) * wp.float64(0.5))
-    py = lat.dy * wp.float64(bb)
-    p = wp.vec2d(wp.floor(px + wp.float64(0.5)) + wp.float64(ka) * lat.px,
-                 wp.floor(py + wp.float64(0.5)) + wp.float64(kb) * lat.py)
-    return cen, p
+    v = tiling_draw.period_vertex(a, b, lat.cols, lat.rows)
+    cen = vertex_centre(t, v[0], v[1])
+    return cen, tiling_draw.period_position(lat.dx, lat.dy, lat.px, lat.py, v)
 
 
 @wp.func
@@ -392,12 +364,12 @@ def bilinear(img: wp.array2d(dtype=Any), q: wp.vec2):
     iy = floor_int(fy)
     tx = fx - float(ix)
     ty = fy - float(iy)
-    j0 = wp.clamp(ix, 0, cols - 1)
-    i0 = wp.clamp(iy, 0, rows - 1)
+    j0 = texel_index(ix, cols)
+    i0 = texel_index(iy, rows)
     if tx == 0.0 and ty == 0.0:
         return img[i0, j0]
-    j1 = wp.clamp(ix + 1, 0, cols - 1)
-    i1 = wp.clamp(iy + 1, 0, rows - 1)
+    j1 = texel_index(ix + 1, cols)
+    i1 = texel_index(iy + 1, rows)
     top = img[i0, j0] * (1.0 - tx) + img[i0, j1] * tx
     bottom = img[i1, j0] * (1.0 - tx) + img[i1, j1] * tx
     return top * (1.0 - ty) + bottom * ty
@@ -560,12 +532,12 @@ def level_lookup(pyr: TilingPyramid, lvl: int, q: wp.vec2):
     y0 = wp.floor(fy)
     tx = fx - x0
     ty = fy - y0
-    j0 = wp.clamp(int(x0), 0, cols - 1)
-    i0 = wp.clamp(int(y0), 0, rows - 1) + r0
+    j0 = texel_index(int(x0), cols)
+    i0 = texel_index(int(y0), rows) + r0
     if tx == 0.0 and ty == 0.0:
         return pyr.texels[i0, j0]
-    j1 = wp.clamp(int(x0) + 1, 0, cols - 1)
-    i1 = wp.clamp(int(y0) + 1, 0, rows - 1) + r0
+    j1 = texel_index(int(x0) + 1, cols)
+    i1 = texel_index(int(y0) + 1, rows) + r0
     top = pyr.texels[i0, j0] * (1.0 - tx) + pyr.texels[i0, j1] * tx
     bottom = pyr.texels[i1, j0] * (1.0 - tx) + pyr.texels[i1, j1] * tx
     return top * (1.0 - ty) + bottom * ty

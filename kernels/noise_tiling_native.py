@@ -23,9 +23,11 @@ Both forms compute each value with the operations of ``tiling_runs`` (and so of
 snippets turn off floating-point contraction (Warp's generated code makes every
 operation its own statement, so it never contracts them), compute the float64
 position, skewed coordinates and patch offsets in float64 and round them to
-float32 where the reference does. The vertex hash is the reference's
-(``vertex_centre``: the avalanche finaliser and Warp's ``randf``), written out
-in C++. A row coordinate that does not change along the row (no rotation) is
+float32 where the reference does. The vertex draw (the hash, the PCG
+uniforms, the centre texel, the rounded vertex position, the periodic
+lattice's reduction, the example's addressing and the draw's constants) is
+not written here: it is ``kernels/tiling_draw.py``'s definition, rendered as
+C++ lambdas (``draw_code("cpp")``) into the snippet. A row coordinate that does not change along the row (no rotation) is
 computed once per run: the same value in every lane. ``tests/noise/
 test_tiling_raster.py`` checks both forms against ``tiling_value``.
 """
@@ -33,6 +35,7 @@ test_tiling_raster.py`` checks both forms against ``tiling_value``.
 import warp as wp
 
 from .surface_native import _VECTOR
+from .tiling_draw import draw_code
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
 
@@ -57,31 +60,16 @@ _RUN = _VECTOR + r"""
     float mu[CH];
     for (int c = 0; c < CH; ++c)
         mu[c] = MEAN_C;
-    const double SQRT3_2 = 0.8660254037844386;
-    const float cutoff = (float)0.0001;
+@TILING_DRAW@
     // x = origin + step_x * J + step_y * I, as tiling_runs: step_y * I is the same for the whole run
     const double I = (double)(first_i + i) + 0.5;
     const double yx = step_y[0] * I;
     const double yy = step_y[1] * I;
     const double s = periodic != 0 ? dx : (double)side;
-    // vertex_centre's hash of the seed, then of a and b; cached per run (round robin)
-    const auto aval = [](unsigned x) -> unsigned {
-        x = x ^ (x >> 16u);
-        x = x * 0x7FEB352Du;
-        x = x ^ (x >> 15u);
-        x = x * 0x846CA68Bu;
-        x = x ^ (x >> 16u);
-        return x;
-    };
-    const unsigned h_seed = aval((((unsigned)seed) ^ 0x2C1B3C6Du) + 0x9E3779B9u);
+    // the seed's part of the vertex hash, once per run; the centres' range (noise_tiling.vertex_centre)
+    const unsigned h_seed = tl_seed_state((unsigned)seed);
     const int nx = cols - 2 * margin;
     const int ny = rows - 2 * margin;
-    const auto floor_div = [](int n, int d) -> int {
-        int q = n / d;
-        if (q * d > n)
-            q = q - 1;
-        return q;
-    };
     int ca[8], cb[8], ccx[8], ccy[8];
     double cpx[8], cpy[8];
     for (int k = 0; k < 8; ++k) {
@@ -104,39 +92,14 @@ _RUN = _VECTOR + r"""
                 return;
             }
         }
-        int va = a, vb = b;
-        double ox = 0.0, oy = 0.0;
-        bool shift = false;
         if (periodic != 0) {
-            const int kb = floor_div(b, lrows);
-            vb = b - kb * lrows;
-            const int a1 = a + kb * (lrows / 2);
-            const int ka = floor_div(a1, lcols);
-            va = a1 - ka * lcols;
-            ox = (double)ka * lpx;
-            oy = (double)kb * lpy;
-            shift = true;
-        }
-        unsigned h = aval(h_seed ^ (unsigned)va);
-        h = aval(h ^ (unsigned)vb);
-        wp::uint32 st = h;
-        const float ux = wp::randf(st);
-        const float uy = wp::randf(st);
-        const int fx = (int)floorf(ux * (float)nx);
-        const int fy = (int)floorf(uy * (float)ny);
-        cx = margin + (fx < nx - 1 ? fx : nx - 1);
-        cy = margin + (fy < ny - 1 ? fy : ny - 1);
-        if (shift) {
-            const double qx = dx * ((double)va + (double)vb * 0.5);
-            const double qy = dy * (double)vb;
-            px = floor(qx + 0.5) + ox;
-            py = floor(qy + 0.5) + oy;
+            int va, vb, ka, kb;
+            tl_period_vertex(a, b, lcols, lrows, va, vb, ka, kb);
+            tl_vertex_centre(h_seed, va, vb, margin, nx, margin, ny, cx, cy);
+            tl_period_position(dx, dy, lpx, lpy, va, vb, ka, kb, px, py);
         } else {
-            const double sd = (double)side;
-            const double qx = sd * ((double)va + (double)vb * 0.5);
-            const double qy = (sd * (double)vb) * SQRT3_2;
-            px = floor(qx + 0.5);
-            py = floor(qy + 0.5);
+            tl_vertex_centre(h_seed, a, b, margin, nx, margin, ny, cx, cy);
+            tl_vertex_position(0.0, 0.0, (double)side, a, b, px, py);
         }
         ca[nxt] = a;
         cb[nxt] = b;
@@ -150,7 +113,7 @@ _RUN = _VECTOR + r"""
     const auto row_of = [&](double x1) -> double {
         if (periodic != 0)
             return x1 / dy;
-        return (x1 / s) / SQRT3_2;
+        return (x1 / s) / TL_SQRT3_2;
     };
     const bool flat = step_x[1] == 0.0;  // no rotation: x's y is the same along the row
 #if WT_VECTOR_FORM
@@ -202,7 +165,7 @@ _RUN = _VECTOR + r"""
             const v16d X1 = (origin[1] + step_x[1] * J) + yy;
             v16d SY = SYrow;
             if (!flat)
-                SY = periodic != 0 ? X1 / dy : (X1 / s) / SQRT3_2;
+                SY = periodic != 0 ? X1 / dy : (X1 / s) / TL_SQRT3_2;
             const v16d FB = __builtin_elementwise_floor(SY);
             const v16d SX = X0 / s - SY * 0.5;
             const v16d FA = __builtin_elementwise_floor(SX);
@@ -225,7 +188,7 @@ _RUN = _VECTOR + r"""
                 K2 = K2 * K2;
             }
             // kept_weights: the cutoff, then 1 for a vertex kept alone, else k / Σ k
-            const v16f KM = __builtin_elementwise_max(K0, __builtin_elementwise_max(K1, K2)) * cutoff;
+            const v16f KM = __builtin_elementwise_max(K0, __builtin_elementwise_max(K1, K2)) * TL_CUTOFF;
             K0 = K0 < KM ? zero : K0;
             K1 = K1 < KM ? zero : K1;
             K2 = K2 < KM ? zero : K2;
@@ -274,6 +237,7 @@ _RUN = _VECTOR + r"""
                 const v16f TY = FY - FYf;
                 const v16i IX = __builtin_convertvector(FXf, v16i);
                 const v16i IY = __builtin_convertvector(FYf, v16i);
+                // tl_texel_index of 16 lanes: the example's addressing (clamp to edge)
                 const v16i J0 = __builtin_elementwise_min(__builtin_elementwise_max(IX, izero), cmax);
                 const v16i I0 = __builtin_elementwise_min(__builtin_elementwise_max(IY, izero), rmax);
                 const v16i exact = (TX == 0.0f) & (TY == 0.0f);
@@ -355,7 +319,7 @@ _RUN = _VECTOR + r"""
             }
             k[r] = kr;
         }
-        const float km = (k[0] > (k[1] > k[2] ? k[1] : k[2]) ? k[0] : (k[1] > k[2] ? k[1] : k[2])) * cutoff;
+        const float km = (k[0] > (k[1] > k[2] ? k[1] : k[2]) ? k[0] : (k[1] > k[2] ? k[1] : k[2])) * TL_CUTOFF;
         int kept = 0;
         for (int r = 0; r < 3; ++r) {
             if (k[r] < km)
@@ -393,16 +357,16 @@ _RUN = _VECTOR + r"""
                 iy = iy - 1;
             const float tx = fx - (float)ix;
             const float ty = fy - (float)iy;
-            const int j0c = ix < 0 ? 0 : ix > cols - 1 ? cols - 1 : ix;
-            const int i0c = iy < 0 ? 0 : iy > rows - 1 ? rows - 1 : iy;
+            const int j0c = tl_texel_index(ix, cols);
+            const int i0c = tl_texel_index(iy, rows);
             const float* t00 = ex + i0c * erow + j0c * ecol;
             float val[CH];
             if (tx == 0.0f && ty == 0.0f) {
                 for (int c = 0; c < CH; ++c)
                     val[c] = t00[c];
             } else {
-                const int j1c = ix + 1 < 0 ? 0 : ix + 1 > cols - 1 ? cols - 1 : ix + 1;
-                const int i1c = iy + 1 < 0 ? 0 : iy + 1 > rows - 1 ? rows - 1 : iy + 1;
+                const int j1c = tl_texel_index(ix + 1, cols);
+                const int i1c = tl_texel_index(iy + 1, rows);
                 const float* t01 = ex + i0c * erow + j1c * ecol;
                 const float* t10 = ex + i1c * erow + j0c * ecol;
                 const float* t11 = ex + i1c * erow + j1c * ecol;
@@ -429,7 +393,11 @@ _RUN = _VECTOR + r"""
 """
 
 
-@wp.func_native(_RUN.replace("CHN", "1").replace("MEAN_C", "mean"))
+#: The run loop with the tiling's vertex draw (kernels/tiling_draw.py) as C++ lambdas.
+_RUN_DRAWN = _RUN.replace("@TILING_DRAW@", draw_code("cpp", periodic=True))
+
+
+@wp.func_native(_RUN_DRAWN.replace("CHN", "1").replace("MEAN_C", "mean"))
 def tiling_run1(example: wp.array2d(dtype=float), mean: float, out: wp.array2d(dtype=float), i: int, j0: int,
                 j1: int, first_i: int, first_j: int, origin: wp.vec2d, step_x: wp.vec2d, step_y: wp.vec2d,
                 side: float, margin: int, squarings: int, skip: float, vp: int, seed: wp.uint32, periodic: int,
@@ -439,7 +407,7 @@ def tiling_run1(example: wp.array2d(dtype=float), mean: float, out: wp.array2d(d
     ...
 
 
-@wp.func_native(_RUN.replace("CHN", "3").replace("MEAN_C", "mean[c]"))
+@wp.func_native(_RUN_DRAWN.replace("CHN", "3").replace("MEAN_C", "mean[c]"))
 def tiling_run3(example: wp.array2d(dtype=wp.vec3), mean: wp.vec3, out: wp.array2d(dtype=wp.vec3), i: int, j0: int,
                 j1: int, first_i: int, first_j: int, origin: wp.vec2d, step_x: wp.vec2d, step_y: wp.vec2d,
                 side: float, margin: int, squarings: int, skip: float, vp: int, seed: wp.uint32, periodic: int,

@@ -4,7 +4,7 @@ The model, its files and its measures live in :mod:`warp_texton.model.tiling` (N
 this module packs a :class:`~warp_texton.model.tiling.TilingModel` into the kernels' struct and
 launches them (docs/tiling.md).
 
-Kernels driven here: ``warp_texton.kernels.noise_tiling``.
+Kernels driven here: ``warp_texton.kernels.noise_tiling`` (its vertex draw: ``warp_texton.kernels.tiling_draw``).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import weakref
 import numpy as np
 
 from ..core.runtime import CHUNKS_PER_THREAD, init_warp, is_cpu, resolve_device, split_launch
-from ..kernels import noise_tiling
+from ..kernels import noise_tiling, tiling_draw
 from ..core.errors import TextonError
 from ..model.tiling import TilingModel
 from .colours import to_colours
@@ -94,7 +94,7 @@ def skip_below(model: TilingModel) -> float:
     (≥ (1/3)^sharpness) with a 10 % margin, so the reference drops it too; 0 with a guide."""
     if model.guide_weight != 0.0:
         return 0.0
-    return float(np.float32(0.3 * float(noise_tiling.CUTOFF) ** (1.0 / model.sharpness)))
+    return float(np.float32(0.3 * float(tiling_draw.CUTOFF) ** (1.0 / model.sharpness)))
 
 
 def period_lattice(model: TilingModel, period) -> tuple[int, int]:

@@ -33,7 +33,7 @@ import numpy as np
 from .._version import __version__
 from ..core.checks import check_positive, check_seed, check_shape
 from ..core.errors import TextonError
-from ..kernels.noise_tiling import TILING_TAG
+from ..kernels.tiling_draw import TILING_TAG
 from ..model.tiling import TilingModel
 from ..model.histogram import GAUSS_RANGE
 from ..noise.colours import noise_moments
