@@ -3,10 +3,10 @@
 // exported by warp-texton from a tiling model (docs/tiling.md is the specification).
 //
 // One source for GLSL ES 3.00 (WebGL2) and, with the first line replaced by "#version 330",
-// desktop GLSL 3.30+. It reproduces kernels/noise_tiling.py tiling_value: the vertex hash
-// (avalanche) and Warp's PCG draws in 32-bit unsigned arithmetic, the triangle, the patches'
-// whole-texel placement, the bilinear clamp-to-edge lookups, the weights and the blend, in
-// float32. GLSL ES has no float64: positions are taken relative to an anchor vertex of the
+// desktop GLSL 3.30+. It reproduces kernels/noise_tiling.py tiling_value: the vertex draw
+// (generated from kernels/tiling_draw.py: the hash and Warp's PCG draws in 32-bit unsigned
+// arithmetic, the centre texel, the whole-texel placement, the clamp-to-edge addressing, its
+// constants), the triangle, the bilinear lookups, the weights and the blend, in float32. GLSL ES has no float64: positions are taken relative to an anchor vertex of the
 // triangle lattice (tiling_noise_at), so only the distance from the anchor is rounded to float32.
 //
 // Entry points (x in noise units: texels of the example at scale 1, y down as in the package's rasters):
@@ -30,42 +30,19 @@ uniform highp sampler2D tiling_colours;
 
 //@CONSTANTS@
 
-uint tl_avalanche(uint x) {
-    x = x ^ (x >> 16u);
-    x = x * 0x7FEB352Du;
-    x = x ^ (x >> 15u);
-    x = x * 0x846CA68Bu;
-    x = x ^ (x >> 16u);
-    return x;
-}
-
-uint tl_pcg(uint state) {
-    uint b = state * 747796405u + 2891336453u;
-    uint c = ((b >> ((b >> 28u) + 4u)) ^ b) * 277803737u;
-    return (c >> 22u) ^ c;
-}
-
-float tl_randf(inout uint s) {
-    s = tl_pcg(s);
-    return float(s >> 8u) * 5.9604644775390625e-8;  // 2^-24: exact
-}
+//@TILING_DRAW@
 
 ivec2 tl_centre(int a, int b) {
-    // the example texel (column, row) that vertex (a, b) shows on itself
-    uint h = tl_avalanche((TL_SEED ^ 0x2C1B3C6Du) + 0x9E3779B9u);
-    h = tl_avalanche(h ^ uint(a));
-    h = tl_avalanche(h ^ uint(b));
-    uint s = h;
-    float ux = tl_randf(s);
-    float uy = tl_randf(s);
-    int nx = TL_COLS - 2 * TL_MARGIN;
-    int ny = TL_ROWS - 2 * TL_MARGIN;
-    return ivec2(TL_MARGIN + min(int(floor(ux * float(nx))), nx - 1),
-                 TL_MARGIN + min(int(floor(uy * float(ny))), ny - 1));
+    // the example texel (column, row) that vertex (a, b) shows on itself: centres range over the
+    // texels at least TL_MARGIN from the border
+    int cx, cy;
+    tl_vertex_centre(tl_seed_state(TL_SEED), a, b, TL_MARGIN, TL_COLS - 2 * TL_MARGIN, TL_MARGIN,
+                     TL_ROWS - 2 * TL_MARGIN, cx, cy);
+    return ivec2(cx, cy);
 }
 
 vec4 tl_texel(int i, int j) {
-    return texelFetch(tiling_example, ivec2(clamp(j, 0, TL_COLS - 1), clamp(i, 0, TL_ROWS - 1)), 0);
+    return texelFetch(tiling_example, ivec2(tl_texel_index(j, TL_COLS), tl_texel_index(i, TL_ROWS)), 0);
 }
 
 vec4 tl_bilinear(vec2 q) {
@@ -86,12 +63,10 @@ vec4 tl_bilinear(vec2 q) {
 
 vec2 tl_patch_point(ivec2 anchor, vec2 frac, vec2 rel, int a, int b) {
     // where vertex (a, b)'s patch reads the example: c + (x - P(a, b)), with
-    // P(a, b) - P(anchor) = floor(p(a, b) - P(anchor) + 1/2) from the anchor's offsets
-    float da = float(a - anchor.x);
-    float db = float(b - anchor.y);
-    vec2 p = vec2(frac.x + TL_SIDE * (da + db * 0.5), frac.y + TL_SIDE * db * TL_SQRT3_2);
-    vec2 dp = floor(p + 0.5);
-    return vec2(tl_centre(a, b)) + (rel - dp);
+    // P(a, b) - P(anchor) = floor(frac + p(a - anchor.x, b - anchor.y) + 1/2) from the anchor's offsets
+    float px, py;
+    tl_vertex_position(frac.x, frac.y, TL_SIDE, a - anchor.x, b - anchor.y, px, py);
+    return vec2(tl_centre(a, b)) + (rel - vec2(px, py));
 }
 
 float tl_power(float w) {
