@@ -22,7 +22,7 @@ import trimesh
 
 from warp_texton import analyze, read_image, surface_noise, write_image
 from warp_texton.demo import demo_texture_path
-from warp_texton.runtimes.osl import SURFACE_FILE, osl_files
+from warp_texton.runtimes.osl.texton import SURFACE_FILE, osl_files
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))

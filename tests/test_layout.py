@@ -35,14 +35,49 @@ def test_public_api_names_are_those_of_the_rooms():
 
 @pytest.mark.parametrize("old", sorted(warp_texton.MOVED_MODULES))
 def test_a_path_of_0_2_imports_the_moved_module_with_a_warning(old):
-    new = importlib.import_module(warp_texton.MOVED_MODULES[old])
+    paths = warp_texton.MOVED_MODULES[old]
+    paths = (paths,) if isinstance(paths, str) else paths
+    news = [importlib.import_module(p) for p in paths]
     sys.modules.pop(old, None)
-    with pytest.warns(DeprecationWarning, match=warp_texton.MOVED_MODULES[old].replace(".", r"\.")):
+    with pytest.warns(DeprecationWarning, match=" and ".join(p.replace(".", r"\.") for p in paths)):
         alias = importlib.import_module(old)
-    public = [n for n in vars(new) if not n.startswith("_")]
-    assert public, old
-    for name in public[:5]:
-        assert getattr(alias, name) is getattr(new, name)
+    seen: set[str] = set()
+    for new in news:  # a name resolves in the first module that holds it
+        public = [n for n in vars(new) if not n.startswith("_") and n not in seen]
+        assert public, (old, new.__name__)
+        for name in public[:5] + public[-5:]:
+            assert getattr(alias, name) is getattr(new, name)
+        seen.update(vars(new))
+    with pytest.raises(AttributeError):
+        alias.no_such_name  # noqa: B018
+
+
+def test_the_tiling_shaders_of_0_3_resolve_in_each_language():
+    """0.3's runtimes.tiling_shaders held both languages: its names resolve in the port that holds them now."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        from warp_texton.runtimes import tiling_shaders as old
+    from warp_texton.runtimes.glsl import tiling as glsl_tiling
+    from warp_texton.runtimes.osl import tiling as osl_tiling
+    from warp_texton.runtimes import shared
+
+    assert old.glsl_source is glsl_tiling.glsl_source and old.tiling_anchor is glsl_tiling.tiling_anchor
+    assert old.tiling_osl_files is osl_tiling.tiling_osl_files and old.MAX_OSL_FLOATS == 512 * 512 * 3
+    assert old.refuse_texton_options is shared.refuse_texton_options and old.GLSL_FILE == "tiling_noise.glsl"
+
+
+@pytest.mark.parametrize("face, name", [("glsl", "glsl_noise"), ("glsl", "preview_html"), ("glsl", "GLSL_FILE"),
+                                        ("osl", "osl_files"), ("osl", "i32"), ("osl", "PLANE_FILE")])
+def test_names_of_a_module_that_became_a_language_package_warn(face, name):
+    """0.3's runtimes.glsl and runtimes.osl were texton noise's modules; they are each language's port now,
+    and the old names resolve for a release from the texton module, with a warning naming it."""
+    port = importlib.import_module(f"warp_texton.runtimes.{face}")
+    texton = importlib.import_module(f"warp_texton.runtimes.{face}.texton")
+    with pytest.warns(DeprecationWarning, match=rf"runtimes\.{face}\.texton\.{name}"):
+        value = getattr(port, name)
+    assert value is getattr(texton, name)
+    with pytest.raises(AttributeError):
+        port.no_such_name  # noqa: B018
 
 
 def test_from_import_of_an_old_path_gives_the_same_objects():

@@ -112,9 +112,10 @@ __all__ = [
 __getattr__, __dir__ = lazy_names(__name__, _LAZY)
 
 
-#: Module paths of 0.2 (one flat folder) and where they live now; importing an old path still
-#: works for one release, with a DeprecationWarning naming the new one (docs/architecture.md).
-MOVED_MODULES = {
+#: Module paths of 0.2 (one flat folder) and 0.3 and where they live now; importing an old path still
+#: works for one release, with a DeprecationWarning naming the new one (docs/architecture.md). A module
+#: whose names went to several modules maps to all of them, searched in order.
+MOVED_MODULES: dict[str, str | tuple[str, ...]] = {
     "warp_texton.errors": "warp_texton.core.errors",
     "warp_texton.limits": "warp_texton.core.limits",
     "warp_texton._checks": "warp_texton.core.checks",
@@ -147,8 +148,8 @@ MOVED_MODULES = {
     "warp_texton.jobs": "warp_texton.surface.jobs",
     "warp_texton.device": "warp_texton.runtimes.warp_api",
     "warp_texton.shader": "warp_texton.runtimes.export",
-    "warp_texton.shader_glsl": "warp_texton.runtimes.glsl",
-    "warp_texton.shader_osl": "warp_texton.runtimes.osl",
+    "warp_texton.shader_glsl": "warp_texton.runtimes.glsl.texton",
+    "warp_texton.shader_osl": "warp_texton.runtimes.osl.texton",
     "warp_texton.view_core": "warp_texton.view.viewer",
     "warp_texton.view_query": "warp_texton.view.queries",
     "warp_texton.view_cache": "warp_texton.view.cache",
@@ -175,6 +176,9 @@ MOVED_MODULES = {
     "warp_texton.kernels.render": "warp_texton.kernels.surface_render",
     "warp_texton.kernels.bake": "warp_texton.kernels.surface_bake",
     "warp_texton.kernels.tiling": "warp_texton.kernels.noise_tiling",
+    # 0.3's tiling shaders (GLSL and OSL in one module): each language's port now, and what both share
+    "warp_texton.runtimes.tiling_shaders": ("warp_texton.runtimes.glsl.tiling", "warp_texton.runtimes.osl.tiling",
+                                            "warp_texton.runtimes.shared"),
 }
 
 
@@ -186,12 +190,20 @@ class _MovedModule(importlib.abc.Loader):
 
     def exec_module(self, module) -> None:
         new = MOVED_MODULES[module.__name__]
-        warnings.warn(f"{module.__name__} moved to {new}; the old path goes in the next release",
+        paths = (new,) if isinstance(new, str) else new
+        warnings.warn(f"{module.__name__} moved to {' and '.join(paths)}; the old path goes in the next release",
                       DeprecationWarning, stacklevel=2)
-        target = importlib.import_module(new)
-        module.__getattr__ = lambda name: getattr(target, name)
-        module.__all__ = getattr(target, "__all__", [n for n in vars(target) if not n.startswith("_")])
-        module.__doc__ = target.__doc__
+        targets = [importlib.import_module(p) for p in paths]
+
+        def moved(name: str):
+            for target in targets:
+                if hasattr(target, name):
+                    return getattr(target, name)
+            raise AttributeError(f"module {module.__name__!r} has no attribute {name!r}")
+
+        module.__getattr__ = moved
+        module.__all__ = [n for t in targets for n in getattr(t, "__all__", [n for n in vars(t) if not n.startswith("_")])]
+        module.__doc__ = targets[0].__doc__
 
 
 class _MovedFinder(importlib.abc.MetaPathFinder):

@@ -138,8 +138,8 @@ class TestSameResults:
             pack_surface(t, 0.1, device="cpu", noise=NoiseOptions(**kw)))
 
     def test_shader_exports(self, tmp_path):
-        from warp_texton.runtimes.glsl import preview_html
-        from warp_texton.runtimes.osl import osl_files
+        from warp_texton.runtimes.glsl.texton import preview_html
+        from warp_texton.runtimes.osl.texton import osl_files
 
         t = random_texton((5, 6), channels=3, seed=6)
         opts = NoiseOptions(**self.NOISE)

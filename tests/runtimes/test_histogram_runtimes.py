@@ -171,7 +171,7 @@ def test_glsl_filtered_and_surface_colours(rgb, rgb_example, browser, tmp_path):
     from test_shader_glsl import TOLERANCE, open_preview, pixel_centres
 
     from warp_texton.noise.engine import noise_setup
-    from warp_texton.runtimes.glsl import glsl_noise
+    from warp_texton.runtimes.glsl.texton import glsl_noise
 
     page = open_preview(browser, write_shader_preview(rgb, tmp_path / "p.html", (4, 4), mni=30, seed=3))
     errors = {}
@@ -226,7 +226,7 @@ def test_osl_renders_the_colours(grey, rgb, tmp_path):
     from test_shader_osl import (MIN_AGREEMENT, PLANE_TEXEL, SIZE, TOLERANCE, agreement, jitter_box, pixel_centres,
                                  plane_mesh, render, sphere_hits)
 
-    from warp_texton.runtimes.osl import PLANE_FILE, SURFACE_FILE, osl_files
+    from warp_texton.runtimes.osl.texton import PLANE_FILE, SURFACE_FILE, osl_files
 
     plane_scale, sphere_scale, texel = 1.8, 1.2, 0.06
     mesh = trimesh.creation.icosphere(subdivisions=3, radius=1.0)

@@ -20,8 +20,7 @@ import warp as wp
 from clients import chromium_browser
 from helpers import parts, run_cli
 from warp_texton import TextonError, Texton, analyze, export_shader, read_image, surface_noise, synthesize
-from warp_texton.runtimes import export as shader
-from warp_texton.runtimes import glsl as shader_glsl
+from warp_texton.runtimes.glsl import texton as shader_glsl
 from warp_texton.demo import demo_texture_path
 from warp_texton.kernels.impacts import cell_walk
 from warp_texton.kernels.noise_raster import NoiseParams
@@ -238,12 +237,6 @@ def test_export_refuses_existing_folders(small, tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["ex"] and (tmp_path / "ex" / "mine.txt").read_text() == "keep"
     with pytest.raises(TextonError, match="does not exist"):
         export_shader(small, "glsl", tmp_path / "no" / "ex")
-
-
-def test_languages_are_a_registry_of_static_imports():
-    from warp_texton.runtimes import glsl, osl
-
-    assert shader.LANGUAGES == {"glsl": glsl.glsl_files, "osl": osl.osl_files}
 
 
 def test_preview_refuses(small, tmp_path):

@@ -16,7 +16,7 @@ from clients import run_blender
 from helpers import cli_script
 from warp_texton import Texton, TextonError, evaluate, surface_noise
 from warp_texton.surface.mesh import srgb_to_linear
-from warp_texton.runtimes.osl import MAX_EMBEDDED_FLOATS, PLANE_FILE, SURFACE_FILE, i32, osl_files
+from warp_texton.runtimes.osl.texton import MAX_EMBEDDED_FLOATS, PLANE_FILE, SURFACE_FILE, i32, osl_files
 
 RENDER_SCRIPT = Path(__file__).resolve().parents[1].joinpath("blender_osl_render.py")
 SIZE = 96

@@ -14,7 +14,7 @@ from clients import chromium_browser
 from helpers import run_cli
 from warp_texton import Texton, TextonError, analyze, export_shader, synthesize
 from warp_texton.model.tiling import TilingModel
-from warp_texton.runtimes import tiling_shaders as ts
+from warp_texton.runtimes.glsl import tiling as ts
 from warp_texton.runtimes.export import write_shader_preview
 
 #: Within 2/255 on at least 99 % of the pixels (the issue's bound).

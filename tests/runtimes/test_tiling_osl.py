@@ -15,7 +15,7 @@ from test_shader_osl import (EXACT_PIXELS, EXACT_TEXEL, MIN_AGREEMENT, SIZE, TOL
                              jitter_box, pixel_centres, plane_mesh, render)
 from warp_texton import TextonError, analyze, evaluate, export_shader
 from warp_texton.model.tiling import TilingModel
-from warp_texton.runtimes import tiling_shaders as ts
+from warp_texton.runtimes.osl import tiling as ts
 from warp_texton.surface.mesh import srgb_to_linear
 
 

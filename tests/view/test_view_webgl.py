@@ -33,7 +33,7 @@ from PIL import Image
 from clients import chromium_browser
 from test_view import DEVICE, SIZE, small_rgb
 from warp_texton import analyze, read_image, synthesize
-from warp_texton.runtimes.glsl import glsl_noise
+from warp_texton.runtimes.glsl.texton import glsl_noise
 from warp_texton.view.server import serve
 from warp_texton.view.images import to_8bit
 from warp_texton.view.queries import view_window

@@ -9,15 +9,15 @@ from pathlib import Path
 from .options import (ANALYSIS_NAMES, FILTER_NAMES, SHAPE_NAMES, Command, add_analysis_options,
                           add_placement_options, input_file, noise_options, seconds_since, texton_of)
 from ..core.errors import TextonError
-
-LANGS = ("glsl", "osl")
+from ..runtimes.languages import LANGUAGES, WEBGL
 
 
 def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("input", help="texton file or example image")
-    p.add_argument("--lang", required=True, choices=LANGS, help="shader language")
+    p.add_argument("--lang", required=True, choices=tuple(LANGUAGES),
+                   help="shader language: " + "; ".join(f"{k}, {v.summary}" for k, v in LANGUAGES.items()))
     p.add_argument("-o", "--output", help="export folder to create (the shader, its textures, a description)")
-    p.add_argument("--html", help="self-contained HTML page drawing a window of the noise with WebGL2 (glsl)")
+    p.add_argument("--html", help=f"self-contained HTML page drawing a window of the noise with WebGL2 ({WEBGL})")
     p.add_argument("--overwrite", action="store_true", help="replace an export folder an earlier run wrote")
     p.add_argument("--width", type=int, default=512, help="preview width in pixels (--html)")
     p.add_argument("--height", type=int, default=512, help="preview height in pixels (--html)")
@@ -58,8 +58,8 @@ def _shader(args) -> None:
 
     if args.output is None and args.html is None:
         raise TextonError("give -o DIR (the export folder), --html PAGE (the preview), or both")
-    if args.html is not None and args.lang != "glsl":
-        raise TextonError(f"--html previews the glsl export (WebGL2); it is not available with --lang {args.lang}")
+    if args.html is not None and not LANGUAGES[args.lang].page:
+        raise TextonError(f"--html previews the {WEBGL} export (WebGL2); it is not available with --lang {args.lang}")
     if args.html is not None:
         _check_page(args.html, args.output)
     t0 = time.perf_counter()

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import importlib
 import sys
+import warnings
 from collections.abc import Callable, Mapping
 
 
@@ -38,3 +39,20 @@ def lazy_names(package: str, names: Mapping[str, str]) -> tuple[Callable[[str], 
         return sorted(set(vars(sys.modules[package])) | set(names))
 
     return __getattr__, __dir__
+
+
+def moved_names(package: str, names: Mapping[str, str]) -> Callable[[str], object]:
+    """A ``__getattr__`` for ``package``'s names that moved into its modules (``names``: each name's
+    module, relative to ``package``): each still resolves, for one release, with a DeprecationWarning
+    that names its new path (the names of a module that became a package of the same path)."""
+
+    def __getattr__(name: str):
+        module = names.get(name)
+        if module is None:
+            raise AttributeError(f"module {package!r} has no attribute {name!r}")
+        new = f"{package}.{module}"
+        warnings.warn(f"{package}.{name} moved to {new}.{name}; the old path goes in the next release",
+                      DeprecationWarning, stacklevel=2)
+        return getattr(importlib.import_module(new), name)
+
+    return __getattr__

@@ -1,5 +1,6 @@
-"""Texton noise outside the package's own calls: the device API for users' Warp kernels
-(``warp_api``), and shader exports (``export``) in GLSL (``glsl``) and OSL (``osl``).
+"""Texton noise and tiling models outside the package's own calls: the device API for users' Warp
+kernels (``warp_api``), and shader exports (``export``) in the registry's languages (``languages``),
+one package each: GLSL (``glsl``) and OSL (``osl``), each exporting either model kind.
 """
 
 from __future__ import annotations

@@ -1,12 +1,13 @@
 """Texton noise for other runtimes: shader exports that draw the same impacts as the kernels.
 
-:func:`export_shader` writes a folder with the noise as shader code for a
-language (``"glsl"``: WebGL2 and desktop OpenGL; ``"osl"``: Open Shading
-Language, for Cycles, Arnold, RenderMan, V-Ray) plus the texton as textures;
+:func:`export_shader` writes a folder with the noise (or a tiling model) as shader
+code for a language (``"glsl"``: WebGL2 and desktop OpenGL; ``"osl"``: Open Shading
+Language, for Cycles, Arnold, RenderMan, V-Ray) plus the model as textures;
 :func:`write_shader_preview` writes one self-contained HTML page that draws a
-window of the noise with WebGL2. Each language's files come from its module
-(:mod:`warp_texton.runtimes.glsl`, ``warp_texton.runtimes.osl``), whose constants
-come from the same host code as the Warp kernels' parameters.
+window with WebGL2. The languages are the registry's
+(:mod:`warp_texton.runtimes.languages`): each language's port makes the files of
+either model kind, whose constants come from the same host code as the Warp
+kernels' parameters (and a tiling model's vertex draw from ``kernels/tiling_draw.py``).
 """
 
 from __future__ import annotations
@@ -14,33 +15,20 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import numpy as np
-
-from ..core.errors import TextonError
 from ..files.folders import atomic_files, check_replaceable
 from ..surface.frames import UP
-from . import glsl, osl, tiling_shaders
 from ..files.images import atomic_path, check_output_name
 from ..noise.noise_options import CELL_FACTOR, NoiseOptions
 from ..model.texton import Texton
 from ..model.tiling import TilingModel
+from .languages import LANGUAGES, WEBGL, language
 
-#: The shader languages, each with the function that makes its files.
-LANGUAGES = {"glsl": glsl.glsl_files, "osl": osl.osl_files}
+_PORTS = [lang.port() for lang in LANGUAGES.values()]
 #: The file every export holds, whose "warp_texton" key marks a folder --overwrite may replace.
-META_FILES = ("texton_noise.json", "texton_noise_osl.json")
-#: Every file an export of either language may write: what ``overwrite`` replaces or, when
+META_FILES = tuple(port.META_FILE for port in _PORTS)
+#: Every file an export of any language may write: what ``overwrite`` replaces or, when
 #: this export does not write it, removes. Other files in the folder are the user's and stay.
-EXPORT_FILES = frozenset({"texton_noise.glsl", "texton_noise.js", "texton_coeffs.f32", "texton_pyramid.f32",
-                          "texton_colours.f32", "texton_shares.f32", "preview.html", "texton_surface.osl",
-                          "texton_plane.osl", "tiling_noise.glsl", "tiling_example.f32", "tiling_colours.f32",
-                          "tiling_plane.osl", *META_FILES})
-
-
-def _files_of(lang: str):
-    if not isinstance(lang, str) or lang not in LANGUAGES:
-        raise TextonError(f"lang must be one of {', '.join(LANGUAGES)}, got {lang!r:.60}", param="lang")
-    return LANGUAGES[lang]
+EXPORT_FILES = frozenset().union(*(port.FILES for port in _PORTS))
 
 
 def _is_export(path: Path) -> bool:
@@ -55,46 +43,6 @@ def _is_export(path: Path) -> bool:
                 return False
             return isinstance(marker, dict) and "warp_texton" in marker
     return False
-
-
-def _osl_meta(texton: Texton, files: dict, noise: NoiseOptions, frame: dict, texel_size) -> bytes:
-    """The description of an OSL export: its files and settings, marked as the package's."""
-    from .._version import __version__
-
-    values = {"mni": noise.mni, "seed": noise.seed, "period": noise.period, "poisson": noise.poisson,
-              "cell_factor": noise.cell_factor, **frame}
-    settings = {k: (None if v is None else (v if isinstance(v, (int, float, str)) else [float(x) for x in v]))
-                for k, v in values.items()}
-    settings["texel_size"] = 0.01 if texel_size is None else float(texel_size)
-    meta = {"warp_texton": __version__, "language": "osl", "shaders": sorted(files), "order": texton.order,
-            "channels": texton.channels, "settings": settings}
-    return (json.dumps(meta, indent=2) + "\n").encode()
-
-
-def _default_up(up) -> bool:
-    """Whether ``up`` is the surface frame rule's default (+z), as a name or a vector."""
-    if isinstance(up, str):
-        return up == "z"
-    try:
-        return bool(np.array_equal(np.asarray(up, np.float64), UP))
-    except (TypeError, ValueError):
-        return False
-
-
-def _tiling_files(model: TilingModel, lang: str, noise: NoiseOptions | None, filter, texel_size, up,
-                  side) -> dict:
-    """The files of a tiling model's export (:mod:`warp_texton.runtimes.tiling_shaders`): the
-    unfiltered plane tiling; the texton-noise, filter and surface options are refused."""
-    seed = tiling_shaders.refuse_texton_options(noise, filter=None if filter in (None, "none") else filter,
-                                                up=None if _default_up(up) else up, side=side)
-    if lang == "glsl":
-        if texel_size is not None:
-            raise TextonError("texel_size is an option of the osl export; the glsl functions take positions in "
-                              "texels", param="texel_size")
-        return tiling_shaders.tiling_glsl_files(model, seed)
-    files = tiling_shaders.tiling_osl_files(model, seed, 0.01 if texel_size is None else texel_size)
-    files[META_FILES[1]] = tiling_shaders.tiling_osl_meta(model, seed, texel_size)
-    return files
 
 
 def export_shader(texton: Texton | TilingModel, lang: str, out_dir, *, mni: float = 30.0, seed: int = 0, period=None,
@@ -166,8 +114,8 @@ def export_shader(texton: Texton | TilingModel, lang: str, out_dir, *, mni: floa
     Raises
     ------
     TextonError
-        For a ``lang`` other than "glsl" or "osl" (or a language module this
-        installation lacks); a texton too large for the target (GLSL: a
+        For a ``lang`` other than "glsl" or "osl" (the registry's languages,
+        :data:`~warp_texton.runtimes.languages.LANGUAGES`); a texton too large for the target (GLSL: a
         texture side over 2048 texels, the size WebGL2 guarantees); an order
         or a filter the target does not offer; an ``out_dir`` that exists
         without ``overwrite``, or that no export wrote; a missing parent
@@ -204,24 +152,11 @@ def export_shader(texton: Texton | TilingModel, lang: str, out_dir, *, mni: floa
     ['preview.html', 'texton_coeffs.f32', 'texton_noise.glsl', 'texton_noise.js', 'texton_noise.json',
      'texton_pyramid.f32']
     """
-    make = _files_of(lang)
+    port = language(lang).port()
     path = check_output_name(out_dir, "out_dir")
     check_replaceable(path, overwrite, _is_export, "a shader export")  # before any work
     noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
-    frame = dict(up=up, side=side)
-    if isinstance(texton, TilingModel):
-        files = _tiling_files(texton, lang, noise, filter, texel_size, up, side)
-    elif lang == "glsl":
-        if texel_size is not None:
-            raise TextonError("texel_size is an option of the osl export; the glsl functions take positions in "
-                              "texels", param="texel_size")
-        files = make(texton, filter="anisotropic" if filter is None else filter, noise=noise, **frame)
-    else:
-        if filter is not None:
-            raise TextonError(f"filter is an option of the glsl export; the {lang} shaders have no filtered "
-                              "variant (a renderer antialiases by its samples)", param="filter")
-        files = make(texton, texel_size=0.01 if texel_size is None else texel_size, noise=noise, **frame)
-        files[META_FILES[1]] = _osl_meta(texton, files, noise, frame, texel_size)
+    files = port.files(texton, noise=noise, filter=filter, texel_size=texel_size, up=up, side=side)
     replaceable = lambda p: check_replaceable(p, overwrite, _is_export, "a shader export")  # noqa: E731
     with atomic_files(path, replaceable, EXPORT_FILES) as tmp:
         for name, content in files.items():
@@ -273,12 +208,7 @@ def write_shader_preview(texton: Texton | TilingModel, path, shape=(512, 512), *
 
 def preview_page(texton: Texton | TilingModel, shape, *, scale: float = 1.0, rotation: float = 0.0,
                  offset=(0.0, 0.0), noise: NoiseOptions | None = None) -> str:
-    """The HTML of :func:`write_shader_preview` (``noise`` default: ``NoiseOptions()``): a texton's
-    page (:func:`warp_texton.runtimes.glsl.preview_html`) or a tiling model's
-    (:func:`warp_texton.runtimes.tiling_shaders.tiling_preview_html`; of ``noise`` only the seed
-    applies, the other options are refused)."""
-    if isinstance(texton, TilingModel):
-        seed = tiling_shaders.refuse_texton_options(noise)
-        return tiling_shaders.tiling_preview_html(texton, shape, seed=seed, scale=scale, rotation=rotation,
-                                                  offset=offset)
-    return glsl.preview_html(texton, shape, scale=scale, rotation=rotation, offset=offset, noise=noise)
+    """The HTML of :func:`write_shader_preview` (``noise`` default: ``NoiseOptions()``), by the
+    registry's WebGL2 language (:func:`warp_texton.runtimes.glsl.preview`): a texton's page or a
+    tiling model's (of ``noise`` only the seed applies, the other options are refused)."""
+    return language(WEBGL).port().preview(texton, shape, scale=scale, rotation=rotation, offset=offset, noise=noise)

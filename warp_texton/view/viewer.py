@@ -79,7 +79,7 @@ MAX_KEPT_UPLOAD_BYTES = 256 << 20
 #: The smallest share of memory a slot may have.
 MIN_SLOT_BYTES = 64 << 20
 #: The page's WebGL2 mode for tiling models: a function model -> the page's program
-#: (``webgl.tiling_payload``, the GLSL port of warp_texton.runtimes.tiling_shaders); None: the
+#: (``webgl.tiling_payload``, the GLSL port's library, warp_texton.runtimes.glsl.tiling); None: the
 #: page draws the server's tiles for them.
 WEBGL_TILING: Callable[[TilingModel], dict] | None = tiling_payload
 

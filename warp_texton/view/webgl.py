@@ -1,9 +1,9 @@
 """The viewer's WebGL2 mode: what the page needs to draw the noise itself.
 
 The page (``static/viewer_webgl.js``) draws the view with the exported GLSL
-library (:mod:`warp_texton.runtimes.glsl`, the same source, constants and
-textures as ``export_shader``), so pan, zoom, rotation and the noise settings
-redraw without a request. Only the texton travels: one request per analysis
+library (the registry's WebGL2 language, :mod:`warp_texton.runtimes.glsl`: the
+same source, constants and textures as ``export_shader``), so pan, zoom, rotation
+and the noise settings redraw without a request. Only the texton travels: one request per analysis
 setting (:func:`shader_payload`).
 
 The exported library holds every setting as a constant; here the ones the
@@ -11,16 +11,16 @@ page's controls change are turned into uniforms (:data:`VIEW_UNIFORMS`): the
 seed, the values that follow from the MNI (the cell's mean impact count, the
 Poisson sampler's constants, λ and √λ) and the filter's mode and level bias.
 The page computes them from the MNI as the exporter does in float32
-(``shader_glsl.poisson_constants``; the viewer's WebGL test compares both),
+(``runtimes.glsl.texton.poisson_constants``; the viewer's WebGL test compares both),
 from the cell size and the texton's support area given here.
 
-A tiling model (``analyze(..., method="tiling")``) is drawn with its GLSL port
-(:mod:`warp_texton.runtimes.tiling_shaders`, the export's library and
+A tiling model (``analyze(..., method="tiling")``) is drawn with the same port's
+library of it (:mod:`warp_texton.runtimes.glsl.tiling`, the export's library and
 textures, a histogram-preserving model's tables included) by
 :func:`tiling_payload`: its one view uniform is the seed (``TL_SEED``); the
 page places the view's centre on the model's triangle lattice in float64 (as
-``tiling_anchor`` does) and draws the unfiltered blend, so the filter "none"
-alone is drawn (the tiles draw the others).
+``tiling_anchor`` does, with the vertex draw's √3/2) and draws the unfiltered
+blend, so the filter "none" alone is drawn (the tiles draw the others).
 """
 
 from __future__ import annotations
@@ -29,11 +29,12 @@ import re
 
 import numpy as np
 
+from ..kernels.tiling_draw import SQRT3_2
 from ..noise.filter_options import FilterOptions
 from ..noise.engine import CELL_FACTOR, MAX_CELL_MEAN
 from ..noise.noise_options import NoiseOptions
-from ..runtimes.glsl import FILTER_MODES, glsl_noise, texture_data
-from ..runtimes import tiling_shaders
+from ..runtimes.languages import WEBGL, language
+from ..runtimes.shared import check_model
 from ..model.texton import Texton
 from ..model.tiling import TilingModel
 
@@ -79,20 +80,21 @@ def shader_payload(texton: Texton, *, filters, cell_factor: float = CELL_FACTOR)
     ``filters`` are the names the page offers, each with its mode and level bias.
     The unperiodic plane and exact Poisson counts, as the viewer's tiles.
     """
+    glsl = language(WEBGL).port()
     # the MNI only sets constants that become uniforms: one that every texton's cells accept
-    g = glsl_noise(texton, filter="anisotropic", noise=NoiseOptions(mni=1.0, cell_factor=cell_factor))
+    g = glsl.library(texton, filter="anisotropic", noise=NoiseOptions(mni=1.0, cell_factor=cell_factor))
     cw, ch = g.cell
     options = {name: FilterOptions.of(name) for name in filters}
     return {
         "library": with_uniforms(g.source),
         "main": VIEW_MAIN,
-        "textures": texture_data(g.textures),
+        "textures": glsl.texture_data(g.textures),
         "channels": g.channels,
         # λ = mni / area (float64), a cell's mean count λ · cw · ch: noise_setup's arithmetic
         "area": float(texton.support_area),
         "cell": [cw, ch],
         "max_mean_count": MAX_CELL_MEAN,  # more is refused (noise_setup): the page shows tiles, which say why
-        "filters": {name: {"mode": FILTER_MODES[o.kind],
+        "filters": {name: {"mode": glsl.FILTER_MODES[o.kind],
                            "bias": float(np.float32(o.bias if o.spec.footprint else 0.0))}
                     for name, o in options.items()},
         "texton": f"{texton.size[1]}×{texton.size[0]}, order {texton.order}",
@@ -107,17 +109,19 @@ def tiling_payload(model: TilingModel) -> dict:
     """The page's WebGL2 program for a tiling model: its GLSL library (the export's, the
     seed a uniform), the preview's main, the textures (the example and guide, a
     histogram-preserving model's tables), and what the page places the view with: the
-    lattice side (float32, as the kernels hold it) and √3/2. Its one filter is "none"."""
-    model = tiling_shaders.check_model(model)
+    lattice side (float32, as the kernels hold it) and √3/2 (the vertex draw's). Its one filter is "none"."""
+    model = check_model(model)
+    glsl = language(WEBGL).port()
+    lib = glsl.library(model)
     h, w, c = model.example.shape
     return {
         "kind": "tiling",
-        "library": with_uniforms(tiling_shaders.glsl_source(model, 0), TILING_UNIFORMS),
-        "main": tiling_shaders.PREVIEW_MAIN,
-        "textures": texture_data(tiling_shaders.textures(model)),
-        "channels": c,
+        "library": with_uniforms(lib.source, TILING_UNIFORMS),
+        "main": lib.main,
+        "textures": glsl.texture_data(lib.textures),
+        "channels": lib.channels,
         "side": float(np.float32(model.side)),
-        "sqrt3_2": tiling_shaders.SQRT3_2,
+        "sqrt3_2": float(SQRT3_2),
         "filters": {"none": {"mode": 0, "bias": 0.0}},
         "refused": "the WebGL2 mode draws a tiling model unfiltered (filter none)",
         "texton": f"tiling model of a {w}×{h} example, side {model.side:g}"

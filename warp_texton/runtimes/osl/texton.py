@@ -37,24 +37,26 @@ Kernels driven here: ``warp_texton.kernels.noise_raster``.
 from __future__ import annotations
 
 import functools
+import json
 import math
-from importlib import resources
 from string import Template
 
 import numpy as np
 
-from ..core.checks import check_positive
-from ..core.runtime import init_warp
-from ..core.errors import TextonError
-from ..surface.frames import UP
-from ..noise.colours import noise_moments
-from ..model.histogram import GAUSS_RANGE
-from ..kernels.noise_raster import PAD
-from ..noise.engine import CELL_FACTOR, noise_setup, params_record
-from ..noise.noise_options import NoiseOptions
-from ..surface.points import surface_params, surface_setup
-from ..model.texton import Texton
-from ..model.tiling import TilingModel
+from ..._version import __version__
+from ...core.checks import check_positive
+from ...core.runtime import init_warp
+from ...core.errors import TextonError
+from ...surface.frames import UP
+from ...noise.colours import noise_moments
+from ...model.histogram import GAUSS_RANGE
+from ...kernels.noise_raster import PAD
+from ...noise.engine import CELL_FACTOR, noise_setup, params_record
+from ...noise.noise_options import NoiseOptions
+from ...surface.points import surface_params, surface_setup
+from ...model.texton import Texton
+from ...model.tiling import TilingModel
+from ..shared import template
 
 #: Floats of padded coefficients a shader embeds at most: a 256 × 256 RGB texton
 #: with its margin (a 4.7 MB source, which Blender compiles in about 2 s; the
@@ -63,6 +65,10 @@ MAX_EMBEDDED_FLOATS = (256 + 2 * PAD) ** 2 * 3
 #: The files :func:`osl_files` returns.
 SURFACE_FILE = "texton_surface.osl"
 PLANE_FILE = "texton_plane.osl"
+#: The description of an OSL export (either model kind), whose "warp_texton" key marks the folder as an export.
+META_FILE = "texton_noise_osl.json"
+#: Every file a texton's OSL export may write.
+FILES = frozenset({SURFACE_FILE, PLANE_FILE, META_FILE})
 #: The one template both shaders are made from (package data).
 TEMPLATE = "texton_noise.osl"
 
@@ -232,7 +238,7 @@ def osl_files(
     --------
     >>> import numpy as np
     >>> from warp_texton import Texton
-    >>> from warp_texton.runtimes.osl import osl_files
+    >>> from warp_texton.runtimes.osl.texton import osl_files
     >>> t = Texton(np.random.default_rng(0).standard_normal((8, 8, 1)) / 8, [0.5])
     >>> files = osl_files(t, mni=30, seed=7)
     >>> sorted(files)
@@ -293,7 +299,7 @@ def template_sections() -> dict[str, str]:
     """The sections of the template (``warp_texton/runtimes/shaders/texton_noise.osl``), each
     after a line ``//@ name: ...``: the shared functions, the shared start and end
     of both shaders, and each shader's body."""
-    text = (resources.files("warp_texton.runtimes").joinpath("shaders").joinpath(TEMPLATE)).read_text(encoding="utf-8")
+    text = template(TEMPLATE)
     sections = {}
     for part in text.split("//@ ")[1:]:
         header, _, body = part.partition("\n")
@@ -315,3 +321,14 @@ def colour_literal(v) -> str:
 def vector_literal(v) -> str:
     return f"vector({f32(v[0])}, {f32(v[1])}, {f32(v[2])})"
 
+
+def osl_meta(texton: Texton, files: dict, noise: NoiseOptions, frame: dict, texel_size) -> bytes:
+    """The description of a texton's OSL export: its files and settings, marked as the package's."""
+    values = {"mni": noise.mni, "seed": noise.seed, "period": noise.period, "poisson": noise.poisson,
+              "cell_factor": noise.cell_factor, **frame}
+    settings = {k: (None if v is None else (v if isinstance(v, (int, float, str)) else [float(x) for x in v]))
+                for k, v in values.items()}
+    settings["texel_size"] = 0.01 if texel_size is None else float(texel_size)
+    meta = {"warp_texton": __version__, "language": "osl", "shaders": sorted(files), "order": texton.order,
+            "channels": texton.channels, "settings": settings}
+    return (json.dumps(meta, indent=2) + "\n").encode()

@@ -1,4 +1,4 @@
-"""Texton noise as GLSL: the exported shader library, its textures and the HTML preview.
+"""Texton noise as GLSL: the exported shader library, its textures and its HTML preview.
 
 The GLSL source (``shaders/texton_noise.glsl``, package data) is one template:
 this module writes its constants block from the host code the Warp kernels
@@ -21,61 +21,50 @@ shares), which the library's ``texton_noise*`` functions use to return the
 example's colours (:func:`colour_textures`).
 
 The JavaScript that builds programs and uploads the textures
-(``shaders/texton_noise.js``) is shared by the HTML preview and any page that
-loads it. Derivations and the measured agreement: docs/renderers.md.
+(``shaders/texton_noise.js``) and the preview page are the GLSL port's, shared
+with tiling models (:mod:`warp_texton.runtimes.glsl.page`). Derivations and the
+measured agreement: docs/renderers.md.
 
 Kernels driven here: ``warp_texton.kernels.noise_raster``.
 """
 
 from __future__ import annotations
 
-import base64
-import json
 import math
 from dataclasses import dataclass
-from importlib import resources
 
 import numpy as np
 
-from ..core.checks import check_shape
-from .._version import __version__
-from ..core.errors import TextonError
-from ..noise.filter_options import FilterOptions
-from ..noise.filtering import pyramid_stack
-from ..noise.colours import ANGLES, LOG_EXTENTS, noise_moments, share_table
-from ..model.histogram import GAUSS_RANGE, SHARE_STEPS
-from ..kernels.noise_raster import PAD
-from ..noise.engine import CELL_FACTOR, noise_setup, params_record
-from ..noise.noise_options import NoiseOptions
-from ..noise.raster import raster_geometry, raster_reach
-from ..surface.frames import UP
-from ..surface.points import surface_params, surface_setup
-from ..model.texton import Texton
+from ...core.checks import check_shape
+from ..._version import __version__
+from ...core.errors import TextonError
+from ...noise.filter_options import FilterOptions
+from ...noise.filtering import pyramid_stack
+from ...noise.colours import ANGLES, LOG_EXTENTS, noise_moments, share_table
+from ...model.histogram import GAUSS_RANGE, SHARE_STEPS
+from ...kernels.noise_raster import PAD
+from ...noise.engine import CELL_FACTOR, noise_setup, params_record
+from ...noise.noise_options import NoiseOptions
+from ...noise.raster import raster_geometry, raster_reach
+from ...surface.frames import UP
+from ...surface.points import surface_params, surface_setup
+from ...model.texton import Texton
+from ..shared import template
+from .page import (JS_FILE, MAX_PREVIEW_SIDE, MAX_TEXTURE_SIZE, META_FILE, PREVIEW_FILE, export_files, glsl_float,
+                   preview_page)
 
 #: The orders the GLSL reproduces (all of the package's).
 ORDERS = (0, 1, 3, 5)
 #: The filters its filtered variant offers; "supersample" (hundreds of walks a pixel) is left out.
 FILTERS = ("none", "mip", "anisotropic")
-#: The largest texture side WebGL2 guarantees (MAX_TEXTURE_SIZE ≥ 2048); larger textons are refused.
-MAX_TEXTURE_SIZE = 2048
-#: The largest preview canvas side (the float render target is a texture too).
-MAX_PREVIEW_SIDE = 2048
-#: The files of an export: the library, the JavaScript, the textures and their description.
+#: The library of an export (beside the page's files: the JavaScript, the description, the preview).
 GLSL_FILE = "texton_noise.glsl"
-JS_FILE = "texton_noise.js"
-META_FILE = "texton_noise.json"
-PREVIEW_FILE = "preview.html"
+#: Every file a texton's GLSL export may write (the textures of a histogram transform included).
+FILES = frozenset({GLSL_FILE, JS_FILE, META_FILE, PREVIEW_FILE, "texton_coeffs.f32", "texton_pyramid.f32",
+                   "texton_colours.f32", "texton_shares.f32"})
 #: TN_FILTER_MODE of each filter.
 FILTER_MODES = {"none": 0, "mip": 1, "anisotropic": 2}
-
-
-def _source(name: str) -> str:
-    return resources.files("warp_texton.runtimes").joinpath("shaders").joinpath(name).read_text(encoding="utf-8")
-
-
-def _f(v) -> str:
-    """A float32 as a GLSL literal that reads back to the same float32."""
-    return f"{float(np.float32(v)):.9e}"
+_f = glsl_float
 
 
 def _vec(values) -> str:
@@ -214,7 +203,7 @@ def glsl_noise(texton: Texton, *, mni: float = 30.0, seed: int = 0, period=None,
               f"{texton.order}, {texton.channels} channel(s); mni {setup.mni:g}, seed {seed}, poisson {poisson}, "
               f"cell_factor {cell_factor:g}, period {None if period is None else tuple(period)}, "
               f"filter {options.kind}")
-    source = _source(GLSL_FILE).replace("//@CONSTANTS@", header + "\n" + block)
+    source = template(GLSL_FILE).replace("//@CONSTANTS@", header + "\n" + block)
     settings = {"mni": setup.mni, "surface_mni": float(mni if surface_mni is None else surface_mni), "seed": seed,
                 "period": None if period is None else [float(v) for v in period], "cell_factor": float(cell_factor),
                 "poisson": poisson, "filter": options.kind, "order": texton.order, "channels": texton.channels,
@@ -299,30 +288,25 @@ def glsl_files(texton: Texton, **options) -> dict[str, bytes]:
     (NAME.f32, rows top first), their description (texton_noise.json) and a preview page
     of a 512 × 512 window at scale 1 (preview.html). ``options``: those of :func:`glsl_noise`."""
     g = glsl_noise(texton, **options)
-    files = {GLSL_FILE: g.source.encode(), JS_FILE: _source(JS_FILE).encode()}
-    textures = {}
-    for name, a in g.textures.items():
-        files[f"{name}.f32"] = np.ascontiguousarray(a, "<f4").tobytes()
-        textures[name] = {"file": f"{name}.f32", "width": a.shape[1], "height": a.shape[0], "format": "RGBA32F"}
-    meta = {"warp_texton": __version__, "language": "glsl", "library": GLSL_FILE, "script": JS_FILE,
-            "textures": textures, "settings": g.settings}
-    files[META_FILE] = (json.dumps(meta, indent=2) + "\n").encode()
-    files[PREVIEW_FILE] = _page(g, (512, 512), _placement(g, (512, 512), 1.0, 0.0, (0.0, 0.0))).encode()
-    return files
+    page = _page(g, (512, 512), _placement(g, (512, 512), 1.0, 0.0, (0.0, 0.0)))
+    return export_files(GLSL_FILE, g.source, g.textures, g.settings, page)
 
 
 def _placement(g: GlslNoise, shape, scale, rotation, offset) -> dict:
-    """Pixel (i, j) at base · cell + origin + step_x (j + ½) + step_y (i + ½): the window's origin
-    split into an integer cell index and a float32 remainder (computed in float64)."""
+    """The page's uniforms: pixel (i, j) at tn_base · cell + tn_origin + tn_step_x (j + ½) + tn_step_y (i + ½),
+    the window's origin split into an integer cell index and a float32 remainder (computed in float64)."""
     origin, step = raster_geometry(shape, scale, rotation, offset)
     cell = np.array(g.cell)
     base = np.floor(origin / cell)
     rel = origin - base * cell
-    return {"base": [int(v) for v in base], "origin": [float(np.float32(v)) for v in rel],
-            "step_x": [float(np.float32(v)) for v in step[:, 0]], "step_y": [float(np.float32(v)) for v in step[:, 1]]}
+    f32 = lambda v: [float(np.float32(x)) for x in v]  # noqa: E731
+    return {"tn_base": ["2i", [int(v) for v in base]], "tn_origin": ["2f", f32(rel)],
+            "tn_step_x": ["2f", f32(step[:, 0])], "tn_step_y": ["2f", f32(step[:, 1])],
+            "tn_height": ["1i", [int(shape[0])]]}
 
 
-_PREVIEW_MAIN = """
+#: The preview's main(): tn_output 0 draws the noise, 1 the impacts per pixel (count, Σ d).
+PREVIEW_MAIN = """
 uniform ivec2 tn_base;
 uniform vec2 tn_origin;
 uniform vec2 tn_step_x;
@@ -340,87 +324,14 @@ void main() {
 }
 """
 
-_PREVIEW_BOOT = """
-(function () {
-  "use strict";
-  const data = JSON.parse(document.getElementById("texton-noise-data").textContent);
-  const canvas = document.getElementById("noise");
-  const gl = canvas.getContext("webgl2", {antialias: false, preserveDrawingBuffer: true});
-  const status = document.getElementById("status");
-  if (!gl) { status.textContent = "This page needs WebGL2."; return; }
-  const specs = {};
-  for (const [name, t] of Object.entries(data.textures)) {
-    specs[name] = {width: t.width, height: t.height, data: TextonNoise.floats(t.data)};
-  }
-  const bind = TextonNoise.textures(gl, specs);
-  const prog = TextonNoise.program(gl, data.library, data.main);
-  const w = data.width, h = data.height, at = data.placement;
-  function uniforms(output) {
-    bind(prog);
-    gl.uniform2i(gl.getUniformLocation(prog, "tn_base"), at.base[0], at.base[1]);
-    gl.uniform2f(gl.getUniformLocation(prog, "tn_origin"), at.origin[0], at.origin[1]);
-    gl.uniform2f(gl.getUniformLocation(prog, "tn_step_x"), at.step_x[0], at.step_x[1]);
-    gl.uniform2f(gl.getUniformLocation(prog, "tn_step_y"), at.step_y[0], at.step_y[1]);
-    gl.uniform1i(gl.getUniformLocation(prog, "tn_height"), h);
-    gl.uniform1i(gl.getUniformLocation(prog, "tn_output"), output);
-  }
-  uniforms(0);
-  TextonNoise.draw(gl, prog, w, h);
-  status.textContent = data.caption;
-  window.textonNoise = {
-    width: w, height: h, channels: data.channels,
-    // the window's values as float32, RGBA per pixel, top row first
-    readFloat: () => Array.from(TextonNoise.readFloat(gl, prog, w, h, () => uniforms(0))),
-    // per pixel: (impacts in the texton's support, Σ of their offsets d = x − q)
-    readImpacts: () => Array.from(TextonNoise.readFloat(gl, prog, w, h, () => uniforms(1))),
-    // the noise at points, TextonNoise.evaluatePoints's layout
-    evaluatePoints: (kind, inputs) => Array.from(TextonNoise.evaluatePoints(gl, data.library, bind, kind,
-                                                                            new Float32Array(inputs))),
-  };
-})();
-"""
 
-
-def texture_data(textures: dict) -> dict:
-    """The textures as ``TextonNoise.textures`` takes them in a page: name -> {width, height,
-    data: base64 of little-endian float32 RGBA, top row first} (``TextonNoise.floats`` decodes it)."""
-    return {name: {"width": a.shape[1], "height": a.shape[0],
-                   "data": base64.b64encode(np.ascontiguousarray(a, "<f4").tobytes()).decode()}
-            for name, a in textures.items()}
-
-
-def _page(g: GlslNoise, shape, placement: dict) -> str:
+def _page(g: GlslNoise, shape, uniforms: dict) -> str:
     h, w = shape
     s = g.settings
     caption = (f"texton noise, {w} x {h} pixels: mni {s['mni']:g}, seed {s['seed']}, order {s['order']}"
                + (f", period {s['period'][0]:g} x {s['period'][1]:g}" if s["period"] else ""))
-    data = {"library": g.source, "main": _PREVIEW_MAIN, "width": w, "height": h, "channels": g.channels,
-            "placement": placement, "caption": caption,
-            "textures": texture_data(g.textures)}
-    return page_html(f"warp-texton: texton noise ({w} x {h})", w, h, data, _PREVIEW_BOOT)
-
-
-def page_html(title: str, w: int, h: int, data: dict, boot: str) -> str:
-    """A self-contained preview page: a w × h canvas ``#noise``, ``data`` as JSON in the
-    script element ``#texton-noise-data``, the shared JavaScript and the page's ``boot`` script."""
-    blob = json.dumps(data).replace("</", "<\\/")  # no "</script>" inside the script element
-    return f"""<!DOCTYPE html>
-<html lang="en">
-<head>
-<meta charset="utf-8">
-<title>{title}</title>
-<style>body {{ background: #222; color: #ddd; font: 14px sans-serif; margin: 16px; }}
-canvas {{ display: block; image-rendering: pixelated; }}</style>
-</head>
-<body>
-<canvas id="noise" width="{w}" height="{h}"></canvas>
-<p id="status">drawing...</p>
-<script type="application/json" id="texton-noise-data">{blob}</script>
-<script>{_source(JS_FILE)}</script>
-<script>{boot}</script>
-</body>
-</html>
-"""
+    return preview_page(f"warp-texton: texton noise ({w} x {h})", caption, shape, g.source, PREVIEW_MAIN,
+                        g.textures, g.channels, uniforms, impacts=True)
 
 
 def preview_html(texton: Texton, shape=(512, 512), *, mni: float = 30.0, seed: int = 0, scale: float = 1.0,
