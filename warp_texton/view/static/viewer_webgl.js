@@ -53,7 +53,7 @@
   }
 
   // A tiling model's view (payload.kind "tiling"): the raster's centre placed on the model's
-  // triangle lattice in float64, as tiling_shaders.tiling_anchor places it: the lower-left vertex
+  // triangle lattice in float64, as runtimes.glsl.tiling.tiling_anchor places it: the lower-left vertex
   // (a, b) of its lattice cell, frac = p(a, b) - P(a, b) and the centre relative to P(a, b), the
   // vertex rounded to whole texels; then float32, with the steps per pixel (the preview's placement).
   function tilingPlacement(payload, v) {
