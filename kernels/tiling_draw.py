@@ -42,6 +42,7 @@ code); its functions run in the kernels of ``kernels/noise_tiling.py``.
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -256,7 +257,7 @@ class Dialect:
     """How the neutral definition is written in one language."""
 
     types: dict[str, str]  # u32, i32, f32, real -> the language's types
-    literal: dict[str, object]  # neutral type -> (value -> literal)
+    literal: dict[str, Callable[[float], str]]  # neutral type -> (value -> its literal)
     constant: str  # a constant's declaration: {type}, {name}, {value}
     function: str  # a function's first line: {ret}, {name}, {params}
     end: str  # a function's last line

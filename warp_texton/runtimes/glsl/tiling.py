@@ -205,6 +205,7 @@ void main() {
 }
 """
 
+
 def _placement(model: TilingModel, shape, scale, rotation, offset, anchored: bool = True) -> dict:
     """The page's uniforms: the window's centre as (anchor, frac, rel) of :func:`tiling_anchor`
     (float64, then float32), its steps per pixel (float32) and its size; not ``anchored``: the
