@@ -21,8 +21,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from helpers import assert_nothing_written, run_cli
-from warp_texton import TextonError, load_texton
+from helpers import assert_nothing_written, parts, run_cli
+from warp_texton import TextonError, analyze, load_texton
 from warp_texton.core import limits
 from warp_texton.files.images import write_exr
 from warp_texton.model.tiling import TilingModel, load_tiling
@@ -123,3 +123,29 @@ def test_texton_metadata_too_deep_to_read_back_is_refused_on_save(tmp_path):
     with pytest.raises(TextonError, match="metadata nested deeper than 64 levels"):
         t.save(tmp_path / "t.exr")
     assert_nothing_written(tmp_path / "t.exr")
+
+
+# ------------------------------------------------------- 5. shader --html does not replace a page
+@pytest.fixture(scope="module")
+def texton_file(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("shader") / "t.exr"
+    analyze(example((64, 64, 1))[..., 0], size=8, iterations=5).save(path)
+    return path
+
+
+def test_an_existing_page_is_refused_without_overwrite(tmp_path, texton_file, capsys):
+    page = tmp_path / "page.html"
+    page.write_text("mine")
+    assert run_cli(["shader", texton_file, "--lang", "glsl", "--html", page, "-o", tmp_path / "export", "-q"]) == 2
+    assert error_lines(capsys) == [f"warp-texton: error: --html {page}: exists; give --overwrite to replace it"]
+    assert page.read_text() == "mine" and not (tmp_path / "export").exists() and parts(tmp_path) == []
+    assert run_cli(["shader", texton_file, "--lang", "glsl", "--html", page, "--overwrite", "-q"]) == 0
+    assert page.read_text().startswith("<!DOCTYPE html>")
+
+
+def test_a_folder_named_as_the_page_is_refused_even_with_overwrite(tmp_path, texton_file, capsys):
+    page = tmp_path / "page.html"
+    page.mkdir()
+    assert run_cli(["shader", texton_file, "--lang", "glsl", "--html", page, "--overwrite", "-q"]) == 2
+    assert error_lines(capsys) == [f"warp-texton: error: {page}: is a folder; give a file name"]
+    assert page.is_dir() and not any(page.iterdir())
