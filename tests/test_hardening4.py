@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from bombs import ADDRESS_SPACE, api_bomb, assert_refused, run_bomb
 from helpers import assert_nothing_written, parts, run_cli
 from warp_texton import TextonError, analyze, load_texton
 from warp_texton.core import limits
@@ -83,6 +84,17 @@ def test_deep_tiling_metadata_is_one_cli_line(tmp_path, capsys):
 def test_tiling_metadata_within_the_bounds_is_read(tmp_path):
     raw = '{"a": ' + "[" * 63 + r'"[[{{ \" ]]"' + "]" * 63 + "}"
     assert load_texton(tiling_exr(tmp_path / "ok.exr", raw)).metadata == json.loads(raw)
+
+
+# ------------------------------------------------------- 3. evaluate at 10⁹ broadcast points
+@pytest.mark.parametrize("model", ["texton", "tiling"])
+def test_broadcast_points_are_priced_before_they_are_copied(model):
+    make = ("t = wt.Texton(np.full((8, 8, 1), 0.1), [0.5])" if model == "texton" else
+            "t = wt.analyze(np.random.default_rng(0).random((48, 48)), method='tiling', side=8)")
+    out = run_bomb(api_bomb("wt.evaluate(t, np.broadcast_to(np.zeros(2), (10**9, 2)), device='cpu')", make))
+    assert_refused(out, r"refused: evaluating 1000000000 points needs about [\d.]+ GiB, over the memory budget of .*; use "
+                        "fewer points")
+    assert out.peak_bytes is not None and out.peak_bytes < ADDRESS_SPACE // 2
 
 
 # ------------------------------------------------------- 4. tiling metadata is JSON
