@@ -16,6 +16,9 @@ item 6 are in tests/test_layout.py): one group per item.
 from __future__ import annotations
 
 import json
+import re
+import time
+import tracemalloc
 from pathlib import Path
 
 import numpy as np
@@ -23,10 +26,11 @@ import pytest
 
 from bombs import ADDRESS_SPACE, api_bomb, assert_refused, run_bomb
 from helpers import assert_nothing_written, parts, run_cli
+from image_bombs import png_declaring
 from warp_texton import TextonError, analyze, load_texton
 from warp_texton.core import limits
 from warp_texton.files.images import write_exr
-from warp_texton.model.tiling import TilingModel, load_tiling
+from warp_texton.model.tiling import TilingModel, fit_tiling, load_tiling
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -84,6 +88,127 @@ def test_deep_tiling_metadata_is_one_cli_line(tmp_path, capsys):
 def test_tiling_metadata_within_the_bounds_is_read(tmp_path):
     raw = '{"a": ' + "[" * 63 + r'"[[{{ \" ]]"' + "]" * 63 + "}"
     assert load_texton(tiling_exr(tmp_path / "ok.exr", raw)).metadata == json.loads(raw)
+
+
+# ------------------------------------------------------- 2. analyses priced before their work
+def test_tiling_analysis_of_an_8192_example_is_refused_before_its_fft():
+    """The issue's reproducer: the structure score's FFT ran out of memory (NumPy's MemoryError)."""
+    setup = "u = np.zeros((8192, 8192), np.float32); u[::2] = 1.0"
+    out = run_bomb(api_bomb("wt.analyze(u, method='tiling')", setup), env={limits.BUDGET_ENV: "2G"})
+    assert_refused(out, r"refused: the tiling analysis of a 8192x8192 example needs about [\d.]+ GiB, over the "
+                        r"memory budget of 2 GiB; .*WARP_TEXTON_MEMORY_BUDGET=\dG")
+    assert out.peak_bytes is not None and out.peak_bytes < ADDRESS_SPACE // 2
+
+
+@pytest.mark.parametrize("histogram", ["gaussian", "preserve"])
+def test_tiling_analysis_is_priced_in_work(histogram):
+    u = example((1024, 1024, 3))
+    limits.set_work_budget(1e9)
+    t0 = time.process_time()
+    with pytest.raises(TextonError, match=r"the tiling analysis of a 1024x1024 example .*over the work budget of "
+                                          r"1e\+09; use a smaller example .*WARP_TEXTON_WORK_BUDGET"):
+        analyze(u, method="tiling", histogram=histogram)
+    assert time.process_time() - t0 < 1.0  # refused before the score (about a second of FFTs)
+
+
+def test_the_structure_score_is_priced():
+    from warp_texton.model.tiling import structure_score
+
+    limits.set_memory_budget("64M")
+    with pytest.raises(TextonError, match=r"the structure score of a 2048x2048 example needs about .* over the "
+                                          "memory budget of 64 MiB"):
+        structure_score(np.zeros((2048, 2048), np.float32))
+
+
+def test_the_tiling_price_is_one_function_of_the_shape():
+    from warp_texton.model.tiling import tiling_analysis_cost
+
+    small, large = tiling_analysis_cost((512, 512, 3)), tiling_analysis_cost((2048, 2048, 3))
+    assert all(b > a > 0 for a, b in zip(small, large))
+    assert tiling_analysis_cost((512, 512, 3), histogram="preserve")[1] > small[1]
+    assert tiling_analysis_cost((512, 512, 3), score=False)[1] < small[1]
+    grey = tiling_analysis_cost((512, 512))
+    assert grey == tiling_analysis_cost((512, 512, 1)) and grey[0] < small[0]
+
+
+def _traced_peak(call) -> int:
+    tracemalloc.start()
+    try:
+        tracemalloc.reset_peak()
+        call()
+        return tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("shape, histogram", [((512, 512, 1), "gaussian"), ((512, 512, 3), "preserve"),
+                                              ((256, 320, 3), "gaussian")])
+def test_the_tiling_memory_estimate_covers_the_peak(shape, histogram):
+    from warp_texton.model.tiling import tiling_analysis_cost
+
+    u = example(shape)
+    fit_tiling(u[:64, :64], histogram=histogram)  # imports and caches first
+    peak = _traced_peak(lambda: fit_tiling(u, histogram=histogram))
+    estimate = tiling_analysis_cost(shape, histogram=histogram)[0]
+    assert 0.9 * peak <= estimate <= 3.0 * peak, (estimate, peak)
+
+
+@pytest.mark.slow
+@pytest.mark.filterwarnings("ignore::warp_texton.core.errors.ExampleWarning")  # 1200 x 1000 is large
+@pytest.mark.parametrize("shape", [(256, 256, 1), (512, 512, 3), (1200, 1000, 1)])
+def test_the_preserve_memory_estimate_covers_the_peak(shape):
+    from warp_texton.model.analysis import analysis_cost
+
+    u = example(shape)
+    peak = _traced_peak(lambda: analyze(u, size=16, iterations=2, histogram="preserve"))
+    estimate = analysis_cost(shape[:2], shape[2], 2, size=16, histogram="preserve")[0]
+    assert 0.9 * peak <= estimate <= 3.0 * peak, (estimate, peak)
+
+
+def test_preserve_analysis_of_4096_colour_is_priced_in_memory():
+    """The issue's reproducer: ``iterations=4`` passed the work check, then NumPy ran out of memory
+    (the texton's 96 bytes a value were priced; the histogram-preserving analysis holds more)."""
+    setup = "u = np.random.default_rng(0).random((4096, 4096, 3), dtype=np.float32)"
+    out = run_bomb(api_bomb("wt.analyze(u, histogram='preserve', iterations=4, size=16)", setup),
+                   env={limits.BUDGET_ENV: "6G"})
+    assert_refused(out, r"refused: analysing a 4096x4096 image \(histogram preserved\) needs about [\d.]+ GiB, "
+                        r"over the memory budget of 6 GiB; use a smaller image")
+
+
+def test_the_judges_are_priced_in_work():
+    """The issue's 1024² RGB ``preserve`` at ``iterations=2``: the judges' refits and noise samples
+    (about 15 s here) were not priced, only the two iterations (2.5e8 operations)."""
+    u = example((1024, 1024, 3))
+    limits.set_work_budget(1e10)
+    t0 = time.process_time()
+    with pytest.raises(TextonError, match=r"analysing a 1024x1024 image \(histogram preserved\) with 2 "
+                                          r"iterations needs about [\d.e+]+ operations, over the work budget of "
+                                          r"1e\+10; use fewer iterations or a smaller image"):
+        analyze(u, size=64, iterations=2, histogram="preserve")
+    assert time.process_time() - t0 < 1.0
+
+
+def test_a_small_preserve_analysis_still_runs_and_logs_its_estimate():
+    u = example((64, 64, 3))
+    with limits.work_log() as log:
+        t = analyze(u, size=8, iterations=4, histogram="preserve")
+    assert t.histogram is not None
+    (what, operations), = log
+    assert what == "analysing a 64x64 image (histogram preserved) with 4 iterations"
+    from warp_texton.model.analysis import analysis_work
+
+    assert operations > 7 * analysis_work((64, 64), 3, 4)  # the projections of the judges' refits too
+
+
+def test_cli_prices_a_tiling_analysis_from_the_header(tmp_path, capsys):
+    path = png_declaring(tmp_path / "big.png", 8192, 8192)
+    limits.set_memory_budget("2G")
+    assert run_cli(["analyze", path, "-o", tmp_path / "m.exr", "--method", "tiling"]) == 2
+    (line,) = error_lines(capsys)
+    assert re.match(r"warp-texton: error: the tiling analysis of a 8192x8192 example needs about .* over the "
+                    r"memory budget of 2 GiB", line), line
+    assert_nothing_written(tmp_path / "m.exr")
 
 
 # ------------------------------------------------------- 3. evaluate at 10⁹ broadcast points

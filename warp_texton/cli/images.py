@@ -17,7 +17,7 @@ from .options import (ANALYSIS_NAMES, FILTER_NAMES, NOISE_IMAGE_NAMES, SHAPE_NAM
                           add_analysis_options, add_filter_options, add_format_options, add_noise_image_options,
                           add_placement_options, add_run_options, analysis_options, dtype_of, filter_options,
                           input_file, noise_options, seconds_since, show_progress, texton_of)
-from ..core.errors import TextonError
+from ..core.errors import OverBudget, TextonError
 
 
 # ------------------------------------------------------------------ analyze
@@ -41,7 +41,8 @@ def _analyze(args) -> None:
                           param="histogram")
     if args.method == "tiling" and out.suffix.lower() != ".exr":
         raise TextonError(f"{out}: a tiling model is saved as .exr only", param="output")
-    u = read_example(args.input, args.iterations, args.crop, args.downscale)
+    u = read_example(args.input, args.iterations, args.crop, args.downscale, histogram=args.histogram,
+                     method=args.method)
     t0 = time.perf_counter()
     texton = analyze(u, **analysis_kwargs(args), progress=show_progress(args))
     texton.metadata["source"] = Path(args.input).name
@@ -55,7 +56,12 @@ def _analyze(args) -> None:
     else:
         print(f"{out}: {texton.size[1]}x{texton.size[0]} texton, order {texton.order}, "
               f"model error {texton.metadata['model_error']:.3f} ({seconds_since(t0)})")
-        score = structure_score(u, seed=args.seed) if scorable(u.shape) else None
+        score = None
+        if scorable(u.shape):
+            try:  # a hint only: skipped when it is over the budgets the texton was within
+                score = structure_score(u, seed=args.seed)
+            except OverBudget:
+                score = None
     if score is not None:
         fits = suggest_method(score)
         advice = "fits" if fits == args.method else f"try --method {fits}"
@@ -325,7 +331,7 @@ def _mix_input(args, path):
     if args.crop is not None or args.downscale != 1:
         from .options import read_example
 
-        x = read_example(path, args.iterations, args.crop, args.downscale)
+        x = read_example(path, args.iterations, args.crop, args.downscale, histogram=args.histogram)
     if args.histogram == "gaussian":
         return x
     from ..model.analysis import analyze

@@ -28,12 +28,14 @@ import numpy as np
 from ..core.checks import CHANNELS, MAX_VALUE, as_image, as_real_array, check_path, check_range
 from .._version import __version__
 from ..core.errors import TextonError
+from ..core.limits import check_memory, check_work
 from ..files.images import EXR, check_output_name, read_exr, read_exr_header, write_exr
 from .histogram import HistogramTransform, check_histogram, gauss_grid
 
 __all__ = ["TilingModel", "TILING_KIND", "KIND_ATTRIBUTE", "fit_tiling", "guide_of", "structure_score",
            "patch_distance", "half_distance", "suggest_method", "scorable", "is_tiling_header", "load_tiling",
-           "SHARPNESS", "STRUCTURE_THRESHOLD", "metadata_json", "read_metadata"]
+           "SHARPNESS", "STRUCTURE_THRESHOLD", "metadata_json", "read_metadata", "tiling_analysis_cost",
+           "check_tiling_analysis"]
 
 #: The EXR attribute naming a model's kind; absent in texton files (kind "texton").
 KIND_ATTRIBUTE = "texton_kind"
@@ -57,6 +59,21 @@ PATCH = 7
 SCALES = 3
 SAMPLES = 16384
 DIRECTIONS = 64
+#: The price of the tiling analysis (:func:`tiling_analysis_cost`), per value (pixel × channel)
+#: and per pixel, measured on the 2-core CPU of docs/limits.md (tracemalloc peaks; 256² to
+#: 8192²): bytes at the peak of the structure score (the example in float64, its spectrum, the
+#: white noise's phases and the phase-randomised copy in complex128), of the Gaussianised example
+#: (``histogram="preserve"``: sorts, ranks, tables) and of the model (its float64 check and
+#: float32 copy). Work, per value and log2(pixels): the score's NumPy FFTs (complex128, one
+#: core) and the Gaussianised example's sorts, counted as the NumPy FFT path of
+#: ``gaussian_texture`` runs (1.3 × 10⁹ operations a second there): measured 1.0–1.2 × 10⁻⁸ s
+#: and 2.3–3.1 × 10⁻⁸ s a unit.
+SCORE_BYTES = (56.0, 16.0)
+PRESERVE_BYTES = (24.0, 64.0)
+MODEL_BYTES = 12.0
+SCORE_WORK = 15.0
+PRESERVE_WORK = 40.0
+MODEL_WORK = 12.0
 
 
 def guide_of(example: np.ndarray) -> np.ndarray:
@@ -440,18 +457,68 @@ def scorable(shape) -> bool:
     return min(h, w) >= need and max(h, w) >= 2 * need
 
 
+def tiling_analysis_cost(shape, *, score: bool = True, histogram: str = "gaussian",
+                         model: bool = True) -> tuple[float, float]:
+    """(bytes, operations): the peak memory and the work of :func:`fit_tiling` on an example of
+    ``shape`` (H, W) or (H, W, C), from the shape alone (docs/limits.md). The one place the tiling
+    analysis is priced: a step it gains (lattice detection, more FFTs) adds its term here, and
+    ``analyze``, the command line (from an image file's header) and the viewer follow.
+
+    ``score``: with the structure score (``fit_tiling``'s default, for :func:`scorable` shapes);
+    ``histogram``: as ``fit_tiling``'s; ``model=False``: the structure score alone
+    (:func:`structure_score`). The steps run one after the other: the peak is the largest
+    step's, beside the example in float32."""
+    h, w = int(shape[0]), int(shape[1])
+    c = int(shape[2]) if len(shape) > 2 else 1
+    pixels = float(h) * w
+    values, log = pixels * c, math.log2(max(pixels, 2.0))
+    peaks, work = [0.0], 0.0
+    if score and scorable(shape):
+        # the patch distances: 16384 patches of each image at each scale, twice, on 64 directions
+        projections = 2 * 2 * SCALES * SAMPLES * PATCH ** 2 * c * DIRECTIONS
+        peaks.append(SCORE_BYTES[0] * values + SCORE_BYTES[1] * pixels + 8.0 * SAMPLES * (4 * PATCH ** 2 * c
+                                                                                           + 2 * DIRECTIONS))
+        work += SCORE_WORK * values * log + projections
+    if model:
+        peaks.append(MODEL_BYTES * values)
+        work += MODEL_WORK * values
+        if histogram == "preserve":
+            peaks.append(PRESERVE_BYTES[0] * values + PRESERVE_BYTES[1] * pixels)
+            work += PRESERVE_WORK * values * log
+    return 4.0 * values + max(peaks), work
+
+
+def check_tiling_analysis(shape, *, score: bool = True, histogram: str = "gaussian", model: bool = True) -> None:
+    """Refuse a tiling analysis (:func:`tiling_analysis_cost`'s arguments) of an example larger than a
+    model holds or over the memory or work budget, before any of its work."""
+    h, w = int(shape[0]), int(shape[1])
+    if model and max(h, w) > MAX_EXAMPLE_SIDE:
+        raise TextonError(f"example: {h}x{w}; at most {MAX_EXAMPLE_SIDE} per side", param="example")
+    what = f"the {'tiling analysis' if model else 'structure score'} of a {w}x{h} example"
+    nbytes, operations = tiling_analysis_cost(shape, score=score, histogram=histogram, model=model)
+    check_memory(nbytes, what, "use a smaller example", param="u")
+    check_work(operations, what, "use a smaller example", param="u")
+
+
 def structure_score(u, *, seed: int = 0) -> float:
     """How far a Gaussian model of u is from u, in units of u's own half-to-half patch distance.
 
     About 1 for a Gaussian-like texture (grass, gravel, marble); 2 to 5 for
     textures with shapes (bricks, tiles, leaves), which texton noise turns into
     mush. Above :data:`STRUCTURE_THRESHOLD` the tiling model fits better.
+    Priced before its FFTs (:func:`tiling_analysis_cost`).
     """
     a = as_image(u, "u")
     if not scorable(a.shape):
         need = PATCH * 2 ** (SCALES - 1)
         raise TextonError(f"the structure score needs an image of at least {need}x{2 * need} pixels, got "
                           f"{a.shape[1]}x{a.shape[0]}", param="u")
+    check_tiling_analysis(a.shape, model=False)
+    return _structure(a, seed)
+
+
+def _structure(a: np.ndarray, seed: int) -> float:
+    """:func:`structure_score` of an image (H, W, C) already checked and priced."""
     floor = half_distance(a, seed=seed)
     d = patch_distance(phase_randomised(a, seed), a, seed=seed)
     return float(d / max(floor, 1e-12))
@@ -474,6 +541,7 @@ def fit_tiling(u, *, side: float | None = None, sharpness: int = SHARPNESS, guid
     blend zones keep the example's marginals (Heitz & Neyret 2018, §1.4)."""
     histogram = check_histogram(histogram)
     a = as_image(u, "u")
+    check_tiling_analysis(a.shape, score=score, histogram=histogram)  # before any of its work
     small = min(a.shape[:2])
     if small < MIN_SIDE:
         raise TextonError(f"the example must be at least {MIN_SIDE} pixels on each side for method 'tiling', "
@@ -486,7 +554,7 @@ def fit_tiling(u, *, side: float | None = None, sharpness: int = SHARPNESS, guid
     if source is not None:
         metadata["source"] = source
     if score and scorable(a.shape):
-        metadata["structure"] = structure_score(a, seed=seed)
+        metadata["structure"] = _structure(a, seed)
     if histogram == "gaussian":
         return TilingModel(a, side, sharpness, guide_weight, metadata, blend)
     example, transform = gaussianised(a)
