@@ -24,6 +24,7 @@ from .bspline import ORDERS, kernel_width, sampled_autocorrelation
 from ..core.errors import TextonError
 from .histogram import HistogramTransform
 from .tiling import TilingModel, is_tiling_header, load_tiling, metadata_json, read_metadata
+from .tiling import MAX_METADATA_CHARS, MAX_METADATA_DEPTH  # noqa: F401 - this module's names since 0.2
 from ..core.limits import check_memory
 from ..files.images import EXR, atomic_path, check_output_name, is_texton_header, read_exr, read_exr_header, write_exr
 
