@@ -15,8 +15,12 @@ item 6 are in tests/test_layout.py): one group per item.
 
 from __future__ import annotations
 
+import ast
 import json
 import re
+import signal
+import subprocess
+import sys
 import time
 import tracemalloc
 from pathlib import Path
@@ -286,3 +290,129 @@ def test_a_folder_named_as_the_page_is_refused_even_with_overwrite(tmp_path, tex
     assert run_cli(["shader", texton_file, "--lang", "glsl", "--html", page, "--overwrite", "-q"]) == 2
     assert error_lines(capsys) == [f"warp-texton: error: {page}: is a folder; give a file name"]
     assert page.is_dir() and not any(page.iterdir())
+
+
+# ------------------------------------------------------- 7. small things
+def test_tiling_refuses_texton_options_in_good_grammar_before_reading(tmp_path, capsys, monkeypatch):
+    from warp_texton.files import images
+
+    png = tmp_path / "bricks.png"
+    images.write_image(png, np.clip(example((64, 64, 3)), 0.0, 1.0))
+
+    def unread(*args, **kwargs):
+        raise AssertionError("the image was read before the options were checked")
+
+    monkeypatch.setattr(images, "read_image", unread)
+    assert run_cli(["synthesize", png, "-o", tmp_path / "o.png", "--method", "tiling", "--size", "32"]) == 2
+    assert error_lines(capsys) == ["warp-texton: error: --size applies to --method texton only"]
+    assert run_cli(["analyze", png, "-o", tmp_path / "o.exr", "--method", "tiling", "--size", "32",
+                    "--order", "3"]) == 2
+    assert error_lines(capsys) == ["warp-texton: error: --size, --order apply to --method texton only"]
+
+
+def test_the_api_refuses_texton_options_in_good_grammar():
+    with pytest.raises(TextonError, match=r"^size applies to method 'texton' only, not to method 'tiling'$"):
+        analyze(example(), method="tiling", size=32)
+    with pytest.raises(TextonError, match=r"^size, order apply to method 'texton' only"):
+        analyze(example(), method="tiling", size=32, order=3)
+
+
+def test_readme_and_help_agree_on_the_filter_defaults():
+    from warp_texton.cli.parser import build_parser
+
+    helps = {}
+    for command in ("synthesize", "render-plane"):
+        sub = build_parser()._subparsers._group_actions[0].choices[command]  # noqa: SLF001 - argparse's own
+        (action,) = [a for a in sub._actions if "--filter" in a.option_strings]  # noqa: SLF001
+        helps[command] = (action.default, action.help)
+    assert helps["synthesize"][0] is None and "Default: none" in helps["synthesize"][1]
+    assert helps["render-plane"][0] == "anisotropic"
+    readme = (ROOT / "README.md").read_text()
+    (paragraph,) = [p for p in readme.split("\n\n") if "`--filter none|mip|anisotropic|supersample`" in p]
+    paragraph = " ".join(paragraph.split())
+    assert re.search(r"`render-plane`[^.;]*default (is )?`anisotropic`", paragraph), paragraph
+    assert re.search(r"`synthesize`[^.;]*default (is )?`none`", paragraph), paragraph
+
+
+def test_a_synthesis_on_a_terminal_shows_its_steps(tmp_path, texton_file, capsys, monkeypatch):
+    """An 8192² synthesis spent most of its 3.7 s writing the PNG, with no bar: the command's bar names
+    its steps, the write included, and is drawn while a step runs."""
+    from warp_texton.core import progress
+    from warp_texton.files import images
+
+    monkeypatch.setattr(progress, "terminal", lambda: True)
+    monkeypatch.setattr(progress, "PROGRESS_DELAY", 0.0)
+    write = images.write_image
+
+    def slow_write(*args, **kwargs):
+        time.sleep(1.0)  # a large PNG's encoding
+        return write(*args, **kwargs)
+
+    monkeypatch.setattr(images, "write_image", slow_write)
+    assert run_cli(["synthesize", texton_file, "-o", tmp_path / "p.exr", "--width", 32, "--height", 32,
+                    "--device", "cpu"]) == 0
+    err = capsys.readouterr().err
+    assert "synthesize: noise" in err and "synthesize: writing p.exr" in err, err
+    assert run_cli(["synthesize", texton_file, "-o", tmp_path / "p.exr", "--width", 32, "--height", 32,
+                    "--device", "cpu", "-q"]) == 0
+    assert capsys.readouterr().err == ""
+
+
+SLOW_WRITE = """
+import sys, time
+import warp_texton.files.images as io
+def slow(path, img, **attributes):
+    with io.atomic_path(path) as tmp:
+        with open(tmp, "wb") as f:
+            f.write(b"x")
+        print("writing", flush=True)
+        time.sleep(30)
+io.write_exr = slow
+from warp_texton.cli.parser import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+@pytest.mark.slow
+def test_ctrl_c_reaches_a_child_when_the_suite_ignores_it(tmp_path, texton_file):
+    """``pytest &``: the shell starts the suite with SIGINT ignored, which its children inherit; the
+    tests that press Ctrl-C on a child restore the default in it (helpers.ctrl_c_default)."""
+    from helpers import ctrl_c_default
+
+    out = tmp_path / "n.exr"
+    before = signal.signal(signal.SIGINT, signal.SIG_IGN)  # as in a background job
+    try:
+        proc = subprocess.Popen([sys.executable, "-c", SLOW_WRITE, "synthesize", str(texton_file), "-o", str(out),
+                                 "--width", "16", "--height", "16", "--device", "cpu", "-q"],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=ctrl_c_default)
+    finally:
+        signal.signal(signal.SIGINT, before)
+    try:
+        assert proc.stdout is not None and proc.stdout.readline().strip() == "writing"
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=20)
+    finally:
+        proc.kill()
+    assert proc.returncode == 130, err
+    assert err.strip() == "warp-texton: interrupted; nothing written"
+    assert_nothing_written(out)
+
+
+def test_every_test_that_presses_ctrl_c_restores_it_in_the_child():
+    """In each test function (or helper) that sends a signal to a child, every Popen passes
+    preexec_fn=ctrl_c_default: a new Ctrl-C test cannot forget it."""
+    found = 0
+    for path in sorted((ROOT / "tests").rglob("*.py")):
+        if "node_modules" in path.parts:
+            continue
+        for func in ast.walk(ast.parse(path.read_text())):
+            if not isinstance(func, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                continue
+            calls = [n for n in ast.walk(func) if isinstance(n, ast.Call) and isinstance(n.func, ast.Attribute)]
+            if not any(c.func.attr == "send_signal" for c in calls):
+                continue
+            for call in (c for c in calls if c.func.attr == "Popen"):
+                found += 1
+                given = {k.arg: ast.unparse(k.value) for k in call.keywords}
+                assert given.get("preexec_fn") == "ctrl_c_default", f"{path.name}:{call.lineno} ({func.name})"
+    assert found >= 5

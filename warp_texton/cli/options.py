@@ -244,7 +244,8 @@ def analysis_kwargs(args) -> dict:
             ("--no-color-correction", args.color_correction, True))
             if value != default]
         if texton_only:
-            raise TextonError(f"{', '.join(texton_only)} apply to --method texton only", param="method")
+            verb = "applies" if len(texton_only) == 1 else "apply"
+            raise TextonError(f"{', '.join(texton_only)} {verb} to --method texton only", param="method")
         return {"method": "tiling", "side": args.side, "seed": args.seed, "histogram": args.histogram}
     return {"options": analysis_options(args)}
 
@@ -257,10 +258,11 @@ def texton_of(args, path=None):
     path = args.input if path is None else path
     if is_texton_path(path):
         return load_texton(path)
+    kwargs = analysis_kwargs(args)  # options that do not apply are refused before the image is read
     from ..model.analysis import analyze  # SciPy's FFT, only for an image
 
     u = read_example(path, args.iterations, args.crop, args.downscale, histogram=args.histogram, method=args.method)
-    return analyze(u, **analysis_kwargs(args), progress=show_progress(args))
+    return analyze(u, **kwargs, progress=show_progress(args))
 
 
 #: perf_counter() minus the seconds the process had run when the command began: set by

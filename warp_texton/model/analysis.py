@@ -381,7 +381,8 @@ def analyze(
         if options is not None:
             changed.insert(0, "options")
         if changed:
-            raise TextonError(f"{', '.join(changed)} apply to method 'texton' only, not to method 'tiling'",
+            verb = "applies" if len(changed) == 1 else "apply"
+            raise TextonError(f"{', '.join(changed)} {verb} to method 'texton' only, not to method 'tiling'",
                               param=changed[0])
         side = None if side is None else check_int(side, "side", minimum=2)
         return fit_tiling(as_image(u), side=side, seed=check_seed(seed), histogram=check_histogram(histogram))
