@@ -138,8 +138,7 @@ def _is_moved(old: str) -> bool:
 @pytest.fixture
 def forget():
     """``forget(old)``: drop an old path's alias (``sys.modules`` and its package's attribute), so that
-    the next import of it is a first one. Afterwards the packages' own attributes are put back (the
-    import of ``warp_texton.dsn`` binds the module over the function ``warp_texton.dsn``, as 0.2 did)."""
+    the next import of it is a first one. Afterwards the packages' own attributes are put back."""
     packages = [warp_texton, importlib.import_module("warp_texton.kernels")]
     saved = [dict(vars(p)) for p in packages]
 
@@ -213,6 +212,23 @@ def test_every_module_of_0_2_is_an_attribute_of_its_package(old, forget):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", DeprecationWarning)
             assert getattr(value, name) is getattr(target, name)
+
+
+def test_the_old_dsn_module_leaves_the_public_function(forget):
+    """0.2's module ``warp_texton.dsn`` and the function ``warp_texton.dsn``: importing the old path
+    (which binds a submodule on its package) does not hide the public name, in any order."""
+    function = importlib.import_module("warp_texton.model.spot_noise").dsn
+    for first_the_function in (True, False):
+        forget("warp_texton.dsn")
+        if first_the_function:
+            assert warp_texton.dsn is function
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DeprecationWarning)
+            from warp_texton.dsn import dsn as old  # the old path's names
+        assert old is function and warp_texton.dsn is function
+        from warp_texton import dsn
+
+        assert dsn is function
 
 
 @pytest.mark.parametrize("old", sorted(m for m in MODULES_0_2 if _is_moved(m)))

@@ -22,6 +22,7 @@ import importlib
 import importlib.abc
 import importlib.util
 import sys
+import types
 import warnings
 from typing import TYPE_CHECKING
 
@@ -31,8 +32,6 @@ from ._version import __version__
 from .core.errors import ExampleWarning, TextonError
 
 if TYPE_CHECKING:  # what type checkers and documentation tools see; at run time, __getattr__
-    from types import FrameType
-
     from .model.analysis import analyze, model_error
     from .surface.bake import BakedMesh, bake_mesh, render_baked
     from .model.spot_noise import dsn
@@ -204,7 +203,7 @@ def _outside_imports() -> int:
     default filters show a DeprecationWarning (of ``__main__``). ``warnings`` itself skips the
     frames of ``importlib._bootstrap``; ``importlib.import_module`` and this module's
     ``__getattr__`` (``wt.limits``) are counted."""
-    frame: FrameType | None = sys._getframe(2)
+    frame: types.FrameType | None = sys._getframe(2)
     level = 2
     while frame is not None:
         name = frame.f_code.co_filename
@@ -248,3 +247,19 @@ class _MovedFinder(importlib.abc.MetaPathFinder):
 
 if not any(isinstance(f, _MovedFinder) for f in sys.meta_path):
     sys.meta_path.append(_MovedFinder())
+
+
+class _Package(types.ModuleType):
+    """This package's module type: the import system binds an imported submodule on its package,
+    and 0.2's ``warp_texton.dsn`` (a moved path) would then hide the public function ``dsn``
+    for the rest of the process; the public name wins (``from warp_texton.dsn import dsn``
+    still reaches the old path's names)."""
+
+    def __setattr__(self, name: str, value) -> None:
+        if name in _LAZY and getattr(value, "__name__", None) == f"{__name__}.{name}" \
+                and f"{__name__}.{name}" in MOVED_MODULES:
+            return
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package
