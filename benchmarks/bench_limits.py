@@ -11,6 +11,7 @@ docs/limits.md quotes its table.
 
     python benchmarks/bench_limits.py            # full run, writes results/
     python benchmarks/bench_limits.py --quick    # smoke run
+    python benchmarks/bench_limits.py --only preserve,tiling --out benchmarks/results/issue42  # some paths
 """
 
 from __future__ import annotations
@@ -39,6 +40,8 @@ def workloads(texton, u, device, quick: bool, mni: float):
     n = 1024 // k
     pts = np.random.default_rng(0).uniform(-5000, 5000, (200_000 // k, 2))
     textons = mix_textons(u[:128, :128], u[:128, :128].transpose(1, 0, 2), [0.0, 0.5, 1.0], size=32, iterations=10)
+    side = 1448 // k  # past REFINE_MAX_PIXELS (2²⁰) at full size: the analysis without the judges
+    big_grey = np.tile(u.mean(axis=2, keepdims=True), (3, 3, 1))[:side, :side]
     return [
         ("synthesize, raster (splat on the grid)", lambda: synthesize(texton, (n, n), mni=mni, device=device)),
         ("synthesize, rotated raster", lambda: synthesize(texton, (n, n), mni=mni, rotation=30, device=device)),
@@ -54,6 +57,12 @@ def workloads(texton, u, device, quick: bool, mni: float):
             texton, (n // 4, n // 4), mni=mni, scale=0.25, filter=FilterOptions("supersample", supersample=4),
             device=device)),
         ("analyze, 50 iterations", lambda: analyze(u, size=64, iterations=50)),
+        ("analyze, histogram preserve (judged), 50 iterations",
+         lambda: analyze(u, size=64, iterations=50, histogram="preserve")),
+        ("analyze, histogram preserve, grey > 2²⁰ pixels (not judged)",
+         lambda: analyze(big_grey, size=64, iterations=50, histogram="preserve")),
+        ("analyze, method tiling (structure score)", lambda: analyze(u, method="tiling")),
+        ("analyze, method tiling, histogram preserve", lambda: analyze(u, method="tiling", histogram="preserve")),
         ("mix_textons, 3 textons", lambda: mix_textons(u[:256, :256], u[:256, :256].transpose(1, 0, 2),
                                                        [0.0, 0.5, 1.0], size=64)),
         ("gaussian_texture", lambda: gaussian_texture(u, shape=(2 * n, 2 * n))),
@@ -91,6 +100,8 @@ def run(args) -> dict:
     texton = analyze(u, size=args.size, seed=0)
     rows = []
     for name, call in workloads(texton, u, device, args.quick, args.mni):
+        if args.only and not any(word in name for word in args.only.split(",")):
+            continue
         with work_log() as log:
             call()  # the first call compiles kernels and warms caches: not timed
         ops = sum(v for _, v in log)
@@ -134,7 +145,10 @@ def markdown(report: dict) -> str:
 
 
 def main(argv=None) -> int:
-    return run_main(__doc__, "limits", run, markdown, argv, repeat=3)
+    def only(parser):
+        parser.add_argument("--only", help="comma-separated words: run the paths whose name holds one of them")
+
+    return run_main(__doc__, "limits", run, markdown, argv, repeat=3, extra_args=only)
 
 
 if __name__ == "__main__":

@@ -93,6 +93,16 @@ def cli_script() -> str | None:
     return shutil.which("warp-texton", path=str(here)) or shutil.which("warp-texton")
 
 
+def ctrl_c_default() -> None:
+    """``preexec_fn`` of a child a test presses Ctrl-C on: SIGINT back to its default. A suite started
+    in the background (``pytest &``) ignores SIGINT, and an ignored signal stays ignored across exec,
+    so the child (Python, which installs its KeyboardInterrupt handler only where SIGINT is not
+    ignored) would never see it."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def parts(folder) -> list[str]:
     """Temporary files an atomic write may leave behind, anywhere below ``folder``."""
     return sorted(p.name for p in Path(folder).rglob("*") if ".part" in p.name)

@@ -33,7 +33,7 @@ from warp_texton.core.checks import MAX_VALUE, MIN_MNI
 from warp_texton.files.images import atomic_path, remove_leftovers
 from warp_texton.noise.engine import MAX_CELL_INDEX, noise_setup
 from warp_texton.model.texton import MAX_TEXTON_SIDE
-from helpers import assert_nothing_written, parts, random_texton, raw_exr, run_cli
+from helpers import assert_nothing_written, ctrl_c_default, parts, random_texton, raw_exr, run_cli
 
 @pytest.fixture(autouse=True)
 def fresh_budgets(monkeypatch):
@@ -349,7 +349,7 @@ def _interrupted(tmp_path, texton_exr, sig):
     out = tmp_path / "n.exr"
     proc = subprocess.Popen([sys.executable, "-c", SLOW_WRITE, "synthesize", str(texton_exr), "-o", str(out),
                              "--width", "32", "--height", "32", "--device", "cpu", "-q"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=ctrl_c_default)
     try:
         assert proc.stdout.readline().strip() == "writing"
         assert parts(tmp_path), "the temporary file is there while writing"

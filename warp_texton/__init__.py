@@ -22,6 +22,7 @@ import importlib
 import importlib.abc
 import importlib.util
 import sys
+import types
 import warnings
 from typing import TYPE_CHECKING
 
@@ -109,12 +110,23 @@ __all__ = [
 ]
 
 
-__getattr__, __dir__ = lazy_names(__name__, _LAZY)
+_lazy_getattr, __dir__ = lazy_names(__name__, _LAZY)
 
 
-#: Module paths of 0.2 (one flat folder) and 0.3 and where they live now; importing an old path still
-#: works for one release, with a DeprecationWarning naming the new one (docs/architecture.md). A module
-#: whose names went to several modules maps to all of them, searched in order.
+def __getattr__(name: str):
+    """A public name, imported on first use; or a module of 0.2 as an attribute (``wt.limits``),
+    imported, with its DeprecationWarning, the first time it is reached."""
+    if name not in _LAZY and f"{__name__}.{name}" in MOVED_MODULES:
+        return importlib.import_module(f"{__name__}.{name}")
+    return _lazy_getattr(name)
+
+
+#: Module paths of 0.2 (one flat folder, tests/data/modules_0_2.json) and where they live now;
+#: importing an old path, or reaching it as an attribute of its package, still works for one
+#: release, with a DeprecationWarning naming the new one (docs/architecture.md). The rooms
+#: ``noise``, ``surface``, ``view`` and ``cli`` were modules in 0.2: their paths import the rooms,
+#: whose faces reach the names of those modules where they live now (``lazy_names``'s ``moved``).
+#: A module whose names went to several modules maps to all of them, searched in order.
 MOVED_MODULES: dict[str, str | tuple[str, ...]] = {
     "warp_texton.errors": "warp_texton.core.errors",
     "warp_texton.limits": "warp_texton.core.limits",
@@ -128,6 +140,8 @@ MOVED_MODULES: dict[str, str | tuple[str, ...]] = {
     "warp_texton.gaussian": "warp_texton.model.gaussian",
     "warp_texton.histogram": "warp_texton.model.histogram",
     "warp_texton.bspline": "warp_texton.model.bspline",
+    "warp_texton.dsn": "warp_texton.model.spot_noise",
+    "warp_texton.noise": "warp_texton.noise.engine",
     "warp_texton.canvas": "warp_texton.noise.canvas",
     "warp_texton.raster": "warp_texton.noise.raster",
     "warp_texton.filter_options": "warp_texton.noise.filter_options",
@@ -142,14 +156,17 @@ MOVED_MODULES: dict[str, str | tuple[str, ...]] = {
     "warp_texton.blocks": "warp_texton.surface.blocks",
     "warp_texton.mesh": "warp_texton.surface.mesh",
     "warp_texton.mesh_files": "warp_texton.surface.mesh_files",
+    "warp_texton.surface": "warp_texton.surface.points",
     "warp_texton.atlas": "warp_texton.surface.atlas",
+    "warp_texton.atlas_worker": "warp_texton.surface.atlas_worker",
     "warp_texton.render": "warp_texton.surface.render",
     "warp_texton.bake": "warp_texton.surface.bake",
     "warp_texton.jobs": "warp_texton.surface.jobs",
     "warp_texton.device": "warp_texton.runtimes.warp_api",
     "warp_texton.shader": "warp_texton.runtimes.export",
-    "warp_texton.shader_glsl": "warp_texton.runtimes.glsl.texton",
+    "warp_texton.shader_glsl": ("warp_texton.runtimes.glsl.texton", "warp_texton.runtimes.glsl.page"),
     "warp_texton.shader_osl": "warp_texton.runtimes.osl.texton",
+    "warp_texton.view": "warp_texton.view.server",
     "warp_texton.view_core": "warp_texton.view.viewer",
     "warp_texton.view_query": "warp_texton.view.queries",
     "warp_texton.view_cache": "warp_texton.view.cache",
@@ -157,6 +174,8 @@ MOVED_MODULES: dict[str, str | tuple[str, ...]] = {
     "warp_texton.view_inputs": "warp_texton.view.inputs",
     "warp_texton.view_commands": "warp_texton.view.commands",
     "warp_texton.view_webgl": "warp_texton.view.webgl",
+    "warp_texton.viewer": "warp_texton.view.static",
+    "warp_texton.cli": "warp_texton.cli.parser",
     "warp_texton.cli_options": "warp_texton.cli.options",
     "warp_texton.cli_images": "warp_texton.cli.images",
     "warp_texton.cli_surface": "warp_texton.cli.surface",
@@ -175,11 +194,34 @@ MOVED_MODULES: dict[str, str | tuple[str, ...]] = {
     "warp_texton.kernels.blocks": "warp_texton.kernels.surface_blocks",
     "warp_texton.kernels.render": "warp_texton.kernels.surface_render",
     "warp_texton.kernels.bake": "warp_texton.kernels.surface_bake",
-    "warp_texton.kernels.tiling": "warp_texton.kernels.noise_tiling",
+    "warp_texton.kernels.tiling": ("warp_texton.kernels.noise_tiling", "warp_texton.kernels.tiling_draw"),
     # 0.3's tiling shaders (GLSL and OSL in one module): each language's port now, and what both share
     "warp_texton.runtimes.tiling_shaders": ("warp_texton.runtimes.glsl.tiling", "warp_texton.runtimes.osl.tiling",
                                             "warp_texton.runtimes.shared"),
 }
+
+
+def _outside_imports() -> int:
+    """The ``stacklevel``, for a warning of this function's caller, of the first frame that is
+    neither the import system's nor this package's machinery: the user's line, where Python's
+    default filters show a DeprecationWarning (of ``__main__``). ``warnings`` itself skips the
+    frames of ``importlib._bootstrap``; ``importlib.import_module`` and this module's
+    ``__getattr__`` (``wt.limits``) are counted."""
+    frame: types.FrameType | None = sys._getframe(2)
+    level = 2
+    while frame is not None:
+        name = frame.f_code.co_filename
+        if not ("importlib" in name and "_bootstrap" in name):
+            if frame.f_globals.get("__name__") not in _MACHINERY:
+                break
+            level += 1
+        frame = frame.f_back
+    return level
+
+
+#: The modules between a user's line and the import of an old path: import_module, and the
+#: ``__getattr__`` of this package and of ``warp_texton.kernels`` (0.2's modules as attributes).
+_MACHINERY = {"importlib", __name__, f"{__name__}.kernels"}
 
 
 class _MovedModule(importlib.abc.Loader):
@@ -192,7 +234,7 @@ class _MovedModule(importlib.abc.Loader):
         new = MOVED_MODULES[module.__name__]
         paths = (new,) if isinstance(new, str) else new
         warnings.warn(f"{module.__name__} moved to {' and '.join(paths)}; the old path goes in the next release",
-                      DeprecationWarning, stacklevel=2)
+                      DeprecationWarning, stacklevel=_outside_imports())
         targets = [importlib.import_module(p) for p in paths]
 
         def moved(name: str):
@@ -202,11 +244,13 @@ class _MovedModule(importlib.abc.Loader):
             raise AttributeError(f"module {module.__name__!r} has no attribute {name!r}")
 
         module.__getattr__ = moved
+        module.__dir__ = lambda: sorted(set(vars(module)).union(*(dir(t) for t in targets)))
         module.__all__ = [n for t in targets for n in getattr(t, "__all__", [n for n in vars(t) if not n.startswith("_")])]
         module.__doc__ = targets[0].__doc__
 
 
 class _MovedFinder(importlib.abc.MetaPathFinder):
+    # last on sys.meta_path: a path that a file still holds (the rooms) never gets here
     def find_spec(self, fullname, path=None, target=None):
         if fullname in MOVED_MODULES:
             return importlib.util.spec_from_loader(fullname, _MovedModule())
@@ -215,3 +259,19 @@ class _MovedFinder(importlib.abc.MetaPathFinder):
 
 if not any(isinstance(f, _MovedFinder) for f in sys.meta_path):
     sys.meta_path.append(_MovedFinder())
+
+
+class _Package(types.ModuleType):
+    """This package's module type: the import system binds an imported submodule on its package,
+    and 0.2's ``warp_texton.dsn`` (a moved path) would then hide the public function ``dsn``
+    for the rest of the process; the public name wins (``from warp_texton.dsn import dsn``
+    still reaches the old path's names)."""
+
+    def __setattr__(self, name: str, value) -> None:
+        if name in _LAZY and getattr(value, "__name__", None) == f"{__name__}.{name}" \
+                and f"{__name__}.{name}" in MOVED_MODULES:
+            return
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package

@@ -12,6 +12,7 @@ import time
 
 from bombs import ADDRESS_SPACE, api_bomb, assert_refused, run_bomb
 from image_bombs import png_declaring, tiff_declaring
+from helpers import ctrl_c_default
 import numpy as np
 import pytest
 
@@ -79,7 +80,8 @@ else:
 
 def test_a_large_exr_write_notices_ctrl_c(tmp_path):
     target = tmp_path / "big.exr"
-    child = subprocess.Popen([sys.executable, "-c", WRITE, str(target)], stdout=subprocess.PIPE, text=True)
+    child = subprocess.Popen([sys.executable, "-c", WRITE, str(target)], stdout=subprocess.PIPE, text=True,
+                             preexec_fn=ctrl_c_default)
     assert child.stdout is not None and child.stdout.readline().startswith("start")
     deadline = time.monotonic() + 10
     while not any(tmp_path.iterdir()) and time.monotonic() < deadline:

@@ -26,7 +26,7 @@ import warp_texton
 import warp_texton.noise.canvas
 import warp_texton.noise.batches
 from warp_texton.noise.dask_arrays import synthesize_dask, write_zarr
-from helpers import assert_nothing_written, assert_same_noise, noise_sd, parts, random_texton, run_cli
+from helpers import assert_nothing_written, assert_same_noise, ctrl_c_default, noise_sd, parts, random_texton, run_cli
 from warp_texton import FilterOptions, TextonError, evaluate, render_plane, synthesize, synthesize_batch
 from warp_texton.core.limits import set_memory_budget, set_work_budget, work_log
 
@@ -617,7 +617,7 @@ class TestCli:
         proc = subprocess.Popen([sys.executable, "-m", "warp_texton.cli.parser", "synthesize", str(texton_path), "-o",
                                  str(out), "--width", "16384", "--height", "8192", "--rotation", "30",
                                  "--mni", "60", "--device", "cpu", *chunks],
-                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=ctrl_c_default)
         time.sleep(6.0)
         assert proc.poll() is None, proc.communicate()
         t0 = time.perf_counter()

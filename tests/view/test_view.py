@@ -34,6 +34,7 @@ from warp_texton.view.server import serve
 from warp_texton.view.viewer import Viewer
 from warp_texton.view.images import to_8bit
 from warp_texton.view.queries import Analysis, Mix, Noise, Tile, rotate, tile_window, view_window
+from helpers import ctrl_c_default
 
 DEVICE = "cpu"
 SIZE = 16  # texton side: small, so that tiles are quick
@@ -632,7 +633,7 @@ def test_export_mix_python_call(client, tmp_path):
 def test_cli_view_stops_cleanly_on_ctrl_c(rgb_path):
     proc = subprocess.Popen([sys.executable, "-m", "warp_texton.cli.parser", "view", str(rgb_path), "--port", "0",
                              "--size", str(SIZE), "--device", DEVICE],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=ctrl_c_default)
     try:
         line = proc.stdout.readline()
         url = re.search(r"http://127\.0\.0\.1:(\d+)/", line)

@@ -20,4 +20,6 @@ _LAZY = {
 __all__ = ["build_parser", "main"]
 
 
-__getattr__, __dir__ = lazy_names(__name__, _LAZY)
+#: 0.2's warp_texton.cli was a module, warp_texton.cli.parser now: its other names are reached here
+#: with a DeprecationWarning (warp_texton.MOVED_MODULES).
+__getattr__, __dir__ = lazy_names(__name__, _LAZY, moved="parser")

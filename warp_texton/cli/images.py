@@ -17,7 +17,7 @@ from .options import (ANALYSIS_NAMES, FILTER_NAMES, NOISE_IMAGE_NAMES, SHAPE_NAM
                           add_analysis_options, add_filter_options, add_format_options, add_noise_image_options,
                           add_placement_options, add_run_options, analysis_options, dtype_of, filter_options,
                           input_file, noise_options, seconds_since, show_progress, texton_of)
-from ..core.errors import TextonError
+from ..core.errors import OverBudget, TextonError
 
 
 # ------------------------------------------------------------------ analyze
@@ -41,9 +41,11 @@ def _analyze(args) -> None:
                           param="histogram")
     if args.method == "tiling" and out.suffix.lower() != ".exr":
         raise TextonError(f"{out}: a tiling model is saved as .exr only", param="output")
-    u = read_example(args.input, args.iterations, args.crop, args.downscale)
+    kwargs = analysis_kwargs(args)  # options that do not apply are refused before the image is read
+    u = read_example(args.input, args.iterations, args.crop, args.downscale, histogram=args.histogram,
+                     method=args.method)
     t0 = time.perf_counter()
-    texton = analyze(u, **analysis_kwargs(args), progress=show_progress(args))
+    texton = analyze(u, **kwargs, progress=show_progress(args))
     texton.metadata["source"] = Path(args.input).name
     texton.save(out)
     if args.quiet:
@@ -55,7 +57,12 @@ def _analyze(args) -> None:
     else:
         print(f"{out}: {texton.size[1]}x{texton.size[0]} texton, order {texton.order}, "
               f"model error {texton.metadata['model_error']:.3f} ({seconds_since(t0)})")
-        score = structure_score(u, seed=args.seed) if scorable(u.shape) else None
+        score = None
+        if scorable(u.shape):
+            try:  # a hint only: skipped when it is over the budgets the texton was within
+                score = structure_score(u, seed=args.seed)
+            except OverBudget:
+                score = None
     if score is not None:
         fits = suggest_method(score)
         advice = "fits" if fits == args.method else f"try --method {fits}"
@@ -123,7 +130,10 @@ def _synthesize_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _synthesize(args) -> None:
+    from ..core.progress import NamedSteps
+    from ..core.runtime import progress_bar
     from ..files.images import check_dtype, check_image_path, write_image
+    from ..model.texton import is_texton_path
     from ..noise.synthesis import synthesize
 
     out = Path(args.output)
@@ -142,16 +152,29 @@ def _synthesize(args) -> None:
     options = filter_options(args)
     noise = noise_options(args)
     t0 = time.perf_counter()
-    texton = texton_of(args)
-    texton_only: dict = {}
-    if getattr(texton, "kind", "texton") == "texton" or args.period is not None or options.kind != "none":
-        texton_only = {"noise": noise, "filter": options}
-    if not texton_only:
-        texton_only = {"seed": args.seed}
-    values = synthesize(texton, shape=(args.height, args.width), scale=args.scale,
-                        rotation=args.rotation, offset=tuple(args.offset), device=args.device,
-                        progress=show_progress(args), **texton_only)
-    write_image(out, values, dtype=dtype, compression=args.compression)
+    # one bar over the command's steps (on a terminal, after 2 s), drawn while a step runs: the
+    # write of a large PNG is one call that takes seconds and reports nothing
+    show = show_progress(args)
+    names = ([] if is_texton_path(args.input) else ["analysis"]) + ["noise", f"writing {out.name}"]
+    steps = NamedSteps(progress_bar(show, len(names), f"synthesize: {names[0]}", "step"), names, "synthesize",
+                       tick=show)
+    try:
+        texton = texton_of(args)
+        if names[0] == "analysis":
+            steps.step()
+        texton_only: dict = {}
+        if getattr(texton, "kind", "texton") == "texton" or args.period is not None or options.kind != "none":
+            texton_only = {"noise": noise, "filter": options}
+        if not texton_only:
+            texton_only = {"seed": args.seed}
+        values = synthesize(texton, shape=(args.height, args.width), scale=args.scale,
+                            rotation=args.rotation, offset=tuple(args.offset), device=args.device,
+                            progress=show, **texton_only)
+        steps.step()
+        write_image(out, values, dtype=dtype, compression=args.compression)
+        steps.step()
+    finally:
+        steps.close()
     if not args.quiet:
         what = f"texton noise, MNI {args.mni:g}" if "noise" in texton_only or getattr(texton, "kind", "") != "tiling" \
             else "tiling and blending"
@@ -325,7 +348,7 @@ def _mix_input(args, path):
     if args.crop is not None or args.downscale != 1:
         from .options import read_example
 
-        x = read_example(path, args.iterations, args.crop, args.downscale)
+        x = read_example(path, args.iterations, args.crop, args.downscale, histogram=args.histogram)
     if args.histogram == "gaussian":
         return x
     from ..model.analysis import analyze

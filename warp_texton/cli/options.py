@@ -203,13 +203,15 @@ def dtype_of(args):
 
 
 # ------------------------------------------------------------------ inputs and timing
-def read_example(path, iterations: int, crop=None, downscale: int = 1):
+def read_example(path, iterations: int, crop=None, downscale: int = 1, *, histogram: str = "gaussian",
+                 method: str = "texton"):
     """An example image, cut to ``crop`` (x, y, width, height) and shrunk ``downscale``
-    times; its analysis priced from the file's header before its pixels are decoded
-    (the same estimate as ``analyze``'s)."""
+    times; its analysis (``method``, ``histogram``) priced from the file's header before its
+    pixels are decoded (the same estimate as ``analyze``'s)."""
     from ..model.analysis import check_analysis_cost
     from ..model.example_checks import crop_box
     from ..model.example_checks import downscale as shrink
+    from ..model.tiling import check_tiling_analysis
     from ..files.images import image_size, read_image
 
     size = image_size(path)
@@ -219,7 +221,10 @@ def read_example(path, iterations: int, crop=None, downscale: int = 1):
             _, _, w, h = crop_box(crop, (h, w))
         if isinstance(downscale, int) and 1 <= downscale <= min(h, w):
             h, w = h // downscale, w // downscale
-        check_analysis_cost((h, w), c, iterations, f"analysing a {w}x{h} image")
+        if method == "tiling":
+            check_tiling_analysis((h, w, c), histogram=histogram)
+        else:
+            check_analysis_cost((h, w), c, iterations, f"analysing a {w}x{h} image", histogram=histogram)
     u = read_image(path)
     if crop is not None:
         x, y, w, h = crop_box(crop, u.shape)
@@ -239,7 +244,8 @@ def analysis_kwargs(args) -> dict:
             ("--no-color-correction", args.color_correction, True))
             if value != default]
         if texton_only:
-            raise TextonError(f"{', '.join(texton_only)} apply to --method texton only", param="method")
+            verb = "applies" if len(texton_only) == 1 else "apply"
+            raise TextonError(f"{', '.join(texton_only)} {verb} to --method texton only", param="method")
         return {"method": "tiling", "side": args.side, "seed": args.seed, "histogram": args.histogram}
     return {"options": analysis_options(args)}
 
@@ -252,10 +258,11 @@ def texton_of(args, path=None):
     path = args.input if path is None else path
     if is_texton_path(path):
         return load_texton(path)
+    kwargs = analysis_kwargs(args)  # options that do not apply are refused before the image is read
     from ..model.analysis import analyze  # SciPy's FFT, only for an image
 
-    u = read_example(path, args.iterations, args.crop, args.downscale)
-    return analyze(u, **analysis_kwargs(args), progress=show_progress(args))
+    u = read_example(path, args.iterations, args.crop, args.downscale, histogram=args.histogram, method=args.method)
+    return analyze(u, **kwargs, progress=show_progress(args))
 
 
 #: perf_counter() minus the seconds the process had run when the command began: set by

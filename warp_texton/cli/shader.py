@@ -12,13 +12,17 @@ from ..core.errors import TextonError
 from ..runtimes.languages import LANGUAGES, WEBGL
 
 
+#: The languages' names (0.2's name; the registry is ``runtimes.languages.LANGUAGES``).
+LANGS = tuple(LANGUAGES)
+
 def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("input", help="texton file or example image")
     p.add_argument("--lang", required=True, choices=tuple(LANGUAGES),
                    help="shader language: " + "; ".join(f"{k}, {v.summary}" for k, v in LANGUAGES.items()))
     p.add_argument("-o", "--output", help="export folder to create (the shader, its textures, a description)")
     p.add_argument("--html", help=f"self-contained HTML page drawing a window of the noise with WebGL2 ({WEBGL})")
-    p.add_argument("--overwrite", action="store_true", help="replace an export folder an earlier run wrote")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace an export folder an earlier run wrote, and an existing --html page")
     p.add_argument("--width", type=int, default=512, help="preview width in pixels (--html)")
     p.add_argument("--height", type=int, default=512, help="preview height in pixels (--html)")
     p.add_argument("--mni", type=float, default=30.0, help="mean number of impacts per point")
@@ -34,12 +38,15 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     add_analysis_options(p, seed=False)
 
 
-def _check_page(page, output) -> None:
-    """The --html page: a name the file system can hold, in a folder that exists, and
-    outside the export folder (which --overwrite may rewrite). Checked before any output
-    is written, so that a bad page leaves no export behind."""
+def _check_page(page, output, overwrite: bool) -> None:
+    """The --html page: a name the file system can hold, in a folder that exists, not an
+    existing file unless --overwrite, and outside the export folder (which --overwrite may
+    rewrite). Checked before any output is written, so that a bad page leaves no export behind."""
     from ..files.images import check_output_name
 
+    given = Path(page)
+    if (given.is_symlink() or given.exists()) and not given.is_dir() and not overwrite:  # replaced only when asked
+        raise TextonError(f"--html {page}: exists; give --overwrite to replace it", param="--html")
     path = check_output_name(page, "--html")
     parent = (path.parent if str(path.parent) else Path(".")).resolve()
     if not parent.is_dir():
@@ -61,7 +68,7 @@ def _shader(args) -> None:
     if args.html is not None and not LANGUAGES[args.lang].page:
         raise TextonError(f"--html previews the {WEBGL} export (WebGL2); it is not available with --lang {args.lang}")
     if args.html is not None:
-        _check_page(args.html, args.output)
+        _check_page(args.html, args.output, args.overwrite)
     t0 = time.perf_counter()
     texton = texton_of(args)
     noise = noise_options(args)

@@ -14,9 +14,15 @@ import warnings
 from collections.abc import Callable, Mapping
 
 
-def lazy_names(package: str, names: Mapping[str, str]) -> tuple[Callable[[str], object], Callable[[], list[str]]]:
+def lazy_names(package: str, names: Mapping[str, str],
+               moved: str | None = None) -> tuple[Callable[[str], object], Callable[[], list[str]]]:
     """(``__getattr__``, ``__dir__``) for ``package``, whose ``names`` map each name to
     the module (relative to ``package``) that defines it.
+
+    ``moved``: the module (relative to ``package``) that 0.2's module at this path became
+    (``warp_texton.noise`` was the engine, ``warp_texton.MOVED_MODULES``): its public names that
+    are not on the face are still reached through it, with a DeprecationWarning naming where
+    they live now (and listed by neither ``__dir__`` nor ``__all__``).
 
     >>> getattr_, dir_ = lazy_names("warp_texton.core", {"TextonError": "errors"})
     >>> getattr_("TextonError").__name__
@@ -29,6 +35,12 @@ def lazy_names(package: str, names: Mapping[str, str]) -> tuple[Callable[[str], 
 
     def __getattr__(name: str):
         module = names.get(name)
+        if module is None and moved is not None and not name.startswith("_"):
+            old = importlib.import_module(f".{moved}", package)
+            if hasattr(old, name):
+                warnings.warn(f"{package}.{name} moved to {old.__name__}.{name}; the old path goes in the next "
+                              "release", DeprecationWarning, stacklevel=2)
+                return getattr(old, name)
         if module is None:
             raise AttributeError(f"module {package!r} has no attribute {name!r}")
         value = getattr(importlib.import_module(f".{module}", package), name)

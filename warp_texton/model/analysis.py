@@ -44,6 +44,23 @@ METHODS = ("texton", TILING_KIND)
 #: the periodic component and the kernel in float64, their spectra (complex128
 #: and complex64 half-planes), the target and its conjugate, the iterates.
 ANALYSIS_BYTES_PER_VALUE = 96
+#: A histogram-preserving analysis (``histogram="preserve"``) beyond the projections: bytes per
+#: value (pixel × channel) and per pixel at its peak, and operations per value and log2(pixels).
+#: HISTOGRAM: the tables, the Gaussianised and decorrelated example, the translation process's
+#: kernel (NumPy's complex128 FFTs, on one core) and the tables fitted to the noise. JUDGES, for
+#: examples of at most REFINE_MAX_PIXELS (``judged_texton``): their noise samples, the impacts'
+#: spectra they share (MARGINAL_SAMPLES complex128 grids), the refits' kernels and each
+#: candidate's tables, beside the projections of JUDGED_TEXTONS more textons. Measured on the
+#: 2-core CPU of docs/limits.md (tracemalloc peaks; 512² to 2048², grey and RGB), the work
+#: counted as the NumPy FFT path of ``gaussian_texture`` runs (1.3 × 10⁹ operations a second
+#: there): 3.8–5.3 × 10⁻⁸ s and 2.2–2.9 × 10⁻⁷ s a unit.
+HISTOGRAM_BYTES = (120.0, 48.0)
+JUDGES_BYTES = (144.0, 136.0)
+HISTOGRAM_WORK = 70.0
+JUDGES_WORK = 360.0
+#: The textons the judges fit besides the first: the plain one's refits, the zero-sum one and its
+#: refits, and the example's Gaussian texton they are measured against.
+JUDGED_TEXTONS = 2 * REFINE_ROUNDS + 2
 
 
 def check_size_fits(size: int, grid, name: str, what: str = "the image") -> None:
@@ -63,13 +80,35 @@ def analysis_work(grid, channels: int, iterations: int) -> float:
     return 2.0 * iterations * channels * m * n * math.log2(max(m * n, 2))
 
 
-def check_analysis_cost(grid, channels: int, iterations: int, what: str, textons: int = 1, size: int = 0) -> None:
-    """Refuse an analysis (``textons`` of them, ``size`` × ``size``, on one grid) beyond
-    the memory or work budget."""
+def analysis_cost(grid, channels: int, iterations: int, *, textons: int = 1, size: int = 0,
+                  histogram: str = "gaussian") -> tuple[float, float]:
+    """(bytes, operations): the peak memory and the work of an analysis (``textons`` of them,
+    ``size`` × ``size``, on one M × N grid; ``histogram="preserve"``: its tables and, for at most
+    REFINE_MAX_PIXELS pixels, its judges) from the shape alone (docs/limits.md)."""
     m, n = grid
-    nbytes = ANALYSIS_BYTES_PER_VALUE * float(m) * n * channels + 8.0 * textons * size * size * channels
+    pixels = float(m) * n
+    values = pixels * channels
+    nbytes = ANALYSIS_BYTES_PER_VALUE * values + 8.0 * textons * size * size * channels
+    work = textons * analysis_work(grid, channels, iterations)
+    if histogram == "preserve":
+        judged = pixels <= REFINE_MAX_PIXELS
+        per_value, per_pixel = JUDGES_BYTES if judged else HISTOGRAM_BYTES
+        nbytes = max(nbytes, per_value * values + per_pixel * pixels)
+        log = math.log2(max(pixels, 2.0))
+        work += HISTOGRAM_WORK * values * log
+        if judged:
+            work += JUDGES_WORK * values * log + JUDGED_TEXTONS * analysis_work(grid, channels, iterations)
+    return nbytes, work
+
+
+def check_analysis_cost(grid, channels: int, iterations: int, what: str, textons: int = 1, size: int = 0,
+                        histogram: str = "gaussian") -> None:
+    """Refuse an analysis (:func:`analysis_cost`'s arguments) beyond the memory or work budget."""
+    nbytes, work = analysis_cost(grid, channels, iterations, textons=textons, size=size, histogram=histogram)
+    if histogram == "preserve":
+        what += " (histogram preserved)"
     check_memory(nbytes, what, "use a smaller image" + (" or fewer rhos" if textons > 1 else ""), mentions=("rhos",))
-    check_work(textons * analysis_work(grid, channels, iterations), what + f" with {iterations} iterations",
+    check_work(work, what + f" with {iterations} iterations",
                "use fewer iterations or a smaller image" + (" or fewer rhos" if textons > 1 else ""),
                mentions=("iterations", "rhos"))
 
@@ -342,7 +381,8 @@ def analyze(
         if options is not None:
             changed.insert(0, "options")
         if changed:
-            raise TextonError(f"{', '.join(changed)} apply to method 'texton' only, not to method 'tiling'",
+            verb = "applies" if len(changed) == 1 else "apply"
+            raise TextonError(f"{', '.join(changed)} {verb} to method 'texton' only, not to method 'tiling'",
                               param=changed[0])
         side = None if side is None else check_int(side, "side", minimum=2)
         return fit_tiling(as_image(u), side=side, seed=check_seed(seed), histogram=check_histogram(histogram))
@@ -356,7 +396,7 @@ def analyze(
     periodic, color_correction, support, histogram = o.periodic, o.color_correction, o.support, o.histogram
     m, n, c = u.shape
     check_size_fits(size, (m, n), "u")
-    check_analysis_cost((m, n), c, iterations, f"analysing a {n}x{m} image")
+    check_analysis_cost((m, n), c, iterations, f"analysing a {n}x{m} image", histogram=histogram)
     warn_large((m, n), size)
     transform = None
     if histogram == "preserve":

@@ -9,7 +9,6 @@ reference viewer.
 
 from __future__ import annotations
 
-import json
 import numbers
 import re
 from collections.abc import Mapping
@@ -24,7 +23,8 @@ from ..core.checks import CHANNELS, MAX_TEXTON_SIDE, MAX_VALUE, as_real_array, c
 from .bspline import ORDERS, kernel_width, sampled_autocorrelation
 from ..core.errors import TextonError
 from .histogram import HistogramTransform
-from .tiling import TilingModel, is_tiling_header, load_tiling
+from .tiling import TilingModel, is_tiling_header, load_tiling, metadata_json, read_metadata
+from .tiling import MAX_METADATA_CHARS, MAX_METADATA_DEPTH  # noqa: F401 - this module's names since 0.2
 from ..core.limits import check_memory
 from ..files.images import EXR, atomic_path, check_output_name, is_texton_header, read_exr, read_exr_header, write_exr
 
@@ -220,7 +220,7 @@ class Texton:
                 texton_version=EXR_TEXTON_VERSION,
                 texton_order=self.order,
                 texton_mean=[float(v) for v in self.mean],
-                texton_metadata=metadata_json({**self.metadata, "warp_texton": __version__}),
+                texton_metadata=metadata_json({**self.metadata, "warp_texton": __version__}, "texton metadata"),
             )
             if self.histogram is not None:  # JSON: float64 values round-trip exactly
                 attributes["texton_histogram"] = self.histogram.to_json()
@@ -241,27 +241,6 @@ class Texton:
         extra = "" if self.histogram is None else ", histogram=preserve"
         return (f"Texton({s}x{r}, channels={self.channels}, order={self.order}, "
                 f"mean={[round(float(v), 4) for v in self.mean]}{extra})")
-
-
-def _json_value(value):
-    # NumPy scalars and arrays are common in metadata: store them as their Python values
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    raise TypeError(type(value).__name__)
-
-
-def metadata_json(metadata: dict) -> str:
-    """``metadata`` as JSON (NumPy values as Python ones); a value JSON cannot hold
-    is refused naming its key."""
-    for key, value in metadata.items():
-        try:
-            json.dumps(value, default=_json_value, allow_nan=False)
-        except (TypeError, ValueError) as exc:
-            raise TextonError(f"texton metadata[{key!r}]: {type(value).__name__} value {value!r:.60} cannot be "
-                              f"saved (metadata must be JSON: numbers, strings, lists, dicts; {exc})") from None
-    return json.dumps(metadata, default=_json_value, allow_nan=False)
 
 
 def lag0_covariance(alpha: np.ndarray, order: int) -> np.ndarray:
@@ -416,49 +395,13 @@ def _load_exr_texton(path: Path) -> Texton:
     metadata = {}
     raw = header.get("texton_metadata")
     if isinstance(raw, str):
-        metadata = _parse_metadata(path, raw)
+        metadata = read_metadata(raw, f"{path}: malformed texton EXR")
         if not isinstance(metadata, dict):
             raise TextonError(f"{path}: malformed texton EXR: metadata is not a JSON object")
     histogram = None
     if "texton_histogram" in header:
         histogram = HistogramTransform.from_json(header["texton_histogram"], f"{path}")
     return _checked_texton(path, coeffs, mean, order, metadata, histogram)
-
-
-#: Bounds of a texton file's metadata (JSON): characters, and nesting depth
-#: (Python's parser recurses once per level).
-MAX_METADATA_CHARS = 1 << 20
-MAX_METADATA_DEPTH = 64
-
-
-def _parse_metadata(path: Path, raw: str):
-    """The JSON of a texton EXR's metadata, its size and nesting bounded before parsing."""
-    if len(raw) > MAX_METADATA_CHARS:
-        raise TextonError(f"{path}: malformed texton EXR: metadata of {len(raw)} characters "
-                          f"(at most {MAX_METADATA_CHARS})")
-    depth = 0
-    in_string = escaped = False
-    for ch in raw:  # brackets outside strings
-        if in_string:
-            if escaped:
-                escaped = False
-            elif ch == "\\":
-                escaped = True
-            elif ch == '"':
-                in_string = False
-        elif ch == '"':
-            in_string = True
-        elif ch in "[{":
-            depth += 1
-            if depth > MAX_METADATA_DEPTH:
-                raise TextonError(f"{path}: malformed texton EXR: metadata nested deeper than "
-                                  f"{MAX_METADATA_DEPTH} levels")
-        elif ch in "]}":
-            depth -= 1
-    try:
-        return json.loads(raw)
-    except (json.JSONDecodeError, RecursionError):
-        raise TextonError(f"{path}: malformed texton EXR: metadata is not JSON") from None
 
 
 def load_texton(path) -> Texton | TilingModel:

@@ -18,6 +18,7 @@ from __future__ import annotations
 import json
 import math
 import numbers
+import reprlib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -27,12 +28,14 @@ import numpy as np
 from ..core.checks import CHANNELS, MAX_VALUE, as_image, as_real_array, check_path, check_range
 from .._version import __version__
 from ..core.errors import TextonError
+from ..core.limits import check_memory, check_work
 from ..files.images import EXR, check_output_name, read_exr, read_exr_header, write_exr
 from .histogram import HistogramTransform, check_histogram, gauss_grid
 
 __all__ = ["TilingModel", "TILING_KIND", "KIND_ATTRIBUTE", "fit_tiling", "guide_of", "structure_score",
            "patch_distance", "half_distance", "suggest_method", "scorable", "is_tiling_header", "load_tiling",
-           "SHARPNESS", "STRUCTURE_THRESHOLD"]
+           "SHARPNESS", "STRUCTURE_THRESHOLD", "metadata_json", "read_metadata", "tiling_analysis_cost",
+           "check_tiling_analysis"]
 
 #: The EXR attribute naming a model's kind; absent in texton files (kind "texton").
 KIND_ATTRIBUTE = "texton_kind"
@@ -56,6 +59,21 @@ PATCH = 7
 SCALES = 3
 SAMPLES = 16384
 DIRECTIONS = 64
+#: The price of the tiling analysis (:func:`tiling_analysis_cost`), per value (pixel × channel)
+#: and per pixel, measured on the 2-core CPU of docs/limits.md (tracemalloc peaks; 256² to
+#: 8192²): bytes at the peak of the structure score (the example in float64, its spectrum, the
+#: white noise's phases and the phase-randomised copy in complex128), of the Gaussianised example
+#: (``histogram="preserve"``: sorts, ranks, tables) and of the model (its float64 check and
+#: float32 copy). Work, per value and log2(pixels): the score's NumPy FFTs (complex128, one
+#: core) and the Gaussianised example's sorts, counted as the NumPy FFT path of
+#: ``gaussian_texture`` runs (1.3 × 10⁹ operations a second there): measured 1.0–1.2 × 10⁻⁸ s
+#: and 2.3–3.1 × 10⁻⁸ s a unit.
+SCORE_BYTES = (56.0, 16.0)
+PRESERVE_BYTES = (24.0, 64.0)
+MODEL_BYTES = 12.0
+SCORE_WORK = 15.0
+PRESERVE_WORK = 40.0
+MODEL_WORK = 12.0
 
 
 def guide_of(example: np.ndarray) -> np.ndarray:
@@ -91,7 +109,9 @@ class TilingModel:
         Weight β ≥ 0 of the luminance guide: weights × exp(β (g − max g)). 0
         (the default) blends by position only.
     metadata : dict
-        Provenance and the measured structure score; JSON values.
+        Provenance and the measured structure score: standard JSON values (NumPy
+        scalars and arrays are taken as numbers and lists; no NaN or infinity), at
+        most 64 levels deep and 1 MiB as JSON, as a file holds them.
     blend : {"linear", "variance"}
         The weighted mean of the patches, or the variance-preserving blend
         (Heitz & Neyret 2018, eq. (4)).
@@ -108,7 +128,8 @@ class TilingModel:
     ------
     TextonError
         For an example that is not an (H, W) or (H, W, 1|3) array of finite
-        numbers, too small for its ``side``, or parameters out of range.
+        numbers, too small for its ``side``, parameters out of range, or
+        metadata a file cannot hold (naming its key).
     """
 
     example: np.ndarray
@@ -146,6 +167,7 @@ class TilingModel:
         if not isinstance(self.metadata, Mapping) or not all(isinstance(k, str) for k in self.metadata):
             raise TextonError(f"metadata must be a dict with string keys, got {self.metadata!r:.80}",
                               param="metadata")
+        metadata_json(self.metadata)  # JSON a file can hold and its reader reads back: refused now, not at save
         if self.histogram is not None and (not isinstance(self.histogram, HistogramTransform)
                                            or self.histogram.channels != a.shape[2]):
             raise TextonError(f"histogram must be a HistogramTransform of {a.shape[2]} channel(s) or None, got "
@@ -216,7 +238,7 @@ class TilingModel:
             "tiling_sharpness": int(self.sharpness),
             "tiling_guide_weight": float(self.guide_weight),
             "tiling_blend": self.blend,
-            "texton_metadata": json.dumps({**self.metadata, "warp_texton_version": __version__}),
+            "texton_metadata": metadata_json({**self.metadata, "warp_texton_version": __version__}),
         }
         if self.histogram is not None:  # as texton files store theirs: JSON, float64 values exactly
             attributes["texton_histogram"] = self.histogram.to_json()
@@ -260,10 +282,10 @@ def load_tiling(path) -> TilingModel:
         raise TextonError(f"{path}: not a tiling model EXR (attribute {KIND_ATTRIBUTE} is not {TILING_KIND!r})",
                           param="path")
     example, header = read_exr(path, max_side=MAX_EXAMPLE_SIDE, what="tiling model")
+    raw = header.get("texton_metadata", "{}")
+    metadata = read_metadata(raw, f"{path}: malformed tiling model EXR") if isinstance(raw, str) else {}
     try:
         side, sharp, beta = (header[k] for k in ("tiling_side", "tiling_sharpness", "tiling_guide_weight"))
-        raw = header.get("texton_metadata", "{}")
-        metadata = json.loads(raw) if isinstance(raw, str) else {}
         if not isinstance(metadata, dict):
             raise ValueError("metadata is not a JSON object")
         metadata.pop("warp_texton_version", None)
@@ -273,6 +295,91 @@ def load_tiling(path) -> TilingModel:
         return TilingModel(example, side, sharp, beta, metadata, header.get("tiling_blend", "linear"), histogram)
     except (KeyError, ValueError, TypeError, TextonError) as exc:
         raise TextonError(f"{path}: malformed tiling model EXR: {exc}", param="path") from None
+
+
+# ---------------------------------------------------------------- metadata (texton and tiling files)
+#: Bounds of a model file's metadata (the JSON of its ``texton_metadata``): characters, and
+#: nesting depth (Python's parser recurses once per level). Metadata is held to them when it is
+#: saved (a tiling model's when it is made), so that every file written can be read back.
+MAX_METADATA_CHARS = 1 << 20
+MAX_METADATA_DEPTH = 64
+
+
+def _json_value(value):
+    # NumPy scalars and arrays are common in metadata: store them as their Python values
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    raise TypeError(type(value).__name__)
+
+
+def _short(value) -> str:
+    """A value for a message: a few levels and characters of its repr (never the whole of a deep one)."""
+    r = reprlib.Repr()
+    r.maxlevel, r.maxstring, r.maxother = 3, 40, 40
+    return r.repr(value)[:60]
+
+
+def _out_of_bounds(raw: str) -> str | None:
+    """What puts a metadata JSON text past MAX_METADATA_CHARS or MAX_METADATA_DEPTH, or None."""
+    if len(raw) > MAX_METADATA_CHARS:
+        return f"metadata of {len(raw)} characters (at most {MAX_METADATA_CHARS})"
+    depth = 0
+    in_string = escaped = False
+    for ch in raw:  # brackets outside strings
+        if in_string:
+            if escaped:
+                escaped = False
+            elif ch == "\\":
+                escaped = True
+            elif ch == '"':
+                in_string = False
+        elif ch == '"':
+            in_string = True
+        elif ch in "[{":
+            depth += 1
+            if depth > MAX_METADATA_DEPTH:
+                return f"metadata nested deeper than {MAX_METADATA_DEPTH} levels"
+        elif ch in "]}":
+            depth -= 1
+    return None
+
+
+def metadata_json(metadata: Mapping, what: str = "metadata") -> str:
+    """``metadata`` as standard JSON (NumPy values as Python ones; no NaN or infinity) within the
+    bounds a model file's reader takes; a value JSON cannot hold is refused naming its key."""
+    for key, value in metadata.items():
+        try:
+            json.dumps(value, default=_json_value, allow_nan=False)
+        except (TypeError, ValueError, RecursionError) as exc:
+            why = f"nested deeper than {MAX_METADATA_DEPTH} levels" if isinstance(exc, RecursionError) else exc
+            raise TextonError(f"{what}[{key!r}]: {type(value).__name__} value {_short(value)} cannot be saved "
+                              f"(metadata must be JSON: numbers, strings, lists, dicts; {why})",
+                              param="metadata") from None
+    text = json.dumps(dict(metadata), default=_json_value, allow_nan=False)
+    problem = _out_of_bounds(text)
+    if problem is not None:
+        raise TextonError(f"{what} cannot be saved: {problem}, which a model file's reader refuses",
+                          param="metadata")
+    return text
+
+
+def _not_json(constant: str):
+    raise ValueError(f"{constant} is not standard JSON")
+
+
+def read_metadata(raw: str, where: str):
+    """The JSON of a model file's metadata, its size and nesting bounded before it is parsed (and
+    NaN or infinity refused, which :func:`metadata_json` never writes); a TextonError naming
+    ``where`` (``"FILE: malformed texton EXR"``) otherwise."""
+    problem = _out_of_bounds(raw)
+    if problem is not None:
+        raise TextonError(f"{where}: {problem}")
+    try:
+        return json.loads(raw, parse_constant=_not_json)
+    except (ValueError, RecursionError):  # json.JSONDecodeError is a ValueError
+        raise TextonError(f"{where}: metadata is not JSON") from None
 
 
 # ---------------------------------------------------------------- measures
@@ -350,18 +457,68 @@ def scorable(shape) -> bool:
     return min(h, w) >= need and max(h, w) >= 2 * need
 
 
+def tiling_analysis_cost(shape, *, score: bool = True, histogram: str = "gaussian",
+                         model: bool = True) -> tuple[float, float]:
+    """(bytes, operations): the peak memory and the work of :func:`fit_tiling` on an example of
+    ``shape`` (H, W) or (H, W, C), from the shape alone (docs/limits.md). The one place the tiling
+    analysis is priced: a step it gains (lattice detection, more FFTs) adds its term here, and
+    ``analyze``, the command line (from an image file's header) and the viewer follow.
+
+    ``score``: with the structure score (``fit_tiling``'s default, for :func:`scorable` shapes);
+    ``histogram``: as ``fit_tiling``'s; ``model=False``: the structure score alone
+    (:func:`structure_score`). The steps run one after the other: the peak is the largest
+    step's, beside the example in float32."""
+    h, w = int(shape[0]), int(shape[1])
+    c = int(shape[2]) if len(shape) > 2 else 1
+    pixels = float(h) * w
+    values, log = pixels * c, math.log2(max(pixels, 2.0))
+    peaks, work = [0.0], 0.0
+    if score and scorable(shape):
+        # the patch distances: 16384 patches of each image at each scale, twice, on 64 directions
+        projections = 2 * 2 * SCALES * SAMPLES * PATCH ** 2 * c * DIRECTIONS
+        peaks.append(SCORE_BYTES[0] * values + SCORE_BYTES[1] * pixels + 8.0 * SAMPLES * (4 * PATCH ** 2 * c
+                                                                                           + 2 * DIRECTIONS))
+        work += SCORE_WORK * values * log + projections
+    if model:
+        peaks.append(MODEL_BYTES * values)
+        work += MODEL_WORK * values
+        if histogram == "preserve":
+            peaks.append(PRESERVE_BYTES[0] * values + PRESERVE_BYTES[1] * pixels)
+            work += PRESERVE_WORK * values * log
+    return 4.0 * values + max(peaks), work
+
+
+def check_tiling_analysis(shape, *, score: bool = True, histogram: str = "gaussian", model: bool = True) -> None:
+    """Refuse a tiling analysis (:func:`tiling_analysis_cost`'s arguments) of an example larger than a
+    model holds or over the memory or work budget, before any of its work."""
+    h, w = int(shape[0]), int(shape[1])
+    if model and max(h, w) > MAX_EXAMPLE_SIDE:
+        raise TextonError(f"example: {h}x{w}; at most {MAX_EXAMPLE_SIDE} per side", param="example")
+    what = f"the {'tiling analysis' if model else 'structure score'} of a {w}x{h} example"
+    nbytes, operations = tiling_analysis_cost(shape, score=score, histogram=histogram, model=model)
+    check_memory(nbytes, what, "use a smaller example", param="u")
+    check_work(operations, what, "use a smaller example", param="u")
+
+
 def structure_score(u, *, seed: int = 0) -> float:
     """How far a Gaussian model of u is from u, in units of u's own half-to-half patch distance.
 
     About 1 for a Gaussian-like texture (grass, gravel, marble); 2 to 5 for
     textures with shapes (bricks, tiles, leaves), which texton noise turns into
     mush. Above :data:`STRUCTURE_THRESHOLD` the tiling model fits better.
+    Priced before its FFTs (:func:`tiling_analysis_cost`).
     """
     a = as_image(u, "u")
     if not scorable(a.shape):
         need = PATCH * 2 ** (SCALES - 1)
         raise TextonError(f"the structure score needs an image of at least {need}x{2 * need} pixels, got "
                           f"{a.shape[1]}x{a.shape[0]}", param="u")
+    check_tiling_analysis(a.shape, model=False)
+    return _structure(a, seed)
+
+
+def _structure(a: np.ndarray, seed: int) -> float:
+    """:func:`structure_score` of an image (H, W, C) already checked and priced."""
     floor = half_distance(a, seed=seed)
     d = patch_distance(phase_randomised(a, seed), a, seed=seed)
     return float(d / max(floor, 1e-12))
@@ -384,6 +541,7 @@ def fit_tiling(u, *, side: float | None = None, sharpness: int = SHARPNESS, guid
     blend zones keep the example's marginals (Heitz & Neyret 2018, §1.4)."""
     histogram = check_histogram(histogram)
     a = as_image(u, "u")
+    check_tiling_analysis(a.shape, score=score, histogram=histogram)  # before any of its work
     small = min(a.shape[:2])
     if small < MIN_SIDE:
         raise TextonError(f"the example must be at least {MIN_SIDE} pixels on each side for method 'tiling', "
@@ -396,7 +554,7 @@ def fit_tiling(u, *, side: float | None = None, sharpness: int = SHARPNESS, guid
     if source is not None:
         metadata["source"] = source
     if score and scorable(a.shape):
-        metadata["structure"] = structure_score(a, seed=seed)
+        metadata["structure"] = _structure(a, seed)
     if histogram == "gaussian":
         return TilingModel(a, side, sharpness, guide_weight, metadata, blend)
     example, transform = gaussianised(a)

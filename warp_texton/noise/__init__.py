@@ -41,4 +41,6 @@ _LAZY = {
 __all__ = ["Batch", "BatchParams", "FilterOptions", "NoiseOptions", "PlaneCamera", "evaluate", "mix_textons", "render_plane", "synthesize", "synthesize_batch", "synthesize_dask", "synthesize_mixed", "to_colours", "write_zarr"]
 
 
-__getattr__, __dir__ = lazy_names(__name__, _LAZY)
+#: 0.2's warp_texton.noise was a module, warp_texton.noise.engine now: its other names are reached here
+#: with a DeprecationWarning (warp_texton.MOVED_MODULES).
+__getattr__, __dir__ = lazy_names(__name__, _LAZY, moved="engine")

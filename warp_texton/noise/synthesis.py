@@ -26,8 +26,8 @@ from .canvas import Canvas, check_output, lanes_for, result_bytes, strips
 from ..core.errors import TextonError
 from .filtering import (COST_HINT_NAMES, tiling_filter_work, tiling_options, tiling_supersampled, COST_SAMPLES, FILTER_BYTES_PER_PIXEL, FilterOptions, RasterPixels,
                         check_jacobian, filter_pixels, filter_work, needs_filtering, pixel_cost, pixel_shares)
-from .engine import (CELL_FACTOR, NoiseSetup, check_cell_range, check_points_cost, noise_params, noise_setup,
-                    params_record, params_struct, point_values)
+from .engine import (CELL_FACTOR, POINT_BYTES, NoiseSetup, check_cell_range, check_points_cost, noise_params,
+                     noise_setup, params_record, params_struct, point_values)
 from .noise_options import NoiseOptions, check_period
 from .raster import (RasterWindow, TextonStack, check_method, check_raster_cost, raster_cost, raster_geometry,
                      raster_reach, rasters, resolve_method, window_block)
@@ -441,7 +441,8 @@ def evaluate(
     ------
     TextonError
         When ``points`` is not numeric, not of shape (N, 2), holds NaN or
-        infinite values or reaches beyond ±2³⁰ cells from the origin, and for
+        infinite values or reaches beyond ±2³⁰ cells from the origin, for more
+        points than the memory budget holds (priced before they are read), and for
         the ``texton``, ``mni``, ``seed``, ``device``, ``period``,
         ``poisson``, ``cell_factor`` and ``output`` errors of
         :func:`synthesize`.
@@ -477,6 +478,8 @@ def evaluate(
     pts = as_real_array(points, "points", "an array of shape (N, 2) of numbers")
     if pts.ndim != 2 or pts.shape[1] != 2:
         raise TextonError(f"points must have shape (N, 2), got {pts.shape}")
+    # before any pass over them: a broadcast array of 10**9 points is 16 bytes, its copy 16 GB
+    check_memory(pts.shape[0] * POINT_BYTES, f"evaluating {pts.shape[0]} points", "use fewer points", param="points")
     if not np.isfinite(pts).all():
         raise TextonError(f"points contain {int((~np.isfinite(pts)).sum())} NaN or infinite values")
     if isinstance(texton, TilingModel):

@@ -36,4 +36,6 @@ _LAZY = {
 __all__ = ["BakedMesh", "Camera", "SurfaceJob", "bake_mesh", "render_baked", "render_mesh", "run_surface_job", "surface_noise", "tangent_frames", "texture_mesh", "write_baked"]
 
 
-__getattr__, __dir__ = lazy_names(__name__, _LAZY)
+#: 0.2's warp_texton.surface was a module, warp_texton.surface.points now: its other names are reached here
+#: with a DeprecationWarning (warp_texton.MOVED_MODULES).
+__getattr__, __dir__ = lazy_names(__name__, _LAZY, moved="points")

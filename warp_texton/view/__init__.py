@@ -22,4 +22,6 @@ _LAZY = {
 __all__ = ["Viewer", "serve"]
 
 
-__getattr__, __dir__ = lazy_names(__name__, _LAZY)
+#: 0.2's warp_texton.view was a module, warp_texton.view.server now: its other names are reached here
+#: with a DeprecationWarning (warp_texton.MOVED_MODULES).
+__getattr__, __dir__ = lazy_names(__name__, _LAZY, moved="server")
