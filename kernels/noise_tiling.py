@@ -33,7 +33,7 @@ from typing import Any
 from . import tiling_draw
 from .noise_filter import Filter, footprint_lookups
 from .noise_tiling_native import tiling_run1, tiling_run3, tiling_vector_form
-from .tiling_draw import CUTOFF, SQRT3_2, texel_index
+from .tiling_draw import CUTOFF, SQRT3_2, texel_address
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
 
@@ -49,17 +49,30 @@ class Tiling:
     variance_preserving: int  # 1: (Σ k (v − mean)) / √(Σ k²) + mean; 0: Σ k v
     mean: wp.vec3  # the example's mean colour (float32)
     seed: wp.uint32
+    lo: wp.vec2i  # the centres' first texel (column, row): TilingModel.centre_box
+    count: wp.vec2i  # and how many texels from it centres range over, per axis
+    wrap: wp.vec2i  # 1 on an axis the example is read wrapped on (x, y), else 0 (clamped)
+    rank: int  # the lattice's: 0 (none), 1 (courses) or 2
+    modulus: int  # its N (1 without a lattice)
+    k1: wp.vec2i  # its dual vectors in (x, y) order
+    k2: wp.vec2i
+    mean_image: wp.array2d(dtype=wp.vec3)  # the lattice-periodic mean (rank ≠ 0), same shape; (1, 1) otherwise
 
 
 @wp.func
 def vertex_centre(t: Tiling, a: int, b: int):
-    # the example texel (column, row) that vertex (a, b) shows on itself (kernels/tiling_draw.py): centres
-    # range over the texels at least `margin` from the border
-    rows = t.example.shape[0]
-    cols = t.example.shape[1]
-    lo = wp.vec2i(t.margin, t.margin)
-    n = wp.vec2i(cols - 2 * t.margin, rows - 2 * t.margin)
-    return tiling_draw.vertex_centre(tiling_draw.seed_state(t.seed), a, b, lo, n)
+    # the example texel (column, row) that vertex (a, b) draws (kernels/tiling_draw.py): centres range over
+    # the texels of the model's centre box (at least `margin` from a clamped border; anywhere on a wrapped axis)
+    return tiling_draw.vertex_centre(tiling_draw.seed_state(t.seed), a, b, t.lo, t.count)
+
+
+@wp.func
+def snapped(t: Tiling, c: wp.vec2i, p: wp.vec2d):
+    # the centre c of a vertex at the rounded position p, snapped to the model's lattice (c without one)
+    if t.rank == 0:
+        return c
+    return tiling_draw.lattice_snap(c, tiling_draw.position_mod(p[0], t.modulus),
+                                    tiling_draw.position_mod(p[1], t.modulus), t.rank, t.modulus, t.k1, t.k2)
 
 
 @wp.func
@@ -69,8 +82,9 @@ def vertex_position(t: Tiling, a: int, b: int):
 
 
 @wp.func
-def bilinear3(img: wp.array2d(dtype=wp.vec3), q: wp.vec2):
-    # the example at q = (x, y) in texel units (texel (i, j) centred at (j + ½, i + ½)), clamped to its edge
+def bilinear3(img: wp.array2d(dtype=wp.vec3), q: wp.vec2, wrap: wp.vec2i):
+    # the example at q = (x, y) in texel units (texel (i, j) centred at (j + ½, i + ½)), clamped to its edge or
+    # wrapped per axis (wrap: x, y)
     rows = img.shape[0]
     cols = img.shape[1]
     fx = q[0] - 0.5
@@ -79,19 +93,19 @@ def bilinear3(img: wp.array2d(dtype=wp.vec3), q: wp.vec2):
     y0 = wp.floor(fy)
     tx = fx - x0
     ty = fy - y0
-    j0 = texel_index(int(x0), cols)
-    i0 = texel_index(int(y0), rows)
+    j0 = texel_address(int(x0), cols, wrap[0])
+    i0 = texel_address(int(y0), rows, wrap[1])
     if tx == 0.0 and ty == 0.0:  # on a texel centre (scale 1): the texel itself, the same value as below
         return img[i0, j0]
-    j1 = texel_index(int(x0) + 1, cols)
-    i1 = texel_index(int(y0) + 1, rows)
+    j1 = texel_address(int(x0) + 1, cols, wrap[0])
+    i1 = texel_address(int(y0) + 1, rows, wrap[1])
     top = img[i0, j0] * (1.0 - tx) + img[i0, j1] * tx
     bottom = img[i1, j0] * (1.0 - tx) + img[i1, j1] * tx
     return top * (1.0 - ty) + bottom * ty
 
 
 @wp.func
-def bilinear1(img: wp.array2d(dtype=float), q: wp.vec2):
+def bilinear1(img: wp.array2d(dtype=float), q: wp.vec2, wrap: wp.vec2i):
     rows = img.shape[0]
     cols = img.shape[1]
     fx = q[0] - 0.5
@@ -100,12 +114,12 @@ def bilinear1(img: wp.array2d(dtype=float), q: wp.vec2):
     y0 = wp.floor(fy)
     tx = fx - x0
     ty = fy - y0
-    j0 = texel_index(int(x0), cols)
-    i0 = texel_index(int(y0), rows)
+    j0 = texel_address(int(x0), cols, wrap[0])
+    i0 = texel_address(int(y0), rows, wrap[1])
     if tx == 0.0 and ty == 0.0:  # on a texel centre (scale 1): the texel itself, the same value as below
         return img[i0, j0]
-    j1 = texel_index(int(x0) + 1, cols)
-    i1 = texel_index(int(y0) + 1, rows)
+    j1 = texel_address(int(x0) + 1, cols, wrap[0])
+    i1 = texel_address(int(y0) + 1, rows, wrap[1])
     top = img[i0, j0] * (1.0 - tx) + img[i0, j1] * tx
     bottom = img[i1, j0] * (1.0 - tx) + img[i1, j1] * tx
     return top * (1.0 - ty) + bottom * ty
@@ -114,8 +128,8 @@ def bilinear1(img: wp.array2d(dtype=float), q: wp.vec2):
 @wp.func
 def patch_point(t: Tiling, x: wp.vec2d, a: int, b: int):
     # where vertex (a, b)'s patch reads the example for the point x: c + (x − round(p))
-    c = vertex_centre(t, a, b)
     p = vertex_position(t, a, b)
+    c = snapped(t, vertex_centre(t, a, b), p)
     return wp.vec2(float(c[0]) + float(x[0] - p[0]), float(c[1]) + float(x[1] - p[1]))
 
 
@@ -169,6 +183,17 @@ def kept_normalised(k0: float, k1: float, k2: float):
 
 
 @wp.func
+def patch_term3(t: Tiling, q: wp.vec2, k: float, acc: wp.vec3, macc: wp.vec3):
+    # one kept patch's part of the blend: (e − mean) k without a lattice; with one, the residual around the
+    # lattice-periodic mean, (e − m) k, and the mean's part m k (the blend keeps Σ m k: docs/tiling.md, "Lattices")
+    e = bilinear3(t.example, q, t.wrap)
+    if t.rank == 0:
+        return acc + (e - t.mean) * k, macc
+    m = bilinear3(t.mean_image, q, t.wrap)
+    return acc + (e - m) * k, macc + m * k
+
+
+@wp.func
 def tiling_value(t: Tiling, x: wp.vec2d):
     # the tiling's value at x (noise units): the patches of the three vertices of x's triangle, blended
     a, b, u, v = triangle_of(t, x)
@@ -194,9 +219,9 @@ def tiling_value(t: Tiling, x: wp.vec2d):
         q0 = patch_point(t, x, a0, b0)
         q1 = patch_point(t, x, a + 1, b)
         q2 = patch_point(t, x, a, b + 1)
-        g0 = bilinear1(t.guide, q0)
-        g1 = bilinear1(t.guide, q1)
-        g2 = bilinear1(t.guide, q2)
+        g0 = bilinear1(t.guide, q0, t.wrap)
+        g1 = bilinear1(t.guide, q1, t.wrap)
+        g2 = bilinear1(t.guide, q2, t.wrap)
     gm = wp.max(g0, wp.max(g1, g2))
     k0 = sharpened(w0, t.squarings, t.guide_weight, g0 - gm)
     k1 = sharpened(w1, t.squarings, t.guide_weight, g1 - gm)
@@ -204,20 +229,23 @@ def tiling_value(t: Tiling, x: wp.vec2d):
     # weights below CUTOFF × the largest are dropped (their patches are not read)
     k0, k1, k2 = kept_normalised(k0, k1, k2)
     acc = wp.vec3(0.0)
+    macc = wp.vec3(0.0)
     if k0 > 0.0:
         if t.guide_weight == 0.0:
             q0 = patch_point(t, x, a0, b0)
-        acc = acc + (bilinear3(t.example, q0) - t.mean) * k0
+        acc, macc = patch_term3(t, q0, k0, acc, macc)
     if k1 > 0.0:
         if t.guide_weight == 0.0:
             q1 = patch_point(t, x, a + 1, b)
-        acc = acc + (bilinear3(t.example, q1) - t.mean) * k1
+        acc, macc = patch_term3(t, q1, k1, acc, macc)
     if k2 > 0.0:
         if t.guide_weight == 0.0:
             q2 = patch_point(t, x, a, b + 1)
-        acc = acc + (bilinear3(t.example, q2) - t.mean) * k2
+        acc, macc = patch_term3(t, q2, k2, acc, macc)
     if t.variance_preserving != 0:
         acc = acc / wp.sqrt(k0 * k0 + k1 * k1 + k2 * k2)
+    if t.rank != 0:
+        return macc + acc
     return t.mean + acc
 
 
@@ -301,10 +329,13 @@ def lattice_vertex(t: Tiling, lat: Lattice, a: int, b: int):
     # (a', b') — b' = b mod rows, a' = (a + (b − b') / 2) mod cols — hashed as such, placed at
     # round(p(a', b')) shifted by the whole periods that separate them, so every period shows the same patches
     if lat.periodic == 0:
-        cen = vertex_centre(t, a, b)
-        return cen, vertex_position(t, a, b)
+        p = vertex_position(t, a, b)
+        return snapped(t, vertex_centre(t, a, b), p), p
     v = tiling_draw.period_vertex(a, b, lat.cols, lat.rows)
     cen = vertex_centre(t, v[0], v[1])
+    if t.rank != 0:  # snapped where the period's own vertex lies: every period shows the same patches
+        own = tiling_draw.period_position(lat.dx, lat.dy, lat.px, lat.py, wp.vec4i(v[0], v[1], 0, 0))
+        cen = snapped(t, cen, own)
     return cen, tiling_draw.period_position(lat.dx, lat.dy, lat.px, lat.py, v)
 
 
@@ -354,7 +385,7 @@ def floor_int64(x: wp.float64):
 
 
 @wp.func
-def bilinear(img: wp.array2d(dtype=Any), q: wp.vec2):
+def bilinear(img: wp.array2d(dtype=Any), q: wp.vec2, wrap: wp.vec2i):
     # bilinear3 / bilinear1 for either texel type: the same operations per channel
     rows = img.shape[0]
     cols = img.shape[1]
@@ -364,15 +395,26 @@ def bilinear(img: wp.array2d(dtype=Any), q: wp.vec2):
     iy = floor_int(fy)
     tx = fx - float(ix)
     ty = fy - float(iy)
-    j0 = texel_index(ix, cols)
-    i0 = texel_index(iy, rows)
+    j0 = texel_address(ix, cols, wrap[0])
+    i0 = texel_address(iy, rows, wrap[1])
     if tx == 0.0 and ty == 0.0:
         return img[i0, j0]
-    j1 = texel_index(ix + 1, cols)
-    i1 = texel_index(iy + 1, rows)
+    j1 = texel_address(ix + 1, cols, wrap[0])
+    i1 = texel_address(iy + 1, rows, wrap[1])
     top = img[i0, j0] * (1.0 - tx) + img[i0, j1] * tx
     bottom = img[i1, j0] * (1.0 - tx) + img[i1, j1] * tx
     return top * (1.0 - ty) + bottom * ty
+
+
+@wp.func
+def patch_term(t: Tiling, example: wp.array2d(dtype=Any), mean_img: wp.array2d(dtype=Any), mean: Any, q: wp.vec2,
+               k: float, acc: Any, macc: Any):
+    # patch_term3 for either texel type (mean_img: the lattice-periodic mean in the example's texel type)
+    e = bilinear(example, q, t.wrap)
+    if t.rank == 0:
+        return acc + (e - mean) * k, macc
+    m = bilinear(mean_img, q, t.wrap)
+    return acc + (e - m) * k, macc + m * k
 
 
 @wp.func
@@ -399,8 +441,8 @@ def quick_weight(w: float, squarings: int, skip: float):
 
 
 @wp.func
-def blend_at(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean: Any, skip: float, c: VertexCache,
-             x: wp.vec2d):
+def blend_at(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean_img: wp.array2d(dtype=Any), mean: Any,
+             skip: float, c: VertexCache, x: wp.vec2d):
     # tiling_value(t, x) bit for bit on the plain lattice (any texel type), its vertices through the cache c
     a, b, u, v = lattice_triangle(t, lat, x)
     a0 = a
@@ -426,11 +468,11 @@ def blend_at(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean: Any,
     if t.guide_weight != 0.0:
         # each slot is read as soon as it is found: the next lookup may replace it
         c, s0 = cached_slot(t, lat, c, a0, b0)
-        g0 = bilinear(t.guide, slot_point(c, s0, x))
+        g0 = bilinear(t.guide, slot_point(c, s0, x), t.wrap)
         c, s1 = cached_slot(t, lat, c, a + 1, b)
-        g1 = bilinear(t.guide, slot_point(c, s1, x))
+        g1 = bilinear(t.guide, slot_point(c, s1, x), t.wrap)
         c, s2 = cached_slot(t, lat, c, a, b + 1)
-        g2 = bilinear(t.guide, slot_point(c, s2, x))
+        g2 = bilinear(t.guide, slot_point(c, s2, x), t.wrap)
         gm = wp.max(g0, wp.max(g1, g2))
         k0 = sharpened(w0, t.squarings, t.guide_weight, g0 - gm)
         k1 = sharpened(w1, t.squarings, t.guide_weight, g1 - gm)
@@ -441,17 +483,20 @@ def blend_at(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean: Any,
         k2 = quick_weight(w2, t.squarings, skip)
     k0, k1, k2 = kept_normalised(k0, k1, k2)
     acc = mean - mean
+    macc = mean - mean
     if k0 > 0.0:
         c, s0 = cached_slot(t, lat, c, a0, b0)
-        acc = acc + (bilinear(example, slot_point(c, s0, x)) - mean) * k0
+        acc, macc = patch_term(t, example, mean_img, mean, slot_point(c, s0, x), k0, acc, macc)
     if k1 > 0.0:
         c, s1 = cached_slot(t, lat, c, a + 1, b)
-        acc = acc + (bilinear(example, slot_point(c, s1, x)) - mean) * k1
+        acc, macc = patch_term(t, example, mean_img, mean, slot_point(c, s1, x), k1, acc, macc)
     if k2 > 0.0:
         c, s2 = cached_slot(t, lat, c, a, b + 1)
-        acc = acc + (bilinear(example, slot_point(c, s2, x)) - mean) * k2
+        acc, macc = patch_term(t, example, mean_img, mean, slot_point(c, s2, x), k2, acc, macc)
     if t.variance_preserving != 0:
         acc = acc / wp.sqrt(k0 * k0 + k1 * k1 + k2 * k2)
+    if t.rank != 0:
+        return c, macc + acc
     return c, mean + acc
 
 
@@ -460,11 +505,11 @@ def guide_weights(t: Tiling, lat: Lattice, c: VertexCache, x: wp.vec2d, a0: int,
                   w0: float, w1: float, w2: float):
     # the guided weights of blend_at (each slot read as soon as it is found: the next lookup may replace it)
     c, s0 = cached_slot(t, lat, c, a0, b0)
-    g0 = bilinear(t.guide, slot_point(c, s0, x))
+    g0 = bilinear(t.guide, slot_point(c, s0, x), t.wrap)
     c, s1 = cached_slot(t, lat, c, a + 1, b)
-    g1 = bilinear(t.guide, slot_point(c, s1, x))
+    g1 = bilinear(t.guide, slot_point(c, s1, x), t.wrap)
     c, s2 = cached_slot(t, lat, c, a, b + 1)
-    g2 = bilinear(t.guide, slot_point(c, s2, x))
+    g2 = bilinear(t.guide, slot_point(c, s2, x), t.wrap)
     gm = wp.max(g0, wp.max(g1, g2))
     k0 = sharpened(w0, t.squarings, t.guide_weight, g0 - gm)
     k1 = sharpened(w1, t.squarings, t.guide_weight, g1 - gm)
@@ -491,16 +536,17 @@ def kept_weights(k0: float, k1: float, k2: float):
 
 
 @wp.kernel
-def lattice_points(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean: Any, skip: float,
-                   points: wp.array(dtype=wp.vec2d), out: wp.array(dtype=Any)):
+def lattice_points(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean_img: wp.array2d(dtype=Any),
+                   mean: Any, skip: float, points: wp.array(dtype=wp.vec2d), out: wp.array(dtype=Any)):
     # blend_at at each point (the periodic tiling's points; tiling_points is the plain one)
     k = wp.tid()
-    c, value = blend_at(t, lat, example, mean, skip, empty_cache(), points[k])
+    c, value = blend_at(t, lat, example, mean_img, mean, skip, empty_cache(), points[k])
     out[k] = value
 
 
 for _T in (wp.vec3, float):
-    wp.overload(lattice_points, {"example": wp.array2d(dtype=_T), "mean": _T, "out": wp.array(dtype=_T)})
+    wp.overload(lattice_points, {"example": wp.array2d(dtype=_T), "mean_img": wp.array2d(dtype=_T), "mean": _T,
+                                 "out": wp.array(dtype=_T)})
 
 
 # ------------------------------------------------------------------ filtered tiling (mip, anisotropic)
@@ -511,6 +557,7 @@ class TilingPyramid:
     # centred at 2^ℓ (j + ½, i + ½) in level-0 texels. contrast[ℓ] scales a patch's deviation from the mean
     # read at level ℓ down to what a footprint of 2^ℓ texels keeps of the blend of independent patches.
     texels: wp.array2d(dtype=wp.vec3)
+    means: wp.array2d(dtype=wp.vec3)  # the lattice-periodic mean's levels, the same layout (rank ≠ 0); (1, 1) else
     row0: wp.array(dtype=int)
     rows: wp.array(dtype=int)
     cols: wp.array(dtype=int)
@@ -519,9 +566,9 @@ class TilingPyramid:
 
 
 @wp.func
-def level_lookup(pyr: TilingPyramid, lvl: int, q: wp.vec2):
-    # bilinear lookup of level lvl at q (level-0 texel units), clamped to the level; at level 0 the same
-    # operations as bilinear3 (q · 1 is q)
+def level_lookup(pyr: TilingPyramid, texels: wp.array2d(dtype=wp.vec3), lvl: int, q: wp.vec2, wrap: wp.vec2i):
+    # bilinear lookup of level lvl of `texels` (the pyramid's texels or means) at q (level-0 texel units),
+    # clamped to the level or wrapped per axis; at level 0 the same operations as bilinear3 (q · 1 is q)
     inv = 1.0 / float(1 << lvl)
     fx = q[0] * inv - 0.5
     fy = q[1] * inv - 0.5
@@ -532,27 +579,33 @@ def level_lookup(pyr: TilingPyramid, lvl: int, q: wp.vec2):
     y0 = wp.floor(fy)
     tx = fx - x0
     ty = fy - y0
-    j0 = texel_index(int(x0), cols)
-    i0 = texel_index(int(y0), rows) + r0
+    j0 = texel_address(int(x0), cols, wrap[0])
+    i0 = texel_address(int(y0), rows, wrap[1]) + r0
     if tx == 0.0 and ty == 0.0:
-        return pyr.texels[i0, j0]
-    j1 = texel_index(int(x0) + 1, cols)
-    i1 = texel_index(int(y0) + 1, rows) + r0
-    top = pyr.texels[i0, j0] * (1.0 - tx) + pyr.texels[i0, j1] * tx
-    bottom = pyr.texels[i1, j0] * (1.0 - tx) + pyr.texels[i1, j1] * tx
+        return texels[i0, j0]
+    j1 = texel_address(int(x0) + 1, cols, wrap[0])
+    i1 = texel_address(int(y0) + 1, rows, wrap[1]) + r0
+    top = texels[i0, j0] * (1.0 - tx) + texels[i0, j1] * tx
+    bottom = texels[i1, j0] * (1.0 - tx) + texels[i1, j1] * tx
     return top * (1.0 - ty) + bottom * ty
 
 
 @wp.func
 def patch_deviation(t: Tiling, pyr: TilingPyramid, q: wp.vec2, l0: int, l1: int, w1: float):
-    # a patch's deviation from the mean at q, read between levels l0 and l1 (weight w1 on l1), times the
-    # levels' contrast: trilinear filtering of the patch
-    e = level_lookup(pyr, l0, q)
+    # (deviation, mean): a patch's deviation from the mean at q, read between levels l0 and l1 (weight w1 on
+    # l1), times the levels' contrast (trilinear filtering of the patch); the mean is the example's, or with a
+    # lattice the lattice-periodic mean read between the same levels, and the deviation the residual around it
+    e = level_lookup(pyr, pyr.texels, l0, q, t.wrap)
     c = pyr.contrast[l0]
     if w1 > 0.0:
-        e = e * (1.0 - w1) + level_lookup(pyr, l1, q) * w1
+        e = e * (1.0 - w1) + level_lookup(pyr, pyr.texels, l1, q, t.wrap) * w1
         c = c * (1.0 - w1) + pyr.contrast[l1] * w1
-    return (e - t.mean) * c
+    if t.rank == 0:
+        return (e - t.mean) * c, t.mean
+    m = level_lookup(pyr, pyr.means, l0, q, t.wrap)
+    if w1 > 0.0:
+        m = m * (1.0 - w1) + level_lookup(pyr, pyr.means, l1, q, t.wrap) * w1
+    return (e - m) * c, m
 
 
 @wp.func
@@ -580,23 +633,32 @@ def blend_levels(t: Tiling, lat: Lattice, pyr: TilingPyramid, x: wp.vec2d, l0: i
     g1 = float(0.0)
     g2 = float(0.0)
     if t.guide_weight != 0.0:
-        g0 = bilinear1(t.guide, q0)
-        g1 = bilinear1(t.guide, q1)
-        g2 = bilinear1(t.guide, q2)
+        g0 = bilinear1(t.guide, q0, t.wrap)
+        g1 = bilinear1(t.guide, q1, t.wrap)
+        g2 = bilinear1(t.guide, q2, t.wrap)
     gm = wp.max(g0, wp.max(g1, g2))
     k0 = sharpened(w0, t.squarings, t.guide_weight, g0 - gm)
     k1 = sharpened(wa, t.squarings, t.guide_weight, g1 - gm)
     k2 = sharpened(wb, t.squarings, t.guide_weight, g2 - gm)
     k0, k1, k2 = kept_normalised(k0, k1, k2)
     acc = wp.vec3(0.0)
+    macc = wp.vec3(0.0)
     if k0 > 0.0:
-        acc = acc + patch_deviation(t, pyr, q0, l0, l1, w1) * k0
+        d, m = patch_deviation(t, pyr, q0, l0, l1, w1)
+        acc = acc + d * k0
+        macc = macc + m * k0
     if k1 > 0.0:
-        acc = acc + patch_deviation(t, pyr, q1, l0, l1, w1) * k1
+        d, m = patch_deviation(t, pyr, q1, l0, l1, w1)
+        acc = acc + d * k1
+        macc = macc + m * k1
     if k2 > 0.0:
-        acc = acc + patch_deviation(t, pyr, q2, l0, l1, w1) * k2
+        d, m = patch_deviation(t, pyr, q2, l0, l1, w1)
+        acc = acc + d * k2
+        macc = macc + m * k2
     if t.variance_preserving != 0:
         acc = acc / wp.sqrt(k0 * k0 + k1 * k1 + k2 * k2)
+    if t.rank != 0:
+        return macc + acc
     return t.mean + acc
 
 
@@ -645,8 +707,8 @@ def tiling_filtered_points(t: Tiling, lat: Lattice, pyr: TilingPyramid, f: Filte
 
 
 @wp.kernel
-def tiling_runs(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean: Any, skip: float,  # noqa: C901
-                origin: wp.vec2d, step_x: wp.vec2d, step_y: wp.vec2d, first: wp.vec2i, run: int,
+def tiling_runs(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any),  # noqa: C901
+                mean_img: wp.array2d(dtype=Any), mean: Any, skip: float, origin: wp.vec2d, step_x: wp.vec2d, step_y: wp.vec2d, first: wp.vec2i, run: int,
                 out: wp.array2d(dtype=Any)):
     # pixels (i, j0 … j0 + run − 1) of the window: blend_at's steps written out in the loop, tiling_value bit
     # for bit on the plain lattice. The run's vertex cache lives in local vectors (ca, cb: lattice indices;
@@ -714,6 +776,7 @@ def tiling_runs(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean: A
             k2 = quick_weight(w2, t.squarings, skip)
         k0, k1, k2, one = kept_weights(k0, k1, k2)
         acc = mean - mean
+        macc = mean - mean
         if k0 > 0.0:
             if ca[h0] != a0 or cb[h0] != b0:
                 h0 = -1
@@ -731,7 +794,7 @@ def tiling_runs(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean: A
                     cpx[h0] = p[0]
                     cpy[h0] = p[1]
             q = wp.vec2(float(ccx[h0]) + float(x[0] - cpx[h0]), float(ccy[h0]) + float(x[1] - cpy[h0]))
-            acc = acc + (bilinear(example, q) - mean) * k0
+            acc, macc = patch_term(t, example, mean_img, mean, q, k0, acc, macc)
         if k1 > 0.0:
             if ca[h1] != a + 1 or cb[h1] != b:
                 h1 = -1
@@ -749,7 +812,7 @@ def tiling_runs(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean: A
                     cpx[h1] = p[0]
                     cpy[h1] = p[1]
             q = wp.vec2(float(ccx[h1]) + float(x[0] - cpx[h1]), float(ccy[h1]) + float(x[1] - cpy[h1]))
-            acc = acc + (bilinear(example, q) - mean) * k1
+            acc, macc = patch_term(t, example, mean_img, mean, q, k1, acc, macc)
         if k2 > 0.0:
             if ca[h2] != a or cb[h2] != b + 1:
                 h2 = -1
@@ -767,14 +830,18 @@ def tiling_runs(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean: A
                     cpx[h2] = p[0]
                     cpy[h2] = p[1]
             q = wp.vec2(float(ccx[h2]) + float(x[0] - cpx[h2]), float(ccy[h2]) + float(x[1] - cpy[h2]))
-            acc = acc + (bilinear(example, q) - mean) * k2
+            acc, macc = patch_term(t, example, mean_img, mean, q, k2, acc, macc)
         if t.variance_preserving != 0 and not one:
             acc = acc / wp.sqrt(k0 * k0 + k1 * k1 + k2 * k2)
-        out[i, j] = mean + acc
+        if t.rank != 0:
+            out[i, j] = macc + acc
+        else:
+            out[i, j] = mean + acc
 
 
 for _T in (wp.vec3, float):
-    wp.overload(tiling_runs, {"example": wp.array2d(dtype=_T), "mean": _T, "out": wp.array2d(dtype=_T)})
+    wp.overload(tiling_runs, {"example": wp.array2d(dtype=_T), "mean_img": wp.array2d(dtype=_T), "mean": _T,
+                              "out": wp.array2d(dtype=_T)})
 
 
 # ------------------------------------------------------------------ the run loop in native C++ (CPU)

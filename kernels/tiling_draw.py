@@ -7,11 +7,19 @@ c(a, b), drawn from the vertex's hash, sits on the vertex (docs/tiling.md, "Spec
    GOLDEN, then a, then b (``seed_state``, ``vertex_state``);
 2. two draws of Warp's PCG from it (``wp.randf``), u_x then u_y;
 3. per axis the centre texel lo + min(⌊u n⌋, n − 1), one of the n texels from lo that centres
-   range over (``centre_axis``; the tiling passes lo = margin, n = size − 2 · margin);
+   range over (``centre_axis``; the tiling passes (lo, n) = (margin, size − 2 · margin) on an axis
+   that is read clamped, with the lattice's half extent added to the margin, and (0, size) on an
+   axis the example wraps on);
 4. the vertex position p(a, b) = side (a + b/2, b √3/2) rounded to whole texels in float64
    (``rounded_position``); on a periodic lattice the period's own vertex (a', b') is drawn and
    placed, shifted by the whole periods between them (``period_vertex``, ``period_position``);
-5. the example's addressing, clamp to edge (``texel_index``), which every lookup uses.
+5. with a lattice (integer dual vectors k over a modulus N, ``warp_texton.model.lattice``), the
+   centre moved by whole texels so that the example's phase k · c / N at the centre equals the
+   plane's at the vertex, k · p / N: the phase difference, centred in [−½, ½), taken back along the
+   lattice and rounded to texels, in 32-bit integers only (``lattice_snap``; p enters as p mod N,
+   ``position_mod``; a periodic lattice snaps at the period's own vertex, so periods repeat);
+6. the example's addressing, clamp to edge (``texel_index``) or wrapped on an axis where the
+   example is seamless (``texel_address``), which every lookup uses.
 
 The ``@wp.func`` below are the reference: ``kernels/noise_tiling.py`` calls them, and so every Warp
 kernel and users' kernels (the device API). The other evaluators run code generated here from one
@@ -30,10 +38,8 @@ wrap as uint32 does; ``>>`` is arithmetic, so ``tl_shr`` masks the bits it shift
 are exact in every dialect; float steps are the reference's operations in its order (the native
 loop turns floating-point contraction off).
 
-Where the next draws land (docs/tiling.md, "Runtimes"): a *wrapped* example (centres anywhere) is
-``centre_axis``'s (lo, n) = (0, size) with ``texel_index`` wrapping; a *lattice snap* of the centre
-is one more step at the end of ``vertex_centre`` (ports: ``tl_vertex_centre``); a general 2 × 2 basis
-of the triangle grid is ``rounded_position`` (ports: ``tl_vertex_position``).
+A general 2 × 2 basis of the triangle grid would be ``rounded_position`` (ports:
+``tl_vertex_position``).
 
 Driven by: ``warp_texton.runtimes.glsl.tiling``, ``warp_texton.runtimes.osl.tiling`` (the generated
 code); its functions run in the kernels of ``kernels/noise_tiling.py``.
@@ -134,6 +140,65 @@ def texel_index(i: int, n: int):
     return wp.clamp(i, 0, n - 1)
 
 
+@wp.func
+def texel_address(i: int, n: int, wrap: int):
+    # the example's addressing on an axis: wrapped where the example is seamless on it (wrap ≠ 0; patch
+    # points stay within a side and a lattice cell of a centre, so i ≥ −4 n), else clamped (texel_index)
+    if wrap != 0:
+        return (i + 4 * n) % n
+    return wp.clamp(i, 0, n - 1)
+
+
+@wp.func
+def mod_product(k: int, d: int, n: int):
+    # (k · d) mod n in [0, n) for |k| ≤ n / 6, 0 ≤ d < n, n ≤ 2¹⁶: every intermediate below 2³¹
+    return (k * d + n * (n / 6 + 1)) % n
+
+
+@wp.func
+def round_div(a: int, b: int):
+    # a / b rounded to the nearest integer, halves away from zero, for b > 0 (non-negative divisions only)
+    m = (2 * wp.abs(a) + b) / (2 * b)
+    if a < 0:
+        return -m
+    return m
+
+
+@wp.func
+def lattice_snap(c: wp.vec2i, pmx: int, pmy: int, rank: int, n: int, k1: wp.vec2i, k2: wp.vec2i):
+    # the centre c (column, row) moved by the whole texels that put the example's lattice phase at the
+    # vertex position (pmx, pmy) (its position mod n) on the plane's: the phase k · (c − p) / n of each dual
+    # vector k (x, y order) taken to the nearest 0 mod 1 (docs/tiling.md, "Lattices"); c itself for rank 0
+    if rank == 0:
+        return c
+    dx = (c[0] - pmx + n) % n
+    dy = (c[1] - pmy + n) % n
+    r1 = (mod_product(k1[0], dx, n) + mod_product(k1[1], dy, n)) % n
+    if 2 * r1 >= n:
+        r1 = r1 - n
+    if rank == 1:
+        kk = k1[0] * k1[0] + k1[1] * k1[1]
+        return wp.vec2i(c[0] - round_div(k1[0] * r1, kk), c[1] - round_div(k1[1] * r1, kk))
+    r2 = (mod_product(k2[0], dx, n) + mod_product(k2[1], dy, n)) % n
+    if 2 * r2 >= n:
+        r2 = r2 - n
+    det = k1[0] * k2[1] - k1[1] * k2[0]
+    nx = k2[1] * r1 - k1[1] * r2
+    ny = k1[0] * r2 - k2[0] * r1
+    if det < 0:
+        det = -det
+        nx = -nx
+        ny = -ny
+    return wp.vec2i(c[0] - round_div(nx, det), c[1] - round_div(ny, det))
+
+
+@wp.func
+def position_mod(p: wp.float64, n: int):
+    # a rounded vertex coordinate mod n, in [0, n) (float64 holds the integer exactly)
+    fn = wp.float64(n)
+    return int(p - fn * wp.floor(p / fn))
+
+
 # ------------------------------------------------------------------ the same draw for other evaluators
 #: The draw in the neutral dialect (see the module): every port renders all of it. tl_vertex_position
 #: takes an origin (ox, oy) added before the rounding: 0 reproduces rounded_position; the GLSL port,
@@ -192,6 +257,43 @@ void tl_vertex_position(real ox, real oy, real side, i32 a, i32 b, out real px, 
 
 i32 tl_texel_index(i32 i, i32 n) {
     return i < 0 ? 0 : (i > n - 1 ? n - 1 : i);
+}
+
+i32 tl_texel_address(i32 i, i32 n, i32 wrap) {
+    return wrap != 0 ? (i + 4 * n) % n : tl_texel_index(i, n);
+}
+
+i32 tl_mod_product(i32 k, i32 d, i32 n) {
+    return (k * d + n * (n / 6 + 1)) % n;
+}
+
+i32 tl_round_div(i32 a, i32 b) {
+    i32 m = (2 * (a < 0 ? -a : a) + b) / (2 * b);
+    return a < 0 ? -m : m;
+}
+
+void tl_lattice_snap(i32 cx, i32 cy, i32 pmx, i32 pmy, i32 rank, i32 n, i32 k1x, i32 k1y, i32 k2x, i32 k2y,
+                     out i32 sx, out i32 sy) {
+    sx = cx;
+    sy = cy;
+    if (rank != 0) {
+        i32 dx = (cx - pmx + n) % n;
+        i32 dy = (cy - pmy + n) % n;
+        i32 r1 = (tl_mod_product(k1x, dx, n) + tl_mod_product(k1y, dy, n)) % n;
+        r1 = 2 * r1 >= n ? r1 - n : r1;
+        if (rank == 1) {
+            i32 kk = k1x * k1x + k1y * k1y;
+            sx = cx - tl_round_div(k1x * r1, kk);
+            sy = cy - tl_round_div(k1y * r1, kk);
+        } else {
+            i32 r2 = (tl_mod_product(k2x, dx, n) + tl_mod_product(k2y, dy, n)) % n;
+            r2 = 2 * r2 >= n ? r2 - n : r2;
+            i32 det = k1x * k2y - k1y * k2x;
+            i32 sg = det < 0 ? -1 : 1;
+            sx = cx - tl_round_div(sg * (k2y * r1 - k1y * r2), sg * det);
+            sy = cy - tl_round_div(sg * (k1x * r2 - k2x * r1), sg * det);
+        }
+    }
 }
 """
 

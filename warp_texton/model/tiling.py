@@ -31,6 +31,7 @@ from ..core.errors import TextonError
 from ..core.limits import check_memory, check_work
 from ..files.images import EXR, check_output_name, read_exr, read_exr_header, write_exr
 from .histogram import HistogramTransform, check_histogram, gauss_grid
+from .lattice import Lattice, lattice_mean
 
 __all__ = ["TilingModel", "TILING_KIND", "KIND_ATTRIBUTE", "fit_tiling", "guide_of", "structure_score",
            "patch_distance", "half_distance", "suggest_method", "scorable", "is_tiling_header", "load_tiling",
@@ -123,6 +124,19 @@ class TilingModel:
         (:func:`warp_texton.noise.colours.to_colours`, standardised by the
         Gaussianised example's own :attr:`mean` and :meth:`covariance`). None:
         the example's colours are blended directly.
+    wrap : (bool, bool)
+        Whether the example is read wrapped across its x (columns) and y (rows)
+        borders: a seamless example (:func:`warp_texton.model.lattice.seam_ratios`)
+        whose patch centres may lie anywhere on that axis, its patches crossing
+        the border; (False, False), the default, keeps them ``margin`` inside it.
+        A wrapped axis takes a ``side`` up to the example's own size on it.
+    lattice : Lattice, optional
+        The example's lattice (:class:`~warp_texton.model.lattice.Lattice`): every
+        vertex's centre is snapped so that the example's lattice lines up across
+        the plane, and the blend mixes the residuals around the lattice-periodic
+        mean (:attr:`mean_image`), which it keeps (docs/tiling.md, "Lattices").
+        On an axis read clamped the centres keep the lattice's half extent more
+        from the border.
 
     Raises
     ------
@@ -139,6 +153,8 @@ class TilingModel:
     metadata: dict = field(default_factory=dict)
     blend: str = "linear"
     histogram: HistogramTransform | None = None
+    wrap: tuple[bool, bool] = (False, False)
+    lattice: Lattice | None = None
 
     def __post_init__(self):
         a = as_real_array(self.example, "example", "an array (H, W) or (H, W, C) of numbers")
@@ -152,10 +168,10 @@ class TilingModel:
                               param="example")
         check_range(a, "example", MAX_VALUE, "values")
         side = _number(self.side, "side", 2.0, None)
-        need = 2 * margin_of(side) + 1
-        if min(a.shape[:2]) <= need:
-            raise TextonError(f"side {side:g} needs an example larger than {need}x{need} texels (patches stay "
-                              f"inside it), got {a.shape[1]}x{a.shape[0]}; use a smaller side", param="side")
+        wrap = _wrap_flags(self.wrap)
+        if self.lattice is not None and not isinstance(self.lattice, Lattice):
+            raise TextonError(f"lattice must be a Lattice or None, got {self.lattice!r:.60}", param="lattice")
+        _centre_box(a.shape, side, wrap, self.lattice)  # refuses a side the example cannot hold
         if isinstance(self.sharpness, (bool, np.bool_)) or not isinstance(self.sharpness, numbers.Integral) \
                 or self.sharpness not in SHARPNESSES:
             raise TextonError(f"sharpness must be one of {', '.join(map(str, SHARPNESSES))} (a power of two), "
@@ -179,6 +195,7 @@ class TilingModel:
         object.__setattr__(self, "sharpness", sharp)
         object.__setattr__(self, "guide_weight", beta)
         object.__setattr__(self, "metadata", dict(self.metadata))
+        object.__setattr__(self, "wrap", wrap)
         m3 = np.zeros(3, np.float32)
         m3[:a.shape[2]] = a.mean(axis=(0, 1), dtype=np.float64)
         m3.setflags(write=False)
@@ -198,6 +215,25 @@ class TilingModel:
     def margin(self) -> int:
         """Texels between any vertex's centre and the example's border."""
         return margin_of(self.side)
+
+    @property
+    def centre_box(self) -> tuple[tuple[int, int], tuple[int, int]]:
+        """((lo, n) on x, (lo, n) on y): the centres' texels per axis, lo to lo + n − 1 (kernels/tiling_draw.py):
+        (0, size) on a wrapped axis, else ``margin`` (plus the lattice's half extent) from each border."""
+        return _centre_box(self.example.shape, self.side, self.wrap, self.lattice)
+
+    @property
+    def mean_image(self) -> np.ndarray | None:
+        """The lattice-periodic mean of the example (:func:`~warp_texton.model.lattice.lattice_mean`), float32
+        (H, W, C), that a lattice model's blend keeps; None without a lattice. Computed once."""
+        if self.lattice is None:
+            return None
+        cached = self.__dict__.get("_mean_image")
+        if cached is None:
+            cached = lattice_mean(self.example, self.lattice, self.wrap)
+            cached.setflags(write=False)
+            object.__setattr__(self, "_mean_image", cached)
+        return cached
 
     @property
     def guide(self) -> np.ndarray:
@@ -242,11 +278,19 @@ class TilingModel:
         }
         if self.histogram is not None:  # as texton files store theirs: JSON, float64 values exactly
             attributes["texton_histogram"] = self.histogram.to_json()
+        if any(self.wrap):
+            attributes["tiling_wrap"] = json.dumps([int(self.wrap[0]), int(self.wrap[1])])
+        if self.lattice is not None:
+            attributes["tiling_lattice"] = json.dumps(self.lattice.to_json())
         write_exr(path, self.example, **attributes)
 
     def __repr__(self) -> str:
         h, w, c = self.example.shape
         extra = "" if self.histogram is None else ", histogram=preserve"
+        if any(self.wrap):
+            extra += f", wrap={self.wrap}"
+        if self.lattice is not None:
+            extra += ", lattice=" + "; ".join(f"({dy:.4g}, {dx:.4g})" for dy, dx in self.lattice.vectors)
         return (f"TilingModel(example {w}x{h}x{c}, side={self.side:g}, sharpness={self.sharpness:g}, "
                 f"guide_weight={self.guide_weight:g}, blend={self.blend!r}{extra})")
 
@@ -266,6 +310,51 @@ def _number(value, name: str, lo: float, hi: float | None) -> float:
         bound = f"in [{lo:g}, {hi:g}]" if hi is not None else f"≥ {lo:g}"
         raise TextonError(f"{name} must be a finite number {bound}, got {value!r:.60}", param=name)
     return float(value)
+
+
+def _wrap_flags(value) -> tuple[bool, bool]:
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != 2 \
+            or not all(isinstance(v, (bool, np.bool_)) for v in value):
+        raise TextonError(f"wrap must be a pair of booleans (x, y), got {value!r:.60}", param="wrap")
+    return bool(value[0]), bool(value[1])
+
+
+def _centre_box(shape, side: float, wrap: tuple[bool, bool], lattice: Lattice | None):
+    """((lo, n) on x, (lo, n) on y) of :attr:`TilingModel.centre_box`; a TextonError for a side the
+    example cannot hold on an axis (past its size wrapped; patches crossing its border clamped)."""
+    ext = (0, 0) if lattice is None else lattice.half_extent()[::-1]  # (x, y)
+    box = []
+    for axis, size in enumerate((shape[1], shape[0])):
+        if wrap[axis]:
+            if side > size:
+                raise TextonError(f"side {side:g} is larger than the wrapped example ({shape[1]}x{shape[0]}); a "
+                                  f"side of at most {size} shows no patch twice", param="side")
+            box.append((0, int(size)))
+            continue
+        lo = margin_of(side) + ext[axis]
+        if size <= 2 * lo + 1:
+            more = " and its lattice's half cell" if ext[axis] else ""
+            raise TextonError(f"side {side:g} needs an example larger than {2 * lo + 1} texels across "
+                              f"{'xy'[axis]} (patches{more} stay inside it), got {shape[1]}x{shape[0]}; use a "
+                              f"smaller side", param="side")
+        box.append((lo, int(size) - 2 * lo))
+    return box[0], box[1]
+
+
+#: The longest JSON text of a model file's tiling_wrap or tiling_lattice attribute.
+MAX_ATTRIBUTE_CHARS = 4096
+
+
+def _attribute_json(header: dict, key: str):
+    raw = header.get(key)
+    if raw is None:
+        return None
+    if not isinstance(raw, str) or len(raw) > MAX_ATTRIBUTE_CHARS:
+        raise ValueError(f"{key} is not a short JSON text")
+    try:
+        return json.loads(raw, parse_constant=_not_json)
+    except (ValueError, RecursionError):
+        raise ValueError(f"{key} is not JSON") from None
 
 
 def is_tiling_header(header: dict) -> bool:
@@ -292,7 +381,13 @@ def load_tiling(path) -> TilingModel:
         histogram = None
         if "texton_histogram" in header:
             histogram = HistogramTransform.from_json(header["texton_histogram"], f"{path}")
-        return TilingModel(example, side, sharp, beta, metadata, header.get("tiling_blend", "linear"), histogram)
+        wrap = _attribute_json(header, "tiling_wrap")
+        wrap = (False, False) if wrap is None else tuple(v in (1, True) for v in wrap) if (
+            isinstance(wrap, list) and len(wrap) == 2 and all(v in (0, 1) for v in wrap)) else wrap
+        lattice = _attribute_json(header, "tiling_lattice")
+        lattice = None if lattice is None else Lattice.from_json(lattice)
+        return TilingModel(example, side, sharp, beta, metadata, header.get("tiling_blend", "linear"), histogram,
+                           wrap, lattice)
     except (KeyError, ValueError, TypeError, TextonError) as exc:
         raise TextonError(f"{path}: malformed tiling model EXR: {exc}", param="path") from None
 

@@ -50,15 +50,33 @@ def tiling_struct(model: TilingModel, seed: int, device: str):
     per_device = _ARRAYS.setdefault(model, {})
     if device not in per_device:
         ex = model.example
-        rgb = ex if ex.shape[2] == 3 else np.concatenate([ex, np.zeros(ex.shape[:2] + (2,), np.float32)], axis=2)
+
+        def lanes(img):  # (vec3 array, float array or None): the three-lane and the grey one-lane forms
+            rgb = img if img.shape[2] == 3 else np.concatenate([img, np.zeros(img.shape[:2] + (2,), np.float32)],
+                                                               axis=2)
+            grey = wp.array(np.ascontiguousarray(img[..., 0]), dtype=float, device=device) \
+                if img.shape[2] == 1 else None
+            return wp.array(np.ascontiguousarray(rgb), dtype=wp.vec3, device=device), grey
+
         guide = model.guide if model.guide_weight != 0.0 else np.zeros((1, 1), np.float32)
-        grey = wp.array(np.ascontiguousarray(ex[..., 0]), dtype=float, device=device) if ex.shape[2] == 1 else None
-        per_device[device] = (wp.array(np.ascontiguousarray(rgb), dtype=wp.vec3, device=device),
-                              wp.array(guide, dtype=float, device=device), grey)
+        means = model.mean_image if model.lattice is not None else np.zeros((1, 1, ex.shape[2]), np.float32)
+        per_device[device] = (*lanes(ex), wp.array(guide, dtype=float, device=device), *lanes(means))
+    rgb, _, guide, mean_rgb, _ = per_device[device]
     t = noise_tiling.Tiling()
-    t.example, t.guide = per_device[device][:2]
+    t.example, t.guide, t.mean_image = rgb, guide, mean_rgb
     t.side = float(model.side)
     t.margin = int(model.margin)
+    (lx, nx), (ly, ny) = model.centre_box
+    t.lo, t.count = wp.vec2i(lx, ly), wp.vec2i(nx, ny)
+    t.wrap = wp.vec2i(int(model.wrap[0]), int(model.wrap[1]))
+    t.rank, t.modulus = 0, 1
+    t.k1 = t.k2 = wp.vec2i(0, 0)
+    if model.lattice is not None:
+        k = model.lattice.dual_matrix
+        t.rank, t.modulus = model.lattice.rank, model.lattice.modulus
+        t.k1 = wp.vec2i(int(k[0, 1]), int(k[0, 0]))  # (ky, kx) rows → (x, y)
+        if model.lattice.rank == 2:
+            t.k2 = wp.vec2i(int(k[1, 1]), int(k[1, 0]))
     t.squarings = int(model.sharpness).bit_length() - 1
     t.guide_weight = float(model.guide_weight)
     t.variance_preserving = int(model.blend == "variance")
@@ -127,12 +145,18 @@ def lattice_struct(model: TilingModel, period):
 
 
 def _lanes(model: TilingModel, device):
-    """(example array, mean, texel type) of the kernels' one-lane (grey) or three-lane path."""
+    """(example array, lattice-periodic mean array, mean, texel type) of the kernels' one-lane (grey) or
+    three-lane path."""
     wp = init_warp()
-    rgb, _, grey = _ARRAYS[model][device]
+    rgb, grey, _, mean_rgb, mean_grey = _ARRAYS[model][device]
     if grey is not None:
-        return grey, float(model.mean3[0]), float
-    return rgb, wp.vec3(*model.mean3.tolist()), wp.vec3
+        return grey, mean_grey, float(model.mean3[0]), float
+    return rgb, mean_rgb, wp.vec3(*model.mean3.tolist()), wp.vec3
+
+
+def plain_draw(model: TilingModel) -> bool:
+    """Whether the model's draw is the native run loop's (kernels/noise_tiling_native.py): no wrap, no lattice."""
+    return not any(model.wrap) and model.lattice is None
 
 
 #: Pixels per thread of ``tiling_runs`` (one vertex cache per run).
@@ -168,7 +192,7 @@ def tiling_pixels(model: TilingModel, shape, origin, step, first, seed: int, dev
     device = resolve_device(device)
     h, w = shape
     tiling_struct(model, seed, device)  # the model's arrays on the device
-    example, mean, dtype = _lanes(model, device)
+    example, mean_img, mean, dtype = _lanes(model, device)
     lanes = 1 if dtype is float else 3
     if is_cpu(device):
         host = np.empty((h, w, lanes), np.float32)
@@ -183,7 +207,7 @@ def tiling_pixels(model: TilingModel, shape, origin, step, first, seed: int, dev
     sy = wp.vec2d(float(step[0, 1]), float(step[1, 1]))
     run = RUN_CPU if is_cpu(device) else RUN_CUDA
     skip = skip_below(model)
-    native = is_cpu(device) and model.guide_weight == 0.0
+    native = is_cpu(device) and model.guide_weight == 0.0 and plain_draw(model)
 
     def launch(r0, r1):
         if r1 > r0:
@@ -197,7 +221,8 @@ def tiling_pixels(model: TilingModel, shape, origin, step, first, seed: int, dev
                           device=device)
             else:
                 wp.launch(noise_tiling.tiling_runs, dim=(r1 - r0, -(-w // run)),
-                          inputs=[t, lat, example, mean, skip, o, sx, sy, at, run, out[r0:r1]], device=device)
+                          inputs=[t, lat, example, mean_img, mean, skip, o, sx, sy, at, run, out[r0:r1]],
+                          device=device)
 
     # the native loop's launches cost more than their rows at small sizes: fewer, longer parts
     split_launch(device, noise_tiling, h, launch, per_thread=PARTS_NATIVE if native else CHUNKS_PER_THREAD)
@@ -228,7 +253,8 @@ def tiling_at(model: TilingModel, points: np.ndarray, seed: int, device, period=
             wp.launch(noise_tiling.tiling_points, dim=k1 - k0, inputs=[t, pts[k0:k1], out[k0:k1]], device=device)
         else:
             wp.launch(noise_tiling.lattice_points, dim=k1 - k0,
-                      inputs=[t, lat, t.example, t.mean, skip_below(model), pts[k0:k1], out[k0:k1]], device=device)
+                      inputs=[t, lat, t.example, t.mean_image, t.mean, skip_below(model), pts[k0:k1], out[k0:k1]],
+                      device=device)
 
     split_launch(device, noise_tiling, n, launch)
     if not n:
@@ -241,14 +267,16 @@ def tiling_at(model: TilingModel, points: np.ndarray, seed: int, device, period=
 # ---------------------------------------------------------------- filtered tilings
 
 
-def example_pyramid(example: np.ndarray) -> list[np.ndarray]:
+def example_pyramid(example: np.ndarray, wrap=(False, False)) -> list[np.ndarray]:
     """The MIP levels of an example (H, W, C): level 0 is the example, level ℓ + 1 the 2 × 2 block means
-    of level ℓ (an odd side repeats its last row or column), down to one texel; float64."""
+    of level ℓ (an odd side repeats its last row or column, or its first on an axis the example wraps
+    on), down to one texel; float64."""
     levels = [np.asarray(example, np.float64)]
     while max(levels[-1].shape[:2]) > 1:
         a = levels[-1]
         r, s = a.shape[:2]
-        a = np.pad(a, ((0, r % 2), (0, s % 2), (0, 0)), mode="edge")
+        a = np.pad(a, ((0, r % 2), (0, 0), (0, 0)), mode="wrap" if wrap[1] else "edge")
+        a = np.pad(a, ((0, 0), (0, s % 2), (0, 0)), mode="wrap" if wrap[0] else "edge")
         levels.append(a.reshape(a.shape[0] // 2, 2, a.shape[1] // 2, 2, -1).mean(axis=(1, 3)))
     return levels
 
@@ -285,20 +313,26 @@ def pyramid_struct(model: TilingModel, device: str):
     wp = init_warp()
     per_device = _PYRAMIDS.setdefault(model, {})
     if device not in per_device:
-        levels = example_pyramid(model.example)
+        levels = example_pyramid(model.example, model.wrap)
         w = levels[0].shape[1]
         rows = np.array([lv.shape[0] for lv in levels], np.int32)
         cols = np.array([lv.shape[1] for lv in levels], np.int32)
         row0 = np.concatenate([[0], np.cumsum(rows)[:-1]]).astype(np.int32)
-        stack = np.zeros((int(rows.sum()), w, 3), np.float32)
-        for lv, r0 in zip(levels, row0):
-            stack[r0:r0 + lv.shape[0], :lv.shape[1], :model.channels] = lv
-        per_device[device] = (wp.array(stack, dtype=wp.vec3, device=device),
+
+        def stacked(levels):
+            stack = np.zeros((int(rows.sum()), w, 3), np.float32)
+            for lv, r0 in zip(levels, row0):
+                stack[r0:r0 + lv.shape[0], :lv.shape[1], :model.channels] = lv
+            return wp.array(stack, dtype=wp.vec3, device=device)
+
+        means = stacked(example_pyramid(model.mean_image, model.wrap)) if model.lattice is not None else \
+            wp.zeros((1, 1), dtype=wp.vec3, device=device)
+        per_device[device] = (stacked(levels), means,
                               wp.array(row0, dtype=int, device=device), wp.array(rows, dtype=int, device=device),
                               wp.array(cols, dtype=int, device=device),
                               wp.array(level_contrast(model, levels), dtype=float, device=device), len(levels))
     pyr = noise_tiling.TilingPyramid()
-    pyr.texels, pyr.row0, pyr.rows, pyr.cols, pyr.contrast, pyr.levels = per_device[device]
+    pyr.texels, pyr.means, pyr.row0, pyr.rows, pyr.cols, pyr.contrast, pyr.levels = per_device[device]
     return pyr
 
 
