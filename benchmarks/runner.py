@@ -25,6 +25,11 @@ spectrum, marginal histograms, clipped pixels, repetition, time per megapixel;
 grass and brick at 256² in the quick suite, every texture at 512² in the full),
 and the viewer's frame time in headless Chromium, its WebGL2 mode against its
 tiles (``bench_viewer_webgl.py``: a 1280×720 canvas, 320×180 in the quick suite).
+The tiling model against tiling and blending read wrapped and not, on seamless and
+regular examples (``bench_seamless.py``: patch distance, lattice kept, residual
+repetition; three small examples in the quick suite, the synthetic lattices in the
+full one: the photograph sets run from the script), and the method advice against
+labels (``bench_advice.py``, the quick suite's three small examples).
 
 Two parameter sets: ``--quick`` (CI smoke run: 256² and 512², MNI 30, texton
 32², one run each) and the full one (256² to 3840×2160, MNI 5 to 60, textons
@@ -97,6 +102,7 @@ class Suite:
     quality_textures: tuple | None  # names of bench_quality.TEXTURES; None: all that load here
     quality_shape: tuple  # (height, width) of the quality outputs
     viewer_view: tuple = (1280, 720)  # (width, height) of the viewer's canvas, WebGL2 against tiles
+    seamless_set: str = "quick"  # bench_seamless.py's examples: "quick" or one of its --set choices
     frame_shape: tuple = (1080, 1920)  # (height, width) of the grey/RGB/FastNoiseLite frames
     frame_texton: int = 64
 
@@ -115,7 +121,7 @@ FULL = Suite(
     ref_shape=(1024, 1024), ref_mni=30.0, ref_texton=64, repeat=5, image_side=512,
     naive_max_pixels=1024 * 1024, mix_steps=21, mix_sizes=((1024, 1024), (2160, 3840)),
     surface_subdivisions=8, surface_render=(1024, 1024),
-    quality_textures=None, quality_shape=(512, 512),
+    quality_textures=None, quality_shape=(512, 512), seamless_set="synthetic",
 )
 
 
@@ -452,6 +458,30 @@ def quality_case(suite: Suite, device: str, report: Report) -> None:
         report.add(case="quality", **r)
 
 
+def seamless_case(suite: Suite, report: Report) -> None:
+    """The tiling model against tiling and blending read wrapped and not (``bench_seamless.py``), and the
+    method advice against its labels (``bench_advice.py``, quick examples, labels not cached); host
+    analyses, the package's outputs on the CPU."""
+    from . import bench_advice, bench_seamless
+
+    quick = suite.seamless_set == "quick"
+    examples, skipped = bench_seamless.examples_of(suite.seamless_set, quick)
+    shape = bench_seamless.QUICK_SHAPE if quick else bench_seamless.SHAPE
+    seeds = bench_seamless.SEEDS[:1] if quick else bench_seamless.SEEDS
+    print(f"seamless and regular examples: {len(examples)}, outputs {shape[1]}x{shape[0]}", flush=True)
+    for row in bench_seamless.collect(examples, shape, seeds, skipped):
+        report.add(case="seamless", method="bench_seamless", device="cpu", **row)
+    examples, more = bench_advice.examples_of("all", True)
+    skipped += more
+    print(f"method advice: {len(examples)} examples", flush=True)
+    rows, scores = bench_advice.collect(examples, bench_advice.QUICK_SHAPE, bench_advice.SEEDS[:1], skipped)
+    for row in rows:
+        report.add(case="advice", method="bench_advice", device="cpu", **row)
+    report.add(case="advice agreement", method="bench_advice", device="cpu", agreement=scores)
+    for s in skipped:
+        report.skip(s["case"], s["reason"])
+
+
 def viewer_case(suite: Suite, device: str, report: Report) -> None:
     """The viewer's frame time in headless Chromium: its WebGL2 mode against its tiles
     (``bench_viewer_webgl.py``; the server computes the tiles on ``device``)."""
@@ -491,6 +521,7 @@ def run(suite: Suite, devices: list[str]) -> dict:
         mixing_case(suite, u, device, cache, report)
         atlas_case(suite, textons, device, report)
     quality_case(suite, devices[0], report)  # the measures do not depend on the device
+    seamless_case(suite, report)
     viewer_case(suite, devices[0], report)
     machine = machine_info()
     machine["threads"] = os.cpu_count()
@@ -699,6 +730,23 @@ def _quality_lines(report: dict) -> list[str]:
             "see docs/quality.md)", "", *table_lines({"results": rows})]
 
 
+def _seamless_lines(report: dict) -> list[str]:
+    """The seamless/regular examples' table (bench_seamless.py) and the advice's agreement (bench_advice.py)."""
+    from .bench_seamless import table_lines
+
+    rows = [r for r in report["results"] if r["case"] == "seamless"]
+    lines = []
+    if rows:
+        lines += ["", "## Seamless and regular examples (bench_seamless.py)", "", *table_lines({"results": rows})]
+    agreement = next((r["agreement"] for r in report["results"] if r["case"] == "advice agreement"), None)
+    if agreement:
+        lines += ["", "## Method advice against labels (bench_advice.py)", "", "| advice | agreement |", "|---|---|"]
+        for name, a in agreement.items():
+            pct = "–" if a["all"]["percent"] is None else f"{a['all']['percent']:.0f} % ({a['all']['agree']}/{a['all']['n']})"
+            lines.append(f"| {name} | {pct} |")
+    return lines
+
+
 def _viewer_lines(report: dict) -> list[str]:
     """The viewer's WebGL2 mode against its tiles (bench_viewer_webgl.py)."""
     from .bench_viewer_webgl import table_lines
@@ -732,7 +780,7 @@ def markdown(report: dict) -> str:
         "run on the host (NumPy) whatever the device. Every method returns the finished raster in host memory.",
     ]
     for section in (_synthesis_lines, _frame_lines, _analysis_lines, _mixing_lines, _filtering_lines, _surface_lines,
-                    _atlas_lines, _quality_lines, _viewer_lines):
+                    _atlas_lines, _quality_lines, _seamless_lines, _viewer_lines):
         lines += section(report)
     if report["skipped"]:
         lines += ["", "## Not measured", ""]

@@ -846,39 +846,40 @@ for _T in (wp.vec3, float):
 
 # ------------------------------------------------------------------ the run loop in native C++ (CPU)
 @wp.func
-def tiling_run(t: Tiling, lat: Lattice, example: wp.array2d(dtype=wp.vec3), mean: wp.vec3, skip: float,
-               origin: wp.vec2d, step_x: wp.vec2d, step_y: wp.vec2d, first: wp.vec2i, i: int, j0: int, j1: int,
-               simd: int, out: wp.array2d(dtype=wp.vec3)):
+def tiling_run(t: Tiling, lat: Lattice, example: wp.array2d(dtype=wp.vec3), mean_img: wp.array2d(dtype=wp.vec3),
+               mean: wp.vec3, skip: float, origin: wp.vec2d, step_x: wp.vec2d, step_y: wp.vec2d, first: wp.vec2i,
+               i: int, j0: int, j1: int, simd: int, out: wp.array2d(dtype=wp.vec3)):
     # three channels
-    tiling_run3(example, mean, out, i, j0, j1, first[0], first[1], origin, step_x, step_y, t.side, t.margin,
-                t.squarings, skip, t.variance_preserving, t.seed, lat.periodic, lat.cols, lat.rows, lat.dx, lat.dy,
-                lat.px, lat.py, simd)
+    tiling_run3(example, mean, mean_img, out, i, j0, j1, first[0], first[1], origin, step_x, step_y, t.side, t.lo,
+                t.count, t.wrap, t.rank, t.modulus, t.k1, t.k2, t.squarings, skip, t.variance_preserving, t.seed,
+                lat.periodic, lat.cols, lat.rows, lat.dx, lat.dy, lat.px, lat.py, simd)
 
 
 @wp.func
-def tiling_run(t: Tiling, lat: Lattice, example: wp.array2d(dtype=float), mean: float,  # noqa: F811 (an overload)
-               skip: float, origin: wp.vec2d, step_x: wp.vec2d, step_y: wp.vec2d, first: wp.vec2i, i: int, j0: int,
-               j1: int, simd: int, out: wp.array2d(dtype=float)):
+def tiling_run(t: Tiling, lat: Lattice, example: wp.array2d(dtype=float),  # noqa: F811 (an overload)
+               mean_img: wp.array2d(dtype=float), mean: float, skip: float, origin: wp.vec2d, step_x: wp.vec2d,
+               step_y: wp.vec2d, first: wp.vec2i, i: int, j0: int, j1: int, simd: int, out: wp.array2d(dtype=float)):
     # one channel (a grey example)
-    tiling_run1(example, mean, out, i, j0, j1, first[0], first[1], origin, step_x, step_y, t.side, t.margin,
-                t.squarings, skip, t.variance_preserving, t.seed, lat.periodic, lat.cols, lat.rows, lat.dx, lat.dy,
-                lat.px, lat.py, simd)
+    tiling_run1(example, mean, mean_img, out, i, j0, j1, first[0], first[1], origin, step_x, step_y, t.side, t.lo,
+                t.count, t.wrap, t.rank, t.modulus, t.k1, t.k2, t.squarings, skip, t.variance_preserving, t.seed,
+                lat.periodic, lat.cols, lat.rows, lat.dx, lat.dy, lat.px, lat.py, simd)
 
 
 @wp.kernel
-def tiling_runs_native(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean: Any, skip: float,
-                       origin: wp.vec2d, step_x: wp.vec2d, step_y: wp.vec2d, first: wp.vec2i, run: int, simd: int,
-                       out: wp.array2d(dtype=Any)):
+def tiling_runs_native(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean_img: wp.array2d(dtype=Any),
+                       mean: Any, skip: float, origin: wp.vec2d, step_x: wp.vec2d, step_y: wp.vec2d, first: wp.vec2i,
+                       run: int, simd: int, out: wp.array2d(dtype=Any)):
     # tiling_runs' pixels (i, j0 … j0 + run − 1) through the native run loop (kernels/noise_tiling_native.py:
     # 16 pixels at a time where simd ≠ 0 and the CPU has vector registers); guide_weight = 0 only
     i, r = wp.tid()
     j0 = r * run
-    tiling_run(t, lat, example, mean, skip, origin, step_x, step_y, first, i, j0, wp.min(j0 + run, out.shape[1]),
-               simd, out)
+    tiling_run(t, lat, example, mean_img, mean, skip, origin, step_x, step_y, first, i, j0,
+               wp.min(j0 + run, out.shape[1]), simd, out)
 
 
 for _T in (wp.vec3, float):
-    wp.overload(tiling_runs_native, {"example": wp.array2d(dtype=_T), "mean": _T, "out": wp.array2d(dtype=_T)})
+    wp.overload(tiling_runs_native, {"example": wp.array2d(dtype=_T), "mean_img": wp.array2d(dtype=_T), "mean": _T,
+                                     "out": wp.array2d(dtype=_T)})
 
 
 @wp.kernel

@@ -50,6 +50,26 @@ def anisotropic_texton(shape=(8, 12), order=1, seed=4, mean=0.5) -> Texton:
     return Texton(0.3 * a + 0.02, [mean], order)
 
 
+def running_bond(shape=(128, 128), channels=3, seed=0) -> np.ndarray:
+    """A seamless running-bond brick wall, float32 (H, W, C): bricks 32 × 16 texels, every second course
+    shifted by 16, 2-texel mortar, a tone per brick and a periodic grain (H, W multiples of 32), so that
+    its lattice is (16, 16), (16, −16) (dy, dx) and its courses (16, 0)."""
+    h, w = shape
+    rng = np.random.default_rng(seed)
+    y, x = np.mgrid[0:h, 0:w]
+    course = y // 16
+    xs = x + 16 * (course % 2)
+    mortar = ((y % 16) < 2) | ((xs % 32) < 2)
+    brick = course * (w // 32) + (xs // 32) % (w // 32)
+    tone = rng.uniform(0.45, 0.8, (h // 16) * (w // 32))[brick]
+    grain = np.real(np.fft.ifft2(np.fft.fft2(rng.standard_normal((h, w)))
+                                 * np.exp(-(np.fft.fftfreq(h)[:, None] ** 2 + np.fft.fftfreq(w) ** 2) / 0.02)))
+    g = np.where(mortar, 0.25, tone) + 0.4 * grain / grain.std() * 0.1
+    if channels == 1:
+        return g[..., None].astype(np.float32)
+    return np.stack([g, 0.8 * g + 0.1, 0.6 * g + 0.05 * np.roll(grain, 9, axis=1)], axis=-1).astype(np.float32)
+
+
 def noise_sd(texton: Texton) -> float:
     """The noise's standard deviation, averaged over channels."""
     return float(np.sqrt(np.diag(texton.covariance()).mean()))

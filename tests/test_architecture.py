@@ -31,8 +31,8 @@ ROOMS = ["_version", "core", "files", "model", "noise", "surface", "runtimes", "
 ROOM_LAYERS = {
     "core": {"errors": 0, "progress": 0, "lazy": 0, "limits": 1, "checks": 2, "runtime": 3},
     "files": {"readers": 0, "folders": 0, "images": 1},
-    "model": {"bspline": 0, "histogram": 0, "tiling": 1, "example_checks": 0, "texton": 2, "analysis_options": 1,
-              "gaussian": 2, "spot_noise": 3, "analysis": 3},
+    "model": {"bspline": 0, "histogram": 0, "example_checks": 0, "analysis_options": 1, "gaussian": 2,
+              "lattice": 3, "tiling": 4, "texton": 5, "tiling_fit": 5, "spot_noise": 6, "analysis": 7},
     "noise": {"filter_options": 0, "noise_options": 0, "tiling": 2, "engine": 1, "colours": 1, "canvas": 2, "filtering": 3, "raster": 3,
               "synthesis": 4, "ground_plane": 4, "mixing": 4, "dask_arrays": 5, "batches": 5},
     "surface": {"frames": 0, "atlas": 0, "atlas_worker": 0, "blocks": 0, "tiling": 1, "points": 2, "mesh": 3,

@@ -34,7 +34,8 @@ from image_bombs import png_declaring
 from warp_texton import TextonError, analyze, load_texton
 from warp_texton.core import limits
 from warp_texton.files.images import write_exr
-from warp_texton.model.tiling import TilingModel, fit_tiling, load_tiling
+from warp_texton.model.tiling import TilingModel, load_tiling
+from warp_texton.model.tiling_fit import fit_tiling
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -181,7 +181,7 @@ MOVED_MODULES: dict[str, str | tuple[str, ...]] = {
     "warp_texton.cli_surface": "warp_texton.cli.surface",
     "warp_texton.cli_shader": "warp_texton.cli.shader",
     "warp_texton.cli_view": "warp_texton.cli.view",
-    "warp_texton.tiling": "warp_texton.model.tiling",
+    "warp_texton.tiling": ("warp_texton.model.tiling", "warp_texton.model.tiling_fit"),
     "warp_texton.tiling_noise": "warp_texton.noise.tiling",
     "warp_texton.example_checks": "warp_texton.model.example_checks",
     "warp_texton.analysis_options": "warp_texton.model.analysis_options",

@@ -43,7 +43,8 @@ def test_texels_shown_alone_keep_their_colours(model, example):
     # at scale 1 a pixel away from the blend zones shows one texel: the model without tables (same
     # example size, side and seed, so the same patches and weights) shows that texel's colour there,
     # and the histogram-preserving model maps the texel's Gaussian value back to it
-    plain = TilingModel(example, model.side, model.sharpness, blend="variance")
+    plain = TilingModel(example, model.side, model.sharpness, blend="variance", wrap=model.wrap,
+                        lattice=model.lattice)
     p = synthesize(plain, (96, 96), seed=4, device="cpu").reshape(-1, 3)
     h = synthesize(model, (96, 96), seed=4, device="cpu").reshape(-1, 3)
     texels = {tuple(c) for c in np.round(example.reshape(-1, 3).astype(np.float64) * 1e5).astype(np.int64)}

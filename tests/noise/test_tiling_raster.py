@@ -72,6 +72,61 @@ def test_periodic_raster_equals_the_periodic_points(channels, side, loop_form):
         assert np.array_equal(raster.reshape(-1, channels), points)
 
 
+#: Lattices of the example's shape: two vectors (a diagonal grid), one (courses).
+LATTICES = {"none": None, "2d": [(16, 16), (16, -16)], "1d": [(16, 0)]}
+
+
+def _wrapped_model(channels, wrap, lattice, **kw):
+    from warp_texton.model.lattice import Lattice
+
+    ex = _example(channels)
+    lat = None if LATTICES[lattice] is None else Lattice.from_vectors(LATTICES[lattice], ex.shape, wrap)
+    return TilingModel(ex, wrap=wrap, lattice=lat, **kw)
+
+
+# the native run loop's wrapped addressing and lattice (the snap, the residual blend around the lattice-periodic
+# mean) against tiling_value: wrapped on either axis or both (patch points past the border on each side, side 30
+# > the clamped margin allows), clamped with a lattice (the centres' box narrowed by its half cell); texel centres
+# (scale 1, whole offsets), mixed lanes (scale 2, quarter offsets), rotations and far offsets
+@pytest.mark.parametrize("channels, wrap, lattice, sharpness, blend", [
+    (1, (True, True), "none", 16, "variance"),
+    (3, (True, False), "none", 4, "linear"),
+    (3, (True, True), "2d", 16, "variance"),
+    (1, (True, True), "2d", 2, "linear"),
+    (3, (False, True), "1d", 8, "variance"),
+    (1, (True, False), "1d", 64, "linear"),
+    (3, (False, False), "2d", 4, "variance"),
+    (1, (False, False), "1d", 16, "linear"),
+])
+@pytest.mark.parametrize("scale, rotation, offset", [
+    (1.0, 0.0, (0.0, 0.0)), (1.0, 0.0, (-300.0, 41.0)), (2.0, 0.0, (0.25, 0.25)), (0.37, 20.0, (-1234.5, 987.25)),
+    (0.8, -120.0, (3.0e7, -2.5e7)),
+])
+def test_wrapped_and_lattice_runs_equal_the_reference_points(channels, wrap, lattice, sharpness, blend, scale,
+                                                            rotation, offset, loop_form):
+    side = 30.0 if any(wrap) else 12.0
+    m = _wrapped_model(channels, wrap, lattice, side=side, sharpness=sharpness, blend=blend)
+    shape = (29, 111)
+    raster = synthesize(m, shape, seed=6, scale=scale, rotation=rotation, offset=offset, device="cpu")
+    points = evaluate(m, _positions(shape, scale, rotation, offset), seed=6, device="cpu")
+    assert np.array_equal(raster.reshape(-1, channels), points)
+    assert raster.std() > 0.05
+
+
+@pytest.mark.parametrize("channels, wrap, lattice", [
+    (3, (True, True), "2d"), (1, (True, False), "1d"), (1, (False, False), "2d"), (3, (False, True), "none"),
+])
+def test_periodic_wrapped_and_lattice_rasters_equal_the_periodic_points(channels, wrap, lattice, loop_form):
+    # the periodic lattice snaps at the period's own vertex: the native loop against lattice_points (blend_at)
+    m = _wrapped_model(channels, wrap, lattice, side=9.5, sharpness=8, blend="variance")
+    shape = (29, 77)
+    for kw in (dict(scale=1.0, rotation=0.0, offset=(0.0, 0.0)), dict(scale=0.6, rotation=-25.0, offset=(-90.5, 13.0))):
+        raster = synthesize(m, shape, period=(70, 33.5), seed=4, device="cpu", **kw)
+        points = evaluate(m, _positions(shape, kw["scale"], kw["rotation"], kw["offset"]), period=(70, 33.5), seed=4,
+                          device="cpu")
+        assert np.array_equal(raster.reshape(-1, channels), points)
+
+
 def _host_simd() -> str:
     """The vector instruction set the native run loop should be built for here."""
     import platform
@@ -101,12 +156,17 @@ wp.config.cpu_compiler_flags = (wp.config.cpu_compiler_flags or "-march=native")
     "-march=native", "-march=native -target-feature -avx512f")
 import warp_texton.noise.tiling as T
 from warp_texton import evaluate, synthesize
+from warp_texton.model.lattice import Lattice
 from warp_texton.model.tiling import TilingModel
 from warp_texton.noise.raster import raster_geometry
 print(T.simd_loops("cpu"))
 rng = np.random.default_rng(11)
-for c in (1, 3):
-    m = TilingModel(rng.random((90, 100, c)).astype(np.float32), side=12.0, sharpness=8, blend="variance")
+examples = [rng.random((90, 100, c)).astype(np.float32) for c in (1, 3)]
+models = [TilingModel(ex, side=12.0, sharpness=8, blend="variance") for ex in examples]
+models += [TilingModel(ex, side=30.0, sharpness=8, blend="variance", wrap=(True, True),
+                       lattice=Lattice.from_vectors([(16, 16), (16, -16)], ex.shape, (True, True))) for ex in examples]
+for m in models:
+    c = m.channels
     origin, step = raster_geometry((31, 70), 0.7, 15.0, (-40.5, 3.0))
     jj, ii = np.meshgrid(np.arange(70) + 0.5, np.arange(31) + 0.5)
     J, I = jj.ravel(), ii.ravel()
@@ -122,7 +182,8 @@ for c in (1, 3):
 @pytest.mark.slow
 def test_avx2_build_takes_the_vector_run_loop(tmp_path):
     # on an AVX-512 CPU, the build for AVX2 only (in a fresh process: the flags are part of every module's build)
-    # must take the vector form (its lane-loop lookups instead of AVX-512's gathers) with the reference's values
+    # must take the vector form (its lane-loop lookups instead of AVX-512's gathers) with the reference's values,
+    # plain and wrapped with a lattice
     import subprocess
     import sys
 
@@ -132,7 +193,7 @@ def test_avx2_build_takes_the_vector_run_loop(tmp_path):
     script.write_text(AVX2_ONLY)
     done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]
-    assert done.stdout.split() == ["avx2"] + ["True"] * 4
+    assert done.stdout.split() == ["avx2"] + ["True"] * 8
 
 
 @pytest.mark.parametrize("period", [(64, 48), (100, 37), (13.5, 80.25), (7, 7), (500, 300)])

@@ -1,7 +1,8 @@
 """The GLSL port of a tiling model in a real headless Chromium (WebGL2 on SwiftShader): the
 preview page's float pixels against ``synthesize`` of the same window (issue 28: at least 99 %
-of the pixels within 2/255, grey and RGB models, offset, scale and rotation), the export's
-files, and what the export refuses for a tiling model."""
+of the pixels within 2/255, grey and RGB models, offset, scale and rotation; issue 39: examples
+read wrapped, 2-D and 1-D lattices), the export's files, and what the export refuses for a tiling
+model."""
 
 from __future__ import annotations
 
@@ -11,8 +12,9 @@ import numpy as np
 import pytest
 
 from clients import chromium_browser
-from helpers import run_cli
+from helpers import run_cli, running_bond
 from warp_texton import Texton, TextonError, analyze, export_shader, synthesize
+from warp_texton.model.lattice import Lattice
 from warp_texton.model.tiling import TilingModel
 from warp_texton.runtimes.glsl import tiling as ts
 from warp_texton.runtimes.export import write_shader_preview
@@ -42,6 +44,32 @@ def models():
         # histogram-preserving: the Gaussianised example blended, then the per-channel tables
         "hist_grey": analyze(brick(1), method="tiling", histogram="preserve"),
         "hist_rgb": with_tables(analyze(brick(3), method="tiling", histogram="preserve"), 41.3, 8, 1.0),
+        **lattice_models(),
+    }
+
+
+#: The running bond's lattice (dy, dx) and its courses.
+BOND = [(16, 16), (16, -16)]
+COURSES = [(16, 0)]
+
+
+def lattice_models() -> dict:
+    """Issue 39's models of a seamless running bond (128²): read wrapped on both axes (a side as large as
+    the example) or on x only (the guide, a fractional side); snapped to its 2-D lattice (wrapped: N = 128;
+    clamped: N = 2¹⁶), to its courses (grey), and a histogram-preserving one with the lattice."""
+    rgb, grey = running_bond(channels=3), running_bond(channels=1)
+    both = (True, True)
+    hist = analyze(rgb, method="tiling", histogram="preserve")
+    return {
+        "wrapped": TilingModel(rgb, 128.0, 16, 0.0, {}, "variance", None, both),
+        "wrapped_x": TilingModel(rgb, 37.3, 4, 2.0, {}, "linear", None, (True, False)),
+        "lattice": TilingModel(rgb, 40.0, 16, 0.0, {}, "variance", None, both, Lattice.from_vectors(BOND, rgb.shape, both)),
+        "lattice_clamped": TilingModel(rgb, 21.5, 8, 1.0, {}, "variance", None, (False, False),
+                                       Lattice.from_vectors(BOND, rgb.shape)),
+        "courses_grey": TilingModel(grey, 45.0, 16, 0.0, {}, "variance", None, both,
+                                    Lattice.from_vectors(COURSES, grey.shape, both)),
+        "lattice_hist": TilingModel(hist.example, 33.0, 16, 0.0, {}, hist.blend, hist.histogram, both,
+                                    Lattice.from_vectors(BOND, rgb.shape, both)),
     }
 
 
@@ -73,6 +101,14 @@ CASES = {
     "guide_placed": dict(model="guide", seed=2**32 - 1, scale=0.9, rotation=70.0, offset=(-5000.0, 20.0)),
     "hist_grey_scale1": dict(model="hist_grey", seed=6),
     "hist_rgb_placed": dict(model="hist_rgb", seed=7, scale=0.8, rotation=15.0, offset=(2.0e5, -640.5)),
+    # issue 39: wrapped examples and lattices (far offsets: the anchor's position mod N from the host)
+    "wrapped_scale1": dict(model="wrapped", seed=8, offset=(-77.0, 300.0)),
+    "wrapped_x_placed": dict(model="wrapped_x", seed=9, scale=0.6, rotation=33.0, offset=(-4.0e4, 917.25)),
+    "lattice_scale1": dict(model="lattice", seed=10),
+    "lattice_far": dict(model="lattice", seed=11, scale=0.7, rotation=-20.0, offset=(1.0e6, -3.0e7)),
+    "lattice_clamped_placed": dict(model="lattice_clamped", seed=12, scale=1.3, rotation=50.0, offset=(-2.5e5, 61.5)),
+    "courses_grey_placed": dict(model="courses_grey", seed=13, scale=0.5, rotation=5.0, offset=(333.0, -7.0e6)),
+    "lattice_hist_placed": dict(model="lattice_hist", seed=2**32 - 2, scale=0.9, rotation=-65.0, offset=(3.0e4, 2.0e4)),
 }
 
 
@@ -118,7 +154,11 @@ def test_float32_positions_from_the_origin(models, browser, tmp_path):
     """What tiling_noise(x) keeps without an anchor (x in float32 from the origin, as the OSL
     port and a shader of one's own compute it), 10⁴ texels from the origin: the issue's bound
     still holds; the anchored page at 10⁶ texels keeps float rounding only."""
-    model = models["guide"]
+    for name in ("guide", "lattice_clamped"):  # and a lattice model: tiling_noise(x) snaps from P mod N too
+        float32_from_the_origin(models[name], browser, tmp_path)
+
+
+def float32_from_the_origin(model, browser, tmp_path):
     kw = dict(seed=3, scale=0.8, rotation=20.0)
     for anchored, dist, bound in ((False, 1.0e4, TOLERANCE), (True, 1.0e6, 1e-4)):
         html = ts.tiling_preview_html(model, SHAPE, offset=(dist, -dist), anchored=anchored, **kw)
@@ -127,7 +167,7 @@ def test_float32_positions_from_the_origin(models, browser, tmp_path):
         got = np.array(page.evaluate("window.textonNoise.readFloat()"), np.float32).reshape(*SHAPE, 4)[..., :3]
         ref = synthesize(model, SHAPE, device="cpu", offset=(dist, -dist), **kw)
         err = np.abs(got - ref).max(axis=-1)
-        print(f"{'anchored' if anchored else 'tiling_noise(x)'} at {dist:g} texels: "
+        print(f"{model!r}, {'anchored' if anchored else 'tiling_noise(x)'} at {dist:g} texels: "
               f"{np.mean(err <= TOLERANCE):.4f} within 2/255, max {err.max():.2e}")
         assert np.mean(err <= bound) >= MIN_AGREEMENT
 
@@ -150,11 +190,63 @@ def test_anchor_is_the_kernels_grid(models):
         assert a <= sx < a + 1 and b <= sy < b + 1
 
 
+def test_anchor_mod_is_the_kernels_position_mod(models):
+    """anchor_mod is P(anchor) mod N of tiling_anchor's vertex, as the kernels' lattice snap takes a vertex's
+    position (tiling_draw.position_mod of the float64 rounded position): in [0, N), also far from the origin
+    and at negative positions; (0, 0) without a lattice."""
+    model = models["lattice_clamped"]
+    n = model.lattice.modulus
+    assert n == 2**16
+    rng = np.random.default_rng(3)
+    for x in np.concatenate([rng.uniform(-1e9, 1e9, (40, 2)), rng.uniform(-300, 300, (40, 2))]):
+        _, _, rel = ts.tiling_anchor(model, x)
+        (a, b), frac, _ = ts.tiling_anchor(model, x)
+        s = float(np.float32(model.side))
+        P = np.floor(np.array([s * (a + b * 0.5), s * b * ts.SQRT3_2]) + 0.5)
+        got = ts.anchor_mod(model, x)
+        assert got == (int(P[0] - n * np.floor(P[0] / n)), int(P[1] - n * np.floor(P[1] / n)))
+        assert all(0 <= v < n for v in got)
+    assert ts.anchor_mod(models["wrapped"], (-1e6, 3e5)) == (0, 0)
+
+
+def test_export_carries_the_lattice(models, tmp_path):
+    """A lattice model's export adds its lattice-periodic mean (tiling_mean.f32, RGB, grey in R) and its
+    constants; the description records the wrap, the centres and the lattice. A wrapped model without a
+    lattice writes the files of any other model."""
+    model = models["lattice"]
+    out = export_shader(model, "glsl", tmp_path / "ex", seed=3)
+    assert sorted(p.name for p in out.iterdir()) == ["preview.html", "texton_noise.js", "texton_noise.json",
+                                                     "tiling_example.f32", "tiling_mean.f32", "tiling_noise.glsl"]
+    mean = np.fromfile(out / "tiling_mean.f32", "<f4").reshape(128, 128, 4)
+    assert np.array_equal(mean[..., :3], model.mean_image) and not mean[..., 3].any()
+    meta = json.loads((out / "texton_noise.json").read_text())
+    settings = meta["settings"]
+    assert settings["wrap"] == [True, True] and settings["centre_box"] == [[0, 128], [0, 128]]
+    assert settings["lattice"]["modulus"] == 128 and sorted(map(tuple, settings["lattice"]["vectors"])) == \
+        [(16.0, -16.0), (16.0, 16.0)]
+    source = (out / "tiling_noise.glsl").read_text()
+    k = model.lattice.dual_matrix
+    for line in ("const int TL_RANK = 2;", "const int TL_MODULUS = 128;", "const ivec2 TL_WRAP = ivec2(1, 1);",
+                 f"const ivec2 TL_K1 = ivec2({k[0, 1]}, {k[0, 0]});", f"const ivec2 TL_K2 = ivec2({k[1, 1]}, {k[1, 0]});"):
+        assert line in source, line
+    header = next(line for line in source.splitlines() if line.startswith("// Generated by"))
+    assert header.endswith(", wrapped on x and y, lattice (16, -16); (16, 16), seed 3")
+    grey = ts.mean_texture(models["courses_grey"])
+    assert np.array_equal(grey[..., 0], models["courses_grey"].mean_image[..., 0]) and not grey[..., 1:].any()
+    export_shader(models["wrapped_x"], "glsl", out, overwrite=True)
+    assert not (out / "tiling_mean.f32").exists()
+    source = (out / "tiling_noise.glsl").read_text()
+    (lx, nx), (ly, ny) = models["wrapped_x"].centre_box
+    assert (lx, nx) == (0, 128) and f"const ivec2 TL_CENTRE_LO = ivec2(0, {ly});" in source
+    assert "const int TL_RANK = 0;" in source and "const ivec2 TL_WRAP = ivec2(1, 0);" in source
+
+
 def test_export_writes_its_files(models, tmp_path):
     model = models["rgb"]
     out = export_shader(model, "glsl", tmp_path / "ex", seed=7)
-    assert sorted(p.name for p in out.iterdir()) == ["preview.html", "texton_noise.js", "texton_noise.json",
-                                                     "tiling_example.f32", "tiling_noise.glsl"]
+    mean = ["tiling_mean.f32"] if model.lattice is not None else []  # where analyze finds a lattice
+    assert sorted(p.name for p in out.iterdir()) == sorted(["preview.html", "texton_noise.js", "texton_noise.json",
+                                                            "tiling_example.f32", "tiling_noise.glsl", *mean])
     tex = np.fromfile(out / "tiling_example.f32", "<f4").reshape(256, 256, 4)
     assert np.array_equal(tex[..., :3], model.example) and not tex[..., 3].any()
     meta = json.loads((out / "texton_noise.json").read_text())

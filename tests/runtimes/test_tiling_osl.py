@@ -2,7 +2,7 @@
 the exported ``tiling_plane`` shader, and the pixels equal ``evaluate`` at the points the pixel
 centres see, within the tolerance the texton noise's OSL export meets (tests/runtimes/test_shader_osl.py:
 99.9 % of the pixels within 10⁻³ of the range, none farther than 10⁻³ from the values over the
-camera's jitter square)."""
+camera's jitter square); examples read wrapped and lattice models (issue 39) alike."""
 
 from __future__ import annotations
 
@@ -13,7 +13,9 @@ import pytest
 
 from test_shader_osl import (EXACT_PIXELS, EXACT_TEXEL, MIN_AGREEMENT, SIZE, TOLERANCE, agreement, exact_point_source,
                              jitter_box, pixel_centres, plane_mesh, render)
+from helpers import running_bond
 from warp_texton import TextonError, analyze, evaluate, export_shader
+from warp_texton.model.lattice import Lattice
 from warp_texton.model.tiling import TilingModel
 from warp_texton.runtimes.osl import tiling as ts
 from warp_texton.surface.mesh import srgb_to_linear
@@ -39,7 +41,37 @@ CASES = [
     # histogram-preserving: the tables embedded, applied after the blend
     (lambda: preserving(3), 5, "object", 0.01, "Color"),
     (lambda: preserving(1), 2**32 - 2, "input", 0.004, "Color"),
+    # issue 39: a seamless running bond read wrapped, snapped to its lattice (N = 128; clamped: N = 2¹⁶,
+    # with the guide) and to its courses (grey)
+    (lambda: wrapped(), 13, "object", 0.01, "Color"),
+    (lambda: bond_lattice(), 2**31 + 3, "input", 0.004, "Color"),
+    (lambda: bond_lattice(clamped=True), 17, "object", 0.01, "Linear"),
+    (lambda: courses(), 19, "object", 0.02, "Color"),
 ]
+
+BOTH = (True, True)
+
+
+def wrapped() -> TilingModel:
+    """The running bond read wrapped on both axes, with a side as large as the example."""
+    return TilingModel(running_bond(), 128.0, 16, 0.0, {}, "variance", None, BOTH)
+
+
+def bond_lattice(clamped: bool = False) -> TilingModel:
+    """The running bond snapped to its 2-D lattice: wrapped (N = 128), or read clamped (N = 2¹⁶) with a
+    fractional side and the luminance guide."""
+    u = running_bond()
+    if clamped:
+        return TilingModel(u, 21.5, 8, 1.0, {}, "variance", None, (False, False),
+                           Lattice.from_vectors([(16, 16), (16, -16)], u.shape))
+    return TilingModel(u, 40.0, 16, 0.0, {}, "variance", None, BOTH,
+                       Lattice.from_vectors([(16, 16), (16, -16)], u.shape, BOTH))
+
+
+def courses() -> TilingModel:
+    """The grey running bond snapped to its courses (a 1-D lattice, 16 texels high), read wrapped."""
+    u = running_bond(channels=1)
+    return TilingModel(u, 45.0, 16, 0.0, {}, "variance", None, BOTH, Lattice.from_vectors([(16, 0)], u.shape, BOTH))
 
 
 def preserving(channels: int) -> TilingModel:
@@ -90,7 +122,7 @@ def test_shader_at_exact_points(tmp_path):
     # whose hash, draws or whole-texel position differed would shift its patch by texels,
     # changing its pixels by a good part of the range.
     models = [TilingModel(brick(1), 32.0, 16, 0.0, {}, "variance"), TilingModel(brick(3), 21.7, 4, 2.0, {}, "linear"),
-              preserving(3)]
+              preserving(3), bond_lattice(), bond_lattice(clamped=True), courses()]
     jobs = []
     for n, model in enumerate(models):
         osl = tmp_path / f"exact_{n}.osl"
@@ -124,7 +156,16 @@ def test_files_and_refusals(tmp_path):
     assert "float L[" not in source  # no tables: the blend as it is
     hist = analyze(brick(3, 8), method="tiling", side=12, histogram="preserve")
     mapped = ts.tiling_osl_files(hist, 0)[ts.OSL_FILE].decode()
-    assert f"float L[{3 * 1024}]" in mapped and f"float T[{64 * 64 * 3}]" in mapped  # the tables embedded
+    stride = 3 if hist.lattice is None else 6  # where analyze finds a lattice, its mean travels too
+    assert f"float L[{3 * 1024}]" in mapped and f"float T[{64 * 64 * stride}]" in mapped  # the tables embedded
+    # a lattice model carries its lattice-periodic mean beside each texel; its wrap and lattice are described
+    bond = bond_lattice(clamped=True)
+    lattice = ts.tiling_osl_files(bond, 0)[ts.OSL_FILE].decode()
+    assert f"float T[{128 * 128 * 7}]" in lattice and ", lattice (16, -16); (16, 16)" in lattice.splitlines()[0]
+    out = export_shader(wrapped(), "osl", tmp_path / "osl", seed=1, overwrite=True)
+    settings = json.loads((out / "texton_noise_osl.json").read_text())["settings"]
+    assert settings["wrap"] == [True, True] and settings["lattice"] is None
+    assert settings["centre_box"] == [[0, 128], [0, 128]]
     with pytest.raises(TextonError, match="too large for an OSL shader"):
         ts.tiling_osl_files(TilingModel(np.zeros((600, 512, 3), np.float32), 8.0))
     with pytest.raises(TextonError, match="filter do not apply"):

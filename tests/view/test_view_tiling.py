@@ -17,9 +17,11 @@ from warp_texton import analyze, load_texton, read_image, synthesize
 from warp_texton.view.images import to_8bit
 from warp_texton.view.queries import Noise, Tile, tile_window, view_window
 from warp_texton.view.server import serve
+from warp_texton.model.lattice import Lattice
 from warp_texton.model.tiling import TilingModel
 from warp_texton.view.viewer import Viewer
 
+from helpers import running_bond
 from test_view import DEVICE, Client, decode_png, run_cli, small_rgb
 
 
@@ -103,6 +105,29 @@ def test_shader_is_the_models_glsl_port(client, model):
     assert sorted(p["textures"]) == ["tiling_colours", "tiling_example"]
     assert p["side"] == float(np.float32(model.side))
     assert json.loads(client.request("/api/info")[2])["supports"]["webgl"] is True
+
+
+def test_panel_and_shader_name_the_wrap_and_lattice(tmp_path):
+    """A wrapped lattice model's file (issue 39) loads in the viewer: its panel and its WebGL2 program
+    say the axes it wraps on and its lattice, the program carries the lattice-periodic mean and the
+    modulus the page places the view's anchor with, and its tiles are synthesize's."""
+    u = running_bond(channels=1)
+    both = (True, True)
+    model = TilingModel(u, 40.0, 16, 0.0, {}, "variance", None, both, Lattice.from_vectors([(16, 0)], u.shape, both))
+    path = tmp_path / "courses.exr"
+    model.save(path)
+    with serve(path, port=0, device=DEVICE, filter="none") as server:
+        c = Client(server)
+        p = json.loads(c.get("/api/panel", seed=1)[2])
+        assert "wrapped on x and y, lattice (16, 0)" in p["summary"]
+        shader = json.loads(c.get("/api/shader")[2])
+        assert shader["modulus"] == model.lattice.modulus and "tiling_mean" in shader["textures"]
+        assert "const int TL_RANK = 1;" in shader["library"]
+        status, _, body = c.get("/tile", z=0, x=3, y=-2, seed=5, filter="none")
+        assert status == 200
+        w = tile_window(Tile(0, 3, -2, 256), Noise(5, 30.0, 0.0, "none"))
+        want = synthesize(model, w.shape, seed=5, scale=w.scale, rotation=w.rotation, offset=w.offset, device=DEVICE)
+        np.testing.assert_array_equal(decode_png(body)[..., 0], to_8bit(want)[..., 0])
 
 
 def test_what_a_tiling_model_cannot_do_is_one_line(client):
@@ -192,14 +217,16 @@ def test_default_filter_is_one_the_viewer_offers_for_tiling(model_path):
 
 @pytest.mark.slow
 @pytest.mark.skipif(CHROMIUM is None, reason="no Chromium on PATH")
-@pytest.mark.parametrize("which", ["preserving", "plain_guided"])
+@pytest.mark.parametrize("which", ["preserving", "plain_guided", "lattice"])
 def test_webgl_draws_the_tiling_model(which, model_path, model, tmp_path):
     """The page's WebGL2 mode draws the model with its GLSL port (the histogram tables after the
     blend): a view off the origin, zoomed out, turned and re-seeded, pans and the seed slider
     redraw without a request, and the canvas is ``synthesize`` of the view, held to the texton
     WebGL test's bounds (8-bit pixels: at most 0.1 % beyond ±1 level of the tiles and of
     ``synthesize``; floats: at most 0.1 % beyond 1e-3 of the range) and to the issue's (at least
-    99 % within 2/255). A filter other than none is drawn by the tiles."""
+    99 % within 2/255). A filter other than none is drawn by the tiles. "lattice": a seamless running bond
+    read wrapped and snapped to its lattice (issue 39), loaded from its file: the page places the view's
+    anchor mod the lattice's modulus itself."""
     from clients import chromium_browser
     from test_view_webgl import BEYOND_ONE, CANVAS, Page, beyond_one
 
@@ -208,11 +235,23 @@ def test_webgl_draws_the_tiling_model(which, model_path, model, tmp_path):
         model = TilingModel(u, 13.3, 8, 1.5, {}, "variance")
         model_path = tmp_path / "plain.exr"
         model.save(model_path)
+    if which == "lattice":
+        u = running_bond()
+        both = (True, True)
+        model = TilingModel(u, 30.0, 16, 0.0, {}, "variance", None, both,
+                            Lattice.from_vectors([(16, 16), (16, -16)], u.shape, both))
+        model_path = tmp_path / "lattice.exr"
+        model.save(model_path)
+        assert load_texton(model_path).lattice == model.lattice
     with serve(model_path, port=0, device=DEVICE, filter="none") as server, chromium_browser() as browser:
         p = Page(browser, server.url + "?render=webgl")
         try:
             r = p.render()
             assert r["drawing"] == "webgl" and "SwiftShader" in r["renderer"]
+            if which == "lattice":
+                payload = json.loads(Client(server).get("/api/shader")[2])
+                assert payload["modulus"] == 128 and sorted(payload["textures"]) == ["tiling_example", "tiling_mean"]
+                assert "lattice (16, -16); (16, 16)" in payload["texton"]
             shaders = [u for u in p.requests if "/api/shader?" in u]
             assert len(shaders) == 1 and not [u for u in p.requests if "/tile?" in u]
             p.eval("window.viewer.setView({ left: 5234.5, top: -1321.25 })")

@@ -30,8 +30,9 @@ def _analyze_arguments(p: argparse.ArgumentParser) -> None:
 
 def _analyze(args) -> None:
     from ..model.analysis import analyze
+    from .info import structure_lines, summary
     from .options import analysis_kwargs, read_example
-    from ..model.tiling import STRUCTURE_THRESHOLD, TilingModel, scorable, structure_score, suggest_method
+    from ..model.tiling import TilingModel, scorable, structure_score, suggest_method
 
     out = Path(args.output)
     if out.suffix.lower() not in (".exr", ".texton"):
@@ -41,6 +42,9 @@ def _analyze(args) -> None:
                           param="histogram")
     if args.method == "tiling" and out.suffix.lower() != ".exr":
         raise TextonError(f"{out}: a tiling model is saved as .exr only", param="output")
+    note = ""
+    if args.method == "auto" and out.suffix.lower() == ".texton":
+        args.method, note = "texton", " (--method texton: a .texton file holds no tiling model)"
     kwargs = analysis_kwargs(args)  # options that do not apply are refused before the image is read
     u = read_example(args.input, args.iterations, args.crop, args.downscale, histogram=args.histogram,
                      method=args.method)
@@ -53,21 +57,18 @@ def _analyze(args) -> None:
     if isinstance(texton, TilingModel):
         h, w = texton.example.shape[:2]
         print(f"{out}: tiling model of a {w}x{h} example, triangle side {texton.side:g} ({seconds_since(t0)})")
-        score = texton.structure
     else:
         print(f"{out}: {texton.size[1]}x{texton.size[0]} texton, order {texton.order}, "
-              f"model error {texton.metadata['model_error']:.3f} ({seconds_since(t0)})")
-        score = None
-        if scorable(u.shape):
-            try:  # a hint only: skipped when it is over the budgets the texton was within
-                score = structure_score(u, seed=args.seed)
-            except OverBudget:
-                score = None
-    if score is not None:
-        fits = suggest_method(score)
-        advice = "fits" if fits == args.method else f"try --method {fits}"
-        print(f"structure score {score:.2f} (1: Gaussian-like; above {STRUCTURE_THRESHOLD:g}: shapes that "
-              f"texton noise loses): method {fits!r} fits the example; {advice}")
+              f"model error {texton.metadata['model_error']:.3f} ({seconds_since(t0)}){note}")
+    facts = summary(texton)
+    if "structure" not in facts["metadata"] and scorable(u.shape):
+        try:  # a hint only: skipped when it is over the budgets the texton was within
+            facts["metadata"]["structure"] = structure_score(u, seed=args.seed)
+            facts["suggested_method"] = suggest_method(facts["metadata"]["structure"])
+        except OverBudget:
+            pass
+    for line in structure_lines(facts, args.method):
+        print(line.strip())
 
 
 ANALYZE = Command(

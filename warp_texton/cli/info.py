@@ -24,7 +24,13 @@ def summary(model) -> dict:
         h, w, _ = model.example.shape
         out.update(example=[w, h], side=model.side, margin=model.margin, sharpness=model.sharpness,
                    guide_weight=model.guide_weight, blend=model.blend,
-                   mean=[float(v) for v in model.colours().mean(axis=(0, 1), dtype="float64")])
+                   mean=[float(v) for v in model.colours().mean(axis=(0, 1), dtype="float64")],
+                   wrap=[bool(model.wrap[0]), bool(model.wrap[1])],
+                   lattice=None if model.lattice is None else {
+                       "vectors": [list(v) for v in model.lattice.vectors], "strength": model.lattice.strength})
+        fit = model.metadata.get("fit")
+        if isinstance(fit, dict):
+            out["fit"] = fit
     else:
         out.update(size=[model.size[1], model.size[0]], order=model.order, mean=[float(v) for v in model.mean],
                    support_area=float(model.support_area))
@@ -33,14 +39,63 @@ def summary(model) -> dict:
             out["histogram_judge"] = {"kept": "zero-sum" if model.metadata.get("zero_sum") else "plain",
                                    "marginal_errors": model.metadata.get("histogram_marginal_errors")}
     score = meta.get("structure")
-    if isinstance(score, (int, float)) and not isinstance(score, bool):
+    choice = model.metadata.get("method_choice")
+    if choice is None and isinstance(model.metadata.get("tiling_distance"), (int, float)):
+        texton = model.metadata.get("texton_distance_blended", model.metadata.get("texton_distance"))
+        choice = {"tiling": model.metadata["tiling_distance"], "texton": texton}
+    if isinstance(choice, dict) and all(isinstance(choice.get(k), (int, float)) for k in ("tiling", "texton")):
+        from ..model.analysis import AUTO_TILING_FRACTION
+
+        out["method_choice"] = {k: float(choice[k]) for k in ("tiling", "texton")}
+        closer = choice["tiling"] < AUTO_TILING_FRACTION * choice["texton"]
+        out["suggested_method"] = "tiling" if closer else "texton"
+    elif isinstance(score, (int, float)) and not isinstance(score, bool):
         out["suggested_method"] = suggest_method(float(score))
     out["metadata"] = meta
     return out
 
 
-def _text(path: str, s: dict) -> list[str]:
+def structure_lines(s: dict, method: str | None = None) -> list[str]:
+    """What the analysis found, for people: seamless or not, the lattice, the side chosen, the structure
+    score and the method that fits (``summary``'s facts; ``method``: the one asked for, to advise)."""
     from ..model.tiling import STRUCTURE_THRESHOLD
+
+    lines = []
+    if s["kind"] == "tiling":
+        fit = s.get("fit") or {}
+        wrap = s["wrap"]
+        seams = fit.get("seams")
+        how = {(True, True): "yes (read wrapped)", (False, False): "no (a crop: read inside its borders)",
+               (True, False): "across x only", (False, True): "across y only"}[tuple(wrap)]
+        ratios = f" (seam ratios x {seams[0]:.2f}, y {seams[1]:.2f}; seamless at most 2.5)" if seams else ""
+        lines.append(f"  seamless: {how}{ratios}")
+        lat = s.get("lattice")
+        if lat is None:
+            found = fit.get("lattices")
+            lines.append("  lattice: none" + (" found" if found == [] else " kept (the probes were closer without "
+                                                                            "one)" if found else ""))
+        else:
+            vecs = "; ".join(f"({v[0]:.2f}, {v[1]:.2f})" for v in lat["vectors"])
+            kind = "courses" if len(lat["vectors"]) == 1 else "tiles"
+            strength = "" if lat["strength"] is None else f", strength {lat['strength']:.2f}"
+            lines.append(f"  lattice: {kind}, vectors (dy, dx) {vecs} texels{strength}")
+        cands = fit.get("candidates") or []
+        if cands:
+            lines.append(f"  side {s['side']:g} texels, chosen among {len(cands)} candidates by their probes' "
+                         f"patch distance")
+    score = s["metadata"].get("structure")
+    choice = s.get("method_choice")
+    if isinstance(score, (int, float)):
+        fits = s.get("suggested_method", s["kind"])
+        advice = "" if method in (None, "auto") else ("; fits" if fits == method else f"; try --method {fits}")
+        why = (f"; patch distance to the example: tiling {choice['tiling']:.4f}, texton (phase-randomised) "
+               f"{choice['texton']:.4f}") if choice else ""
+        lines.append(f"  structure score {score:.2f} (1: Gaussian-like; above {STRUCTURE_THRESHOLD:g}: shapes that "
+                     f"texton noise loses): method {fits!r} fits the example{why}{advice}")
+    return lines
+
+
+def _text(path: str, s: dict) -> list[str]:
 
     colours = "grey" if s["channels"] == 1 else "RGB"
     mean = ", ".join(f"{v:.4f}" for v in s["mean"])
@@ -61,9 +116,7 @@ def _text(path: str, s: dict) -> list[str]:
                    f"marginal W1 on samples {marginals[0]:.4g} (plain), {marginals[1]:.4g} (zero-sum)")
             kept = "zero-sum (no power at frequency 0)" if kept == "zero-sum" else "plain"
             lines.append(f"  histogram judge: kept the {kept} texton; zero-sum: {why}")
-    if "suggested_method" in s:
-        lines.append(f"  structure score {s['metadata']['structure']:.2f} (above {STRUCTURE_THRESHOLD:g}: shapes that "
-                     f"texton noise loses): method {s['suggested_method']!r} fits the example")
+    lines.extend(structure_lines(s))
     if "source" in s["metadata"]:
         lines.append(f"  analysed from {s['metadata']['source']}")
     return lines

@@ -59,26 +59,35 @@ ANALYSIS_NAMES = {"size": "--size", "order": "--order", "iterations": "--iterati
                   "support": "--support", "histogram": "--histogram", "downscale": "--downscale",
                   "factor": "--downscale", "crop": "--crop", "crop x": "--crop X", "crop y": "--crop Y",
                   "crop width": "--crop W", "crop height": "--crop H", "method": "--method",
-                  "side": "--side"}
+                  "side": "--side", "lattice": "--lattice", "periodic": "--periodic"}
 
 
 def add_analysis_options(p: argparse.ArgumentParser, seed: bool = True) -> None:
     g = p.add_argument_group("analysis options" + ("" if seed else " (when INPUT is an image)"))
-    g.add_argument("--method", choices=("texton", "tiling"), default="texton",
-                   help="texton: Gaussian texton noise (default); tiling: tiling and blending of the example, for "
-                        "structured textures (bricks, tiles; docs/tiling.md)")
+    g.add_argument("--method", choices=("auto", "texton", "tiling"), default="auto",
+                   help="auto (default): the method whose output is closer to the example (tiling where the "
+                        "example has shapes, texton where it is Gaussian-like); texton: Gaussian texton noise; "
+                        "tiling: tiling and blending of the example, for structured textures (bricks, tiles; "
+                        "docs/tiling.md)")
     g.add_argument("--size", type=int, default=64, help="texton side (square) or diameter (disk), in texels")
     g.add_argument("--side", type=int, default=None,
-                   help="with --method tiling: the side of the blend triangles, in texels (default a quarter "
-                        "of the example's smaller side)")
+                   help="with --method tiling (or auto): the side of the blend triangles, in texels (default: "
+                        "chosen by the fit, up to half the example's smaller side where it is seamless)")
+    g.add_argument("--lattice", default="auto", metavar="auto|none|DY,DX[;DY,DX]",
+                   help="with --method tiling (or auto): the example's lattice, detected (auto, default), none, or "
+                        "one or two vectors in texels (courses; tiles and bonds), e.g. '32,32;32,-32'")
     g.add_argument("--order", type=int, default=1, choices=(0, 1, 3, 5),
                    help="interpolation order: 0 nearest (EUSIPCO SOT), 1 bilinear (CGF), 3/5 B-spline")
     g.add_argument("--iterations", type=int, default=50, help="alternating projections")
     if seed:
         g.add_argument("--seed", type=int, default=0, help="random seed")
     g.add_argument("--support", choices=("square", "disk"), default="square", help="shape of the texton support")
-    g.add_argument("--no-periodic", dest="periodic", action="store_false",
-                   help="analyse the image itself, not its periodic component")
+    g.add_argument("--periodic", choices=("auto", "yes", "no"), default="auto",
+                   help="tiling: read the example wrapped across its borders (yes), not (no), or where it is "
+                        "seamless (auto, default); texton: analyse its periodic component (auto, yes) or the "
+                        "image itself (no)")
+    g.add_argument("--no-periodic", dest="periodic", action="store_const", const="no",
+                   help="the same as --periodic no")
     g.add_argument("--no-color-correction", dest="color_correction", action="store_false",
                    help="skip the colour-covariance correction")
     g.add_argument("--histogram", choices=("gaussian", "preserve"), default="gaussian",
@@ -168,8 +177,24 @@ def analysis_options(args):
     from ..model.analysis_options import AnalysisOptions
 
     return AnalysisOptions(size=args.size, order=args.order, iterations=args.iterations, seed=args.seed,
-                           periodic=args.periodic, color_correction=args.color_correction, support=args.support,
-                           histogram=args.histogram)
+                           periodic=args.periodic != "no", color_correction=args.color_correction,
+                           support=args.support, histogram=args.histogram)
+
+
+def lattice_argument(text: str):
+    """--lattice's value as ``analyze``'s ``lattice``: "auto", None, or one or two (dy, dx) vectors."""
+    if text == "auto":
+        return "auto"
+    if text == "none":
+        return None
+    try:
+        vectors = [tuple(float(v) for v in part.split(",")) for part in text.split(";")]
+    except ValueError:
+        vectors = []
+    if not 1 <= len(vectors) <= 2 or any(len(v) != 2 for v in vectors):
+        raise TextonError(f"--lattice must be auto, none, or one or two vectors DY,DX separated by ';', got "
+                          f"{text!r:.60}", param="lattice")
+    return vectors
 
 
 def add_format_options(p: argparse.ArgumentParser, zarr: bool = False) -> None:
@@ -221,9 +246,9 @@ def read_example(path, iterations: int, crop=None, downscale: int = 1, *, histog
             _, _, w, h = crop_box(crop, (h, w))
         if isinstance(downscale, int) and 1 <= downscale <= min(h, w):
             h, w = h // downscale, w // downscale
-        if method == "tiling":
+        if method in ("tiling", "auto"):
             check_tiling_analysis((h, w, c), histogram=histogram)
-        else:
+        if method in ("texton", "auto"):
             check_analysis_cost((h, w), c, iterations, f"analysing a {w}x{h} image", histogram=histogram)
     u = read_image(path)
     if crop is not None:
@@ -235,19 +260,26 @@ def read_example(path, iterations: int, crop=None, downscale: int = 1, *, histog
 def analysis_kwargs(args) -> dict:
     """``analyze``'s keyword arguments from the analysis options (``--method tiling``: its own)."""
     method = getattr(args, "method", "texton")
-    if getattr(args, "side", None) is not None and method != "tiling":
-        raise TextonError("--side applies to --method tiling only", param="side")
+    lattice = getattr(args, "lattice", "auto")
+    if method == "texton":
+        for flag, given in (("--side", getattr(args, "side", None) is not None), ("--lattice", lattice != "auto")):
+            if given:
+                raise TextonError(f"{flag} applies to --method tiling (or auto) only", param=flag[2:])
+        return {"options": analysis_options(args)}
+    periodic = {"auto": "auto", "yes": True, "no": False}[args.periodic]
+    tiling = {"method": method, "side": args.side, "seed": args.seed, "histogram": args.histogram,
+              "periodic": periodic, "lattice": lattice_argument(lattice)}
     if method == "tiling":
         texton_only = [flag for flag, value, default in (
             ("--size", args.size, 64), ("--order", args.order, 1), ("--iterations", args.iterations, 50),
-            ("--support", args.support, "square"), ("--no-periodic", args.periodic, True),
-            ("--no-color-correction", args.color_correction, True))
+            ("--support", args.support, "square"), ("--no-color-correction", args.color_correction, True))
             if value != default]
         if texton_only:
             verb = "applies" if len(texton_only) == 1 else "apply"
             raise TextonError(f"{', '.join(texton_only)} {verb} to --method texton only", param="method")
-        return {"method": "tiling", "side": args.side, "seed": args.seed, "histogram": args.histogram}
-    return {"options": analysis_options(args)}
+        return tiling
+    return {**tiling, "size": args.size, "order": args.order, "iterations": args.iterations,
+            "support": args.support, "color_correction": args.color_correction}
 
 
 def texton_of(args, path=None):

@@ -25,7 +25,8 @@ import numpy as np
 import scipy.fft as sfft
 
 from ..core.checks import as_image, check_bool, check_int, check_seed
-from .tiling import TILING_KIND, TilingModel, fit_tiling
+from .tiling import MIN_SIDE, TILING_KIND, TilingModel, scorable
+from .tiling_fit import LATTICE_AUTO, fit_tiling
 from .bspline import bhat, bspline
 from .analysis_options import SUPPORTS, AnalysisOptions, check_support  # noqa: F401 - this module's names too
 from ..core.errors import TextonError
@@ -38,7 +39,11 @@ from .gaussian import FFT_WORKERS, normalized_kernel, relative_model_error_half
 from .texton import Texton, lag0_covariance
 
 #: The methods of `analyze`: the Gaussian texton model (the default), tiling and blending.
-METHODS = ("texton", TILING_KIND)
+METHODS = ("texton", TILING_KIND, "auto")
+#: ``method="auto"`` picks the tiling model where its probe's patch distance to the example is below
+#: this fraction of the phase-randomised example's (what texton noise converges to; its own outputs
+#: are farther still): measured on the labelled set of benchmarks/bench_advice.py.
+AUTO_TILING_FRACTION = 1.0
 
 #: Bytes per image value (pixel × channel) that the analysis holds at its peak:
 #: the periodic component and the kernel in float64, their spectra (complex128
@@ -191,7 +196,7 @@ def analyze(
     order: int = 1,
     iterations: int = 50,
     seed: int = 0,
-    periodic: bool = True,
+    periodic: bool | str | None = None,
     color_correction: bool = True,
     support: str = "square",
     histogram: str = "gaussian",
@@ -199,6 +204,7 @@ def analyze(
     options: AnalysisOptions | None = None,
     method: Literal["texton"] = "texton",
     side: int | None = None,
+    lattice=LATTICE_AUTO,
 ) -> Texton: ...
 
 
@@ -210,7 +216,7 @@ def analyze(
     order: int = 1,
     iterations: int = 50,
     seed: int = 0,
-    periodic: bool = True,
+    periodic: bool | str | None = None,
     color_correction: bool = True,
     support: str = "square",
     histogram: str = "gaussian",
@@ -218,6 +224,7 @@ def analyze(
     options: AnalysisOptions | None = None,
     method: Literal["tiling"],
     side: int | None = None,
+    lattice=LATTICE_AUTO,
 ) -> TilingModel: ...
 
 
@@ -229,7 +236,7 @@ def analyze(
     order: int = 1,
     iterations: int = 50,
     seed: int = 0,
-    periodic: bool = True,
+    periodic: bool | str | None = None,
     color_correction: bool = True,
     support: str = "square",
     histogram: str = "gaussian",
@@ -237,6 +244,7 @@ def analyze(
     options: AnalysisOptions | None = None,
     method: str = "texton",
     side: int | None = None,
+    lattice=LATTICE_AUTO,
 ) -> Texton | TilingModel: ...
 
 
@@ -247,7 +255,7 @@ def analyze(
     order: int = 1,
     iterations: int = 50,
     seed: int = 0,
-    periodic: bool = True,
+    periodic: bool | str | None = None,
     color_correction: bool = True,
     support: str = "square",
     histogram: str = "gaussian",
@@ -255,8 +263,10 @@ def analyze(
     options: AnalysisOptions | None = None,
     method: str = "texton",
     side: int | None = None,
+    lattice=LATTICE_AUTO,
 ) -> Texton | TilingModel:
-    """Compute the texton of a Gaussian texture example.
+    """Compute the texton of a Gaussian texture example (or, with ``method``, the tiling model of a
+    structured one).
 
     Parameters
     ----------
@@ -281,8 +291,12 @@ def analyze(
     seed : int
         Seed of the random initial phase; the texton is a deterministic
         function of (u, parameters, seed).
-    periodic : bool
-        Analyse the periodic component of u (CGF §4.2) rather than u itself.
+    periodic : bool or "auto", optional
+        Texton: analyse the periodic component of u (CGF §4.2) rather than u
+        itself (True, the default; "auto" is True). Tiling: read the example
+        wrapped across its borders (True), or not (False), or where it is
+        seamless ("auto", the default: its seam ratio per axis,
+        :func:`~warp_texton.model.lattice.seam_ratios`).
     color_correction : bool
         Apply the linear colour map that makes the noise's lag-0 colour
         covariance equal to the input's (for grey: its variance).
@@ -319,19 +333,30 @@ def analyze(
         (``NonStationaryWarning``), a ``size`` past half of it
         (``LargeTextonWarning``); the classes are in
         :mod:`warp_texton.model.example_checks`. The analysis goes on.
-    method : {"texton", "tiling"}
+    method : {"texton", "tiling", "auto"}
         ``"texton"`` (the default): the Gaussian texton model, for textures
         without shapes (docs/model.md). ``"tiling"``: tiling and blending of
         the example itself (:class:`~warp_texton.model.tiling.TilingModel`,
         docs/tiling.md), for structured textures (bricks, tiles, paving);
         ``seed`` is then that of the structure score, and the
-        texton-only options (``size``, ``order``, ``iterations``, ``periodic``,
-        ``color_correction``, ``support``, ``histogram``) must keep their
+        texton-only options (``size``, ``order``, ``iterations``,
+        ``color_correction``, ``support``) must keep their
         defaults. Its ``metadata["structure"]`` is the measured structure
-        score (:func:`~warp_texton.model.tiling.structure_score`).
+        score (:func:`~warp_texton.model.tiling.structure_score`) and
+        ``metadata["fit"]`` what the fit found (seams, lattices, the
+        candidates' distances). ``"auto"``: the tiling model where its probe
+        is closer to the example, by the patch distance, than the
+        phase-randomised example (what texton noise makes of it), else the
+        texton (``metadata["method_choice"]`` holds both distances).
     side : int, optional
         With ``method="tiling"``: the side of the blend triangles in texels
-        (default a quarter of the example's smaller side).
+        (default: chosen by the fit's probes among a quarter, a third and a
+        half of the example's smaller side when it wraps, a quarter and a
+        sixth otherwise).
+    lattice : "auto", None, or one or two vectors (dy, dx)
+        With ``method="tiling"``: the example's lattice, detected
+        (``"auto"``, kept where the probes say it helps), none (None), or
+        given in texels (:class:`~warp_texton.model.lattice.Lattice`).
 
 
     Returns
@@ -371,23 +396,20 @@ def analyze(
     >>> round(t.metadata["model_error"], 3)
     0.449
     """
-    if method not in METHODS:
+    if not isinstance(method, str) or method not in METHODS:
         raise TextonError(f"method must be one of {', '.join(METHODS)}, got {method!r:.60}", param="method")
-    if method == TILING_KIND:
-        changed = [name for name, value, default in (
-            ("size", size, 64), ("order", order, 1), ("iterations", iterations, 50), ("periodic", periodic, True),
-            ("color_correction", color_correction, True), ("support", support, "square"))
-            if not (type(value) is type(default) and value == default)]
-        if options is not None:
-            changed.insert(0, "options")
-        if changed:
-            verb = "applies" if len(changed) == 1 else "apply"
-            raise TextonError(f"{', '.join(changed)} {verb} to method 'texton' only, not to method 'tiling'",
-                              param=changed[0])
-        side = None if side is None else check_int(side, "side", minimum=2)
-        return fit_tiling(as_image(u), side=side, seed=check_seed(seed), histogram=check_histogram(histogram))
+    if periodic is not None and not (isinstance(periodic, bool) or periodic == "auto"):
+        raise TextonError(f"periodic must be True, False or 'auto', got {periodic!r:.60}", param="periodic")
+    if method in (TILING_KIND, "auto"):
+        return _by_method(u, method, dict(size=size, order=order, iterations=iterations, seed=seed,
+                                          periodic=periodic, color_correction=color_correction, support=support,
+                                          histogram=histogram, progress=progress, options=options), side, lattice)
     if side is not None:
         raise TextonError("side applies to method 'tiling' only", param="side")
+    if lattice is not LATTICE_AUTO:
+        raise TextonError("lattice applies to method 'tiling' only", param="lattice")
+    if periodic is None or periodic == "auto":
+        periodic = True
     u = as_image(u)
     o = AnalysisOptions.given(options, size=size, order=order, iterations=iterations, seed=seed, periodic=periodic,
                               color_correction=color_correction, support=support, histogram=histogram)
@@ -433,6 +455,45 @@ def analyze(
     texton.metadata.update(histogram=histogram, histogram_mni=NOISE_MNI)
     return replace(texton, histogram=transform)
 
+
+
+def _by_method(u, method: str, texton_options: dict, side, lattice) -> Texton | TilingModel:
+    """``analyze`` with ``method`` "tiling" or "auto" (``texton_options``: its texton keywords)."""
+    o = texton_options
+    size, order, iterations, seed, periodic = o["size"], o["order"], o["iterations"], o["seed"], o["periodic"]
+    color_correction, support, histogram, options = o["color_correction"], o["support"], o["histogram"], o["options"]
+    choice: dict | None = None
+    changed = [name for name, value, default in (
+        ("size", size, 64), ("order", order, 1), ("iterations", iterations, 50),
+        ("color_correction", color_correction, True), ("support", support, "square"))
+        if not (type(value) is type(default) and value == default)]
+    if options is not None:
+        changed.insert(0, "options")
+    if changed and method == TILING_KIND:
+        verb = "applies" if len(changed) == 1 else "apply"
+        raise TextonError(f"{', '.join(changed)} {verb} to method 'texton' only, not to method 'tiling'",
+                          param=changed[0])
+    side = None if side is None else check_int(side, "side", minimum=2)
+    a = as_image(u)
+    if method == TILING_KIND or (scorable(a.shape) and min(a.shape[:2]) >= MIN_SIDE):
+        model = fit_tiling(a, side=side, seed=check_seed(seed), histogram=check_histogram(histogram),
+                           periodic="auto" if periodic is None else periodic,
+                           lattice="auto" if lattice is LATTICE_AUTO else lattice)
+        if method == TILING_KIND:
+            return model
+        d_tiling = model.metadata.get("tiling_distance")
+        d_texton = model.metadata.get("texton_distance_blended", model.metadata.get("texton_distance"))
+        choice = {"tiling": d_tiling, "texton": d_texton}
+        if d_tiling is not None and d_texton is not None and d_tiling < AUTO_TILING_FRACTION * d_texton:
+            model.metadata["method_choice"] = choice
+            return model
+    texton = analyze(a, size=size, order=order, iterations=iterations, seed=seed,
+                     periodic=True if periodic in (None, "auto") else periodic, color_correction=color_correction,
+                     support=support, histogram=histogram, progress=o["progress"], options=options)
+    if choice is not None:
+        texton.metadata["method_choice"] = choice
+        texton.metadata["structure"] = model.metadata.get("structure")
+    return texton
 
 @dataclass(frozen=True)
 class Candidate:

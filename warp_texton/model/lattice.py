@@ -33,11 +33,11 @@ import numbers
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import fft as sfft
-from scipy.ndimage import map_coordinates, maximum_filter
 
 from ..core.errors import TextonError
-from .gaussian import periodic_component
+
+# SciPy (its FFT and ndimage) and the periodic component are imported where they are used: a model file
+# that holds a lattice is read, and rendered, without them (tests/cli/test_startup.py)
 
 __all__ = ["Seams", "seam_ratios", "SEAM_THRESHOLD", "Lattice", "detect_lattices", "lattice_mean", "MIN_STRENGTH",
            "MIN_VECTOR", "MAX_MODULUS", "lattice_of"]
@@ -53,6 +53,16 @@ MAX_MODULUS = 1 << 16
 MIN_STRENGTH = 0.03
 #: ... and weaker than this many standard errors of their own estimate.
 MIN_SIGNIFICANCE = 5.0
+#: Of the candidates of a rank, those whose least autocorrelation at their vectors (:func:`_support`) is at
+#: least SUPPORT of the best one's, and whose strength is at least STRENGTH_KEPT of the strongest's, the
+#: one of the smallest cell is the texture's (its sublattices explain as much with larger cells).
+SUPPORT = 0.5
+STRENGTH_KEPT = 0.85
+#: A 2-D lattice is reported beside the 1-D one only where it holds this much more of the variance (a
+#: second vector along courses of stones of random length explains nothing more, and misregisters them).
+MIN_SECOND_AXIS = 0.03
+#: A lattice frequency counts in a lattice's strength where its power is this many times its background.
+PEAK_CONTRAST = 3.0
 #: Autocorrelation peaks that seed the candidates: value, dip towards the origin, how many.
 PEAK_VALUE = 0.05
 PEAK_DIP = 0.1
@@ -322,7 +332,8 @@ class Lattice:
             raise TextonError("lattice: the two vectors are parallel (give one vector for courses)",
                               param="lattice")
         h, w = shape[:2]
-        f = v / (lengths ** 2)[:, None] if v.shape[0] == 1 else np.linalg.inv(v.T).T  # rows: cycles per texel
+        # rows f_j: cycles per texel, f_j · v_i = δ_ij (F V^T = I)
+        f = v / (lengths ** 2)[:, None] if v.shape[0] == 1 else np.linalg.inv(v.T)
         both = bool(wrap[0]) and bool(wrap[1])
         lcm = h * w // math.gcd(h, w)
         if both and lcm <= MAX_MODULUS:
@@ -346,6 +357,7 @@ def _luminance(u) -> np.ndarray:
 
 def _prepared(u, exact: bool) -> np.ndarray:
     """The example's luminance, mean removed; its periodic component unless it wraps on both axes."""
+    from .gaussian import periodic_component
     g = _luminance(u)
     if not exact:
         g = np.asarray(periodic_component(g[:, :, None]), np.float64)[:, :, 0]
@@ -355,6 +367,7 @@ def _prepared(u, exact: bool) -> np.ndarray:
 
 def autocorrelation(g: np.ndarray) -> np.ndarray:
     """The circular autocorrelation of g (mean removed), 1 at lag 0, lag 0 at the centre (H // 2, W // 2)."""
+    from scipy import fft as sfft
     f = sfft.rfft2(g)
     a = sfft.irfft2(np.abs(f) ** 2, s=g.shape)
     return sfft.fftshift(a / max(float(a[0, 0]), 1e-30))
@@ -372,10 +385,12 @@ def _subpixel(a: np.ndarray, y: int, x: int) -> np.ndarray:
 
 
 def autocorrelation_peaks(a: np.ndarray, limit: float) -> list[tuple[float, np.ndarray]]:
-    """(value, lag (dy, dx)) of the autocorrelation's peaks in one half plane, strongest first: local maxima
+    """(value, lag (dy, dx)) of the autocorrelation's peaks in one half plane, nearest first: local maxima
     (5 × 5) at least :data:`MIN_VECTOR` and at most ``limit`` texels from the origin, of value at least
     :data:`PEAK_VALUE`, dipping by :data:`PEAK_DIP` on the way to the origin (not the central lobe's
-    slope); sub-texel by a parabola on each axis."""
+    slope), the nearest :data:`PEAKS` of those at least half as high as the highest; sub-texel by a parabola
+    on each axis."""
+    from scipy.ndimage import map_coordinates, maximum_filter
     h, w = a.shape
     c = np.array([h // 2, w // 2], np.float64)
     ys, xs = np.nonzero(a == maximum_filter(a, size=5, mode="wrap"))
@@ -391,8 +406,13 @@ def autocorrelation_peaks(a: np.ndarray, limit: float) -> list[tuple[float, np.n
         if a[y, x] - map_coordinates(a, [seg[:, 0], seg[:, 1]], order=1, mode="wrap").min() < PEAK_DIP:
             continue
         out.append((float(a[y, x]), d))
-    out.sort(key=lambda p: -p[0])
-    return out[:PEAKS]
+    if not out:
+        return out
+    # the nearest of the strong peaks: a lattice's basis is short, and a regular texture's far peaks are as
+    # high as its near ones
+    top = max(p[0] for p in out)
+    strong = sorted((p for p in out if p[0] >= 0.5 * top), key=lambda p: float(np.hypot(*p[1])))
+    return strong[:PEAKS]
 
 
 def _refined(a: np.ndarray, basis: np.ndarray, reach: int = 4) -> np.ndarray:
@@ -440,6 +460,20 @@ def lattice_frequencies(lattice: Lattice, shape) -> np.ndarray:
     return pts[keep & half]
 
 
+def lattice_power(g: np.ndarray, exact: bool) -> np.ndarray:
+    """The power spectrum the strengths are read from: g's own where the example wraps on both axes (its
+    lattice frequencies fall on bins), else g under a Hann window: a frequency between bins leaks into
+    the bins a few away from it as 1/d³ instead of 1/d², so that a lattice's sublattices, whose frequencies
+    lie between the texture's, find no power there."""
+    from scipy import fft as sfft
+    if not exact:
+        wy, wx = np.hanning(g.shape[0] + 2)[1:-1], np.hanning(g.shape[1] + 2)[1:-1]
+        g = (g - g.mean()) * wy[:, None] * wx[None, :]
+    power = np.abs(sfft.fft2(g)) ** 2
+    power[0, 0] = 0.0
+    return power
+
+
 def _strength(power: np.ndarray, lattice: Lattice, exact: bool) -> tuple[float, float]:
     """(strength, its standard error): the power at the lattice's frequencies above the local background
     (median of a ring around each, over ln 2: the mean of an exponential periodogram), over the total;
@@ -454,17 +488,21 @@ def _strength(power: np.ndarray, lattice: Lattice, exact: bool) -> tuple[float, 
     oy, ox = np.meshgrid(np.arange(-ring, ring + 1), np.arange(-ring, ring + 1), indexing="ij")
     inner = (np.abs(oy) <= r) & (np.abs(ox) <= r)
     outer = (np.abs(oy) > r + 1) | (np.abs(ox) > r + 1)
+    n_inner = int(inner.sum())
     cy = np.round(pts[:, 0] * h).astype(np.int64)
     cx = np.round(pts[:, 1] * w).astype(np.int64)
     around = power[(cy[:, None] + oy.ravel()[None, :]) % h, (cx[:, None] + ox.ravel()[None, :]) % w]
     bg = np.median(around[:, outer.ravel()], axis=1) / math.log(2.0)
-    win = around[:, inner.ravel()]
-    excess = float((win.sum(axis=1) - bg * win.shape[1]).sum())
-    var = float((bg * bg).sum() * win.shape[1])
+    win = around[:, inner.ravel()].sum(axis=1)
+    # only frequencies that stand out of their background count: a lattice's sublattices add frequencies
+    # between the texture's, where the texture's peaks leak a little into many windows
+    held = win > PEAK_CONTRAST * bg * n_inner
+    excess = float((win - bg * n_inner)[held].sum())
+    var = float((bg * bg).sum() * n_inner)
     return 2.0 * excess / total, 2.0 * math.sqrt(var) / total
 
 
-def detect_lattices(u, wrap=(False, False)) -> list[Lattice]:
+def detect_lattices(u, wrap=(False, False)) -> list[Lattice]:  # noqa: C901 (the candidates, then the best)
     """Candidate lattices of an example (H, W, C): at most one 2-D and one 1-D lattice, each of strength at
     least :data:`MIN_STRENGTH` and :data:`MIN_SIGNIFICANCE` standard errors, strongest first; [] for a
     stochastic texture.
@@ -485,8 +523,7 @@ def detect_lattices(u, wrap=(False, False)) -> list[Lattice]:
         return []
     both = wrap[0] and wrap[1]
     g = _prepared(a, both)
-    power = np.abs(sfft.fft2(g)) ** 2
-    power[0, 0] = 0.0
+    power = lattice_power(g, both)
     ac = autocorrelation(g)
     peaks = [d for _, d in autocorrelation_peaks(ac, min(h, w) / 2)]
     limit = min(h, w) / 2
@@ -539,18 +576,70 @@ def detect_lattices(u, wrap=(False, False)) -> list[Lattice]:
                 kk = m1 * k[0] + m2 * k[1]
                 if kk.any() and np.abs(kk).max() <= two.modulus // int(math.ceil(MIN_VECTOR)):
                     add_courses(Lattice(two.modulus, (tuple(int(x) for x in kk),)))
-    best: dict[int, tuple[float, float, float, Lattice]] = {}
+    rows = []
     for lattice in seen.values():
         s, se = _strength(power, lattice, both)
+        if s < MIN_STRENGTH or se > s / MIN_SIGNIFICANCE:
+            continue
         v = np.array(lattice.vectors)
         size = abs(float(np.linalg.det(v))) if lattice.rank == 2 else float(np.hypot(*v[0]))
-        old = best.get(lattice.rank)
-        score = s - 3 * se
-        if old is None or score > old[0] + 0.02 or (score > old[0] - 0.02 and size < old[2] * 0.99):
-            best[lattice.rank] = (score, s, size, Lattice(lattice.modulus, lattice.dual, round(s, 4)))
-    found = [(s, lat) for score, s, _, lat in best.values()
-             if s >= MIN_STRENGTH and score >= s - 3 * s / MIN_SIGNIFICANCE]
+        rows.append((lattice.rank, s, size, _support(ac, v), lattice))
+    found = []
+    for rank in (2, 1):
+        cand = [r for r in rows if r[0] == rank]
+        if not cand:
+            continue
+        top = max(r[3] for r in cand)
+        cand = [r for r in cand if r[3] >= SUPPORT * top and r[3] > 0]
+        if not cand:
+            continue
+        strongest = max(r[1] for r in cand)
+        _, s, _, _, lattice = min((r for r in cand if r[1] >= STRENGTH_KEPT * strongest),
+                                  key=lambda r: (r[2], -r[1]))
+        if rank == 1 and not both:
+            lattice, s = _refined_course(power, lattice, s)
+        found.append((s, Lattice(lattice.modulus, lattice.dual, round(s, 4))))
+    if len(found) == 2 and found[0][0] < found[1][0] + MIN_SECOND_AXIS:
+        found = found[1:]  # courses: a second vector adds nothing to them
     return [lat for _, lat in sorted(found, key=lambda t: -t[0])]
+
+
+def _refined_course(power: np.ndarray, lattice: Lattice, strength: float) -> tuple[Lattice, float]:
+    """A course lattice of an example that does not wrap, its dual vector moved by fractions of a frequency
+    bin to where its strength is highest (an autocorrelation peak of courses lies anywhere along its
+    ridge, and the vector through it leans): a pattern search, down to 1/16 of a bin."""
+    h, w = power.shape
+    n = lattice.modulus
+    k = lattice.dual_matrix[0].astype(np.int64)
+    step = max(1, int(round(n / (4.0 * max(h, w)))))
+    best = (strength, k)
+    while step >= max(1, n // (16 * max(h, w))):
+        moved = False
+        for dy in (-step, 0, step):
+            for dx in (-step, 0, step):
+                kk = best[1] + np.array([dy, dx])
+                try:
+                    cand = Lattice(n, (tuple(int(x) for x in kk),))
+                except TextonError:
+                    continue
+                st, _ = _strength(power, cand, False)
+                if st > best[0] + 1e-6:
+                    best, moved = (st, kk), True
+        if not moved:
+            step //= 2
+            if step == 0:
+                break
+    return Lattice(n, (tuple(int(x) for x in best[1]),)), best[0]
+
+
+def _support(ac: np.ndarray, vectors: np.ndarray) -> float:
+    """The autocorrelation (centred, :func:`autocorrelation`) at a lattice's vectors, the least of them
+    (bilinear): every vector of the texture's lattice is a peak of it; a lattice that is not the
+    texture's has a vector where the texture does not repeat."""
+    from scipy.ndimage import map_coordinates
+    c = np.array([ac.shape[0] // 2, ac.shape[1] // 2], np.float64)
+    at = c[None, :] + np.asarray(vectors, np.float64)
+    return float(map_coordinates(ac, [at[:, 0], at[:, 1]], order=1, mode="wrap").min())
 
 
 def _repeats(vectors: np.ndarray, shape) -> np.ndarray:
@@ -580,6 +669,7 @@ def lattice_mean(u, lattice: Lattice, wrap=(False, False)) -> np.ndarray:
     torus the example tiles. Otherwise: texels binned by phase (k · x / N mod 1; bins of about a texel,
     bilinear splat), each bin's mean read back bilinearly at each texel's phase.
     """
+    from scipy import fft as sfft
     a = np.asarray(u, np.float64)
     a = a[:, :, None] if a.ndim == 2 else a
     h, w, c = a.shape
@@ -591,13 +681,13 @@ def lattice_mean(u, lattice: Lattice, wrap=(False, False)) -> np.ndarray:
             mask[iy, ix] = mask[-iy % h, -ix % w] = True
         f = sfft.fft2(a, axes=(0, 1))
         return np.real(sfft.ifft2(f * mask[:, :, None], axes=(0, 1))).astype(np.float32)
-    yy, xx = np.meshgrid(np.arange(h) + 0.5, np.arange(w) + 0.5, indexing="ij")
+    # phases at texel indices: an integer lattice's texels then fall on bin centres, each in one bin
+    yy, xx = np.meshgrid(np.arange(h, dtype=np.float64), np.arange(w, dtype=np.float64), indexing="ij")
     phase = (np.stack([yy.ravel(), xx.ravel()], axis=1) @ lattice.frequencies().T) % 1.0  # (HW, rank)
-    lengths = np.hypot(*np.array(lattice.vectors).T) if lattice.rank == 2 else \
-        np.array([np.hypot(*lattice.vectors[0])])
-    bins = [max(4, int(round(float(n)))) for n in lengths]
     if lattice.rank == 2:  # the phase's axes are the dual vectors', whose cells span the primal basis
         bins = [max(4, int(round(float(np.hypot(*v))))) for v in _primal_of_dual(lattice)]
+    else:
+        bins = [max(4, int(round(float(np.hypot(*lattice.vectors[0])))))]
     flat = a.reshape(-1, c)
     corners = []
     for axis, n in enumerate(bins):

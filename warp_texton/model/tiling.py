@@ -30,10 +30,11 @@ from .._version import __version__
 from ..core.errors import TextonError
 from ..core.limits import check_memory, check_work
 from ..files.images import EXR, check_output_name, read_exr, read_exr_header, write_exr
-from .histogram import HistogramTransform, check_histogram, gauss_grid
+from .histogram import HistogramTransform
 from .lattice import Lattice, lattice_mean
 
-__all__ = ["TilingModel", "TILING_KIND", "KIND_ATTRIBUTE", "fit_tiling", "guide_of", "structure_score",
+__all__ = ["TilingModel", "TILING_KIND", "KIND_ATTRIBUTE", "guide_of", "structure_score", "structure_parts",
+           "centre_box", "CUTOFF_FRACTION",
            "patch_distance", "half_distance", "suggest_method", "scorable", "is_tiling_header", "load_tiling",
            "SHARPNESS", "STRUCTURE_THRESHOLD", "metadata_json", "read_metadata", "tiling_analysis_cost",
            "check_tiling_analysis"]
@@ -53,6 +54,8 @@ SIDE_FRACTION = 0.25
 MIN_SIDE = 16
 #: Largest example side read from a file or accepted.
 MAX_EXAMPLE_SIDE = 8192
+#: Blend weights below this fraction of the largest are dropped: the kernels' ``tiling_draw.CUTOFF``.
+CUTOFF_FRACTION = 1.0e-4
 #: Above this structure score the tiling model fits better than texton noise.
 STRUCTURE_THRESHOLD = 1.6
 #: Patch side and scales of :func:`patch_distance`.
@@ -75,6 +78,16 @@ MODEL_BYTES = 12.0
 SCORE_WORK = 15.0
 PRESERVE_WORK = 40.0
 MODEL_WORK = 12.0
+#: The fit's steps (model/tiling_fit.py): the lattice detections' bytes and work per pixel, the probes'
+#: bytes per probe pixel and per probe value (its index arrays, weights and sums in float64 and int64),
+#: their work per probe pixel, the probes of a fit at most (three lattices, two more sides, two seeds)
+#: and the probe's largest side.
+DETECT_BYTES = 96.0
+DETECT_WORK = 40.0
+PROBE_BYTES = (320.0, 48.0)
+PROBE_WORK = 120.0
+PROBES = 10
+PROBE_LIMIT = 512
 
 
 def guide_of(example: np.ndarray) -> np.ndarray:
@@ -171,7 +184,7 @@ class TilingModel:
         wrap = _wrap_flags(self.wrap)
         if self.lattice is not None and not isinstance(self.lattice, Lattice):
             raise TextonError(f"lattice must be a Lattice or None, got {self.lattice!r:.60}", param="lattice")
-        _centre_box(a.shape, side, wrap, self.lattice)  # refuses a side the example cannot hold
+        centre_box(a.shape, side, wrap, self.lattice)  # refuses a side the example cannot hold
         if isinstance(self.sharpness, (bool, np.bool_)) or not isinstance(self.sharpness, numbers.Integral) \
                 or self.sharpness not in SHARPNESSES:
             raise TextonError(f"sharpness must be one of {', '.join(map(str, SHARPNESSES))} (a power of two), "
@@ -220,7 +233,7 @@ class TilingModel:
     def centre_box(self) -> tuple[tuple[int, int], tuple[int, int]]:
         """((lo, n) on x, (lo, n) on y): the centres' texels per axis, lo to lo + n − 1 (kernels/tiling_draw.py):
         (0, size) on a wrapped axis, else ``margin`` (plus the lattice's half extent) from each border."""
-        return _centre_box(self.example.shape, self.side, self.wrap, self.lattice)
+        return centre_box(self.example.shape, self.side, self.wrap, self.lattice)
 
     @property
     def mean_image(self) -> np.ndarray | None:
@@ -319,7 +332,7 @@ def _wrap_flags(value) -> tuple[bool, bool]:
     return bool(value[0]), bool(value[1])
 
 
-def _centre_box(shape, side: float, wrap: tuple[bool, bool], lattice: Lattice | None):
+def centre_box(shape, side: float, wrap: tuple[bool, bool], lattice: Lattice | None):
     """((lo, n) on x, (lo, n) on y) of :attr:`TilingModel.centre_box`; a TextonError for a side the
     example cannot hold on an axis (past its size wrapped; patches crossing its border clamped)."""
     ext = (0, 0) if lattice is None else lattice.half_extent()[::-1]  # (x, y)
@@ -494,7 +507,8 @@ def _halve(u: np.ndarray) -> np.ndarray:
     return 0.25 * (u[0::2, 0::2] + u[1::2, 0::2] + u[0::2, 1::2] + u[1::2, 1::2])
 
 
-def patch_distance(u, v, *, seed: int = 0, scales: int = SCALES) -> float:
+def patch_distance(u, v, *, seed: int = 0, scales: int = SCALES, samples: int = SAMPLES,
+                   directions: int = DIRECTIONS) -> float:
     """The multi-scale 7 × 7 patch sliced-Wasserstein distance between images u and v.
 
     At each scale (the images, then halved by 2 × 2 box averages) 16384 patches
@@ -502,7 +516,8 @@ def patch_distance(u, v, *, seed: int = 0, scales: int = SCALES) -> float:
     directions; the mean |difference| of the sorted projections (the 1-D
     Wasserstein-1 distance) is averaged over directions and scales. Both images
     (H, W) or (H, W, C) with the same C and sides ≥ 7 · 2^(scales − 1).
-    Deterministic for a given ``seed``.
+    Deterministic for a given ``seed``; ``samples`` and ``directions`` trade its precision for time
+    (the tiling fit's probes use fewer).
     """
     a = np.asarray(u, np.float64)
     b = np.asarray(v, np.float64)
@@ -515,8 +530,8 @@ def patch_distance(u, v, *, seed: int = 0, scales: int = SCALES) -> float:
     rng = np.random.default_rng(seed)
     total = 0.0
     for _ in range(scales):
-        pa, pb = _patches(a, rng, SAMPLES), _patches(b, rng, SAMPLES)
-        d = rng.normal(size=(pa.shape[1], DIRECTIONS))
+        pa, pb = _patches(a, rng, samples), _patches(b, rng, samples)
+        d = rng.normal(size=(pa.shape[1], directions))
         d /= np.linalg.norm(d, axis=0)
         total += float(np.mean(np.abs(np.sort(pa @ d, axis=0) - np.sort(pb @ d, axis=0))))
         a, b = _halve(a), _halve(b)
@@ -577,6 +592,14 @@ def tiling_analysis_cost(shape, *, score: bool = True, histogram: str = "gaussia
     if model:
         peaks.append(MODEL_BYTES * values)
         work += MODEL_WORK * values
+        # the fit (tiling_fit.py): two lattice detections (FFTs of the luminance), then the probes, each
+        # a NumPy raster of the probe's side and its patch distance
+        peaks.append(DETECT_BYTES * pixels)
+        work += DETECT_WORK * pixels * log
+        if score and scorable(shape):
+            probe = float(min(PROBE_LIMIT, 2 * max(h, w))) ** 2
+            peaks.append(PROBE_BYTES[0] * probe + PROBE_BYTES[1] * probe * c + 4.0 * values)
+            work += PROBES * probe * (PROBE_WORK + 2 * 2 * SCALES * 4096 * PATCH ** 2 * c * 32 / probe)
         if histogram == "preserve":
             peaks.append(PRESERVE_BYTES[0] * values + PRESERVE_BYTES[1] * pixels)
             work += PRESERVE_WORK * values * log
@@ -614,78 +637,20 @@ def structure_score(u, *, seed: int = 0) -> float:
 
 def _structure(a: np.ndarray, seed: int) -> float:
     """:func:`structure_score` of an image (H, W, C) already checked and priced."""
-    floor = half_distance(a, seed=seed)
-    d = patch_distance(phase_randomised(a, seed), a, seed=seed)
+    d, floor = structure_parts(a, seed)
     return float(d / max(floor, 1e-12))
+
+
+def structure_parts(a: np.ndarray, seed: int) -> tuple[float, float]:
+    """(the phase-randomised example's patch distance to the example, the half-to-half distance): the
+    two parts of :func:`structure_score` of an image (H, W, C) already checked and priced."""
+    floor = half_distance(a, seed=seed)
+    return float(patch_distance(phase_randomised(a, seed), a, seed=seed)), float(floor)
 
 
 def suggest_method(score: float) -> str:
     """The method that fits a texture of this structure score: ``"tiling"`` or ``"texton"``."""
     return TILING_KIND if score > STRUCTURE_THRESHOLD else "texton"
-
-
-def fit_tiling(u, *, side: float | None = None, sharpness: int = SHARPNESS, guide_weight: float = 0.0,
-               blend: str = "variance", score: bool = True, seed: int = 0,
-               source: str | None = None, histogram: str = "gaussian") -> TilingModel:
-    """The :class:`TilingModel` of an example image (``analyze(u, method="tiling")``).
-
-    ``histogram="preserve"``: the model blends the example Gaussianised per
-    channel (the RGB channels for colour, as ``analyze``'s texton tables; the
-    one channel for grey) and maps the blend back through its tables
-    (:class:`~warp_texton.model.histogram.HistogramTransform`), so that the
-    blend zones keep the example's marginals (Heitz & Neyret 2018, §1.4)."""
-    histogram = check_histogram(histogram)
-    a = as_image(u, "u")
-    check_tiling_analysis(a.shape, score=score, histogram=histogram)  # before any of its work
-    small = min(a.shape[:2])
-    if small < MIN_SIDE:
-        raise TextonError(f"the example must be at least {MIN_SIDE} pixels on each side for method 'tiling', "
-                          f"got {a.shape[1]}x{a.shape[0]}", param="u")
-    if side is None:
-        side = max(2.0, float(math.floor(small * SIDE_FRACTION)))
-        while min(a.shape[:2]) <= 2 * margin_of(side) + 1 and side > 2.0:
-            side -= 1.0
-    metadata: dict[str, Any] = {"method": TILING_KIND}
-    if source is not None:
-        metadata["source"] = source
-    if score and scorable(a.shape):
-        metadata["structure"] = _structure(a, seed)
-    if histogram == "gaussian":
-        return TilingModel(a, side, sharpness, guide_weight, metadata, blend)
-    example, transform = gaussianised(a)
-    metadata["histogram"] = histogram
-    return TilingModel(example, side, sharpness, guide_weight, metadata, blend, transform)
-
-
-def gaussianised(u: np.ndarray) -> tuple[np.ndarray, HistogramTransform]:
-    """(example, transform) of a histogram-preserving tiling model of the image u (H, W, C).
-
-    The example is u Gaussianised per channel (RGB channels for colour, as
-    ``analyze``'s texton tables; grey's one channel): ranks to standard
-    Gaussian quantiles (:meth:`HistogramTransform.to_gaussian`), float32. The
-    outputs standardise the blend by the example's own mean and standard
-    deviation (:func:`warp_texton.noise.colours.noise_moments`), so each table
-    is fitted on those standardised values s: ``lut[c, k]`` is channel c of
-    u where s crosses the grid value g_k (linear between the example's
-    distinct values), the quantile of u at the probability of g_k. A texel
-    alone (most of the plane at a high sharpness) then maps back to its own
-    colour to within the table's resolution (10⁻⁴ on 8-bit photographs,
-    where the tables of :meth:`HistogramTransform.fit`, read at shifted
-    values, were a level off).
-    """
-    fit = HistogramTransform.fit(u, axes="rgb" if u.shape[2] > 1 else "pca")
-    example = fit.to_gaussian(u).astype(np.float32)
-    flat = example.reshape(-1, u.shape[2]).astype(np.float64)
-    mean = example.mean(axis=(0, 1), dtype=np.float64)
-    std = np.sqrt(np.maximum(((flat - mean) ** 2).mean(axis=0), 1e-30))
-    s = (flat - mean) / std
-    z = fit.decorrelate(u).reshape(-1, u.shape[2])
-    grid = gauss_grid(fit.lut.shape[1])
-    lut = np.empty_like(fit.lut)
-    for c in range(u.shape[2]):
-        values, first = np.unique(s[:, c], return_index=True)
-        lut[c] = np.interp(grid, values, z[first, c])
-    return example, HistogramTransform(fit.matrix, fit.centre, np.maximum.accumulate(lut, axis=1))
 
 
 # ---------------------------------------------------------------- evaluation

@@ -154,11 +154,6 @@ def _lanes(model: TilingModel, device):
     return rgb, mean_rgb, wp.vec3(*model.mean3.tolist()), wp.vec3
 
 
-def plain_draw(model: TilingModel) -> bool:
-    """Whether the model's draw is the native run loop's (kernels/noise_tiling_native.py): no wrap, no lattice."""
-    return not any(model.wrap) and model.lattice is None
-
-
 #: Pixels per thread of ``tiling_runs`` (one vertex cache per run).
 RUN_CPU = 64
 RUN_CUDA = 4
@@ -207,7 +202,7 @@ def tiling_pixels(model: TilingModel, shape, origin, step, first, seed: int, dev
     sy = wp.vec2d(float(step[0, 1]), float(step[1, 1]))
     run = RUN_CPU if is_cpu(device) else RUN_CUDA
     skip = skip_below(model)
-    native = is_cpu(device) and model.guide_weight == 0.0 and plain_draw(model)
+    native = is_cpu(device) and model.guide_weight == 0.0
 
     def launch(r0, r1):
         if r1 > r0:
@@ -217,7 +212,7 @@ def tiling_pixels(model: TilingModel, shape, origin, step, first, seed: int, dev
             at = wp.vec2i(int(first[0]) + r0, int(first[1]))
             if native:  # the CPU's native run loop (guide_weight 0)
                 wp.launch(noise_tiling.tiling_runs_native, dim=(r1 - r0, -(-w // run)),
-                          inputs=[t, lat, example, mean, skip, o, sx, sy, at, run, int(SIMD), out[r0:r1]],
+                          inputs=[t, lat, example, mean_img, mean, skip, o, sx, sy, at, run, int(SIMD), out[r0:r1]],
                           device=device)
             else:
                 wp.launch(noise_tiling.tiling_runs, dim=(r1 - r0, -(-w // run)),

@@ -4,7 +4,8 @@ The templates (``shaders/``, package data) are read here, for the GLSL and the O
 ports alike. A tiling model exports the unfiltered plane tiling in every language:
 the texton-noise, filter and surface options are refused for it in one error
 (:func:`tiling_seed`, :func:`refuse_texton_options`), and its description records
-the same settings (:func:`tiling_settings`).
+the same settings (:func:`tiling_settings`: the blend's, where the centres lie, the
+axes the example is read wrapped on and its lattice).
 """
 
 from __future__ import annotations
@@ -67,8 +68,37 @@ def tiling_seed(noise: NoiseOptions | None, filter, up, side) -> int:
 
 
 def tiling_settings(model: TilingModel, seed: int) -> dict:
-    """What a tiling model's export was made from, for its description file."""
+    """What a tiling model's export was made from, for its description file: the blend's settings, the
+    centres' texels per axis (``centre_box``: [first, count] on x, then y), the axes the example is read
+    wrapped on (x, y) and its lattice (``Lattice.to_json`` with its vectors (dy, dx) in texels; None
+    without one)."""
     h, w, c = model.example.shape
+    lattice = None
+    if model.lattice is not None:
+        lattice = {**model.lattice.to_json(), "vectors": [list(v) for v in model.lattice.vectors]}
     return {"method": "tiling", "seed": seed, "side": float(model.side), "sharpness": int(model.sharpness),
             "guide_weight": float(model.guide_weight), "blend": model.blend, "channels": c,
-            "example": [w, h], "margin": model.margin}
+            "example": [w, h], "margin": model.margin, "centre_box": [list(b) for b in model.centre_box],
+            "wrap": [bool(v) for v in model.wrap], "lattice": lattice}
+
+
+def lattice_ints(model: TilingModel) -> tuple[int, int, tuple[int, int], tuple[int, int]]:
+    """(rank, modulus N, k1, k2) of a tiling model's lattice as the shaders take them, the dual vectors in
+    (x, y) order as ``noise.tiling.tiling_struct`` packs them for the kernels: (0, 1, (0, 0), (0, 0))
+    without a lattice, k2 = (0, 0) for courses."""
+    if model.lattice is None:
+        return 0, 1, (0, 0), (0, 0)
+    k = model.lattice.dual_matrix  # rows (ky, kx)
+    k2 = (int(k[1, 1]), int(k[1, 0])) if model.lattice.rank == 2 else (0, 0)
+    return model.lattice.rank, model.lattice.modulus, (int(k[0, 1]), int(k[0, 0])), k2
+
+
+def model_note(model: TilingModel) -> str:
+    """The wrap and the lattice of a tiling model as a short text, for a generated file's first line and
+    the viewer ("" for neither): ", wrapped on x and y, lattice (16, -16); (16, 16)"."""
+    note = ""
+    if any(model.wrap):
+        note += ", wrapped on " + " and ".join(a for a, on in zip("xy", model.wrap) if on)
+    if model.lattice is not None:
+        note += ", lattice " + "; ".join(f"({dy:.4g}, {dx:.4g})" for dy, dx in model.lattice.vectors)
+    return note

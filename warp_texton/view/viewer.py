@@ -51,6 +51,7 @@ from ..noise.ground_plane import render_plane
 from ..noise.synthesis import synthesize
 from ..model.texton import Texton
 from ..model.tiling import TilingModel
+from ..runtimes.shared import model_note
 from .cache import Memo
 from .commands import plan_mix, plan_noise, plan_plane
 from .images import PNG_LEVEL, data_url, log_spectra, png_bytes, texton_picture
@@ -410,7 +411,7 @@ class Viewer:
         example = model.colours()
         summary = (f"tiling model of a {w}×{h} example, triangle side {model.side:g}, sharpness {model.sharpness}, "
                    f"{model.blend} blend" + (", histogram preserved" if model.histogram is not None else "") +
-                   f", {'grey' if c == 1 else 'RGB'}")
+                   model_note(model) + f", {'grey' if c == 1 else 'RGB'}")
         info = {"kind": "tiling", "summary": summary, "texton": data_url(example, 160),
                 "texton_size": [h, w], "order": None, "channels": c,
                 "mean": [round(float(m), 5) for m in example.mean(axis=(0, 1), dtype=np.float64)],

@@ -19,8 +19,11 @@ library of it (:mod:`warp_texton.runtimes.glsl.tiling`, the export's library and
 textures, a histogram-preserving model's tables included) by
 :func:`tiling_payload`: its one view uniform is the seed (``TL_SEED``); the
 page places the view's centre on the model's triangle lattice in float64 (as
-``tiling_anchor`` does, with the vertex draw's √3/2) and draws the unfiltered
-blend, so the filter "none" alone is drawn (the tiles draw the others).
+``tiling_anchor`` does, with the vertex draw's √3/2; for a model with a lattice,
+the anchor's position mod its modulus, as ``anchor_mod`` does) and draws the
+unfiltered blend, so the filter "none" alone is drawn (the tiles draw the others).
+A wrapped or lattice model's library and textures (the lattice-periodic mean) are
+the export's too.
 """
 
 from __future__ import annotations
@@ -34,7 +37,7 @@ from ..noise.filter_options import FilterOptions
 from ..noise.engine import CELL_FACTOR, MAX_CELL_MEAN
 from ..noise.noise_options import NoiseOptions
 from ..runtimes.languages import WEBGL, language
-from ..runtimes.shared import check_model
+from ..runtimes.shared import check_model, model_note
 from ..model.texton import Texton
 from ..model.tiling import TilingModel
 
@@ -108,8 +111,9 @@ TILING_UNIFORMS = {"TL_SEED": "uint"}
 def tiling_payload(model: TilingModel) -> dict:
     """The page's WebGL2 program for a tiling model: its GLSL library (the export's, the
     seed a uniform), the preview's main, the textures (the example and guide, a
-    histogram-preserving model's tables), and what the page places the view with: the
-    lattice side (float32, as the kernels hold it) and √3/2 (the vertex draw's). Its one filter is "none"."""
+    histogram-preserving model's tables, a lattice model's lattice-periodic mean), and what the page places
+    the view with: the lattice side (float32, as the kernels hold it), √3/2 (the vertex draw's) and the
+    example lattice's modulus (1 without one). Its one filter is "none"."""
     model = check_model(model)
     glsl = language(WEBGL).port()
     lib = glsl.library(model)
@@ -122,8 +126,9 @@ def tiling_payload(model: TilingModel) -> dict:
         "channels": lib.channels,
         "side": float(np.float32(model.side)),
         "sqrt3_2": float(SQRT3_2),
+        "modulus": 1 if model.lattice is None else int(model.lattice.modulus),
         "filters": {"none": {"mode": 0, "bias": 0.0}},
         "refused": "the WebGL2 mode draws a tiling model unfiltered (filter none)",
         "texton": f"tiling model of a {w}×{h} example, side {model.side:g}"
-                  + (", histogram preserved" if model.histogram is not None else ""),
+                  + (", histogram preserved" if model.histogram is not None else "") + model_note(model),
     }

@@ -5,20 +5,30 @@
 // One source for GLSL ES 3.00 (WebGL2) and, with the first line replaced by "#version 330",
 // desktop GLSL 3.30+. It reproduces kernels/noise_tiling.py tiling_value: the vertex draw
 // (generated from kernels/tiling_draw.py: the hash and Warp's PCG draws in 32-bit unsigned
-// arithmetic, the centre texel, the whole-texel placement, the clamp-to-edge addressing, its
-// constants), the triangle, the bilinear lookups, the weights and the blend, in float32. GLSL ES has no float64: positions are taken relative to an anchor vertex of the
-// triangle lattice (tiling_noise_at), so only the distance from the anchor is rounded to float32.
+// arithmetic, the centre texel, the whole-texel placement, the lattice snap, the clamped or
+// wrapped addressing, its constants), the triangle, the bilinear lookups, the weights and the
+// blend, in float32. GLSL ES has no float64: positions are taken relative to an anchor vertex of
+// the triangle lattice (tiling_noise_at), so only the distance from the anchor is rounded to
+// float32; a lattice model's snap takes each vertex's position mod the lattice's modulus N as the
+// anchor's (anchor_mod, from the host) plus the vertex's whole-texel offset, in integers.
 //
 // Entry points (x in noise units: texels of the example at scale 1, y down as in the package's rasters):
 //   vec3 tiling_noise(vec2 x)                                 x near the origin (|x| up to ~10^4)
-//   vec3 tiling_noise_at(ivec2 anchor, vec2 frac, vec2 rel)   x = P(anchor) + rel, anywhere
+//   vec3 tiling_noise_at(ivec2 anchor, ivec2 anchor_mod, vec2 frac, vec2 rel)
+//                                                             x = P(anchor) + rel, anywhere
+//   vec3 tiling_noise_at(ivec2 anchor, vec2 frac, vec2 rel)   the same, for a model without a lattice
 //   vec3 tiling_blend(vec2 x), tiling_blend_at(...)             the blend before the histogram tables
 //   vec3 tiling_colour(vec3 v)                                  the tables applied to a blended value
 // where anchor = (a, b) is a lattice vertex, p(a, b) = side (a + b/2, b sqrt(3)/2) its position,
 // P(a, b) = floor(p(a, b) + 1/2) that position rounded to whole texels (computed in float64 by
-// the host: warp_texton.runtimes.tiling_shaders.tiling_anchor) and frac = p(a, b) - P(a, b).
+// the host: warp_texton.runtimes.glsl.tiling.tiling_anchor), frac = p(a, b) - P(a, b) and
+// anchor_mod = P(a, b) mod TL_MODULUS per axis, in [0, TL_MODULUS) (runtimes.glsl.tiling.anchor_mod;
+// (0, 0) without a lattice, where TL_MODULUS is 1).
 // Texture (RGBA32F, read with texelFetch, no filtering): tiling_example, the example's texels
 // in RGB (grey examples in R), the standardised luminance guide in A; row 0 is the example's top row.
+// Each axis is read clamped to the edge, or wrapped where the example is seamless (TL_WRAP).
+// A lattice model (TL_RANK 1 or 2) adds tiling_mean, its lattice-periodic mean (the same layout, A
+// unused): the blend mixes the residuals around it and keeps it (kernels/noise_tiling.py patch_term3).
 // A histogram-preserving model (TL_HISTOGRAM) adds tiling_colours: its inverse-CDF tables (one row,
 // K texels, channels in RGB), which tiling_noise* apply after the blend as kernels/noise_colours.py
 // colour_value does (texton noise's tables: texton_noise.glsl, texton_colour).
@@ -27,26 +37,63 @@ precision highp int;
 
 uniform highp sampler2D tiling_example;
 uniform highp sampler2D tiling_colours;
+uniform highp sampler2D tiling_mean;
 
 //@CONSTANTS@
 
 //@TILING_DRAW@
 
 ivec2 tl_centre(int a, int b) {
-    // the example texel (column, row) that vertex (a, b) shows on itself: centres range over the
-    // texels at least TL_MARGIN from the border
+    // the example texel (column, row) that vertex (a, b) draws: centres range over the model's centre
+    // box (at least TL_MARGIN from a clamped border, plus a lattice's half cell; anywhere on a wrapped axis)
     int cx, cy;
-    tl_vertex_centre(tl_seed_state(TL_SEED), a, b, TL_MARGIN, TL_COLS - 2 * TL_MARGIN, TL_MARGIN,
-                     TL_ROWS - 2 * TL_MARGIN, cx, cy);
+    tl_vertex_centre(tl_seed_state(TL_SEED), a, b, TL_CENTRE_LO.x, TL_CENTRE_COUNT.x, TL_CENTRE_LO.y,
+                     TL_CENTRE_COUNT.y, cx, cy);
     return ivec2(cx, cy);
 }
 
+int tl_mod(int v, int n) {
+    // v mod n in [0, n) for n > 0 (GLSL ES leaves % of a negative operand undefined)
+    return v >= 0 ? v % n : n - 1 - (-1 - v) % n;
+}
+
+ivec2 tl_snapped(ivec2 c, ivec2 anchor_mod, float px, float py) {
+    // the centre c of the vertex at P(anchor) + (px, py) (whole texels) snapped to the model's lattice
+    if (TL_RANK == 0) return c;
+    int sx, sy;
+    tl_lattice_snap(c.x, c.y, tl_mod(anchor_mod.x + int(px), TL_MODULUS), tl_mod(anchor_mod.y + int(py), TL_MODULUS),
+                    TL_RANK, TL_MODULUS, TL_K1.x, TL_K1.y, TL_K2.x, TL_K2.y, sx, sy);
+    return ivec2(sx, sy);
+}
+
 vec4 tl_texel(int i, int j) {
-    return texelFetch(tiling_example, ivec2(tl_texel_index(j, TL_COLS), tl_texel_index(i, TL_ROWS)), 0);
+    return texelFetch(tiling_example, ivec2(tl_texel_address(j, TL_COLS, TL_WRAP.x),
+                                            tl_texel_address(i, TL_ROWS, TL_WRAP.y)), 0);
+}
+
+vec4 tl_mean_texel(int i, int j) {
+    return texelFetch(tiling_mean, ivec2(tl_texel_address(j, TL_COLS, TL_WRAP.x),
+                                         tl_texel_address(i, TL_ROWS, TL_WRAP.y)), 0);
+}
+
+vec4 tl_bilinear_mean(vec2 q) {
+    // the lattice-periodic mean at q, as tl_bilinear reads the example
+    float fx = q.x - 0.5;
+    float fy = q.y - 0.5;
+    float x0 = floor(fx);
+    float y0 = floor(fy);
+    float tx = fx - x0;
+    float ty = fy - y0;
+    int j0 = int(x0);
+    int i0 = int(y0);
+    if (tx == 0.0 && ty == 0.0) return tl_mean_texel(i0, j0);
+    vec4 top = tl_mean_texel(i0, j0) * (1.0 - tx) + tl_mean_texel(i0, j0 + 1) * tx;
+    vec4 bottom = tl_mean_texel(i0 + 1, j0) * (1.0 - tx) + tl_mean_texel(i0 + 1, j0 + 1) * tx;
+    return top * (1.0 - ty) + bottom * ty;
 }
 
 vec4 tl_bilinear(vec2 q) {
-    // the example (RGB) and guide (A) at q = (x, y) in texel units, clamped to its edge
+    // the example (RGB) and guide (A) at q = (x, y) in texel units, clamped to its edge or wrapped
     float fx = q.x - 0.5;
     float fy = q.y - 0.5;
     float x0 = floor(fx);
@@ -61,12 +108,26 @@ vec4 tl_bilinear(vec2 q) {
     return top * (1.0 - ty) + bottom * ty;
 }
 
-vec2 tl_patch_point(ivec2 anchor, vec2 frac, vec2 rel, int a, int b) {
+vec2 tl_patch_point(ivec2 anchor, ivec2 anchor_mod, vec2 frac, vec2 rel, int a, int b) {
     // where vertex (a, b)'s patch reads the example: c + (x - P(a, b)), with
     // P(a, b) - P(anchor) = floor(frac + p(a - anchor.x, b - anchor.y) + 1/2) from the anchor's offsets
+    // and c the vertex's centre, snapped to a lattice where the model has one
     float px, py;
     tl_vertex_position(frac.x, frac.y, TL_SIDE, a - anchor.x, b - anchor.y, px, py);
-    return vec2(tl_centre(a, b)) + (rel - vec2(px, py));
+    return vec2(tl_snapped(tl_centre(a, b), anchor_mod, px, py)) + (rel - vec2(px, py));
+}
+
+void tl_patch_term(vec2 q, float k, inout vec3 acc, inout vec3 macc) {
+    // one kept patch's part of the blend: (e - mean) k without a lattice; with one, the residual around
+    // the lattice-periodic mean, (e - m) k, and the mean's part m k (kernels/noise_tiling.py patch_term3)
+    vec3 e = tl_bilinear(q).rgb;
+    if (TL_RANK == 0) {
+        acc = acc + (e - TL_MEAN) * k;
+    } else {
+        vec3 m = tl_bilinear_mean(q).rgb;
+        acc = acc + (e - m) * k;
+        macc = macc + m * k;
+    }
 }
 
 float tl_power(float w) {
@@ -82,7 +143,7 @@ float tl_sharpened(float w, float dg) {
     return k;
 }
 
-vec3 tiling_blend_at(ivec2 anchor, vec2 frac, vec2 rel) {
+vec3 tiling_blend_at(ivec2 anchor, ivec2 anchor_mod, vec2 frac, vec2 rel) {
     // the triangle: skewed coordinates of x - p(anchor), the lattice's vertices on Z^2
     vec2 d = rel - frac;
     float qx = d.x / TL_SIDE;
@@ -104,9 +165,9 @@ vec3 tiling_blend_at(ivec2 anchor, vec2 frac, vec2 rel) {
         w1 = 1.0 - v;
         w2 = 1.0 - u;
     }
-    vec2 q0 = tl_patch_point(anchor, frac, rel, a0, b0);
-    vec2 q1 = tl_patch_point(anchor, frac, rel, a + 1, b);
-    vec2 q2 = tl_patch_point(anchor, frac, rel, a, b + 1);
+    vec2 q0 = tl_patch_point(anchor, anchor_mod, frac, rel, a0, b0);
+    vec2 q1 = tl_patch_point(anchor, anchor_mod, frac, rel, a + 1, b);
+    vec2 q2 = tl_patch_point(anchor, anchor_mod, frac, rel, a, b + 1);
     float g0 = 0.0, g1 = 0.0, g2 = 0.0;
     if (TL_GUIDE_WEIGHT != 0.0) {
         g0 = tl_bilinear(q0).a;
@@ -126,10 +187,12 @@ vec3 tiling_blend_at(ivec2 anchor, vec2 frac, vec2 rel) {
     k1 = k1 / total;
     k2 = k2 / total;
     vec3 acc = vec3(0.0);
-    if (k0 > 0.0) acc = acc + (tl_bilinear(q0).rgb - TL_MEAN) * k0;
-    if (k1 > 0.0) acc = acc + (tl_bilinear(q1).rgb - TL_MEAN) * k1;
-    if (k2 > 0.0) acc = acc + (tl_bilinear(q2).rgb - TL_MEAN) * k2;
+    vec3 macc = vec3(0.0);
+    if (k0 > 0.0) tl_patch_term(q0, k0, acc, macc);
+    if (k1 > 0.0) tl_patch_term(q1, k1, acc, macc);
+    if (k2 > 0.0) tl_patch_term(q2, k2, acc, macc);
     if (TL_VARIANCE_PRESERVING) acc = acc / sqrt(k0 * k0 + k1 * k1 + k2 * k2);
+    if (TL_RANK != 0) return macc + acc;
     return TL_MEAN + acc;
 }
 
@@ -160,9 +223,18 @@ vec3 tiling_colour(vec3 v) {
     return out_;
 }
 
+vec3 tiling_blend_at(ivec2 anchor, vec2 frac, vec2 rel) {
+    // without a lattice the anchor's position mod N is not read
+    return tiling_blend_at(anchor, ivec2(0), frac, rel);
+}
+
 vec3 tiling_blend(vec2 x) {
     // the anchor (0, 0): p(0, 0) = P(0, 0) = 0
-    return tiling_blend_at(ivec2(0), vec2(0.0), x);
+    return tiling_blend_at(ivec2(0), ivec2(0), vec2(0.0), x);
+}
+
+vec3 tiling_noise_at(ivec2 anchor, ivec2 anchor_mod, vec2 frac, vec2 rel) {
+    return tiling_colour(tiling_blend_at(anchor, anchor_mod, frac, rel));
 }
 
 vec3 tiling_noise_at(ivec2 anchor, vec2 frac, vec2 rel) {

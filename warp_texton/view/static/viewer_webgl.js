@@ -2,7 +2,8 @@
 // (TextonNoise, /texton_noise.js, builds the program and uploads the texton). Only the texton comes
 // from the server (/api/shader, once per analysis setting); the view and the noise settings are
 // uniforms, so panning, zooming and the sliders redraw without a request. A tiling model's payload
-// (kind "tiling") is its GLSL port: the seed is its one uniform, the view placed on its lattice.
+// (kind "tiling") is its GLSL port: the seed is its one uniform, the view placed on its lattice
+// (and, for a model with a lattice of its example, the anchor's position mod that lattice's modulus).
 "use strict";
 (function (root) {
   const f = Math.fround;
@@ -56,6 +57,8 @@
   // triangle lattice in float64, as runtimes.glsl.tiling.tiling_anchor places it: the lower-left vertex
   // (a, b) of its lattice cell, frac = p(a, b) - P(a, b) and the centre relative to P(a, b), the
   // vertex rounded to whole texels; then float32, with the steps per pixel (the preview's placement).
+  // anchor_mod: P(a, b) mod the example lattice's modulus N per axis (runtimes.glsl.tiling.anchor_mod; N = 1
+  // without one), exact: P is a whole number below 2^53 and % of doubles is exact.
   function tilingPlacement(payload, v) {
     const th = v.rot * (Math.PI / 180), c = Math.cos(th), s = Math.sin(th);
     const origin = [c * v.left - s * v.top, s * v.left + c * v.top];
@@ -67,8 +70,11 @@
     const a = Math.floor(qx), b = Math.floor(qy);
     const p = [side * (a + b * 0.5), side * b * r];
     const P = [Math.floor(p[0] + 0.5), Math.floor(p[1] + 0.5)];
+    const n = payload.modulus || 1;
+    const mod = (q) => ((q % n) + n) % n;
     return {
-      anchor: [a, b], frac: [f(p[0] - P[0]), f(p[1] - P[1])], centre: [f(x[0] - P[0]), f(x[1] - P[1])],
+      anchor: [a, b], anchor_mod: [mod(P[0]), mod(P[1])],
+      frac: [f(p[0] - P[0]), f(p[1] - P[1])], centre: [f(x[0] - P[0]), f(x[1] - P[1])],
       step_x: [f(sx[0]), f(sx[1])], step_y: [f(sy[0]), f(sy[1])],
     };
   }
@@ -90,6 +96,7 @@
       gl.uniform1ui(loc("TL_SEED"), u.TL_SEED);
       const at = tilingPlacement(payload, v);
       gl.uniform2i(loc("tn_anchor"), at.anchor[0], at.anchor[1]);
+      gl.uniform2i(loc("tn_anchor_mod"), at.anchor_mod[0], at.anchor_mod[1]);
       gl.uniform2fv(loc("tn_frac"), at.frac);
       gl.uniform2fv(loc("tn_centre"), at.centre);
       gl.uniform2fv(loc("tn_step_x"), at.step_x);
