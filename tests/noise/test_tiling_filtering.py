@@ -8,8 +8,17 @@ from warp_texton.model.tiling import TilingModel
 from warp_texton.noise.ground_plane import PlaneCamera, plane_pixels
 
 
-@pytest.fixture(scope="module")
-def brick():
+@pytest.fixture(scope="module", params=["crop", "lattice"])
+def brick(request):
+    # a crop of a photograph, and a seamless brick wall read wrapped with its lattice (the mean image's
+    # levels filtered beside the example's, the residual's contrast reduced)
+    if request.param == "lattice":
+        from tests.helpers import running_bond
+        from warp_texton.model.lattice import Lattice
+
+        u = running_bond((128, 128), channels=1)
+        return TilingModel(u, 48.0, 16, 0.0, {}, "variance", None, (True, True),
+                           Lattice.from_vectors([(16, 16), (16, -16)], u.shape, (True, True)))
     from skimage import data
 
     u = data.brick().astype(np.float32)[:256, :256, None] / 255.0

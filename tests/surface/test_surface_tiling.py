@@ -73,6 +73,23 @@ class TestPlanes:
         assert got.shape == (len(pts), channels) and got.dtype == np.float32
         np.testing.assert_array_equal(got, want)
 
+    @pytest.mark.parametrize("wrap, vectors", [((True, True), [(16, 16), (16, -16)]), ((False, True), [(16, 0)]),
+                                               ((True, True), None)])
+    def test_wrapped_and_lattice_models_on_a_face_are_that_planes_tiling(self, wrap, vectors, device):
+        # the triplanar projection runs the planar tiling_value: a seamless brick wall read wrapped, snapped
+        # to its lattice or its courses, is each face's plane bit for bit
+        from tests.helpers import running_bond
+        from warp_texton.model.lattice import Lattice
+
+        ex = running_bond((128, 128))
+        lat = None if vectors is None else Lattice.from_vectors(vectors, ex.shape, wrap)
+        m = TilingModel(ex, 40, 16, 0.0, {}, "variance", None, wrap, lat)
+        for axis, sign in ((0, 1.0), (2, 1.0)):
+            pts, nrm = quad(axis, sign, size=200.0)
+            got = surface_noise(m, pts, nrm, 0.5, seed=3, device=device)
+            want = evaluate(m, PLANE_COORDS[axis, sign](pts / 0.5), seed=plane_seeds(3)[axis], device=device)
+            np.testing.assert_array_equal(got, want)
+
     @pytest.mark.parametrize("channels", [1, 3])
     def test_a_histogram_preserving_model_maps_its_tables_on_surfaces_too(self, channels, device):
         # the tables run after the triplanar blend as after the planar one: a face orthogonal to an axis

@@ -236,7 +236,7 @@ def read_example(path, iterations: int, crop=None, downscale: int = 1, *, histog
     from ..model.analysis import check_analysis_cost
     from ..model.example_checks import crop_box
     from ..model.example_checks import downscale as shrink
-    from ..model.tiling import check_tiling_analysis
+    from ..model.tiling import check_tiling_analysis, tiling_affordable
     from ..files.images import image_size, read_image
 
     size = image_size(path)
@@ -246,8 +246,10 @@ def read_example(path, iterations: int, crop=None, downscale: int = 1, *, histog
             _, _, w, h = crop_box(crop, (h, w))
         if isinstance(downscale, int) and 1 <= downscale <= min(h, w):
             h, w = h // downscale, w // downscale
-        if method in ("tiling", "auto"):
+        if method == "tiling":
             check_tiling_analysis((h, w, c), histogram=histogram)
+        if method == "auto" and not tiling_affordable((h, w, c), histogram):
+            method = "texton"  # auto: an example too large for a tiling model is a texton's
         if method in ("texton", "auto"):
             check_analysis_cost((h, w), c, iterations, f"analysing a {w}x{h} image", histogram=histogram)
     u = read_image(path)

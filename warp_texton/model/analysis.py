@@ -25,7 +25,7 @@ import numpy as np
 import scipy.fft as sfft
 
 from ..core.checks import as_image, check_bool, check_int, check_seed
-from .tiling import MIN_SIDE, TILING_KIND, TilingModel, scorable
+from .tiling import MIN_SIDE, TILING_KIND, TilingModel, scorable, tiling_affordable
 from .tiling_fit import LATTICE_AUTO, fit_tiling
 from .bspline import bhat, bspline
 from .analysis_options import SUPPORTS, AnalysisOptions, check_support  # noqa: F401 - this module's names too
@@ -475,7 +475,8 @@ def _by_method(u, method: str, texton_options: dict, side, lattice) -> Texton | 
                           param=changed[0])
     side = None if side is None else check_int(side, "side", minimum=2)
     a = as_image(u)
-    if method == TILING_KIND or (scorable(a.shape) and min(a.shape[:2]) >= MIN_SIDE):
+    if method == TILING_KIND or (scorable(a.shape) and min(a.shape[:2]) >= MIN_SIDE
+                                 and tiling_affordable(a.shape, check_histogram(histogram))):
         model = fit_tiling(a, side=side, seed=check_seed(seed), histogram=check_histogram(histogram),
                            periodic="auto" if periodic is None else periodic,
                            lattice="auto" if lattice is LATTICE_AUTO else lattice)

@@ -205,7 +205,7 @@ class Lattice:
     """
 
     modulus: int
-    dual: tuple[tuple[int, int], ...]
+    dual: tuple[tuple[int, ...], ...]  # (ky, kx) pairs
     strength: float | None = None
 
     def __post_init__(self):
@@ -306,7 +306,7 @@ class Lattice:
         if not isinstance(value, dict) or set(value) - {"modulus", "dual", "strength"}:
             raise TextonError(f"lattice must be an object with modulus, dual (and strength), got {value!r:.80}",
                               param="lattice")
-        return cls(value.get("modulus"), value.get("dual"), value.get("strength"))
+        return cls(value.get("modulus"), value.get("dual"), value.get("strength"))  # type: ignore[arg-type]
 
     @classmethod
     def from_vectors(cls, vectors, shape, wrap=(False, False), strength: float | None = None) -> Lattice:
@@ -401,7 +401,7 @@ def autocorrelation_peaks(a: np.ndarray, limit: float) -> list[tuple[float, np.n
         r = float(np.hypot(*d))
         if r < MIN_VECTOR or r > limit or a[y, x] < PEAK_VALUE or d[0] < 0 or (d[0] == 0 and d[1] < 0):
             continue
-        d = d + _subpixel(a, y, x)
+        d = d + _subpixel(a, int(y), int(x))
         seg = c[None, :] + t[:, None] * d[None, :]
         if a[y, x] - map_coordinates(a, [seg[:, 0], seg[:, 1]], order=1, mode="wrap").min() < PEAK_DIP:
             continue

@@ -37,7 +37,7 @@ __all__ = ["TilingModel", "TILING_KIND", "KIND_ATTRIBUTE", "guide_of", "structur
            "centre_box", "CUTOFF_FRACTION",
            "patch_distance", "half_distance", "suggest_method", "scorable", "is_tiling_header", "load_tiling",
            "SHARPNESS", "STRUCTURE_THRESHOLD", "metadata_json", "read_metadata", "tiling_analysis_cost",
-           "check_tiling_analysis"]
+           "check_tiling_analysis", "tiling_affordable"]
 
 #: The EXR attribute naming a model's kind; absent in texton files (kind "texton").
 KIND_ATTRIBUTE = "texton_kind"
@@ -616,6 +616,16 @@ def check_tiling_analysis(shape, *, score: bool = True, histogram: str = "gaussi
     nbytes, operations = tiling_analysis_cost(shape, score=score, histogram=histogram, model=model)
     check_memory(nbytes, what, "use a smaller example", param="u")
     check_work(operations, what, "use a smaller example", param="u")
+
+
+def tiling_affordable(shape, histogram: str = "gaussian") -> bool:
+    """Whether :func:`check_tiling_analysis` lets the tiling analysis of an example of ``shape`` through:
+    ``method="auto"`` takes a texton where it would not."""
+    try:
+        check_tiling_analysis(shape, histogram=histogram)
+    except TextonError:
+        return False
+    return True
 
 
 def structure_score(u, *, seed: int = 0) -> float:

@@ -320,7 +320,8 @@ def pyramid_struct(model: TilingModel, device: str):
                 stack[r0:r0 + lv.shape[0], :lv.shape[1], :model.channels] = lv
             return wp.array(stack, dtype=wp.vec3, device=device)
 
-        means = stacked(example_pyramid(model.mean_image, model.wrap)) if model.lattice is not None else \
+        mean_image = model.mean_image
+        means = stacked(example_pyramid(mean_image, model.wrap)) if mean_image is not None else \
             wp.zeros((1, 1), dtype=wp.vec3, device=device)
         per_device[device] = (stacked(levels), means,
                               wp.array(row0, dtype=int, device=device), wp.array(rows, dtype=int, device=device),
