@@ -258,17 +258,20 @@ def summary(rows: list[dict]) -> list[dict]:
 
 
 def tree_state() -> str | None:
-    """A digest of the uncommitted changes to the package and kernels (the numbers depend on them)."""
+    """A digest of the package's code as it is on disk (every file git tracks or would track under
+    warp_texton/ and kernels/, committed or not): the numbers depend on it, and it changes under a
+    running benchmark only where someone edits the package meanwhile."""
     try:
-        diff = subprocess.run(["git", "diff", "HEAD", "--", "warp_texton", "kernels"], cwd=HERE.parent,
-                              capture_output=True, timeout=20, check=True).stdout
-        new = subprocess.run(["git", "ls-files", "--others", "--exclude-standard", "warp_texton", "kernels"],
-                             cwd=HERE.parent, capture_output=True, timeout=20, check=True).stdout
+        listed = subprocess.run(["git", "ls-files", "--cached", "--others", "--exclude-standard", "warp_texton",
+                                 "kernels"], cwd=HERE.parent, capture_output=True, timeout=20, check=True).stdout
     except (OSError, subprocess.SubprocessError):
         return None
-    h = hashlib.sha1(diff)
-    for rel in sorted(new.decode().split()):
-        h.update(rel.encode() + (HERE.parent / rel).read_bytes())
+    h = hashlib.sha1()
+    for rel in sorted(set(listed.decode().split())):
+        try:
+            h.update(rel.encode() + b"\0" + (HERE.parent / rel).read_bytes())
+        except OSError:  # listed but deleted in the working tree
+            h.update(rel.encode() + b"\0-")
     return h.hexdigest()[:12]
 
 

@@ -41,7 +41,7 @@ ROOM_LAYERS = {
                  "osl.texton": 1, "osl.tiling": 2, "osl": 3, "languages": 4, "export": 5},
     "view": {"static": 0, "queries": 0, "cache": 0, "images": 0, "webgl": 0, "inputs": 1, "commands": 2,
              "viewer": 3, "server": 4},
-    "cli": {"options": 0, "images": 1, "surface": 1, "shader": 1, "view": 1, "info": 1, "parser": 2},
+    "cli": {"options": 0, "info": 1, "images": 2, "surface": 2, "shader": 2, "view": 2, "parser": 3},
 }
 #: Package data with an ``__init__`` (no code): outside the rooms' order.
 DATA_PACKAGES = {"data", "view.static"}

@@ -301,7 +301,13 @@ def test_every_file_an_export_writes_is_listed(tmp_path, grey_texton, preserving
     example = np.random.default_rng(0).random((40, 40, 3)).astype(np.float32)
     tiling = TilingModel(example, 8.0)
     preserving_tiling = analyze(example, method="tiling", side=8, histogram="preserve")  # + its tables' file
-    for k, texton in enumerate((grey_texton, preserving_texton, tiling, preserving_tiling)):
+    from tests.helpers import running_bond
+    from warp_texton.model.lattice import Lattice
+
+    wall = running_bond((64, 64))  # + the lattice-periodic mean's texture
+    lattice = TilingModel(wall, 16.0, wrap=(True, True),
+                          lattice=Lattice.from_vectors([(16, 16), (16, -16)], wall.shape, (True, True)))
+    for k, texton in enumerate((grey_texton, preserving_texton, tiling, preserving_tiling, lattice)):
         for lang in ("glsl", "osl"):
             written |= set(os.listdir(export_shader(texton, lang, tmp_path / f"{lang}{k}")))
     assert written == EXPORT_FILES

@@ -347,7 +347,10 @@ def analyze(
         candidates' distances). ``"auto"``: the tiling model where its probe
         is closer to the example, by the patch distance, than the
         phase-randomised example (what texton noise makes of it), else the
-        texton (``metadata["method_choice"]`` holds both distances).
+        texton (``metadata["method_choice"]`` holds both distances); a
+        texton option given (``size``, ``order``, ``iterations``,
+        ``color_correction``, ``support``, ``options``) makes it the texton,
+        a tiling option (``side``, ``lattice``) the tiling model.
     side : int, optional
         With ``method="tiling"``: the side of the blend triangles in texels
         (default: chosen by the fit's probes among a quarter, a third and a
@@ -410,6 +413,13 @@ def analyze(
         raise TextonError("lattice applies to method 'tiling' only", param="lattice")
     if periodic is None or periodic == "auto":
         periodic = True
+    return _texton_analysis(u, size, order, iterations, seed, periodic, color_correction, support, histogram,
+                            progress, options)
+
+
+def _texton_analysis(u, size, order, iterations, seed, periodic, color_correction, support, histogram, progress,
+                     options) -> Texton:
+    """``analyze`` with method "texton", its options checked for the method."""
     u = as_image(u)
     o = AnalysisOptions.given(options, size=size, order=order, iterations=iterations, seed=seed, periodic=periodic,
                               color_correction=color_correction, support=support, histogram=histogram)
@@ -475,7 +485,12 @@ def _by_method(u, method: str, texton_options: dict, side, lattice) -> Texton | 
                           param=changed[0])
     side = None if side is None else check_int(side, "side", minimum=2)
     a = as_image(u)
-    if method == TILING_KIND or (scorable(a.shape) and min(a.shape[:2]) >= MIN_SIDE
+    if method == "auto" and (side is not None or lattice is not LATTICE_AUTO):
+        if changed:
+            raise TextonError(f"{changed[0]} (a texton option) and {'side' if side is not None else 'lattice'} "
+                              "(a tiling option) disagree for method 'auto'; give method", param="method")
+        method = TILING_KIND  # a tiling option given: the user asks for the tiling model
+    if method == TILING_KIND or (not changed and scorable(a.shape) and min(a.shape[:2]) >= MIN_SIDE
                                  and tiling_affordable(a.shape, check_histogram(histogram))):
         model = fit_tiling(a, side=side, seed=check_seed(seed), histogram=check_histogram(histogram),
                            periodic="auto" if periodic is None else periodic,
@@ -488,13 +503,13 @@ def _by_method(u, method: str, texton_options: dict, side, lattice) -> Texton | 
         if d_tiling is not None and d_texton is not None and d_tiling < AUTO_TILING_FRACTION * d_texton:
             model.metadata["method_choice"] = choice
             return model
-    texton = analyze(a, size=size, order=order, iterations=iterations, seed=seed,
-                     periodic=True if periodic in (None, "auto") else periodic, color_correction=color_correction,
-                     support=support, histogram=histogram, progress=o["progress"], options=options)
+    texton = _texton_analysis(a, size, order, iterations, seed, True if periodic in (None, "auto") else periodic,
+                              color_correction, support, histogram, o["progress"], options)
     if choice is not None:
         texton.metadata["method_choice"] = choice
         texton.metadata["structure"] = model.metadata.get("structure")
     return texton
+
 
 @dataclass(frozen=True)
 class Candidate:
