@@ -47,6 +47,8 @@ def summary(model) -> dict:
         from ..model.analysis import AUTO_TILING_FRACTION
 
         out["method_choice"] = {k: float(choice[k]) for k in ("tiling", "texton")}
+        if isinstance(choice.get("texton_measure"), str):
+            meta["method_measure"] = choice["texton_measure"]
         closer = choice["tiling"] < AUTO_TILING_FRACTION * choice["texton"]
         out["suggested_method"] = "tiling" if closer else "texton"
     elif isinstance(score, (int, float)) and not isinstance(score, bool):
@@ -88,8 +90,9 @@ def structure_lines(s: dict, method: str | None = None) -> list[str]:
     if isinstance(score, (int, float)):
         fits = s.get("suggested_method", s["kind"])
         advice = "" if method in (None, "auto") else ("; fits" if fits == method else f"; try --method {fits}")
-        why = (f"; patch distance to the example: tiling {choice['tiling']:.4f}, texton (phase-randomised) "
-               f"{choice['texton']:.4f}") if choice else ""
+        measure = s["metadata"].get("method_measure", "the phase-randomised example")
+        why = (f"; patch distance to the example: tiling {choice['tiling']:.4f}, texton {choice['texton']:.4f} "
+               f"({measure})") if choice else ""
         lines.append(f"  structure score {score:.2f} (1: Gaussian-like; above {STRUCTURE_THRESHOLD:g}: shapes that "
                      f"texton noise loses): method {fits!r} fits the example{why}{advice}")
     return lines

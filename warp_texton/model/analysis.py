@@ -25,8 +25,9 @@ import numpy as np
 import scipy.fft as sfft
 
 from ..core.checks import as_image, check_bool, check_int, check_seed
-from .tiling import MIN_SIDE, TILING_KIND, TilingModel, scorable, tiling_affordable
-from .tiling_fit import LATTICE_AUTO, fit_tiling
+from .tiling import MIN_SIDE, TILING_KIND, TilingModel, patch_distance, scorable, tiling_affordable
+from .spot_noise import dsn
+from .tiling_fit import LATTICE_AUTO, PROBE_SAMPLES, PROBE_DIRECTIONS, PROBE_SEEDS, PROBE_SIDE, fit_tiling
 from .bspline import bhat, bspline
 from .analysis_options import SUPPORTS, AnalysisOptions, check_support  # noqa: F401 - this module's names too
 from ..core.errors import TextonError
@@ -41,9 +42,11 @@ from .texton import Texton, lag0_covariance
 #: The methods of `analyze`: the Gaussian texton model (the default), tiling and blending.
 METHODS = ("texton", TILING_KIND, "auto")
 #: ``method="auto"`` picks the tiling model where its probe's patch distance to the example is below
-#: this fraction of the phase-randomised example's (what texton noise converges to; its own outputs
-#: are farther still): measured on the labelled set of benchmarks/bench_advice.py.
+#: this fraction of the texton's noise's (``texton_probe_distance``; with histogram tables, the
+#: phase-randomised example's): the labelled set of benchmarks/bench_advice.py, docs/tiling.md.
 AUTO_TILING_FRACTION = 1.0
+#: The MNI of the texton's probe (the outputs' default).
+AUTO_MNI = 30.0
 
 #: Bytes per image value (pixel × channel) that the analysis holds at its peak:
 #: the periodic component and the kernel in float64, their spectra (complex128
@@ -500,15 +503,33 @@ def _by_method(u, method: str, texton_options: dict, side, lattice) -> Texton | 
         d_tiling = model.metadata.get("tiling_distance")
         d_texton = model.metadata.get("texton_distance_blended", model.metadata.get("texton_distance"))
         choice = {"tiling": d_tiling, "texton": d_texton}
-        if d_tiling is not None and d_texton is not None and d_tiling < AUTO_TILING_FRACTION * d_texton:
-            model.metadata["method_choice"] = choice
-            return model
     texton = _texton_analysis(a, size, order, iterations, seed, True if periodic in (None, "auto") else periodic,
                               color_correction, support, histogram, o["progress"], options)
-    if choice is not None:
-        texton.metadata["method_choice"] = choice
-        texton.metadata["structure"] = model.metadata.get("structure")
+    if choice is None:
+        return texton
+    if texton.histogram is None:  # the texton's own output, as the tiling's probe is the tiling's
+        choice["texton"] = texton_probe_distance(texton, a, check_seed(seed))
+        choice["texton_measure"] = "texton noise (discrete spot noise, MNI 30)"
+    else:
+        choice["texton_measure"] = "the phase-randomised example (Gaussianised)"
+    structure = model.metadata.get("structure")
+    if choice["tiling"] is not None and choice["texton"] is not None \
+            and choice["tiling"] < AUTO_TILING_FRACTION * choice["texton"]:
+        model.metadata["method_choice"] = choice
+        return model
+    texton.metadata["method_choice"] = choice
+    texton.metadata["structure"] = structure
     return texton
+
+
+def texton_probe_distance(texton: Texton, u: np.ndarray, seed: int = 0) -> float:
+    """The patch distance to the example u of the texton's noise, drawn as discrete spot noise at MNI 30
+    (:func:`~warp_texton.model.spot_noise.dsn`) on the tiling fit's probe raster, with its seeds, samples
+    and directions: what ``method="auto"`` weighs against the tiling model's probe."""
+    side = min(PROBE_SIDE, 2 * max(u.shape[:2]))
+    return float(np.mean([patch_distance(dsn(texton, (side, side), mni=AUTO_MNI, seed=s), u, seed=seed,
+                                         samples=PROBE_SAMPLES, directions=PROBE_DIRECTIONS)
+                          for s in PROBE_SEEDS]))
 
 
 @dataclass(frozen=True)
