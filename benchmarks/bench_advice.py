@@ -18,11 +18,13 @@ reported, over all examples, on HELD_OUT and without the close ones:
 * ``fit distances`` — where the tiling model's metadata holds ``texton_distance`` and
   ``tiling_distance`` (what the analysis measured itself), the method with the lower one;
 * ``--advice module:function`` — any function u → "texton" or "tiling" (``module`` importable, e.g. a
-  file in benchmarks/).
+  file in benchmarks/);
+* ``always tiling`` — the baseline: the share of labels that are tiling.
 
 Labels are cached in ``results/advice_labels.json`` keyed by the example's file (path, archive member,
 modification time) and the output shape and seeds, so a rerun measures only the advice; each entry keeps
-the digest of the package's uncommitted changes it was labelled with (``--relabel`` redoes them all).
+the digest of the package's code it was labelled with, ``bench_seamless.tree_state`` (``--relabel``
+redoes them all).
 
     python benchmarks/bench_advice.py --set tune          # label (or reuse) and score → results/advice_tune.{json,md}
     python benchmarks/bench_advice.py --set all
@@ -33,6 +35,7 @@ from __future__ import annotations
 
 import importlib
 import json
+import warnings
 import sys
 import time
 from pathlib import Path
@@ -106,8 +109,6 @@ def _small(example: Example) -> Example:
 
 def label(u: np.ndarray, shape, seeds) -> dict:
     """Both methods' patch distances (over the floor) per seed, the label, and the tiling fit's distances."""
-    import warnings
-
     floor = half_distance(u)
     out: dict = {"floor": floor}
     models = {}
@@ -145,7 +146,9 @@ def auto_available() -> str | None:
     """None where ``analyze(u, method="auto")`` runs, else why not."""
     u = np.random.default_rng(0).random((64, 64, 3)).astype(np.float32)
     try:
-        analyze(u, method="auto")
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            analyze(u, method="auto")
     except Exception as exc:  # the option is being added beside this benchmark
         return f"analyze(method='auto') refused: {type(exc).__name__}: {str(exc)[:120]}"
     return None
@@ -203,11 +206,14 @@ def collect(examples: list[Example], shape, seeds, skipped: list, *, cache: dict
         advice: dict = {}
         for name, fn in advisers.items():
             try:
-                advice[name] = fn(u)
+                with warnings.catch_warnings():  # the analyses' advice about the example, not measured here
+                    warnings.simplefilter("ignore")
+                    advice[name] = fn(u)
             except Exception as exc:
                 advice[name] = None
                 skipped.append({"case": f"{name} on {ex.name}", "reason": f"{type(exc).__name__}: {exc}"})
         advice["fit distances"] = advice_fit(entry)
+        advice["always tiling"] = "tiling"  # the baseline an advice must beat: most labels are tiling
         row = {"name": ex.name, "short": ex.short, "set": ex.set, "kind": ex.kind, "shape": list(u.shape),
                "label": entry["label"], "close": entry["close"], "texton": float(np.mean(entry["texton"])),
                "tiling": float(np.mean(entry["tiling"])), "fit": entry.get("fit", {}), "advice": advice,
@@ -216,7 +222,7 @@ def collect(examples: list[Example], shape, seeds, skipped: list, *, cache: dict
         print(f"  [{k + 1}/{len(examples)}] {ex.short:42s} texton {row['texton']:.2f} tiling {row['tiling']:.2f} → "
               f"{row['label']}{' (close)' if row['close'] else ''}; " +
               ", ".join(f"{a}: {v}" for a, v in advice.items()) + (" [cached]" if not fresh else ""), flush=True)
-    names = list(advisers) + ["fit distances"]
+    names = list(advisers) + ["fit distances", "always tiling"]
     scores = {a: {"all": agreement(rows, a), "held-out": agreement(rows, a, lambda r: r["set"] == "held-out"),
                   "tune": agreement(rows, a, lambda r: r["set"] == "tune"),
                   "extra": agreement(rows, a, lambda r: r["set"] == EXTRA),

@@ -423,8 +423,8 @@ def summary_lines(report: dict) -> list[str]:
 def markdown(report: dict) -> str:
     p = report["parameters"]
     lines = [f"# Seamless and regular examples ({report['date']}, set {p['set']})", "", machine_line(report),
-             f"Package working tree `{report.get('working_tree')}` (digest of uncommitted changes to warp_texton/ and "
-             f"kernels/). Outputs {p['shape'][1]}×{p['shape'][0]}, seeds {', '.join(map(str, p['seeds']))}; "
+             f"Package working tree `{report.get('working_tree')}` (digest of the code in warp_texton/ and kernels/, "
+             f"bench_seamless.tree_state). Outputs {p['shape'][1]}×{p['shape'][0]}, seeds {', '.join(map(str, p['seeds']))}; "
              f"{report['seconds']:.0f} s.", "",
              "patch: multi-scale 7×7 patch sliced-Wasserstein distance over the example's half-to-half distance, mean "
              "of the seeds; lattice kept: the output's autocorrelation at the example's lattice peaks over the "

@@ -58,9 +58,6 @@ def test_lattice_kept_is_one_for_the_example_tiled_and_zero_for_noise():
     assert lattice_kept(tiled, u, None) is None
 
 
-@pytest.mark.xfail(reason="lattice_mean off the exact (seamless) path splats each texel half into two phase bins "
-                          "(texel centres sit at t = 0.5 on an integer lattice): the mean is blurred by a texel and "
-                          "7 % of a purely periodic pattern's variance stays in the residual", strict=False)
 def test_the_residual_of_a_purely_periodic_pattern_does_not_repeat():
     u, truth = lattice_texture("square", noise=0.0, weathering=0.0, variation=0.0, periods=2)
     v = u + 0.05 * np.random.default_rng(1).normal(size=u.shape)
