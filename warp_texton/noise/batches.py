@@ -128,6 +128,8 @@ def _check_textons(textons) -> list:
 
 def _finite_pair(value, name: str) -> tuple[float, float]:
     try:
+        if any(isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real) for v in value):
+            raise TypeError  # strings such as "1" would pass float()
         lo, hi = (float(v) for v in value)
     except (TypeError, ValueError):
         raise TextonError(f"{name} must be a number, a (lo, hi) range or an array of one value per item, "
@@ -139,10 +141,18 @@ def _finite_pair(value, name: str) -> tuple[float, float]:
     return lo, hi
 
 
+def _numeric_array(value: np.ndarray, name: str) -> None:
+    """Refuse arrays of strings, objects, booleans or complex numbers: NumPy would
+    convert some of them (``np.array(["1.0"])``) silently."""
+    if value.dtype.kind not in "iuf":
+        raise TextonError(f"{name}: an array must hold real numbers (int or float dtype), got dtype {value.dtype}")
+
+
 def _per_item(value, name: str, count: int, rng, *, log: bool = False, positive: bool = False) -> np.ndarray:
     """A number (every item), a (lo, hi) tuple or list (drawn uniformly, log-uniformly
     for ``log``), or a NumPy array of one value per item."""
     if isinstance(value, np.ndarray):
+        _numeric_array(value, name)
         a = np.asarray(value, np.float64).reshape(-1) if value.ndim <= 1 else None
         if a is None or a.shape[0] != count:
             raise TextonError(f"{name}: an array gives one value per item: shape ({count},), got {value.shape}")
@@ -170,6 +180,7 @@ def _offsets(value, count: int, rng) -> np.ndarray:
     """(count, 2): a pair (x, y) for every item, ((x_lo, x_hi), (y_lo, y_hi)) ranges,
     or a NumPy array (count, 2)."""
     if isinstance(value, np.ndarray):
+        _numeric_array(value, "offset")
         a = np.asarray(value, np.float64)
         if a.shape != (count, 2):
             raise TextonError(f"offset: an array gives one (x, y) per item: shape ({count}, 2), got {a.shape}")
