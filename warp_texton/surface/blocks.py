@@ -114,17 +114,22 @@ def sort_into_blocks(pos: np.ndarray, nrm: np.ndarray | None, cell: float, reach
     hi_fine = [int(math.floor(float(pos[:, k].max()) * scale)) for k in range(3)]
     own_min = [f >> shift for f in lo_fine]
     span = [(hi >> shift) - o + 1 for hi, o in zip(hi_fine, own_min)]
-    if float(span[0]) * float(span[1]) * float(span[2]) < 2.0**46:
+    if float(span[0]) * float(span[1]) * float(span[2]) < 2.0**46 and len(pos) < 2**31:
         # the keys in a CPU kernel (several times faster than NumPy on (N, 3) arrays)
-        keys = wp.empty(len(pos), dtype=wp.int64, device="cpu")
+        # Warp's radix sort takes buffers twice the length (its scratch space) and is stable, so the
+        # order is np.argsort(key, kind="stable")'s, 2-3x faster on a million points
+        n = len(pos)
+        keys = wp.empty(2 * n, dtype=wp.int64, device="cpu")
+        rows = wp.empty(2 * n, dtype=wp.int32, device="cpu")
         spread: wp.array = wp.array(_SPREAD, dtype=wp.int64, device="cpu")
-        split_launch("cpu", surface_blocks, len(pos), lambda a, b: wp.launch(
+        split_launch("cpu", surface_blocks, n, lambda a, b: wp.launch(
             surface_blocks.block_keys, dim=b - a, device="cpu",
             inputs=[points[a:b], wp.float64(scale), wp.int64(shift), *(wp.int64(o) for o in own_min),
                     wp.int64(span[0]), wp.int64(span[1]), spread, keys[a:b]]))
-        key = keys.numpy()
-        order = np.argsort(key, kind="stable")
-        key = key[order]
+        rows.numpy()[:n] = np.arange(n, dtype=np.int32)
+        wp.utils.radix_sort_pairs(keys, rows, n)
+        key = keys.numpy()[:n]
+        order = rows.numpy()[:n].astype(np.int64)
         block = key >> 15
     else:  # blocks spread over more than int64 keys hold
         fine = [np.floor(pos[:, k] * scale).astype(np.int64) for k in range(3)]
