@@ -18,7 +18,7 @@ Measured against the example:
   ``half_distance`` (the floor), mean of the seeds;
 * **lattice kept** — ``structure.lattice_kept`` on the example's lattice (1: as regular as the
   example): the known one for synthetic examples, else the strongest of
-  ``warp_texton.model.lattice.detect_lattices(u, seam_ratios(u).wrap)``; none where none is found;
+  ``warp_texton.model.lattice_detection.detect_lattices(u, seam_ratios(u).wrap)``; none where none is found;
 * **residual repetition** — ``structure.residual_repetition`` on the same lattice (plain
   ``bench_quality.repetition`` without one); the example's own beside it;
 * **ms** — milliseconds per output, best of the seeds; **setup** — the peer's constructor or
@@ -123,7 +123,7 @@ def examples_of(which: str, quick: bool) -> tuple[list[Example], list[dict]]:
 
 def example_lattice(u: np.ndarray, wrap) -> dict | None:
     """The strongest lattice ``detect_lattices`` finds, as {vectors, strength, rank, object}, or None."""
-    from warp_texton.model.lattice import detect_lattices
+    from warp_texton.model.lattice_detection import detect_lattices
 
     try:
         found = detect_lattices(u, wrap)
@@ -170,7 +170,7 @@ def methods_of(u: np.ndarray) -> tuple[dict, dict, dict]:
 
 def measure(example: Example, shape, seeds, gallery: dict | None = None) -> dict:
     """The row of one example: its classification and lattice, and each method's measures."""
-    from warp_texton.model.lattice import seam_ratios
+    from warp_texton.model.lattice_detection import seam_ratios
 
     u = example.load()
     seams = seam_ratios(u)

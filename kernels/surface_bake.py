@@ -9,6 +9,11 @@ centre. Of several triangles (overlapping UVs), the highest face index wins
 (an atomic max, so the result does not depend on thread timing), and ``cover``
 counts them all, which is how overlapping UVs are detected.
 
+:func:`texel_faces` gives each baked texel its face's affine map (texel coordinates → barycentric
+weights), its 3-D corners and unit normal and the texel's footprint on the surface; :func:`sample_points` places a bake's samples on the surface: the texel's offsets mapped through its
+face's affine map (texel coordinates → barycentric weights → 3-D point) and the renderer's normal there,
+in float64 with the operations in the order the NumPy form had (the bake's values did not move).
+
 Driven by: ``warp_texton.surface.bake``.
 """
 
@@ -69,4 +74,107 @@ def claim_texels(
                 wp.atomic_add(cover, i, j, 1)
 
 
-__all__ = ["claim_texels"]
+@wp.kernel
+def sample_points(
+    texels: wp.array(dtype=wp.int64),
+    offsets: wp.array(dtype=wp.vec2d),
+    cols: wp.array(dtype=wp.int64),
+    rows: wp.array(dtype=wp.int64),
+    a2: wp.array(dtype=wp.vec2d),
+    inv: wp.array(dtype=wp.mat22d),
+    p3: wp.array2d(dtype=wp.vec3d),
+    faces: wp.array(dtype=wp.int64),
+    cnormals: wp.array2d(dtype=wp.vec3d),
+    fn: wp.array(dtype=wp.vec3d),
+    texel: wp.float64,
+    first: int,
+    pts: wp.array(dtype=wp.vec3d),
+    nrm: wp.array(dtype=wp.vec3d),
+):
+    """Sample t = first + tid: offset t mod S of texel ``texels[t // S]`` (S offsets from the texel's
+    centre, in texels); its point in texton texels and its unit normal (the face's corner normals
+    interpolated, the face normal where they vanish). Samples past the face's edges extrapolate on
+    its plane (the texel's footprint on the tangent plane)."""
+    t = wp.tid() + first
+    n_off = offsets.shape[0]
+    k = texels[t // n_off]
+    o = offsets[t % n_off]
+    half = wp.float64(0.5)
+    qx = (wp.float64(cols[k]) + half + o[0]) - a2[k][0]
+    qy = (wp.float64(rows[k]) + half + o[1]) - a2[k][1]
+    m = inv[k]
+    w1 = m[0, 0] * qx + m[0, 1] * qy
+    w2 = m[1, 0] * qx + m[1, 1] * qy
+    w0 = (wp.float64(1.0) - w1) - w2
+    p = (p3[k, 0] * w0 + p3[k, 1] * w1) + p3[k, 2] * w2
+    pts[t] = p / texel
+    f = faces[k]
+    n = (cnormals[f, 0] * w0 + cnormals[f, 1] * w1) + cnormals[f, 2] * w2
+    length = wp.sqrt((n[0] * n[0] + n[1] * n[1]) + n[2] * n[2])
+    if length > wp.float64(1e-6):
+        nrm[t] = n / length
+    else:
+        nrm[t] = fn[k]
+
+
+@wp.func
+def norm3(v: wp.vec3d):
+    # the square root of the squares summed in order (NumPy's norm over three components)
+    return wp.sqrt((v[0] * v[0] + v[1] * v[1]) + v[2] * v[2])
+
+
+@wp.func
+def cross3(a: wp.vec3d, b: wp.vec3d):
+    # NumPy's cross product: each component a product minus a product, in its order
+    return wp.vec3d(a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+@wp.kernel
+def texel_faces(
+    owner: wp.array(dtype=wp.int64),
+    faces: wp.array2d(dtype=wp.int64),
+    corners: wp.array(dtype=wp.vec2d),
+    vertices: wp.array(dtype=wp.vec3d),
+    cnormals: wp.array2d(dtype=wp.vec3d),
+    texel: wp.float64,
+    first: int,
+    a2: wp.array(dtype=wp.vec2d),
+    inv: wp.array(dtype=wp.mat22d),
+    p3: wp.array2d(dtype=wp.vec3d),
+    fn: wp.array(dtype=wp.vec3d),
+    footprint: wp.array(dtype=wp.vec3d),
+):
+    """Texel t = first + tid of face ``owner[t]``: the face's first UV corner, the inverse of its UV
+    edge matrix, its 3-D corners, its unit normal (the first corner normal where the face has no
+    area) and the texel's footprint in texton texels (side along x, side along y, area)."""
+    t = wp.tid() + first
+    f = owner[t]
+    c = wp.int64(3) * f
+    a = corners[c]
+    e1 = corners[c + wp.int64(1)] - a
+    e2 = corners[c + wp.int64(2)] - a
+    det = e1[0] * e2[1] - e1[1] * e2[0]
+    a2[t] = a
+    m = wp.mat22d(e2[1] / det, -e2[0] / det, -e1[1] / det, e1[0] / det)
+    inv[t] = m
+    p0 = vertices[faces[f, 0]]
+    p1 = vertices[faces[f, 1]]
+    p2 = vertices[faces[f, 2]]
+    p3[t, 0] = p0
+    p3[t, 1] = p1
+    p3[t, 2] = p2
+    d1 = p1 - p0
+    d2 = p2 - p0
+    n = cross3(d1, d2)
+    length = norm3(n)
+    if length > wp.float64(0.0):
+        fn[t] = n / length
+    else:
+        fn[t] = cnormals[f, 0]
+    # d(point)/d(texel x) and d(point)/d(texel y): the footprint's sides
+    jx = (d1 * m[0, 0] + d2 * m[1, 0]) / texel
+    jy = (d1 * m[0, 1] + d2 * m[1, 1]) / texel
+    footprint[t] = wp.vec3d(norm3(jx), norm3(jy), norm3(cross3(jx, jy)))
+
+
+__all__ = ["claim_texels", "sample_points", "texel_faces"]

@@ -139,7 +139,7 @@ class TilingModel:
         the example's colours are blended directly.
     wrap : (bool, bool)
         Whether the example is read wrapped across its x (columns) and y (rows)
-        borders: a seamless example (:func:`warp_texton.model.lattice.seam_ratios`)
+        borders: a seamless example (:func:`warp_texton.model.lattice_detection.seam_ratios`)
         whose patch centres may lie anywhere on that axis, its patches crossing
         the border; (False, False), the default, keeps them ``margin`` inside it.
         A wrapped axis takes a ``side`` up to the example's own size on it.

@@ -3,10 +3,10 @@
 :func:`fit_tiling` (``analyze(u, method="tiling")``) reads what the example is before it makes the
 model (docs/tiling.md, "Seamless examples", "Lattices"):
 
-1. **seams** (:func:`~warp_texton.model.lattice.seam_ratios`): an axis whose wrap seam is no stronger
+1. **seams** (:func:`~warp_texton.model.lattice_detection.seam_ratios`): an axis whose wrap seam is no stronger
    than the example's inside is read wrapped (``periodic="auto"``), so that a seamless example's
    centres lie anywhere and its patches may be as large as the example;
-2. **lattices** (:func:`~warp_texton.model.lattice.detect_lattices`): the candidate 2-D and 1-D
+2. **lattices** (:func:`~warp_texton.model.lattice_detection.detect_lattices`): the candidate 2-D and 1-D
    lattices of a near-regular example (``lattice="auto"``), or the one a user gives;
 3. **the choice**: every candidate (no lattice or each lattice found, times a few sides) makes a
    model whose output is *probed* — a raster made by :func:`probe`, the model's own draw evaluated in
@@ -211,7 +211,7 @@ def _whole_cells(a: np.ndarray, wrap: tuple[bool, bool], seams) -> tuple[bool, b
 
 
 def example_wrap(a: np.ndarray, periodic="auto"):
-    """((x, y) wrap, :class:`~warp_texton.model.lattice.Seams`): how :func:`fit_tiling` reads an example
+    """((x, y) wrap, :class:`~warp_texton.model.lattice_detection.Seams`): how :func:`fit_tiling` reads an example
     (H, W, C) for ``periodic`` ("auto": where its seams are seamless and it holds whole cells of its
     lattice; True or False: both axes)."""
     seams = seam_ratios(a)
@@ -236,8 +236,8 @@ def fit_tiling(u, *, side: float | None = None, sharpness: int = SHARPNESS, guid
     """The :class:`~warp_texton.model.tiling.TilingModel` of an example image (``analyze(u, method="tiling")``).
 
     ``periodic``: ``"auto"`` reads each axis wrapped where the example is seamless across it (its seam
-    ratio, :func:`~warp_texton.model.lattice.seam_ratios`); True or False on both axes. ``lattice``:
-    ``"auto"`` tries the lattices :func:`~warp_texton.model.lattice.detect_lattices` finds, None none,
+    ratio, :func:`~warp_texton.model.lattice_detection.seam_ratios`); True or False on both axes. ``lattice``:
+    ``"auto"`` tries the lattices :func:`~warp_texton.model.lattice_detection.detect_lattices` finds, None none,
     or one or two vectors (dy, dx) in texels (or a :class:`~warp_texton.model.lattice.Lattice`).
     ``side``: the triangles' side, or None to choose it with the lattice by the probes (module
     docstring). ``histogram="preserve"``: the model blends the example Gaussianised per channel and

@@ -181,17 +181,6 @@ def _claimed(uvs: np.ndarray, faces: np.ndarray, res: int, device, name: str):
     return corners, owner, float(np.count_nonzero(cover > 1)) / n_cov
 
 
-def _normals_at(bary: np.ndarray, corners: np.ndarray, fnormals: np.ndarray) -> np.ndarray:
-    """The renderer's normal: the face's corner normals (n, 3, 3) interpolated, the face
-    normal where they vanish."""
-    n = corners[:, 0] * bary[:, :1] + corners[:, 1] * bary[:, 1:2] + corners[:, 2] * bary[:, 2:]
-    length = np.linalg.norm(n, axis=1)
-    ok = length > 1e-6
-    n[ok] /= length[ok, None]
-    n[~ok] = fnormals[~ok]
-    return n
-
-
 def _corners_of(cnormals: np.ndarray, faces: np.ndarray, vmap: np.ndarray, new_faces: np.ndarray) -> np.ndarray:
     """The corner normals of an atlas's faces (``new_faces``, one per input face, in order,
     indexing ``vmap``'s vertices): each corner takes the input corner of its vertex."""
@@ -443,7 +432,7 @@ def _bake_uvs(mesh, vertices, cnormals, faces, own_uv, res, gutter, charts, devi
 @dataclass(frozen=True)
 class _TexelFaces:
     """The baked texels (``rows``, ``cols``; ``inner``: covered, not gutter) and, for each, its
-    face ``f`` (corners ``tri``, 3-D corners ``p3``, unit normal ``fn``), the face's first UV
+    face ``f`` (3-D corners ``p3``, unit normal ``fn``), the face's first UV
     corner ``a2`` and the inverse ``inv`` of its UV edge matrix (texel offsets → barycentric
     weights), and the texel's footprint in texton texels (``side_x``, ``side_y``, ``area``)."""
 
@@ -451,7 +440,6 @@ class _TexelFaces:
     cols: np.ndarray
     inner: np.ndarray
     f: np.ndarray
-    tri: np.ndarray
     a2: np.ndarray
     inv: np.ndarray
     p3: np.ndarray
@@ -463,26 +451,29 @@ class _TexelFaces:
 
 def _texel_faces(owner, covered, faces, corners, vertices, cnormals, texel) -> _TexelFaces:
     """Each baked texel's face and that face's affine map (texel coordinates → barycentric
-    weights, 3-D point), with the texel's footprint on the surface."""
+    weights, 3-D point), with the texel's footprint on the surface (``kernels/surface_bake.py``
+    ``texel_faces``, one thread per texel)."""
     rows, cols = np.nonzero(owner >= 0)
     inner = covered[rows, cols]
     f = owner[rows, cols].astype(np.int64)
-    tri = faces[f]
-    # each face's affine map texel coordinates → (barycentric weights, 3-D point)
-    a2, b2, c2 = corners.reshape(-1, 3, 2)[f].transpose(1, 0, 2)
-    e1, e2 = b2 - a2, c2 - a2
-    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-    p3 = vertices[tri]  # (n, 3 corners, 3)
-    fn = np.cross(p3[:, 1] - p3[:, 0], p3[:, 2] - p3[:, 0])
-    fl = np.linalg.norm(fn, axis=1)
-    fn = np.where(fl[:, None] > 0, fn / np.where(fl > 0, fl, 1.0)[:, None], cnormals[f, 0])
-    # d(point)/d(texel x), d(point)/d(texel y) in texton texels: the footprint's sides
-    inv = np.stack([np.stack([e2[:, 1], -e2[:, 0]], 1), np.stack([-e1[:, 1], e1[:, 0]], 1)], 1) / det[:, None, None]
-    jac = np.einsum("nkc,nkd->ncd", np.stack([p3[:, 1] - p3[:, 0], p3[:, 2] - p3[:, 0]], 1), inv) / texel
-    side_x = np.linalg.norm(jac[:, :, 0], axis=1)
-    side_y = np.linalg.norm(jac[:, :, 1], axis=1)
-    area = np.linalg.norm(np.cross(jac[:, :, 0], jac[:, :, 1]), axis=1)
-    return _TexelFaces(rows, cols, inner, f, tri, a2, inv, p3, fn, side_x, side_y, area)
+    n = len(f)
+    a2 = np.empty((n, 2), np.float64)
+    inv = np.empty((n, 2, 2), np.float64)
+    p3 = np.empty((n, 3, 3), np.float64)
+    fn = np.empty((n, 3), np.float64)
+    footprint = np.empty((n, 3), np.float64)
+
+    def view(a, dtype):
+        return wp.array(a, dtype=dtype, device="cpu", copy=False)
+
+    inputs = [view(f, wp.int64), wp.array(np.ascontiguousarray(faces, np.int64), dtype=wp.int64, device="cpu", copy=False),
+              view(np.ascontiguousarray(corners, np.float64), wp.vec2d),
+              view(np.ascontiguousarray(vertices, np.float64), wp.vec3d),
+              view(np.ascontiguousarray(cnormals, np.float64), wp.vec3d), wp.float64(texel)]
+    outputs = [view(a2, wp.vec2d), view(inv, wp.mat22d), view(p3, wp.vec3d), view(fn, wp.vec3d), view(footprint, wp.vec3d)]
+    split_launch("cpu", surface_bake, n, lambda s0, s1: wp.launch(
+        surface_bake.texel_faces, dim=s1 - s0, device="cpu", inputs=[*inputs, s0, *outputs]))
+    return _TexelFaces(rows, cols, inner, f, a2, inv, p3, fn, footprint[:, 0], footprint[:, 1], footprint[:, 2])
 
 
 def _sample_counts(tx: _TexelFaces, supersample) -> tuple[np.ndarray, np.ndarray]:
@@ -496,10 +487,41 @@ def _sample_counts(tx: _TexelFaces, supersample) -> tuple[np.ndarray, np.ndarray
     return nx, ny
 
 
+def _sample_arrays(tx: _TexelFaces, cnormals: np.ndarray) -> dict:
+    """The texels' face data as Warp arrays on the host (views of the NumPy arrays), for
+    :func:`_sample_points`."""
+    def view(a, dtype):
+        return wp.array(np.ascontiguousarray(a, np.float64 if dtype is not wp.int64 else np.int64), dtype=dtype,
+                        device="cpu", copy=False)
+
+    return {"cols": view(tx.cols, wp.int64), "rows": view(tx.rows, wp.int64), "a2": view(tx.a2, wp.vec2d),
+            "inv": view(tx.inv, wp.mat22d), "p3": view(tx.p3, wp.vec3d), "faces": view(tx.f, wp.int64),
+            "cnormals": view(cnormals, wp.vec3d), "fn": view(tx.fn, wp.vec3d)}
+
+
+def _sample_points(arrays: dict, g: np.ndarray, offsets: np.ndarray, texel: float) -> tuple[np.ndarray, np.ndarray]:
+    """(points in texton texels, unit normals), float64 (len(g) · len(offsets), 3): the samples of
+    texels ``g`` at ``offsets`` from their centres (``kernels/surface_bake.py`` ``sample_points``)."""
+    n = len(g) * len(offsets)
+    pts = np.empty((n, 3), np.float64)
+    nrm = np.empty((n, 3), np.float64)
+    texels: wp.array = wp.array(np.ascontiguousarray(g, np.int64), dtype=wp.int64, device="cpu", copy=False)
+    offs: wp.array = wp.array(np.ascontiguousarray(offsets, np.float64), dtype=wp.vec2d, device="cpu")
+    wp_pts: wp.array = wp.array(pts, dtype=wp.vec3d, device="cpu", copy=False)
+    wp_nrm: wp.array = wp.array(nrm, dtype=wp.vec3d, device="cpu", copy=False)
+    a = arrays
+    split_launch("cpu", surface_bake, n, lambda s0, s1: wp.launch(
+        surface_bake.sample_points, dim=s1 - s0, device="cpu",
+        inputs=[texels, offs, a["cols"], a["rows"], a["a2"], a["inv"], a["p3"], a["faces"], a["cnormals"], a["fn"],
+                wp.float64(texel), s0, wp_pts, wp_nrm]))
+    return pts, nrm
+
+
 def _sample_sums(p, setup, tx: _TexelFaces, nx, ny, cnormals, texel, device, method, bar) -> np.ndarray:
     """The sum of the surface noise over each texel's nx × ny samples, in rounds of at most
     SAMPLES_PER_ROUND samples of texels with the same counts."""
     sums = np.zeros((len(tx.f), 3), np.float64)
+    arrays = _sample_arrays(tx, cnormals)
     kinds = sorted(set(zip(nx.tolist(), ny.tolist())))
     per_kind = [max(1, SAMPLES_PER_ROUND // (sx * sy)) for sx, sy in kinds]
     rounds = sum(-(-int(np.count_nonzero((nx == sx) & (ny == sy))) // n) for (sx, sy), n in zip(kinds, per_kind))
@@ -510,16 +532,8 @@ def _sample_sums(p, setup, tx: _TexelFaces, nx, ny, cnormals, texel, device, met
         offsets = np.stack([ox.ravel(), oy.ravel()], axis=1)  # sample offsets from the texel centre
         for g0 in range(0, len(group), per_round):
             g = group[g0:g0 + per_round]
-            centre = np.stack([tx.cols[g] + 0.5, tx.rows[g] + 0.5], axis=1)
-            q = (centre[:, None, :] + offsets[None, :, :] - tx.a2[g][:, None, :]).reshape(-1, 2)
-            k = np.repeat(g, len(offsets))
-            # barycentric weights from the face's affine map; samples past its edges
-            # extrapolate on its plane (the texel's footprint on the tangent plane)
-            w12 = np.einsum("nij,nj->ni", tx.inv[k], q)
-            bary = np.stack([1.0 - w12[:, 0] - w12[:, 1], w12[:, 0], w12[:, 1]], axis=1)
-            pts = np.einsum("nc,ncd->nd", bary, tx.p3[k])
-            nrm = _normals_at(bary, cnormals[tx.f[k]], tx.fn[k])
-            vals = evaluate_points(p, setup, pts / texel, nrm, None, device, method)
+            pts, nrm = _sample_points(arrays, g, offsets, texel)
+            vals = evaluate_points(p, setup, pts, nrm, None, device, method)
             if vals.shape[1] == 1:
                 # one channel: each texel's samples added one after another, the order
                 # in which NumPy sums the strided axis of the three-channel form
