@@ -34,7 +34,7 @@ ROOM_LAYERS = {
     "model": {"bspline": 0, "histogram": 0, "example_checks": 0, "analysis_options": 1, "gaussian": 2,
               "lattice": 3, "tiling": 4, "texton": 5, "tiling_fit": 5, "spot_noise": 6, "analysis": 7},
     "noise": {"filter_options": 0, "noise_options": 0, "tiling": 2, "engine": 1, "colours": 1, "canvas": 2, "filtering": 3, "raster": 3,
-              "synthesis": 4, "ground_plane": 4, "mixing": 4, "dask_arrays": 5, "batches": 5},
+              "synthesis": 4, "ground_plane": 4, "mixing": 4, "dask_arrays": 5, "batches": 5, "relief": 5},
     "surface": {"frames": 0, "atlas": 0, "atlas_worker": 0, "blocks": 0, "tiling": 1, "points": 2, "mesh": 3,
                 "mesh_files": 4, "render": 4, "bake": 5, "jobs": 6},
     "runtimes": {"warp_api": 0, "shared": 0, "glsl.page": 1, "glsl.texton": 2, "glsl.tiling": 2, "glsl": 3,
