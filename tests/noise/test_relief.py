@@ -236,3 +236,22 @@ class TestNormalMaps:
             normal_map(random_texton((8, 8), order=0), (8, 8), device=device)
         with pytest.raises(TextonError, match="mni"):
             gradient(TilingModel(_smooth_example(1), 20.0), shape=(8, 8), mni=5.0, device=device)
+
+
+def test_cli_writes_the_normal_map(tmp_path, texton, capsys):
+    from tests.helpers import run_cli
+    from warp_texton import read_image
+
+    src = tmp_path / "t.texton"
+    texton.save(src)
+    out, nm = tmp_path / "n.exr", tmp_path / "normals.exr"
+    assert run_cli(["synthesize", src, "-o", out, "--width", 40, "--height", 24, "--normal-map", nm,
+                    "--normal-strength", 2, "--device", "cpu", "-q"]) == 0
+    expect = normal_map(texton, (24, 40), strength=2.0, device="cpu")
+    assert np.allclose(read_image(nm), expect, atol=1e-6)
+    assert run_cli(["synthesize", src, "-o", out, "--width", 40, "--height", 24, "--normal-map", nm,
+                    "--filter", "mip", "--device", "cpu"]) == 2
+    assert "--normal-map" in capsys.readouterr().err
+    assert run_cli(["synthesize", src, "-o", out, "--width", 40, "--height", 24, "--normal-map", nm,
+                    "--normal-strength", -1, "--device", "cpu"]) == 2
+    assert "--normal-strength" in capsys.readouterr().err

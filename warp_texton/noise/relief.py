@@ -22,6 +22,7 @@ from ..model.histogram import GAUSS_RANGE
 from ..model.texton import Texton
 from ..model.tiling import TilingModel
 from .colours import noise_moments
+from .filter_options import FilterOptions
 from .engine import CELL_FACTOR, POINT_BYTES, check_cell_range, check_points_cost, noise_params, noise_setup
 from .noise_options import NoiseOptions
 from .raster import raster_geometry
@@ -35,7 +36,7 @@ CONVENTIONS = {"opengl": 1.0, "directx": -1.0}
 
 
 def _check_filter(filter) -> None:
-    if not (filter is None or (isinstance(filter, str) and filter == "none")):
+    if filter is not None and FilterOptions.of(filter).kind != "none":
         raise TextonError(f"filter {filter!r}: gradients are of the unfiltered noise only (filter='none'); "
                           "a filtered value has no exact derivative here", param="filter")
 
