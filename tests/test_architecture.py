@@ -36,7 +36,7 @@ ROOM_LAYERS = {
     "noise": {"filter_options": 0, "noise_options": 0, "tiling": 2, "engine": 1, "colours": 1, "canvas": 2, "filtering": 3, "raster": 3,
               "synthesis": 4, "ground_plane": 4, "mixing": 4, "dask_arrays": 5, "batches": 5, "relief": 5},
     "surface": {"frames": 0, "atlas": 0, "atlas_worker": 0, "blocks": 0, "tiling": 1, "points": 2, "mesh": 3,
-                "mesh_files": 4, "render": 4, "bake": 5, "jobs": 6},
+                "mesh_files": 4, "render": 4, "bake": 5, "jobs": 6, "relief": 5},
     "runtimes": {"warp_api": 0, "shared": 0, "glsl.page": 1, "glsl.texton": 2, "glsl.tiling": 2, "glsl": 3,
                  "osl.texton": 1, "osl.tiling": 2, "osl": 3, "languages": 4, "export": 5},
     "view": {"static": 0, "queries": 0, "cache": 0, "images": 0, "webgl": 0, "inputs": 1, "commands": 2,
