@@ -50,6 +50,7 @@ if TYPE_CHECKING:  # what type checkers and documentation tools see; at run time
     from .surface.render import Camera, render_mesh
     from .surface.points import surface_noise
     from .noise.synthesis import evaluate, synthesize
+    from .noise.relief import gradient, height_map, normal_map
     from .model.texton import Texton, load_texton
     from .runtimes.export import export_shader
 
@@ -68,6 +69,7 @@ _LAZY = {
     "texture_mesh": "surface.mesh",
     "Batch": "noise.batches", "BatchParams": "noise.batches", "synthesize_batch": "noise.batches",
     "evaluate": "noise.synthesis", "synthesize": "noise.synthesis",
+    "gradient": "noise.relief", "height_map": "noise.relief", "normal_map": "noise.relief",
     "Texton": "model.texton", "load_texton": "model.texton",
     "export_shader": "runtimes.export",
 }
@@ -90,9 +92,12 @@ __all__ = [
     "dsn",
     "evaluate",
     "gaussian_texture",
+    "gradient",
+    "height_map",
     "load_texton",
     "mix_textons",
     "model_error",
+    "normal_map",
     "periodic_component",
     "read_image",
     "render_baked",

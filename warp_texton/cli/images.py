@@ -128,6 +128,13 @@ def _synthesize_arguments(p: argparse.ArgumentParser) -> None:
     add_run_options(p)
     add_format_options(p, zarr=True)
     add_analysis_options(p, seed=False)
+    g = p.add_argument_group("relief")
+    g.add_argument("--normal-map", metavar="FILE", help="also write the tangent-space normal map of the same raster "
+                   "(PNG, 8-bit by default, or EXR), from the exact gradient of the luminance")
+    g.add_argument("--normal-strength", type=float, default=1.0,
+                   help="height of one standard deviation of the luminance, in pixels")
+    g.add_argument("--normal-convention", choices=("opengl", "directx"), default="opengl",
+                   help="opengl (glTF, Blender: green up the image) or directx (green down)")
 
 
 def _synthesize(args) -> None:
@@ -151,12 +158,22 @@ def _synthesize(args) -> None:
     out = check_image_path(out)
     check_dtype(out, dtype)
     options = filter_options(args)
+    normal_out = None if args.normal_map is None else check_image_path(Path(args.normal_map))
+    if normal_out is not None:
+        from ..core.checks import check_positive
+
+        check_positive(args.normal_strength, "strength")
+        if options.kind != "none":
+            raise TextonError(f"--normal-map takes the unfiltered noise's gradient: give --filter none, not "
+                              f"{options.kind}")
     noise = noise_options(args)
     t0 = time.perf_counter()
     # one bar over the command's steps (on a terminal, after 2 s), drawn while a step runs: the
     # write of a large PNG is one call that takes seconds and reports nothing
     show = show_progress(args)
     names = ([] if is_texton_path(args.input) else ["analysis"]) + ["noise", f"writing {out.name}"]
+    if normal_out is not None:
+        names.append(f"normal map {normal_out.name}")
     steps = NamedSteps(progress_bar(show, len(names), f"synthesize: {names[0]}", "step"), names, "synthesize",
                        tick=show)
     try:
@@ -174,12 +191,22 @@ def _synthesize(args) -> None:
         steps.step()
         write_image(out, values, dtype=dtype, compression=args.compression)
         steps.step()
+        if normal_out is not None:
+            from ..noise.relief import normal_map
+
+            normals = normal_map(texton, (args.height, args.width), strength=args.normal_strength,
+                                 convention=args.normal_convention, scale=args.scale, rotation=args.rotation,
+                                 offset=tuple(args.offset), device=args.device, **texton_only)
+            write_image(normal_out, normals, compression=args.compression)
+            steps.step()
     finally:
         steps.close()
     if not args.quiet:
         what = f"texton noise, MNI {args.mni:g}" if "noise" in texton_only or getattr(texton, "kind", "") != "tiling" \
             else "tiling and blending"
         print(f"{out}: {args.width}x{args.height} {what} ({seconds_since(t0)})")
+        if normal_out is not None:
+            print(f"{normal_out}: its normal map ({args.normal_convention}, strength {args.normal_strength:g})")
 
 
 #: Below this --scale (pixels per texel) an unfiltered raster aliases visibly.
@@ -210,6 +237,8 @@ def _zarr_chunk(args, h: int, w: int, default: int) -> tuple[int, int]:
 
 
 def _synthesize_zarr(args, out: Path, dtype) -> None:
+    if args.normal_map is not None:
+        raise TextonError("--normal-map applies to image outputs (.png, .jpg, .exr, .tif), not .zarr")
     """synthesize -o NAME.zarr: the raster written chunk by chunk (warp_texton.noise.dask_arrays)."""
     try:
         from ..noise.dask_arrays import CHUNK, ZARR_DTYPE, ZARR_DTYPES, check_big_shape, check_scheduler, write_zarr
@@ -252,7 +281,7 @@ SYNTHESIZE = Command(
     {**NOISE_IMAGE_NAMES, **FILTER_NAMES, **ANALYSIS_NAMES, "scale": "--scale", "rotation": "--rotation",
      "offset[0]": "--offset X", "offset[1]": "--offset Y", "offset": "--offset",
      "period[0]": "--period PX", "period[1]": "--period PY", "period": "--period", "chunks": "--chunk",
-     "overwrite": "--overwrite"},
+     "overwrite": "--overwrite", "strength": "--normal-strength", "convention": "--normal-convention"},
     input_file,
     epilog="""examples:
   warp-texton synthesize wood.exr -o noise.png --width 1920 --height 1080
@@ -260,6 +289,7 @@ SYNTHESIZE = Command(
   warp-texton synthesize wood.texton -o far.png --scale 0.25 --rotation 30 --mni 10
   warp-texton synthesize wood.texton -o far_aa.png --scale 0.1 --filter anisotropic
   warp-texton synthesize wood.texton -o wood16.png --dtype uint16
+  warp-texton synthesize wood.texton -o wood.png --normal-map wood_normal.png --normal-strength 2
   warp-texton synthesize wood.texton -o big.zarr --width 65536 --height 65536 --chunk 4096 --dtype uint8
   warp-texton synthesize wood.texton -o big.zarr --width 65536 --height 65536 --scheduler tcp://10.0.0.5:8786
 """)

@@ -19,6 +19,7 @@ if TYPE_CHECKING:
     from .dask_arrays import synthesize_dask, write_zarr
     from .colours import to_colours
     from .noise_options import NoiseOptions
+    from .relief import gradient, height_map, normal_map
 
 #: The module of each name of this room's face, imported on first use (PEP 562).
 _LAZY = {
@@ -36,9 +37,12 @@ _LAZY = {
     "write_zarr": "dask_arrays",
     "to_colours": "colours",
     "NoiseOptions": "noise_options",
+    "gradient": "relief",
+    "height_map": "relief",
+    "normal_map": "relief",
 }
 
-__all__ = ["Batch", "BatchParams", "FilterOptions", "NoiseOptions", "PlaneCamera", "evaluate", "mix_textons", "render_plane", "synthesize", "synthesize_batch", "synthesize_dask", "synthesize_mixed", "to_colours", "write_zarr"]
+__all__ = ["Batch", "BatchParams", "FilterOptions", "NoiseOptions", "PlaneCamera", "evaluate", "gradient", "height_map", "mix_textons", "normal_map", "render_plane", "synthesize", "synthesize_batch", "synthesize_dask", "synthesize_mixed", "to_colours", "write_zarr"]
 
 
 #: 0.2's warp_texton.noise was a module, warp_texton.noise.engine now: its other names are reached here
