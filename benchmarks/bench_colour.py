@@ -1,4 +1,20 @@
-"""Histogram-preserving texton noise on photographs, against issue 29's goals.
+"""Histogram-preserving texton noise on photographs, against issue 40's goals (``--issue29``: issue 29's).
+
+**Issue 40** (the default). Colour photographs of stochastic textures (``structure_sets``'
+rule): the tune set is openarena-081-textures' (``WARP_TEXTON_OPENARENA_PK3`` or the data folder),
+the held-out set the first ``--held-out`` of each of ufoai, cube2 and colobot. Each example
+(cropped to ``--crop``², default 512) is analysed ``histogram="gaussian"`` and, per fit of
+``--fits`` (``translation``, ``judges``: ``warp_texton.model.analysis.PRESERVE_FITS``),
+``"preserve"``, each analysis timed in the same run; each texton then makes an output of the
+example's size per seed (1 and 2) and MNI (10, 30, 120), measured against the goals: clipped < 1 %,
+W1 (mean RGB quantile distance) ≤ ⅓ of Gaussian texton noise's, spectrum distance (mean |Δ ln P|
+over 48 rings) ≤ 1.1 × Gaussian noise's + 0.01 (same seed and MNI), and the preserve analysis
+≤ 4 × the Gaussian one. Writes ``results/colour_mni.{json,md}``.
+
+    python -m benchmarks.bench_colour                 # issue 40: both sets, results/colour_mni.*
+    python -m benchmarks.bench_colour --crop 256 --held-out 1 --quick
+
+**Issue 29** (``--issue29``).
 
 Not a speed benchmark. For each 512² colour photograph of Debian's
 ``openarena-081-textures`` (GPL-2+; ``benchmarks/common.py`` finds it), the
@@ -22,8 +38,8 @@ the W1 ratio and the spectrum over its bound (≤ 1 meets the goal) per seed and
 their means. ``--quick``: the first photograph of the two colour sets and of
 the grey benchmark set at 256² (cropped), two seeds.
 
-    python -m benchmarks.bench_colour            # both sets, 4 seeds, results/colour.{json,md}
-    python -m benchmarks.bench_colour --quick
+    python -m benchmarks.bench_colour --issue29            # both sets, 4 seeds, results/colour.{json,md}
+    python -m benchmarks.bench_colour --issue29 --quick
 """
 
 from __future__ import annotations
@@ -167,12 +183,18 @@ def _seeds(text: str) -> int:
 
 
 def main(argv=None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if "--issue29" in argv:
+        argv.remove("--issue29")
 
-    def extra(parser):
-        parser.add_argument("--seeds", type=_seeds, default=4, metavar="N",
-                            help="outputs per photograph (seeds 1..N, N from 1 to 64)")
+        def extra(parser):
+            parser.add_argument("--seeds", type=_seeds, default=4, metavar="N",
+                                help="outputs per photograph (seeds 1..N, N from 1 to 64)")
 
-    return run_main(__doc__, "colour", run, markdown, argv, repeat=1, extra_args=extra)
+        return run_main(__doc__, "colour", run, markdown, argv, repeat=1, extra_args=extra)
+    from .bench_colour_mni import extra_args, markdown_mni, run_mni
+
+    return run_main(__doc__, "colour_mni", run_mni, markdown_mni, argv, repeat=1, extra_args=extra_args)
 
 
 if __name__ == "__main__":

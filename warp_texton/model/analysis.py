@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from typing import Literal, overload
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 import scipy.fft as sfft
@@ -28,16 +28,18 @@ from ..core.checks import as_image, check_bool, check_int, check_seed
 from .tiling import MIN_SIDE, TILING_KIND, TilingModel, patch_distance, scorable, tiling_affordable
 from .spot_noise import dsn
 from .tiling_fit import LATTICE_AUTO, PROBE_SAMPLES, PROBE_DIRECTIONS, PROBE_SEEDS, PROBE_SIDE, fit_tiling
-from .bspline import bhat, bspline
-from .analysis_options import SUPPORTS, AnalysisOptions, check_support  # noqa: F401 - this module's names too
+from .bspline import bhat
+from .analysis_options import (ANALYSIS_BYTES_PER_VALUE, SUPPORTS, AnalysisOptions,  # noqa: F401 - its names too
+                               check_support)
 from ..core.errors import TextonError
 from .example_checks import warn_large, warn_unsuited
 from ..core.limits import check_memory, check_work
-from .histogram import (CDF_OVERSAMPLING, CDF_POINTS, CDF_SPAN, MARGINAL_SAMPLES, NOISE_MNI, REFINE_MAX_PIXELS,
-                        REFINE_ROUNDS, REFINE_SAMPLES, ZERO_SUM_SPECTRUM_MARGIN, ZERO_SUM_SPECTRUM_SLACK,
-                        HistogramTransform, check_histogram, gauss_grid, ring_spectrum_error)
-from .gaussian import FFT_WORKERS, normalized_kernel, relative_model_error_half
+from .histogram import NOISE_MNI, REFINE_MAX_PIXELS, REFINE_ROUNDS, HistogramTransform, check_histogram, gauss_grid
+from .gaussian import FFT_WORKERS, normalized_kernel
+from .judges import (impact_spectrum, judged_texton, model_error, noise_sample,  # noqa: F401 - its names too
+                     relative_texton_error, texton_half_spectrum)
 from .texton import Texton, lag0_covariance
+from .translation import noise_cdf, texton_values  # noqa: F401 - this module's names too
 
 #: The methods of `analyze`: the Gaussian texton model (the default), tiling and blending.
 METHODS = ("texton", TILING_KIND, "auto")
@@ -47,11 +49,12 @@ METHODS = ("texton", TILING_KIND, "auto")
 AUTO_TILING_FRACTION = 1.0
 #: The MNI of the texton's probe (the outputs' default).
 AUTO_MNI = 30.0
+#: The fits of ``histogram="preserve"`` (the first is the default): the translation process's
+#: inverse (``translation.translated_kernel``) or the judged refits (``judges.judged_texton``).
+PRESERVE_FITS = ("judges",)
+#: The fit ``analyze(..., histogram="preserve")`` uses (benchmarks/bench_colour.py sets it).
+PRESERVE_FIT = PRESERVE_FITS[0]
 
-#: Bytes per image value (pixel × channel) that the analysis holds at its peak:
-#: the periodic component and the kernel in float64, their spectra (complex128
-#: and complex64 half-planes), the target and its conjugate, the iterates.
-ANALYSIS_BYTES_PER_VALUE = 96
 #: A histogram-preserving analysis (``histogram="preserve"``) beyond the projections: bytes per
 #: value (pixel × channel) and per pixel at its peak, and operations per value and log2(pixels).
 #: HISTOGRAM: the tables, the Gaussianised and decorrelated example, the translation process's
@@ -459,7 +462,7 @@ def _texton_analysis(u, size, order, iterations, seed, periodic, color_correctio
     if m * n <= REFINE_MAX_PIXELS:
         texton, transform, judges = judged_texton(u, texton, transform, t, t_hat, tz, n, mean, size, order,
                                                   iterations, seed, flat.T @ flat if color_correction else None,
-                                                  support)
+                                                  support, texton_from_spectrum)
         texton.metadata.update(periodic=bool(periodic), **judges)
     else:
         # the tables take the noise's own marginal (compound Poisson, skewed at MNI 30) to
@@ -530,101 +533,6 @@ def texton_probe_distance(texton: Texton, u: np.ndarray, seed: int = 0) -> float
     return float(np.mean([patch_distance(dsn(texton, (side, side), mni=AUTO_MNI, seed=s), u, seed=seed,
                                          samples=PROBE_SAMPLES, directions=PROBE_DIRECTIONS)
                           for s in PROBE_SEEDS]))
-
-
-@dataclass(frozen=True)
-class Candidate:
-    """A texton judged on samples of its noise (``judged_texton``)."""
-
-    texton: Texton
-    transform: HistogramTransform  # tables fitted to this texton's noise
-    spectrum: float  # mean spectrum distance of its mapped samples to the example
-
-
-def judged_texton(u, texton: Texton, transform: HistogramTransform, t, t_hat, tz, n, mean, size, order,
-                  iterations, seed, covariance, support) -> tuple[Texton, HistogramTransform, dict]:
-    """(texton, transform, metadata): the texton ``analyze(..., histogram="preserve")``
-    keeps for a grey or colour example of at most REFINE_MAX_PIXELS pixels, the
-    transform fitted to its noise, and the judges' figures for its metadata.
-
-    Two families of candidates, each a first texton and REFINE_ROUNDS refits:
-    the plain fit (``texton``) and the zero-sum fit (``texton_from_spectrum``'s
-    ``zero_sum``: no power at frequency 0). Each refit filters the Gaussian kernel
-    t by the gain between the example's spectrum and the one the last texton's
-    noise makes through the tables, as the translation process predicts it
-    (``HistogramTransform.refined_kernel``). Every candidate is judged on what it
-    makes: REFINE_SAMPLES samples of its texton noise (``noise_sample``, MNI
-    NOISE_MNI, the same impacts for every candidate) on the example's grid,
-    mapped through tables fitted to its noise, by their spectrum distance to the
-    example (``HistogramTransform.spectrum_error``); each family keeps its
-    candidate of least distance. The zero-sum one is admissible when its
-    distance is within ZERO_SUM_SPECTRUM_SLACK × that of the example's Gaussian
-    texton (judged on the same impacts) + ZERO_SUM_SPECTRUM_MARGIN, and then kept
-    if MARGINAL_SAMPLES samples of it are closer to the example's marginals (mean
-    W1 of the channels) than the plain one's (docs/histogram.md, "Colour: one
-    output's large scales")."""
-    m = t.shape[0]
-    target = np.abs(np.fft.fft2(tz, axes=(0, 1))) ** 2
-    bins = max(2, min(32, min(m, n) // 4))
-    grid = gauss_grid(transform.lut.shape[1])
-    c = u.shape[2]
-    ordered = np.sort(transform.decorrelate(u).reshape(-1, c), axis=0)  # the tables' channels, sorted
-    quarter = np.sort(np.asarray(u, np.float64)[::2, ::2].reshape(-1, c), axis=0)  # every other row and column
-    impacts: dict[int, np.ndarray] = {}  # sample i's impacts (seed + i), made once, shared by every candidate
-
-    def samples(tx: Texton, count: int = REFINE_SAMPLES) -> list[np.ndarray]:
-        for i in range(count):
-            if i not in impacts:
-                impacts[i] = impact_spectrum(texton.support_area, order, NOISE_MNI, (m, n), seed + i)
-        return [noise_sample(tx, NOISE_MNI, (m, n), seed + i, impacts[i]) for i in range(count)]
-
-    def marginal(k: Candidate) -> float:
-        # mean W1 of the channels over MARGINAL_SAMPLES samples (a sample's W1 is mostly its
-        # mean's shift, heavy-tailed over samples: two would not tell the families apart), on
-        # every other row and column (the shift is the same; the sorts a quarter)
-        return float(np.mean([np.mean(np.abs(np.sort(k.transform.to_colours(g[::2, ::2].reshape(-1, c)), axis=0)
-                                             - quarter)) for g in samples(k.texton, MARGINAL_SAMPLES)]))
-
-    def judged(tx: Texton) -> Candidate:
-        tr = transform.for_noise(u, noise_cdf(tx, NOISE_MNI, grid), ordered=ordered)
-        return Candidate(tx, tr, float(np.mean([tr.spectrum_error(g, target, bins) for g in samples(tx)])))
-
-    def family(first: Texton, zero_sum: bool) -> list[Candidate]:
-        kernel, current = t, first
-        out = [judged(first)]
-        for _ in range(REFINE_ROUNDS):
-            kernel = transform.refined_kernel(kernel, np.abs(current.spectrum((m, n))) ** 2, target, size)
-            current = texton_from_spectrum(sfft.rfft2(kernel, axes=(0, 1), workers=FFT_WORKERS), n, mean, size,
-                                           order, iterations, seed, covariance=covariance, support=support,
-                                           zero_sum=zero_sum)
-            out.append(judged(current))  # the next gain corrects this one's output
-        return out
-
-    plain = family(texton, False)
-    free = family(texton_from_spectrum(t_hat, n, mean, size, order, iterations, seed, covariance=covariance,
-                                       support=support, zero_sum=True), True)
-    # the reference: the example's own Gaussian texton (histogram="gaussian"), its colours m + σ g
-    flat = tz.reshape(-1, c)
-    gaussian = texton_from_spectrum(sfft.rfft2(tz, axes=(0, 1), workers=FFT_WORKERS), n, mean, size, order,
-                                    iterations, seed, covariance=None if covariance is None else flat.T @ flat,
-                                    support=support)
-    sigma = np.sqrt(np.maximum(np.diag(np.atleast_2d(gaussian.covariance())), 0.0))
-    reference = float(np.mean([ring_spectrum_error(g * sigma, target, bins) for g in samples(gaussian)]))
-    best, best_free = min(plain, key=lambda k: k.spectrum), min(free, key=lambda k: k.spectrum)
-    limit = ZERO_SUM_SPECTRUM_SLACK * reference + ZERO_SUM_SPECTRUM_MARGIN
-    # the marginals are judged only where the zero-sum family is admissible (else the plain one stays)
-    marginals = [marginal(best), marginal(best_free)] if best_free.spectrum <= limit else None
-    metadata = {
-        "histogram_spectrum_errors": [round(k.spectrum, 4) for k in plain],
-        "histogram_zero_sum_spectrum_errors": [round(k.spectrum, 4) for k in free],
-        "histogram_reference_spectrum_error": round(reference, 4),
-    }
-    if marginals is not None:
-        metadata["histogram_marginal_errors"] = [round(w, 6) for w in marginals]
-        if marginals[1] < marginals[0]:
-            best = best_free
-    metadata["zero_sum"] = best is best_free
-    return best.texton, best.transform, metadata
 
 
 def texton_from_spectrum(
@@ -704,185 +612,5 @@ def texton_from_spectrum(
     if zero_sum:
         metadata["zero_sum"] = True
     texton = Texton(alpha, np.asarray(mean, dtype=np.float32), order, metadata)
-    texton.metadata["model_error"] = _rme(t_hat, texton, n)
+    texton.metadata["model_error"] = relative_texton_error(t_hat, texton, n)
     return texton
-
-
-def texton_half_spectrum(texton: Texton, shape: tuple[int, int]) -> np.ndarray:
-    """α̂ √b̂ on the rfft half-plane of an M × N grid, (M, N//2 + 1, C)."""
-    m, n = shape
-    a_hat = sfft.rfft2(texton.coeffs.astype(np.float64), s=shape, axes=(0, 1), workers=FFT_WORKERS)
-    return a_hat * np.sqrt(bhat(shape, texton.order))[:, : n // 2 + 1, None]
-
-
-def _rme(tu_half: np.ndarray, texton: Texton, n: int) -> float:
-    """RME from u's half-plane spectrum (M, N//2 + 1, C) on an M × n grid."""
-    shape = (tu_half.shape[0], n)
-    if texton.size[0] > shape[0] or texton.size[1] > shape[1]:
-        raise TextonError(f"a {texton.size[1]}x{texton.size[0]} texton does not fit on a {shape[1]}x{shape[0]} grid")
-    return relative_model_error_half(tu_half, texton_half_spectrum(texton, shape), n)
-
-
-def model_error(u, texton: Texton, *, periodic: bool | None = None) -> float:
-    """Relative model error (RME) between the Gaussian model of u and a texton's.
-
-    RME² = Σ_{ξ≠0} (|t̂_u|² + |t̂|² − 2|t̂_u* t̂|) / Σ_{ξ≠0} |t̂_u|² on u's grid,
-    where |t̂|² = |α̂|² b̂ is the sampled spectrum the texton implies (CGF eq. (4)).
-    0 is a perfect model; real textures with a 64² texton score 0.3–0.7.
-
-    Even the exact model of a texture scores about 0.46–0.48 against a single
-    sample of it (docs/model.md §3, "why a perfect model scores about
-    0.46–0.48 against one sample"), so compare the RMEs of textons of the same
-    image rather than reading one alone.
-
-    Parameters
-    ----------
-    u : array (H, W) or (H, W, C)
-    texton : Texton
-        With as many channels as u and no larger than u.
-    periodic : bool, optional
-        Model the periodic component of u; by default (``None``) as the
-        texton was analysed.
-
-    Returns
-    -------
-    float
-        The RME, ≥ 0.
-
-    Raises
-    ------
-    TextonError
-        For a ``texton`` that is not a :class:`Texton`, an image it cannot be
-        compared with (another channel count, smaller than the texton, not a
-        finite numeric array) and a computation over the memory budget.
-
-    References
-    ----------
-    EUSIPCO §3.2 (with the factor 2 of eq. (1) in the numerator).
-
-    Examples
-    --------
-    Larger textons fit better:
-
-    >>> from warp_texton import read_image, analyze, model_error
-    >>> from warp_texton.demo import demo_texture_path
-    >>> u = read_image(demo_texture_path())
-    >>> for size in (16, 32, 64):
-    ...     t = analyze(u, size=size, iterations=30)
-    ...     print(size, round(model_error(u, t), 3))
-    16 0.485
-    32 0.477
-    64 0.453
-    """
-    if not isinstance(texton, Texton):
-        raise TextonError(f"texton must be a Texton, got {type(texton).__name__}")
-    if periodic is None:
-        periodic = bool(texton.metadata.get("periodic", True))
-    periodic = check_bool(periodic, "periodic")
-    u = as_image(u)
-    check_memory(ANALYSIS_BYTES_PER_VALUE * float(u.size), f"the model error of a {u.shape[1]}x{u.shape[0]} image",
-                 "use a smaller image")
-    _, t = normalized_kernel(u, periodic=periodic)
-    if t.shape[2] != texton.channels:
-        raise TextonError(
-            f"u has {t.shape[2]} channels but the texton has {texton.channels}; they must match"
-        )
-    return _rme(sfft.rfft2(t, axes=(0, 1), workers=FFT_WORKERS), texton, t.shape[1])
-
-
-# ---------------------------------------------------------------- the noise of a texton, in NumPy
-def texton_values(coeffs: np.ndarray, order: int, oversampling: int) -> np.ndarray:
-    """h(y) = Σ α(j) ψ(y − j) on ``oversampling``² midpoints per texel of its
-    bounding box, (N, C) float64; each sample stands for 1 / oversampling² texels²."""
-    r, s, c = coeffs.shape
-    reach = 0.5 if order == 0 else (order + 1) / 2.0
-
-    def weights(n: int) -> np.ndarray:
-        y = np.arange(-reach, n - 1 + reach - 1e-9, 1.0 / oversampling) + 0.5 / oversampling
-        return bspline(y[:, None] - np.arange(n)[None, :], order)
-
-    h = np.einsum("ir,rsc,js->ijc", weights(r), np.asarray(coeffs, np.float64), weights(s), optimize=True)
-    return h.reshape(-1, c)
-
-
-def noise_sample(texton, mni: float, shape: tuple[int, int], seed: int,
-                 impacts: np.ndarray | None = None) -> np.ndarray:
-    """(M, N, C) float64: texton noise at MNI ``mni`` on a periodic M × N grid of
-    texels, standardised by its exact moments, in NumPy: Poisson impacts (their
-    count and uniform positions from ``seed``) splatted on the grid with the
-    weights ψ(x − x_j) of the texton's order, convolved with its coefficients
-    (Σ_j h(x − x_j) = (α ∗ Σ_j ψ(· − x_j))(x)). ``impacts``, when given, is
-    :func:`impact_spectrum` of the same texton area, order, MNI, grid and seed
-    (shared by textons that differ only in their coefficients). Not the kernels'
-    impact stream: the analysis measures candidate textons with it."""
-    m, n = shape
-    if impacts is None:
-        impacts = impact_spectrum(texton.support_area, texton.order, mni, shape, seed)
-    lam = mni / texton.support_area
-    coeffs = np.asarray(texton.coeffs, np.float64)
-    field = np.fft.ifft2(impacts[..., None] * np.fft.fft2(coeffs, s=(m, n), axes=(0, 1)), axes=(0, 1)).real
-    var = np.diag(np.atleast_2d(texton.covariance()))
-    return (field - lam * texton.integral) / np.sqrt(np.maximum(lam * var, 1e-300))
-
-
-def impact_spectrum(area: float, order: int, mni: float, shape: tuple[int, int], seed: int) -> np.ndarray:
-    """(M, N) complex: the DFT of the Poisson impacts of :func:`noise_sample` (intensity
-    MNI / ``area``), splatted with the B-spline weights of ``order``."""
-    m, n = shape
-    rng = np.random.default_rng(seed)
-    lam = mni / area
-    count = rng.poisson(lam * m * n)
-    py, px = rng.uniform(0, m, count), rng.uniform(0, n, count)
-    half = (order + 1) / 2.0
-    y0, x0 = np.floor(py - half), np.floor(px - half)
-    splat = np.zeros(m * n)
-    for a in range(order + 2):
-        wy = bspline(y0 + a - py, order)
-        for b in range(order + 2):
-            w = wy * bspline(x0 + b - px, order)
-            idx = ((y0 + a).astype(np.int64) % m) * n + (x0 + b).astype(np.int64) % n
-            splat += np.bincount(idx, w, m * n)
-    return np.fft.fft2(splat.reshape(m, n))
-
-
-def noise_cdf(texton, mni: float, grid: np.ndarray) -> np.ndarray:
-    """(C, len(grid)): the CDF of texton noise at MNI ``mni``, standardised by its
-    exact moments (g = (v − m) / σ, as the outputs standardise it), at ``grid``.
-
-    Texton noise sums h(x − x_j) over a Poisson process of intensity λ = MNI /
-    support_area: a compound Poisson variable of characteristic function
-    exp(λ ∫ (e^{i t h(y)} − 1) dy) (CGF §3.3). h is sampled on a fine grid
-    (:func:`texton_values`), its values spread linearly over a lattice of
-    CDF_POINTS steps spanning CDF_SPAN standard deviations, and the lattice
-    distribution of the sum is the inverse FFT of that function (exact up to the
-    lattice and the sampling of h). Channels without variance get Φ.
-    """
-    from scipy.special import ndtr  # imported here: the command line starts without SciPy
-
-    grid = np.asarray(grid, np.float64)
-    size = max(texton.size)
-    q = int(np.clip(1024 // max(size, 1), 1, CDF_OVERSAMPLING))
-    h = texton_values(texton.coeffs, texton.order, q)
-    lam = mni / texton.support_area
-    var = np.diag(np.atleast_2d(texton.covariance()))
-    integral = texton.integral
-    n, delta = CDF_POINTS, CDF_SPAN / CDF_POINTS
-    out = np.empty((h.shape[1], len(grid)))
-    for c in range(h.shape[1]):
-        sigma = np.sqrt(lam * var[c])
-        if not sigma > 0:
-            out[c] = ndtr(grid)
-            continue
-        x = h[:, c] / (sigma * delta)  # the values of one impact, in lattice steps
-        lo = np.floor(x)
-        t = x - lo
-        i = lo.astype(np.int64) % n
-        rate = lam / (q * q)  # impacts per sample of h
-        w = np.bincount(i, (1.0 - t) * rate, n) + np.bincount((i + 1) % n, t * rate, n)
-        pmf = np.fft.ifft(np.exp(np.fft.fft(w) - w.sum())).real
-        # the sum's lattice point j is the value j δ (mod the span); centred: j δ − λ∫h / σ
-        centred = (np.arange(n) - lam * integral[c] / (sigma * delta) + n / 2) % n - n / 2
-        order = np.argsort(centred)
-        cdf = np.cumsum(np.maximum(pmf[order], 0.0))
-        out[c] = np.interp(grid, (centred[order] + 0.5) * delta, cdf / cdf[-1])
-    return out

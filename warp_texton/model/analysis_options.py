@@ -22,6 +22,11 @@ from .bspline import ORDERS
 from ..core.errors import TextonError
 from .histogram import check_histogram
 
+#: Bytes per image value (pixel × channel) that the analysis holds at its peak:
+#: the periodic component and the kernel in float64, their spectra (complex128
+#: and complex64 half-planes), the target and its conjugate, the iterates.
+ANALYSIS_BYTES_PER_VALUE = 96
+
 #: The shapes of the support S.
 SUPPORTS = ("square", "disk")
 
