@@ -145,7 +145,7 @@ def markdown_mni(report: dict) -> str:
     for r in report["results"]:
         for fit, f in r["fits"].items():
             cells = []
-            for m, v in f["per_mni"].items():
+            for v in f["per_mni"].values():
                 w = f"{v['w1_ratio']:.2f}" + ("" if v["w1_ratio"] <= MAX_W1_RATIO else " ✗")
                 s = f"{v['spectrum_over_bound']:.2f}" + ("" if v["spectrum_over_bound"] <= 1 else " ✗")
                 cells.append(f"{w} / {s}")

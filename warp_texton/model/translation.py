@@ -123,7 +123,7 @@ class TranslationSeries:
         slope = self(rho, derivative=True)
         step = np.divide(self(rho) - k, slope, out=np.zeros_like(rho), where=slope > 1e-6)
         rho = np.clip(rho - step, -1.0, 1.0)
-        for c in np.nonzero(self.constant)[0]:
+        for c in np.nonzero(self.constant)[0].tolist():
             rho[c, :] = 0.0
             rho[:, c] = 0.0
         return rho, float(1.0 - inside.mean())
