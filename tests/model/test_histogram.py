@@ -519,6 +519,7 @@ def test_colour_refits_are_judged_and_bounded(monkeypatch):
     example above REFINE_MAX_PIXELS gets no refits but still tables fitted to its
     noise."""
     import warp_texton.model.analysis as analysis
+    import warp_texton.model.judges as judges
 
     u = colour_example("saturated")
     t = analyze(u, size=16, seed=0, histogram="preserve")
@@ -534,11 +535,11 @@ def test_colour_refits_are_judged_and_bounded(monkeypatch):
     if md["zero_sum"]:
         np.testing.assert_allclose(t.coeffs.sum(axis=(0, 1)), 0.0, atol=1e-5 * np.abs(t.coeffs).sum())
     # the rule on both sides: no slack keeps the plain family unjudged, any slack judges the marginals
-    monkeypatch.setattr(analysis, "ZERO_SUM_SPECTRUM_SLACK", 0.0)
-    monkeypatch.setattr(analysis, "ZERO_SUM_SPECTRUM_MARGIN", 0.0)
+    monkeypatch.setattr(judges, "ZERO_SUM_SPECTRUM_SLACK", 0.0)
+    monkeypatch.setattr(judges, "ZERO_SUM_SPECTRUM_MARGIN", 0.0)
     plain = analyze(u, size=16, seed=0, histogram="preserve")
     assert plain.metadata["zero_sum"] is False and "histogram_marginal_errors" not in plain.metadata
-    monkeypatch.setattr(analysis, "ZERO_SUM_SPECTRUM_MARGIN", 1e9)
+    monkeypatch.setattr(judges, "ZERO_SUM_SPECTRUM_MARGIN", 1e9)
     loose = analyze(u, size=16, seed=0, histogram="preserve")
     w_plain, w_free = loose.metadata["histogram_marginal_errors"]
     assert w_plain > 0 and w_free > 0 and loose.metadata["zero_sum"] == (w_free < w_plain)
