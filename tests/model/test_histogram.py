@@ -556,14 +556,14 @@ def test_the_marginal_judge_sees_the_mean_drift():
     samples are judged closer to the example's marginals than the plain one's
     (eight samples: the plain texton's outputs drift with its power at frequency
     0), and its real outputs are too: the mean W1 of twelve 256² outputs is lower."""
-    import warp_texton.model.analysis as analysis
+    import warp_texton.model.judges as judges
     from benchmarks.bench_quality import marginal_w1
 
     u = colour_example("low")
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(analysis, "ZERO_SUM_SPECTRUM_MARGIN", 1e9)  # judge the marginals whatever the spectrum
+        mp.setattr(judges, "ZERO_SUM_SPECTRUM_MARGIN", 1e9)  # judge the marginals whatever the spectrum
         t = analyze(u, size=32, seed=0, histogram="preserve")
-        mp.setattr(analysis, "ZERO_SUM_SPECTRUM_MARGIN", -1e9)  # the plain texton
+        mp.setattr(judges, "ZERO_SUM_SPECTRUM_MARGIN", -1e9)  # the plain texton
         p = analyze(u, size=32, seed=0, histogram="preserve")
     w_plain, w_free = t.metadata["histogram_marginal_errors"]
     assert t.metadata["zero_sum"] and w_free < w_plain
