@@ -449,6 +449,13 @@ class _TexelFaces:
     area: np.ndarray
 
 
+def _host_view(a: np.ndarray, dtype) -> wp.array:
+    """A Warp array on the host over ``a`` (int64 for ``wp.int64``, float64 otherwise; no copy
+    where ``a`` already is one)."""
+    return wp.array(np.ascontiguousarray(a, np.int64 if dtype is wp.int64 else np.float64), dtype=dtype,
+                    device="cpu", copy=False)
+
+
 def _texel_faces(owner, covered, faces, corners, vertices, cnormals, texel) -> _TexelFaces:
     """Each baked texel's face and that face's affine map (texel coordinates → barycentric
     weights, 3-D point), with the texel's footprint on the surface (``kernels/surface_bake.py``
@@ -463,13 +470,9 @@ def _texel_faces(owner, covered, faces, corners, vertices, cnormals, texel) -> _
     fn = np.empty((n, 3), np.float64)
     footprint = np.empty((n, 3), np.float64)
 
-    def view(a, dtype):
-        return wp.array(a, dtype=dtype, device="cpu", copy=False)
-
-    inputs = [view(f, wp.int64), wp.array(np.ascontiguousarray(faces, np.int64), dtype=wp.int64, device="cpu", copy=False),
-              view(np.ascontiguousarray(corners, np.float64), wp.vec2d),
-              view(np.ascontiguousarray(vertices, np.float64), wp.vec3d),
-              view(np.ascontiguousarray(cnormals, np.float64), wp.vec3d), wp.float64(texel)]
+    view = _host_view
+    inputs = [view(f, wp.int64), view(faces, wp.int64), view(corners, wp.vec2d), view(vertices, wp.vec3d),
+              view(cnormals, wp.vec3d), wp.float64(texel)]
     outputs = [view(a2, wp.vec2d), view(inv, wp.mat22d), view(p3, wp.vec3d), view(fn, wp.vec3d), view(footprint, wp.vec3d)]
     split_launch("cpu", surface_bake, n, lambda s0, s1: wp.launch(
         surface_bake.texel_faces, dim=s1 - s0, device="cpu", inputs=[*inputs, s0, *outputs]))
@@ -490,10 +493,7 @@ def _sample_counts(tx: _TexelFaces, supersample) -> tuple[np.ndarray, np.ndarray
 def _sample_arrays(tx: _TexelFaces, cnormals: np.ndarray) -> dict:
     """The texels' face data as Warp arrays on the host (views of the NumPy arrays), for
     :func:`_sample_points`."""
-    def view(a, dtype):
-        return wp.array(np.ascontiguousarray(a, np.float64 if dtype is not wp.int64 else np.int64), dtype=dtype,
-                        device="cpu", copy=False)
-
+    view = _host_view
     return {"cols": view(tx.cols, wp.int64), "rows": view(tx.rows, wp.int64), "a2": view(tx.a2, wp.vec2d),
             "inv": view(tx.inv, wp.mat22d), "p3": view(tx.p3, wp.vec3d), "faces": view(tx.f, wp.int64),
             "cnormals": view(cnormals, wp.vec3d), "fn": view(tx.fn, wp.vec3d)}
