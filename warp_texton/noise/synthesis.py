@@ -31,6 +31,7 @@ from .engine import (CELL_FACTOR, POINT_BYTES, NoiseSetup, check_cell_range, che
 from .noise_options import NoiseOptions, check_period
 from .raster import (RasterWindow, TextonStack, check_method, check_raster_cost, raster_cost, raster_geometry,
                      raster_reach, rasters, resolve_method, window_block)
+from ..model.noise_tables import at_mni
 from ..model.texton import Texton
 from ..model.tiling import TilingModel
 from .tiling import MAX_TILING_REACH, tiling_at, tiling_filtered_raster, tiling_pixels
@@ -329,6 +330,7 @@ def synthesize(
                                                    method=(method, "auto"), noise=(noise, None)))
     h, w = check_shape(shape)
     noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
+    texton = at_mni(texton, noise.mni)  # the histogram tables of this MNI's noise
     seed = noise.seed
     check_method(method)
     first = check_pixel_offset(pixel_offset)
@@ -491,6 +493,7 @@ def evaluate(
         per = check_tiling_period(period)
         return _tiling_output(tiling_at(texton, np.ascontiguousarray(pts), seed, device, per), output, device)
     noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
+    texton = at_mni(texton, noise.mni)  # the histogram tables of this MNI's noise
     output = check_output(output)
     setup = noise_setup(texton, noise.mni, noise.period, noise.cell_factor)
     if pts.size:

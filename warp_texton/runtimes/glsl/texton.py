@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...model.noise_tables import at_mni
 from ...core.checks import check_shape
 from ..._version import __version__
 from ...core.errors import TextonError
@@ -184,6 +185,7 @@ def glsl_noise(texton: Texton, *, mni: float = 30.0, seed: int = 0, period=None,
     noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
     mni, seed, period, poisson, cell_factor = noise.mni, noise.seed, noise.period, noise.poisson, noise.cell_factor
     setup = noise_setup(texton, mni, period, cell_factor)
+    texton = at_mni(texton, mni)  # the histogram tables of this MNI's noise
     rec = params_record(texton, setup, seed, poisson)
     pyr = pyramid_stack(texton, options.fade_energy)
     textures = {"texton_coeffs": _rgba(setup.coeffs), "texton_pyramid": _rgba(pyr.coeffs[:int(pyr.rows[:pyr.levels].sum())])}

@@ -44,6 +44,7 @@ from string import Template
 import numpy as np
 
 from ..._version import __version__
+from ...model.noise_tables import at_mni
 from ...core.checks import check_positive
 from ...core.runtime import init_warp
 from ...core.errors import TextonError
@@ -275,7 +276,10 @@ def osl_files(
         "MAP": colour_map_code(texton),
     }
     cells = rec["cells"]
+    # the plane's tables are those of its noise at this MNI; the surface's those the analysis
+    # fitted, as surface_noise applies them (docs/histogram.md, "Tables for the MNI in use")
     plane = dict(common, **{
+        "MAP": colour_map_code(at_mni(texton, mni)),
         "CW": f32(cells["size"][0]), "CH": f32(cells["size"][1]), "PX": str(int(cells["period"][0])),
         "PY": str(int(cells["period"][1])), "LO0": f32(rec["lo"][0]), "LO1": f32(rec["lo"][1]),
         "HI0": f32(rec["hi"][0]), "HI1": f32(rec["hi"][1]), "LAM": f32(rec["lam"]),
