@@ -21,12 +21,15 @@ from __future__ import annotations
 
 import functools
 from dataclasses import replace
+from typing import TypeVar
 
 import numpy as np
 
 from .histogram import NOISE_MNI, HistogramTransform, gauss_grid
 from .texton import Texton
 from .translation import noise_cdf
+
+M = TypeVar("M")
 
 #: CDF values are kept this far inside (0, 1) before Φ⁻¹ (beyond the tables' ±5 anyway).
 CDF_GUARD = 1e-12
@@ -44,7 +47,7 @@ def fitted_mni(texton: Texton) -> float | None:
         return NOISE_MNI
 
 
-def at_mni(model, mni: float):
+def at_mni(model: M, mni: float) -> M:
     """``model`` with the histogram tables of its noise at ``mni`` (a checked MNI).
 
     Textons without tables, with tables of a Gaussian input, at the MNI their tables were fitted
@@ -57,7 +60,7 @@ def at_mni(model, mni: float):
     fitted = fitted_mni(model)
     if fitted is None or float(mni) == fitted:
         return model
-    return _at_mni(model, float(mni))
+    return _at_mni(model, float(mni))  # type: ignore[return-value]
 
 
 @functools.lru_cache(maxsize=32)
