@@ -33,7 +33,7 @@ ROOM_LAYERS = {
     "files": {"readers": 0, "folders": 0, "images": 1},
     "model": {"bspline": 0, "histogram": 0, "example_checks": 0, "analysis_options": 1, "gaussian": 2,
               "lattice": 3, "tiling": 4, "texton": 5, "tiling_fit": 5, "spot_noise": 6, "analysis": 7,
-              "translation": 1, "judges": 6},
+              "translation": 1, "judges": 6, "noise_tables": 6},
     "noise": {"filter_options": 0, "noise_options": 0, "tiling": 2, "engine": 1, "colours": 1, "canvas": 2, "filtering": 3, "raster": 3,
               "synthesis": 4, "ground_plane": 4, "mixing": 4, "dask_arrays": 5, "batches": 5, "relief": 5},
     "surface": {"frames": 0, "atlas": 0, "atlas_worker": 0, "blocks": 0, "tiling": 1, "points": 2, "mesh": 3,

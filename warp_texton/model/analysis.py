@@ -39,7 +39,7 @@ from .gaussian import FFT_WORKERS, normalized_kernel
 from .judges import (impact_spectrum, judged_texton, model_error, noise_sample,  # noqa: F401 - its names too
                      relative_texton_error, texton_half_spectrum)
 from .texton import Texton, lag0_covariance
-from .translation import noise_cdf, texton_values  # noqa: F401 - this module's names too
+from .translation import half_plane_covariance, noise_cdf, texton_values, translated_kernel  # noqa: F401
 
 #: The methods of `analyze`: the Gaussian texton model (the default), tiling and blending.
 METHODS = ("texton", TILING_KIND, "auto")
@@ -51,7 +51,7 @@ AUTO_TILING_FRACTION = 1.0
 AUTO_MNI = 30.0
 #: The fits of ``histogram="preserve"`` (the first is the default): the translation process's
 #: inverse (``translation.translated_kernel``) or the judged refits (``judges.judged_texton``).
-PRESERVE_FITS = ("judges",)
+PRESERVE_FITS = ("judges", "translation")
 #: The fit ``analyze(..., histogram="preserve")`` uses (benchmarks/bench_colour.py sets it).
 PRESERVE_FIT = PRESERVE_FITS[0]
 
@@ -446,6 +446,9 @@ def _texton_analysis(u, size, order, iterations, seed, periodic, color_correctio
         z = transform.decorrelate(u).astype(np.float32)
         mean, t = normalized_kernel(transform.to_gaussian(u).astype(np.float32), periodic=periodic)
         tz = normalized_kernel(z, periodic=periodic)[1]
+        if PRESERVE_FIT == "translation":
+            return _translation_texton(u, transform, t, tz, mean, size, order, iterations, seed, periodic,
+                                       color_correction, support, progress)
         t = transform.gaussian_kernel(t, tz, size if colour else None)
     else:
         mean, t = normalized_kernel(u, periodic=periodic)
@@ -471,6 +474,33 @@ def _texton_analysis(u, size, order, iterations, seed, periodic, color_correctio
     texton.metadata.update(histogram=histogram, histogram_mni=NOISE_MNI)
     return replace(texton, histogram=transform)
 
+
+
+def _translation_texton(u, transform: HistogramTransform, t, tz, mean, size, order, iterations, seed, periodic,
+                        color_correction, support, progress) -> Texton:
+    """``histogram="preserve"`` by the translation process (``PRESERVE_FIT == "translation"``): the
+    Gaussian field's cross-covariances that the tables map onto the example's, inverted lag by
+    lag (``translation.translated_kernel``), one texton fitted to them, its tables fitted to its
+    noise at NOISE_MNI. No refits, no judges."""
+    m, n, c = t.shape
+    grid = gauss_grid(transform.lut.shape[1])
+    g_hat, meta = translated_kernel(np.asarray(t, np.float64), np.asarray(tz, np.float64), transform.lut, grid,
+                                    size)
+    cov = half_plane_covariance(g_hat, n) if color_correction else None
+    g_hat = g_hat.astype(np.complex64)
+    texton = texton_from_spectrum(g_hat, n, mean, size, order, iterations, seed,
+                                  covariance=cov, support=support, progress=progress)
+    texton.metadata.update(periodic=bool(periodic))
+    if m * n <= REFINE_MAX_PIXELS:
+        # the plain texton or the zero-sum one (no power at frequency 0), judged as the refits
+        # are (judges.judged_texton) but without refits: both start from the translation's kernel
+        texton, transform, judges = judged_texton(u, texton, transform, t, g_hat, tz, n, mean, size, order,
+                                                  iterations, seed, cov, support, texton_from_spectrum, rounds=0)
+        texton.metadata.update(periodic=bool(periodic), **judges)
+    else:
+        transform = transform.for_noise(u, noise_cdf(texton, NOISE_MNI, grid))
+    texton.metadata.update(histogram="preserve", histogram_mni=NOISE_MNI, histogram_fit="translation", **meta)
+    return replace(texton, histogram=transform)
 
 
 def _by_method(u, method: str, texton_options: dict, side, lattice) -> Texton | TilingModel:

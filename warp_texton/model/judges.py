@@ -35,12 +35,13 @@ class Candidate:
 
 
 def judged_texton(u, texton: Texton, transform: HistogramTransform, t, t_hat, tz, n, mean, size, order,
-                  iterations, seed, covariance, support, fit) -> tuple[Texton, HistogramTransform, dict]:
+                  iterations, seed, covariance, support, fit, rounds: int = REFINE_ROUNDS
+                  ) -> tuple[Texton, HistogramTransform, dict]:
     """(texton, transform, metadata): the texton ``analyze(..., histogram="preserve")``
     keeps for a grey or colour example of at most REFINE_MAX_PIXELS pixels, the
     transform fitted to its noise, and the judges' figures for its metadata.
 
-    Two families of candidates, each a first texton and REFINE_ROUNDS refits:
+    Two families of candidates, each a first texton and ``rounds`` (REFINE_ROUNDS) refits:
     the plain fit (``texton``) and the zero-sum fit (``fit``, the analysis's
     ``texton_from_spectrum``, with ``zero_sum``: no power at frequency 0). Each refit filters the Gaussian kernel
     t by the gain between the example's spectrum and the one the last texton's
@@ -83,9 +84,9 @@ def judged_texton(u, texton: Texton, transform: HistogramTransform, t, t_hat, tz
         return Candidate(tx, tr, float(np.mean([tr.spectrum_error(g, target, bins) for g in samples(tx)])))
 
     def family(first: Texton, zero_sum: bool) -> list[Candidate]:
-        kernel, current = t, first
+        kernel, current = t, first  # t: the kernel the refits filter (unused without refits)
         out = [judged(first)]
-        for _ in range(REFINE_ROUNDS):
+        for _ in range(rounds):
             kernel = transform.refined_kernel(kernel, np.abs(current.spectrum((m, n))) ** 2, target, size)
             current = fit(sfft.rfft2(kernel, axes=(0, 1), workers=FFT_WORKERS), n, mean, size,
                                            order, iterations, seed, covariance=covariance, support=support,
