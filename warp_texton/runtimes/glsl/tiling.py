@@ -40,7 +40,7 @@ from ...noise.raster import raster_geometry
 from ...noise.synthesis import MAX_TILING_REACH
 from ..shared import check_model, lattice_ints, model_note, template, tiling_settings
 from .page import (JS_FILE, MAX_PREVIEW_SIDE, MAX_TEXTURE_SIZE, META_FILE, PREVIEW_FILE, export_files, glsl_float,
-                   preview_page)
+                   preview_page, texture_data)
 
 #: The library of a tiling model's GLSL export (beside texton_noise.js, texton_noise.json, preview.html).
 GLSL_FILE = "tiling_noise.glsl"
@@ -309,3 +309,48 @@ def tiling_preview_html(model: TilingModel, shape=(512, 512), *, seed: int = 0, 
     return _preview(model, seed, lib.source, lib.textures, (h, w), scale, rotation, offset, anchored)
 
 
+
+
+#: A main() that draws a window's derivatives with the library's gradient (``tiling_noise_grad_at``),
+#: placed as :data:`PREVIEW_MAIN` places the window: ``tn_output`` 0 the derivatives per pixel along
+#: the columns, 1 along the rows (as ``gradient(model, shape=...)`` gives them), 2 the value beside them.
+GRADIENT_MAIN = """
+uniform ivec2 tn_anchor;
+uniform ivec2 tn_anchor_mod;
+uniform vec2 tn_frac;
+uniform vec2 tn_centre;
+uniform vec2 tn_step_x;
+uniform vec2 tn_step_y;
+uniform int tn_width;
+uniform int tn_height;
+uniform int tn_output;  // 0: d/dcolumn, 1: d/drow, 2: the value
+out vec4 tn_colour;
+void main() {
+  int j = int(gl_FragCoord.x);
+  int i = tn_height - 1 - int(gl_FragCoord.y);
+  float dj = float(j) + 0.5 - 0.5 * float(tn_width);
+  float di = float(i) + 0.5 - 0.5 * float(tn_height);
+  vec3 dx, dy;
+  vec3 v = tiling_noise_grad_at(tn_anchor, tn_anchor_mod, tn_frac, tn_centre + tn_step_x * dj + tn_step_y * di, dx, dy);
+  if (tn_output == 0) v = dx * tn_step_x.x + dy * tn_step_x.y;
+  else if (tn_output == 1) v = dx * tn_step_y.x + dy * tn_step_y.y;
+  tn_colour = vec4(v, 1.0);
+}
+"""
+
+
+def gradient_window(model: TilingModel, shape, *, seed: int = 0, scale: float = 1.0, rotation: float = 0.0,
+                    offset=(0.0, 0.0)) -> dict:
+    """What a WebGL2 page needs to draw the derivatives of ``synthesize(model, shape, seed=seed, ...)``'s
+    window with the library's ``tiling_noise_grad_at`` (:data:`GRADIENT_MAIN`), as a preview page's data
+    holds it: ``library``, ``main``, ``textures`` (``texture_data``), ``uniforms`` (the window's
+    placement), ``width``, ``height``, ``channels``; ``tn_output`` 0: ∂/∂column, 1: ∂/∂row, 2: the value."""
+    model = check_model(model)
+    h, w = check_shape(shape)
+    if max(h, w) > MAX_PREVIEW_SIDE:
+        raise TextonError(f"a window is at most {MAX_PREVIEW_SIDE} pixels a side (the largest render target "
+                          f"WebGL2 guarantees), got {w} x {h}", param="shape")
+    lib = library(model, check_seed(seed))
+    return {"library": lib.source, "main": GRADIENT_MAIN, "textures": texture_data(lib.textures),
+            "uniforms": _placement(model, (h, w), scale, rotation, offset), "width": w, "height": h,
+            "channels": model.channels}
