@@ -1,0 +1,111 @@
+"""The OSL exports' relief outputs in their real client: Blender's Cycles compiles the plane
+shaders (``texton_plane``, ``tiling_plane``) and renders their ``GradientX``, ``GradientY``,
+``NormalMap`` and ``BumpNormal`` outputs, which equal ``gradient`` (and the normals made of it)
+at the points the pixel centres see.
+
+The bound is the value exports' (tests/runtimes/test_shader_osl.py): 99.9 % of the pixels within
+10⁻³ of the range. As in that file's exact-point tests, each shader is evaluated at its pixel's
+centre (a float32 number here and in the shader), so the render differs from the kernels by float
+rounding only; a texton's one-sided slope (order 1, a bilinear example) can differ where float32
+rounding puts a point on the other side of a kink, which the 0.1 % allows.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from test_shader_osl import EXACT_PIXELS, EXACT_TEXEL, MIN_AGREEMENT, TOLERANCE, exact_point_source, plane_mesh, render
+from test_tiling_osl import bond_lattice, brick, courses, preserving, wrapped
+from warp_texton import Texton, analyze, gradient, read_image
+from warp_texton.demo import demo_texture_path
+from warp_texton.model.tiling import TilingModel
+from warp_texton.runtimes.osl import texton as osl_texton
+from warp_texton.runtimes.osl import tiling as osl_tiling
+
+pytestmark = pytest.mark.slow
+SIZE = 96
+RELIEF = ("GradientX", "GradientY", "NormalMap", "BumpNormal")
+
+
+def random_texton(channels: int, order: int, size: int = 8, seed: int = 0) -> Texton:
+    rng = np.random.default_rng(seed)
+    return Texton(rng.standard_normal((size, size, channels)) / size, rng.uniform(0.3, 0.6, channels), order)
+
+
+def luminance_std(model) -> float:
+    """The standard deviation of the luminance (the channel mean) the shaders standardise the height by."""
+    c = model.channels
+    w = np.full(c, 1.0 / c)
+    return float(np.sqrt(w @ np.atleast_2d(model.covariance()) @ w))
+
+
+def expected(model, grad: np.ndarray, strength: float) -> dict[str, np.ndarray]:
+    """The relief outputs at points of (N, C, 2) gradients, (N, 3) each: the gradients per channel
+    (grey: in every component), the tangent-space normal map (n + 1) / 2 and the normal itself (the
+    plane faces +z, its object space the world's: the bent normal is the tangent-space one)."""
+    c = model.channels
+    gx, gy = grad[..., 0].astype(np.float64), grad[..., 1].astype(np.float64)
+    if c == 1:
+        gx, gy = np.repeat(gx, 3, axis=1), np.repeat(gy, 3, axis=1)
+    k = strength / luminance_std(model)
+    n = np.stack([-k * grad[..., 0].mean(axis=1), k * grad[..., 1].mean(axis=1), np.ones(len(grad))], axis=-1)
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    return {"GradientX": gx, "GradientY": gy, "NormalMap": 0.5 * n + 0.5, "BumpNormal": n}
+
+
+#: (name, model, export keywords, the node's strength): texton noise of orders 1 (PTRS counts), 3
+#: (grey, a period), 5, a histogram-preserving texton; tiling models plain, guided with the linear
+#: blend, histogram-preserving, read wrapped, on 2-D lattices (wrapped and clamped) and on courses.
+def cases():
+    hist = analyze(read_image(demo_texture_path()), size=16, order=3, seed=0, histogram="preserve")
+    return [
+        ("order1", random_texton(3, 1, seed=4), dict(mni=30.0, seed=9), 1.0),
+        ("order3_period", random_texton(1, 3, seed=5), dict(mni=20.0, seed=2**31 + 5, period=(24.0, 40.0)), 2.0),
+        ("order5", random_texton(3, 5, seed=6), dict(mni=30.0, seed=3), 1.0),
+        ("histogram", hist, dict(mni=30.0, seed=4), 1.0),
+        ("tiling", TilingModel(brick(1), 32.0, 16, 0.0, {}, "variance"), dict(seed=5), 1.0),
+        ("tiling_guide", TilingModel(brick(3), 21.7, 4, 2.0, {}, "linear"), dict(seed=6), 2.0),
+        ("tiling_hist", preserving(3), dict(seed=7), 1.0),
+        ("tiling_wrapped", wrapped(), dict(seed=8), 1.0),
+        ("tiling_lattice", bond_lattice(), dict(seed=2**31 + 3), 1.0),
+        ("tiling_lattice_clamped", bond_lattice(clamped=True), dict(seed=10), 1.0),
+        ("tiling_courses", courses(), dict(seed=11), 1.0),
+    ]
+
+
+def plane_source(model, kw: dict) -> str:
+    if isinstance(model, TilingModel):
+        source = osl_tiling.tiling_osl_files(model, kw["seed"], EXACT_TEXEL)[osl_tiling.OSL_FILE]
+    else:
+        source = osl_texton.osl_files(model, texel_size=EXACT_TEXEL, **kw)[osl_texton.PLANE_FILE]
+    return exact_point_source(source.decode(), "plane")
+
+
+def test_relief_outputs_equal_gradient(tmp_path):
+    jobs, checks = [], []
+    c = ((np.arange(SIZE) - SIZE // 2 + 0.5) / EXACT_PIXELS).astype(np.float32)
+    sx, sy = np.meshgrid(c, c[::-1])
+    pts = np.stack([sx / np.float32(EXACT_TEXEL), -sy / np.float32(EXACT_TEXEL)], -1).reshape(-1, 2)
+    for n, (name, model, kw, strength) in enumerate(cases()):
+        osl = tmp_path / f"relief_{n}.osl"
+        osl.write_text(plane_source(model, kw))
+        grad = gradient(model, pts.astype(np.float64), device="cpu", **kw)
+        want = expected(model, grad, strength)
+        for output in RELIEF:
+            jobs.append({"osl": str(osl), "ortho_scale": SIZE / EXACT_PIXELS, "width": SIZE, "height": SIZE,
+                         "output": output, "inputs": {"strength": strength}, **plane_mesh(1.0)})
+            checks.append((name, output, want[output].reshape(SIZE, SIZE, 3)))
+    failed = []
+    for (name, output, want), rep in zip(checks, render(tmp_path, jobs)):
+        got = rep["rgba"][..., :3]
+        assert (rep["rgba"][..., 3] == 1.0).all()
+        span = float(want.max() - want.min())
+        err = np.abs(got - want).max(axis=-1) / span
+        fraction = float(np.mean(err <= TOLERANCE))
+        print(f"{name} {output}: {fraction:.5f} of the pixels within {TOLERANCE:g} of the range {span:.3g}, "
+              f"max {err.max():.2e}, median {np.median(err):.1e}; compile {rep['compile_s']:.2f} s")
+        assert span > 0.0
+        if fraction < MIN_AGREEMENT:
+            failed.append(f"{name} {output}: {fraction:.5f}")
+    assert not failed, failed
