@@ -109,3 +109,53 @@ def test_relief_outputs_equal_gradient(tmp_path):
         if fraction < MIN_AGREEMENT:
             failed.append(f"{name} {output}: {fraction:.5f}")
     assert not failed, failed
+
+
+#: UV units per texel in the UV test (a power of two: the points are float32 numbers here and there).
+UV_TEXEL = 1.0 / 32.0
+UV_SNAP = """        point p_uv = transform("object", P);
+        // the pixel's centre, whatever point of the pixel the camera's jittered ray hit, and its UVs
+        float u_ = ((floor(p_uv[0] * 64.0) + 0.5) / 64.0 + 1.0) * 0.5;
+        float v_ = ((floor(p_uv[1] * 64.0) + 0.5) / 64.0 + 1.0) * 0.5;
+        x0 = u_ / texel_size;
+        x1 = (1.0 - v_) / texel_size;
+"""
+
+
+def exact_uv_source(source: str) -> str:
+    """The plane shader in its UV mode evaluated at its pixel's centre (the plane's UVs there: (x + 1) / 2,
+    (y + 1) / 2); the UVs' derivatives, which give BumpNormal its tangent frame, are the renderer's."""
+    old = "        x0 = Vector[0] / texel_size;\n        x1 = (1.0 - Vector[1]) / texel_size;\n"
+    assert source.count(old) == 1
+    return source.replace(old, UV_SNAP)
+
+
+def test_relief_outputs_on_uvs(tmp_path):
+    """With ``coordinates = "input"`` (UVs) the outputs are those of the noise at the UVs' texel coordinates,
+    and BumpNormal is bent in the UVs' tangent frame, made of the ray differentials (on the plane: +u along
+    +x, +v along +y, so the tangent-space normal itself)."""
+    c = ((np.arange(SIZE) - SIZE // 2 + 0.5) / EXACT_PIXELS).astype(np.float32)
+    sx, sy = np.meshgrid(c, c[::-1])
+    u, v = (sx + np.float32(1.0)) * np.float32(0.5), (sy + np.float32(1.0)) * np.float32(0.5)
+    pts = np.stack([u / np.float32(UV_TEXEL), (np.float32(1.0) - v) / np.float32(UV_TEXEL)], -1).reshape(-1, 2)
+    jobs, checks = [], []
+    models = [("order3", random_texton(3, 3, seed=7), dict(mni=30.0, seed=2)),
+              ("tiling_guide", TilingModel(brick(3), 21.7, 4, 2.0, {}, "linear"), dict(seed=6))]
+    for n, (name, model, kw) in enumerate(models):
+        if isinstance(model, TilingModel):
+            source = osl_tiling.tiling_osl_files(model, kw["seed"], UV_TEXEL)[osl_tiling.OSL_FILE]
+        else:
+            source = osl_texton.osl_files(model, texel_size=UV_TEXEL, **kw)[osl_texton.PLANE_FILE]
+        osl = tmp_path / f"uv_{n}.osl"
+        osl.write_text(exact_uv_source(source.decode()))
+        want = expected(model, gradient(model, pts.astype(np.float64), device="cpu", **kw), 1.5)
+        for output in ("GradientX", "BumpNormal"):
+            jobs.append({"osl": str(osl), "ortho_scale": SIZE / EXACT_PIXELS, "width": SIZE, "height": SIZE,
+                         "output": output, "inputs": {"strength": 1.5, "coordinates": "input"},
+                         "uv_input": "Vector", **plane_mesh(1.0)})
+            checks.append((name, output, want[output].reshape(SIZE, SIZE, 3)))
+    for (name, output, want), rep in zip(checks, render(tmp_path, jobs)):
+        err = np.abs(rep["rgba"][..., :3] - want).max(axis=-1) / float(want.max() - want.min())
+        print(f"UVs, {name} {output}: {np.mean(err <= TOLERANCE):.5f} within {TOLERANCE:g} of the range, "
+              f"max {err.max():.2e}")
+        assert np.mean(err <= TOLERANCE) >= MIN_AGREEMENT, (name, output)
