@@ -159,3 +159,104 @@ def test_relief_outputs_on_uvs(tmp_path):
         print(f"UVs, {name} {output}: {np.mean(err <= TOLERANCE):.5f} within {TOLERANCE:g} of the range, "
               f"max {err.max():.2e}")
         assert np.mean(err <= TOLERANCE) >= MIN_AGREEMENT, (name, output)
+
+
+#: Renders the plane lit by a sun (Cycles, a diffuse BSDF, no bounces) with the shading normal left flat,
+#: set to the script node's BumpNormal, or made by Blender's Bump node from its Height
+#: (argv: the .osl file, the Bump node's distance, the output folder).
+LIT_SCENE = """
+import math, sys
+import bpy, cycles.osl
+osl, distance, out = sys.argv[1], float(sys.argv[2]), sys.argv[3]
+for variant in ("flat", "bump_normal", "bump_node"):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    sc = bpy.context.scene
+    sc.render.engine = "CYCLES"
+    sc.cycles.device = "CPU"
+    sc.cycles.shading_system = True
+    sc.cycles.samples = 1
+    sc.cycles.use_denoising = False
+    sc.cycles.use_adaptive_sampling = False
+    sc.cycles.pixel_filter_type = "BOX"
+    sc.cycles.filter_width = 0.01
+    sc.cycles.max_bounces = 0
+    sc.render.resolution_x = sc.render.resolution_y = 96
+    sc.view_settings.view_transform = "Standard"
+    sc.render.image_settings.file_format = "OPEN_EXR"
+    sc.render.image_settings.color_depth = "32"
+    me = bpy.data.meshes.new("plane")
+    me.from_pydata([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], [], [(0, 1, 2, 3)])
+    uv = me.uv_layers.new(name="UVMap")
+    for loop in me.loops:
+        x, y, _ = me.vertices[loop.vertex_index].co
+        uv.data[loop.index].uv = ((x + 1.0) / 2.0, (y + 1.0) / 2.0)
+    ob = bpy.data.objects.new("plane", me)
+    sc.collection.objects.link(ob)
+    mat = bpy.data.materials.new("lit")
+    nt = mat.node_tree
+    nt.nodes.clear()
+    node = nt.nodes.new("ShaderNodeScript")
+    node.mode = "EXTERNAL"
+    node.filepath = osl
+    assert cycles.osl.update_script_node(node, lambda *a: None)
+    # the UVs through the Vector input: a Texture Coordinate node, whose outputs Blender's bump offsets
+    node.inputs["coordinates"].default_value = "input"
+    nt.links.new(nt.nodes.new("ShaderNodeTexCoord").outputs["UV"], node.inputs["Vector"])
+    bsdf = nt.nodes.new("ShaderNodeBsdfDiffuse")
+    bsdf.inputs["Color"].default_value = (0.8, 0.8, 0.8, 1.0)
+    if variant == "bump_normal":
+        nt.links.new(node.outputs["BumpNormal"], bsdf.inputs["Normal"])
+    elif variant == "bump_node":
+        bump = nt.nodes.new("ShaderNodeBump")
+        bump.inputs["Strength"].default_value = 1.0
+        bump.inputs["Distance"].default_value = distance
+        nt.links.new(node.outputs["Height"], bump.inputs["Height"])
+        nt.links.new(bump.outputs["Normal"], bsdf.inputs["Normal"])
+    output = nt.nodes.new("ShaderNodeOutputMaterial")
+    nt.links.new(bsdf.outputs["BSDF"], output.inputs["Surface"])
+    me.materials.append(mat)
+    sun = bpy.data.lights.new("sun", "SUN")
+    sun.energy = 3.0
+    sun.angle = 0.0
+    sun_ob = bpy.data.objects.new("sun", sun)
+    sun_ob.rotation_euler = (math.radians(50.0), 0.0, math.radians(30.0))
+    sc.collection.objects.link(sun_ob)
+    cam = bpy.data.cameras.new("cam")
+    cam.type = "ORTHO"
+    cam.ortho_scale = 1.8
+    cam_ob = bpy.data.objects.new("cam", cam)
+    cam_ob.location = (0.0, 0.0, 10.0)
+    sc.collection.objects.link(cam_ob)
+    sc.camera = cam_ob
+    sc.render.filepath = f"{out}/{variant}.exr"
+    bpy.ops.render.render(write_still=True)
+"""
+
+
+def test_bump_normal_shades_a_lit_plane(tmp_path):
+    """In a Cycles render lit by a sun, BumpNormal on a diffuse BSDF's Normal shades the flat plane with
+    the relief (the flat normal shades it evenly), and Blender's own Bump node fed the Height output with
+    the same height scale (its distance strength · texel size in world units / σ_L) shades it alike: its
+    finite differences over the ray differentials against the shader's exact gradient. The coordinates
+    come through the Vector input (UVs from a Texture Coordinate node), whose outputs Blender's bump
+    offsets; a script that reads P itself (coordinates "object") is not offset, and gives the Bump node a
+    flat height (docs/renderers.md)."""
+    import OpenEXR
+
+    from clients import run_blender
+
+    model = random_texton(3, 3, seed=8)
+    texel = 0.04  # UV units a texel: 0.08 world units, about four pixels
+    (tmp_path / "plane.osl").write_bytes(osl_texton.osl_files(model, mni=30.0, seed=1, texel_size=texel)[
+        osl_texton.PLANE_FILE])
+    run_blender(LIT_SCENE, str(tmp_path / "plane.osl"), str(2.0 * texel / luminance_std(model)), str(tmp_path),
+                timeout=600)
+    img = {v: OpenEXR.File(str(tmp_path / f"{v}.exr")).channels()["RGBA"].pixels[..., 0].astype(np.float64)
+           for v in ("flat", "bump_normal", "bump_node")}
+    flat, ours, node = img["flat"], img["bump_normal"], img["bump_node"]
+    corr = float(np.corrcoef(ours.ravel(), node.ravel())[0, 1])
+    print(f"lit plane: flat {flat.mean():.4f} ± {flat.std():.1e}, BumpNormal {ours.mean():.4f} ± {ours.std():.3f}, "
+          f"Bump node {node.mean():.4f} ± {node.std():.3f}; correlation {corr:.4f}")
+    assert flat.mean() > 0.1 and flat.std() < 1e-4 * flat.mean()
+    assert ours.std() > 0.05 * flat.mean()  # not flat: the relief shades it
+    assert corr > 0.99
