@@ -174,6 +174,8 @@ def colour_slope_code(model: Texton | TilingModel) -> str:
     linear segment, 0 where it clamps: ``noise.relief.table_slopes``), with the tables L, mu and sd
     that :func:`colour_map_code` declares."""
     tr = model.histogram
+    if tr is None:
+        return ""
     c = model.channels
     k = tr.lut.shape[1]
     per = f32(np.float32(k - 1) / (np.float32(2.0) * np.float32(GAUSS_RANGE)))
