@@ -55,14 +55,15 @@ def expected(model, grad: np.ndarray, strength: float) -> dict[str, np.ndarray]:
 
 
 #: (name, model, export keywords, the node's strength): texton noise of orders 1 (PTRS counts), 3
-#: (grey, a period), 5, a histogram-preserving texton; tiling models plain, guided with the linear
-#: blend, histogram-preserving, read wrapped, on 2-D lattices (wrapped and clamped) and on courses.
+#: (grey, a period), 5 (the node's mni set: λ from OSL's arithmetic), a histogram-preserving texton;
+#: tiling models plain, guided with the linear blend, histogram-preserving, read wrapped, on 2-D
+#: lattices (wrapped and clamped) and on courses.
 def cases():
     hist = analyze(read_image(demo_texture_path()), size=16, order=3, seed=0, histogram="preserve")
     return [
         ("order1", random_texton(3, 1, seed=4), dict(mni=30.0, seed=9), 1.0),
         ("order3_period", random_texton(1, 3, seed=5), dict(mni=20.0, seed=2**31 + 5, period=(24.0, 40.0)), 2.0),
-        ("order5", random_texton(3, 5, seed=6), dict(mni=30.0, seed=3), 1.0),
+        ("order5_node_mni", random_texton(3, 5, seed=6), dict(mni=30.0, seed=3), 1.0),
         ("histogram", hist, dict(mni=30.0, seed=4), 1.0),
         ("tiling", TilingModel(brick(1), 32.0, 16, 0.0, {}, "variance"), dict(seed=5), 1.0),
         ("tiling_guide", TilingModel(brick(3), 21.7, 4, 2.0, {}, "linear"), dict(seed=6), 2.0),
@@ -90,11 +91,15 @@ def test_relief_outputs_equal_gradient(tmp_path):
     for n, (name, model, kw, strength) in enumerate(cases()):
         osl = tmp_path / f"relief_{n}.osl"
         osl.write_text(plane_source(model, kw))
+        inputs = {"strength": strength}
+        if name.endswith("node_mni"):  # the node's mni, not the export's
+            inputs["mni"] = 40.0
+            kw = {**kw, "mni": 40.0}
         grad = gradient(model, pts.astype(np.float64), device="cpu", **kw)
         want = expected(model, grad, strength)
         for output in RELIEF:
             jobs.append({"osl": str(osl), "ortho_scale": SIZE / EXACT_PIXELS, "width": SIZE, "height": SIZE,
-                         "output": output, "inputs": {"strength": strength}, **plane_mesh(1.0)})
+                         "output": output, "inputs": inputs, **plane_mesh(1.0)})
             checks.append((name, output, want[output].reshape(SIZE, SIZE, 3)))
     failed = []
     for (name, output, want), rep in zip(checks, render(tmp_path, jobs)):

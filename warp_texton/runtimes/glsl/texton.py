@@ -15,6 +15,10 @@ the kernels' ``Pyramid`` holds them. A GL mip chain is not used: GL halves odd
 sides down, the package's pyramid pads them up (block means of zero-padded
 2 × 2 blocks), and its levels carry the same zero margin as level 0.
 
+Beside the plane noise the library has its exact gradient, ``texton_noise_grad(_at)``
+(``kernels/noise_gradient.py``'s ``texton_slope`` over the same impacts); :func:`gradient_window`
+is what a page draws a window's derivatives with (:data:`GRADIENT_MAIN`).
+
 A texton with a histogram transform adds ``texton_colours`` (its inverse-CDF
 tables, one row per variance share) and ``texton_shares`` (its footprint
 shares), which the library's ``texton_noise*`` functions use to return the

@@ -9,7 +9,10 @@
   weight, CGF Prop. 3's normalisation);
 * ``texton_plane.osl``: plane noise (``evaluate``: ``kernels/noise_raster.py``,
   ``evaluate_points``) at a texel-space point made from the UVs or from the
-  object-space x, y.
+  object-space x, y, with its exact gradient (``kernels/noise_gradient.py``
+  ``plane_slope``) and the relief made of it: the outputs ``GradientX``,
+  ``GradientY``, ``Height``, ``NormalMap`` and ``BumpNormal`` (:func:`relief_code`,
+  shared with tiling models' shader).
 
 Both draw the impacts of ``kernels/impacts.py`` in its order (the cell hash
 ``avalanche``/``cell_state``/``cell_state3``, Warp's PCG ``rand_pcg``,
