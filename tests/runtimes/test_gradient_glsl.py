@@ -20,7 +20,7 @@ import pytest
 from clients import chromium_browser
 from test_tiling_glsl import BOND, COURSES, brick
 from helpers import running_bond
-from warp_texton import TextonError, analyze, gradient, read_image, synthesize
+from warp_texton import NoiseOptions, Texton, TextonError, analyze, gradient, read_image, synthesize
 from warp_texton.demo import demo_texture_path
 from warp_texton.model.lattice import Lattice
 from warp_texton.model.tiling import TilingModel
@@ -114,7 +114,7 @@ def test_texton_gradient_equals_gradient(case, textons, page, record_property):
     texton = textons[kw.pop("texton")]
     place = {k: kw.pop(k) for k in ("scale", "rotation", "offset") if k in kw}
     kw.setdefault("mni", 30.0)
-    data = glsl.gradient_window(texton, SHAPE, noise=wt_noise(**kw), **place)
+    data = glsl.gradient_window(texton, SHAPE, noise=NoiseOptions(**kw), **place)
     got = draw(page, data, glsl_texton.PREVIEW_MAIN)
     want = gradient(texton, shape=SHAPE, device="cpu", **place, **kw)
     c = texton.channels
@@ -130,19 +130,12 @@ def test_texton_gradient_equals_gradient(case, textons, page, record_property):
     # the value beside the gradient is the value function's, bit for bit
     assert np.array_equal(got[2][..., :c], got[3][..., :c])
     if texton.histogram is not None:  # the tables' slopes are applied: the Gaussian gradient differs
-        raw = gradient(analyze_without_tables(texton), shape=SHAPE, device="cpu", **place, **kw)
+        raw = gradient(without_tables(texton), shape=SHAPE, device="cpu", **place, **kw)
         assert np.abs(raw - want).max() > 0.1 * float(np.abs(want).max())
 
 
-def wt_noise(**kw):
-    from warp_texton import NoiseOptions
-
-    return NoiseOptions(**kw)
-
-
-def analyze_without_tables(texton):
-    from warp_texton import Texton
-
+def without_tables(texton: Texton) -> Texton:
+    """The same texton without its histogram transform: the Gaussian noise."""
     return Texton(texton.coeffs, texton.mean, texton.order)
 
 
@@ -204,6 +197,6 @@ def test_gradient_window_refuses(textons, models):
     with pytest.raises(TextonError, match="defined within"):
         glsl.gradient_window(textons[3], (16, 16), offset=(1e13, 0))
     with pytest.raises(TextonError, match="mni do not apply"):
-        glsl.gradient_window(models["grey"], (16, 16), noise=wt_noise(mni=10.0))
+        glsl.gradient_window(models["grey"], (16, 16), noise=NoiseOptions(mni=10.0))
     with pytest.raises(TextonError, match="defined within"):
         glsl.gradient_window(models["grey"], (16, 16), offset=(3e9, 0))
