@@ -121,4 +121,4 @@ def test_every_path_maps_with_the_tables_of_its_mni(texton):
     g = glsl_noise(texton, mni=mni, seed=2)
     np.testing.assert_array_equal(g.textures["texton_colours"], colour_textures(t)["texton_colours"])
     plane = osl_files(texton, mni=mni, seed=2)["texton_plane.osl"].decode()
-    assert colour_map_code(t) in plane and colour_map_code(texton) not in plane
+    assert colour_map_code(t, slopes=True) in plane and colour_map_code(texton, slopes=True) not in plane

@@ -385,13 +385,12 @@ def osl_files(
     # the plane's tables are those of its noise at this MNI; the surface's those the analysis
     # fitted, as surface_noise applies them (docs/histogram.md, "Tables for the MNI in use")
     plane = dict(common, **{
-        "MAP": colour_map_code(at_mni(texton, mni)),
         "CW": f32(cells["size"][0]), "CH": f32(cells["size"][1]), "PX": str(int(cells["period"][0])),
         "PY": str(int(cells["period"][1])), "LO0": f32(rec["lo"][0]), "LO1": f32(rec["lo"][1]),
         "HI0": f32(rec["hi"][0]), "HI1": f32(rec["hi"][1]), "LAM": f32(rec["lam"]),
         "MEAN": colour_literal(rec["mean"]), "INTEGRAL": colour_literal(rec["integral"]),
         **{f"K_{k}": v for k, v in counts_constants(cells["mean_count"]).items()},
-        **relief_code(texton), "MAP": colour_map_code(texton, slopes=True),
+        **relief_code(texton), "MAP": colour_map_code(at_mni(texton, mni), slopes=True),
     })
     surface = dict(common, **{
         "C": f32(sp.cells.size), "HALF": f32(sp.half), "R": f32(2.0 * sp.half),
