@@ -146,3 +146,19 @@ def test_translation_fit_in_analyze(monkeypatch):
     monkeypatch.setattr(analysis, "PRESERVE_FIT", "judges")
     c = analysis.analyze(u, size=16, seed=0, histogram="preserve")
     assert "histogram_fit" not in c.metadata and not np.array_equal(a.coeffs, c.coeffs)
+
+
+@pytest.mark.parametrize("fit", analysis.PRESERVE_FITS)
+def test_preserve_analysis_shows_its_stages(fit, monkeypatch, capsys):
+    """``progress=True``: one bar over the stages of the preserve analysis (tables, texton, judges),
+    for each fit; none without it."""
+    monkeypatch.setattr("warp_texton.core.progress.PROGRESS_DELAY", 0.0)
+    monkeypatch.setattr(analysis, "PRESERVE_FIT", fit)
+    u = np.exp(0.7 * gaussian_field(64, 0.1, 5))[..., None].astype(np.float32)
+    analysis.analyze(u, size=8, seed=0, histogram="preserve", iterations=5)
+    assert capsys.readouterr().err == ""
+    analysis.analyze(u, size=8, seed=0, histogram="preserve", iterations=5, progress=True)
+    err = capsys.readouterr().err
+    # the stages' bar (not the projections' "it" bar); its last draw may be skipped by tqdm's
+    # minimum interval, so the stage names seen depend on timing
+    assert "analyze: tables" in err and "/3 [" in err and "it/s" not in err, err[-300:]

@@ -36,10 +36,10 @@ from .example_checks import warn_large, warn_unsuited
 from ..core.limits import check_memory, check_work
 from .histogram import NOISE_MNI, REFINE_MAX_PIXELS, REFINE_ROUNDS, HistogramTransform, check_histogram, gauss_grid
 from .gaussian import FFT_WORKERS, normalized_kernel
-from .judges import (impact_spectrum, judged_texton, model_error, noise_sample,  # noqa: F401 - its names too
+from .judges import (impact_spectrum, judged_texton, model_error, noise_sample, preserve_steps, translated_texton,  # noqa: F401 - its names too
                      relative_texton_error, texton_half_spectrum)
 from .texton import Texton, lag0_covariance
-from .translation import half_plane_covariance, noise_cdf, texton_values, translated_kernel  # noqa: F401
+from .translation import noise_cdf, texton_values  # noqa: F401 - this module's names too
 
 #: The methods of `analyze`: the Gaussian texton model (the default), tiling and blending.
 METHODS = ("texton", TILING_KIND, "auto")
@@ -442,14 +442,17 @@ def _texton_analysis(u, size, order, iterations, seed, periodic, color_correctio
         # coherent (docs/histogram.md); grey keeps the per-frequency correction. Both are
         # then refitted and judged on samples of their noise (judged_texton)
         colour = c > 1
+        steps = preserve_steps(progress)  # one bar over the stages, not the projections' own
+        progress = False
         transform = HistogramTransform.fit(u, axes="rgb" if colour else "pca")
         z = transform.decorrelate(u).astype(np.float32)
         mean, t = normalized_kernel(transform.to_gaussian(u).astype(np.float32), periodic=periodic)
         tz = normalized_kernel(z, periodic=periodic)[1]
         if PRESERVE_FIT == "translation":
-            return _translation_texton(u, transform, t, tz, mean, size, order, iterations, seed, periodic,
-                                       color_correction, support, progress)
+            return translated_texton(u, transform, t, tz, mean, size, order, iterations, seed, periodic,
+                                     color_correction, support, texton_from_spectrum, steps)
         t = transform.gaussian_kernel(t, tz, size if colour else None)
+        steps.step()
     else:
         mean, t = normalized_kernel(u, periodic=periodic)
     t_hat = sfft.rfft2(t, axes=(0, 1), workers=FFT_WORKERS)
@@ -462,6 +465,7 @@ def _texton_analysis(u, size, order, iterations, seed, periodic, color_correctio
     texton.metadata.update(periodic=bool(periodic))
     if transform is None:
         return texton
+    steps.step()
     if m * n <= REFINE_MAX_PIXELS:
         texton, transform, judges = judged_texton(u, texton, transform, t, t_hat, tz, n, mean, size, order,
                                                   iterations, seed, flat.T @ flat if color_correction else None,
@@ -471,36 +475,11 @@ def _texton_analysis(u, size, order, iterations, seed, periodic, color_correctio
         # the tables take the noise's own marginal (compound Poisson, skewed at MNI 30) to
         # the example's, not a Gaussian's (docs/histogram.md, "The noise's own marginal")
         transform = transform.for_noise(u, noise_cdf(texton, NOISE_MNI, gauss_grid(transform.lut.shape[1])))
+    steps.step()
+    steps.close()
     texton.metadata.update(histogram=histogram, histogram_mni=NOISE_MNI)
     return replace(texton, histogram=transform)
 
-
-
-def _translation_texton(u, transform: HistogramTransform, t, tz, mean, size, order, iterations, seed, periodic,
-                        color_correction, support, progress) -> Texton:
-    """``histogram="preserve"`` by the translation process (``PRESERVE_FIT == "translation"``): the
-    Gaussian field's cross-covariances that the tables map onto the example's, inverted lag by
-    lag (``translation.translated_kernel``), one texton fitted to them, its tables fitted to its
-    noise at NOISE_MNI. No refits, no judges."""
-    m, n, c = t.shape
-    grid = gauss_grid(transform.lut.shape[1])
-    g_hat, meta = translated_kernel(np.asarray(t, np.float64), np.asarray(tz, np.float64), transform.lut, grid,
-                                    size)
-    cov = half_plane_covariance(g_hat, n) if color_correction else None
-    g_hat = g_hat.astype(np.complex64)
-    texton = texton_from_spectrum(g_hat, n, mean, size, order, iterations, seed,
-                                  covariance=cov, support=support, progress=progress)
-    texton.metadata.update(periodic=bool(periodic))
-    if m * n <= REFINE_MAX_PIXELS:
-        # the plain texton or the zero-sum one (no power at frequency 0), judged as the refits
-        # are (judges.judged_texton) but without refits: both start from the translation's kernel
-        texton, transform, judges = judged_texton(u, texton, transform, t, g_hat, tz, n, mean, size, order,
-                                                  iterations, seed, cov, support, texton_from_spectrum, rounds=0)
-        texton.metadata.update(periodic=bool(periodic), **judges)
-    else:
-        transform = transform.for_noise(u, noise_cdf(texton, NOISE_MNI, grid))
-    texton.metadata.update(histogram="preserve", histogram_mni=NOISE_MNI, histogram_fit="translation", **meta)
-    return replace(texton, histogram=transform)
 
 
 def _by_method(u, method: str, texton_options: dict, side, lattice) -> Texton | TilingModel:
