@@ -25,7 +25,7 @@ def _check_output(out, overwrite: bool) -> Path:
     if path.is_dir():
         raise TextonError(f"out: {out} is a folder; give the .zip file to write", param="out")
     if (path.exists() or path.is_symlink()) and not overwrite:
-        raise TextonError(f"out: {out} exists; give overwrite=True (--overwrite) to replace it", param="out",
+        raise TextonError(f"out: {out} exists; replace it with overwrite", param="out",
                           mentions=("overwrite",))
     parent = path.parent if str(path.parent) else Path(".")
     if not parent.is_dir():

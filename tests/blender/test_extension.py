@@ -1,0 +1,204 @@
+"""The Blender extension (issue 43, item 4): ``warp-texton blender-extension`` writes a zip whose
+manifest is complete and that Blender's validator accepts; it installs into Blender (``bpy``, a user
+folder of its own) and its operator gives the default cube a material that Cycles renders with
+texture, from the OSL node and from the EEVEE branch's bake, against the same cube with a flat colour.
+
+The zip is built once per session with ``wheels_dir`` (the dependencies downloaded once by
+``pip download``, which reaches PyPI in CI); the Blender side is tests/blender_extension.py.
+"""
+
+from __future__ import annotations
+
+import json
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from clients import has_bpy, require, run_blender
+from helpers import parts, run_cli
+from warp_texton import TextonError
+from warp_texton.blender import PLATFORMS, build_extension
+from warp_texton.blender.extension import MANIFEST
+from warp_texton.blender.manifest import EXTENSION_ID, PERMISSIONS, manifest_text, this_platform
+from warp_texton.blender.wheels import dependency_wheels, requirements
+from warp_texton.demo import demo_texture_path
+
+tomllib = pytest.importorskip("tomllib")  # Python 3.11+, as Blender's
+
+SCRIPT = Path(__file__).resolve().parents[1] / "blender_extension.py"
+#: Every field schema 1.0.0 requires (Blender's validator: bl_pkg/cli/blender_ext.py, PkgManifest).
+REQUIRED = ("schema_version", "id", "version", "name", "tagline", "maintainer", "type", "blender_version_min",
+            "license")
+SIZE = 96
+#: An 8-bit step: the smallest pixel difference a PNG holds.
+STEP = 1.0
+
+
+# ------------------------------------------------------------------ the manifest and the wheels, no Blender
+def test_manifest_has_every_required_field_and_declares_permissions():
+    wheels = ["./wheels/a-1.0-py3-none-any.whl", "./wheels/b-2.0-cp311-cp311-win_amd64.whl"]
+    m = tomllib.loads(manifest_text(["linux-x64", "windows-x64"], wheels))
+    assert all(m.get(k) for k in REQUIRED), [k for k in REQUIRED if not m.get(k)]
+    assert m["schema_version"] == "1.0.0" and m["type"] == "add-on" and m["id"] == EXTENSION_ID
+    assert m["license"] == ["SPDX:MIT"] and m["platforms"] == ["linux-x64", "windows-x64"]
+    assert m["wheels"] == wheels
+    assert m["permissions"] == PERMISSIONS and "files" in m["permissions"]
+    # Blender's terse descriptions: at most 64 characters, no final punctuation
+    for text in (m["tagline"], *m["permissions"].values()):
+        assert len(text) <= 64 and text[-1].isalnum(), text
+
+
+def test_the_bundled_requirements_leave_numpy_to_blender():
+    names = {r.split(">")[0].split("=")[0].split("<")[0].strip().lower() for r in requirements()}
+    assert {"warp-lang", "scipy", "openexr", "pillow", "tqdm", "trimesh", "xatlas"} <= names
+    assert "numpy" not in names
+    assert not any(n in names for n in ("dask", "zarr", "pytest", "mkdocs"))  # extras Blender's add-on never uses
+
+
+@pytest.mark.parametrize("args, match", [
+    (["--platform", "amiga-68k"], "amiga-68k"),
+    (["--platform", "linux-x64", "--wheels-dir", "no_such_folder"], "no_such_folder is not a folder"),
+])
+def test_bad_options_exit_2_in_one_line_and_write_nothing(tmp_path, capsys, monkeypatch, args, match):
+    monkeypatch.chdir(tmp_path)
+    assert run_cli(["blender-extension", "-o", "ext.zip", *args]) == 2
+    err = capsys.readouterr().err
+    assert match in err and err.count("\n") == 1 and err.startswith("warp-texton: error: ")
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("name, match", [("ext.zip", "exists; replace it with --overwrite"), ("ext.tar", "not a .zip")])
+def test_an_existing_or_misnamed_output_is_refused(tmp_path, capsys, name, match):
+    out = tmp_path / name
+    out.write_bytes(b"old")
+    assert run_cli(["blender-extension", "-o", out, "--platform", "linux-x64"]) == 2
+    err = capsys.readouterr().err
+    assert match in err and err.count("\n") == 1
+    assert out.read_bytes() == b"old"
+
+
+def test_the_api_names_the_argument(tmp_path):
+    with pytest.raises(TextonError, match="platforms: windows-x86; Blender platforms"):
+        build_extension(tmp_path / "x.zip", platforms=["windows-x86"])
+    (tmp_path / "folder.zip").mkdir()
+    with pytest.raises(TextonError, match="out: .*folder.zip is a folder"):
+        build_extension(tmp_path / "folder.zip", platforms=["linux-x64"])
+    assert [p.name for p in tmp_path.iterdir()] == ["folder.zip"]
+
+
+# ------------------------------------------------------------------ the zip, built once
+@pytest.fixture(scope="session")
+def extension_zip(tmp_path_factory):
+    """(zip path, wheels folder): the dependencies downloaded once for this platform, the zip built from them."""
+    platform = this_platform()
+    if platform not in PLATFORMS:
+        pytest.skip(f"no wheels of the dependencies for {platform}")
+    wheels = tmp_path_factory.mktemp("wheels")
+    dependency_wheels(platform, wheels, None)
+    out = tmp_path_factory.mktemp("extension") / "warp_texton.zip"
+    assert build_extension(out, wheels_dir=wheels) == out
+    return out, wheels
+
+
+@pytest.mark.slow
+def test_the_zip_holds_the_manifest_the_addon_and_every_wheel(extension_zip):
+    out, wheels = extension_zip
+    with zipfile.ZipFile(out) as z:
+        names = set(z.namelist())
+        manifest = tomllib.loads(z.read(MANIFEST).decode())
+        addon = z.read("__init__.py").decode()
+    assert all(manifest.get(k) for k in REQUIRED)
+    assert manifest["platforms"] == [this_platform()]
+    listed = {w.removeprefix("./") for w in manifest["wheels"]}
+    assert listed == {n for n in names if n.startswith("wheels/")}
+    assert names == listed | {MANIFEST, "__init__.py"}
+    bundled = {Path(w).name.split("-")[0].lower() for w in listed}
+    assert {"warp_texton", "warp_lang", "scipy", "openexr", "pillow", "tqdm", "trimesh", "xatlas"} <= bundled
+    assert "numpy" not in bundled
+    # every downloaded wheel is in the zip, and the package's own wheel is this version's
+    assert {p.name for p in wheels.glob("*.whl")} <= {Path(w).name for w in listed}
+    from warp_texton import __version__
+    assert f"wheels/warp_texton-{__version__}-py3-none-any.whl" in names
+    assert "def register():" in addon and '"warp_texton.material_from_image"' in addon
+
+
+@pytest.mark.slow
+def test_overwrite_replaces_the_zip_atomically(extension_zip, tmp_path):
+    _, wheels = extension_zip
+    out = tmp_path / "again.zip"
+    out.write_bytes(b"old")
+    assert run_cli(["blender-extension", "-o", out, "--wheels-dir", wheels, "--overwrite", "-q"]) == 0
+    assert zipfile.is_zipfile(out) and not parts(tmp_path)
+
+
+# ------------------------------------------------------------------ in Blender
+def object_pixels(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """(luminance, mask of the object's pixels) of an RGBA render on a transparent film."""
+    a = np.asarray(Image.open(path), np.float64)
+    return a[..., :3].mean(axis=2), a[..., 3] == 255
+
+
+def texture_contrast(path: Path) -> float:
+    """The median absolute difference of horizontally adjacent pixels on the object: the shading of a
+    flat-coloured cube changes only across its few edges (and by render noise), a texture everywhere."""
+    lum, on = object_pixels(path)
+    both = on[:, 1:] & on[:, :-1]
+    return float(np.median(np.abs(np.diff(lum, axis=1))[both]))
+
+
+@pytest.fixture(scope="module")
+def blender_run(extension_zip, tmp_path_factory):
+    require(has_bpy(), "Blender's bpy module")
+    out, _ = extension_zip
+    d = tmp_path_factory.mktemp("blender")
+    (d / "user").mkdir()
+    renders = [{"out": str(d / f"{b}.png"), "branch": b, "width": SIZE, "height": SIZE, "samples": 8}
+               for b in ("osl", "baked", "flat")]
+    spec = {"zip": str(out), "image": str(demo_texture_path()), "operator": {"resolution": 128},
+            "renders": renders, "report": str(d / "report.json")}
+    (d / "spec.json").write_text(json.dumps(spec))
+    # a user folder of its own, and a working folder outside the checkout (whose warp_texton would shadow the wheel's)
+    run_blender(SCRIPT, d / "spec.json", timeout=900, cwd=d, env={"BLENDER_USER_RESOURCES": str(d / "user")})
+    return json.loads((d / "report.json").read_text()), d
+
+
+@pytest.mark.slow
+def test_blenders_validator_accepts_the_zip(blender_run):
+    report, _ = blender_run
+    assert report["validate"]["returncode"] == 0, report["validate"]["output"]
+
+
+@pytest.mark.slow
+def test_the_extension_installs_and_its_package_comes_from_its_wheels(blender_run):
+    report, d = blender_run
+    assert report["install"] == ["FINISHED"]
+    assert report["addons"] == [f"bl_ext.user_default.{EXTENSION_ID}"]
+    assert Path(report["package"]).is_relative_to(d / "user" / "extensions"), report["package"]
+
+
+@pytest.mark.slow
+def test_the_operator_gives_the_cube_an_osl_and_a_baked_material(blender_run):
+    report, _ = blender_run
+    assert report["operator"] == ["FINISHED"] and report["osl"]
+    mat = report["material"]
+    assert sorted(mat["outputs"].values()) == ["CYCLES", "EEVEE"]
+    assert "ShaderNodeScript" in mat["node_types"] and mat["scripts"]
+    assert {"ShaderNodeNormalMap", "ShaderNodeBump", "ShaderNodeTexImage"} <= set(mat["node_types"])
+    spaces = sorted(i["colorspace"] for i in mat["images"].values())
+    assert spaces == ["Non-Color", "sRGB"]
+    assert all(i["size"] == [128, 128] and i["packed"] for i in mat["images"].values())
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("branch", ["osl", "baked"])
+def test_cycles_renders_the_cube_with_texture(blender_run, branch):
+    _, d = blender_run
+    lum, on = object_pixels(d / f"{branch}.png")
+    flat_lum, flat_on = object_pixels(d / "flat.png")
+    assert on.sum() > 0.05 * on.size and (on == flat_on).mean() > 0.99  # the same cube, in view
+    textured, flat = texture_contrast(d / f"{branch}.png"), texture_contrast(d / "flat.png")
+    assert textured > 3.0 * max(flat, STEP), (textured, flat)
+

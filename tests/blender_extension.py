@@ -1,0 +1,115 @@
+"""Install the extension zip in Blender, run its operator on the default cube, render (run by Blender's
+Python through clients.run_blender, with a user folder of its own: BLENDER_USER_RESOURCES).
+
+Argument: a JSON file: "zip" (the extension), "image" (the operator's filepath), "operator" (its other
+properties), "renders" (each: "out", a PNG path; "branch": "osl" the material as made, "baked" its EEVEE
+branch (the bake and normal map) shown in Cycles, "flat" the same lighting with a constant base colour
+and no bump; "engine": "CYCLES" (default) or "EEVEE"; "width", "height", "samples") and "report" (a
+JSON file: the validator's verdict, the install's and the operator's results, the material's nodes and
+images, the renders' times). Renders are RGBA with a transparent film: alpha marks the object.
+This script imports nothing of warp_texton itself: the add-on, installed from the zip, does.
+"""
+
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+
+def validate(zip_path):
+    """Blender's own validator of extension packages (``blender --command extension validate``)."""
+    import bpy
+
+    cli = Path(bpy.utils.resource_path("LOCAL")) / "scripts" / "addons_core" / "bl_pkg" / "cli" / "blender_ext.py"
+    proc = subprocess.run([sys.executable, str(cli), "validate", zip_path], capture_output=True, text=True)
+    return {"returncode": proc.returncode, "output": (proc.stdout + proc.stderr).strip()}
+
+
+def material_facts(mat):
+    nt = mat.node_tree
+    outputs = {n.name: n.target for n in nt.nodes if n.bl_idname == "ShaderNodeOutputMaterial"}
+    images = {}
+    for n in nt.nodes:
+        if n.bl_idname == "ShaderNodeTexImage" and n.image is not None:
+            images[n.image.name] = {"size": list(n.image.size), "colorspace": n.image.colorspace_settings.name,
+                                    "packed": n.image.packed_file is not None}
+    scripts = [n.script.name for n in nt.nodes if n.bl_idname == "ShaderNodeScript"]
+    return {"name": mat.name, "outputs": outputs, "images": images, "scripts": scripts,
+            "node_types": sorted({n.bl_idname for n in nt.nodes})}
+
+
+def show_branch(mat, branch):
+    """Make the Cycles output show ``branch``."""
+    nt = mat.node_tree
+    out = next(n for n in nt.nodes if n.bl_idname == "ShaderNodeOutputMaterial" and n.target in ("CYCLES", "ALL"))
+    bsdfs = [n for n in nt.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled"]
+    if branch == "baked":
+        eevee = next(n for n in nt.nodes if n.bl_idname == "ShaderNodeOutputMaterial" and n.target == "EEVEE")
+        baked = eevee.inputs["Surface"].links[0].from_node
+        nt.links.new(baked.outputs["BSDF"], out.inputs["Surface"])
+    elif branch == "flat":
+        bsdf = out.inputs["Surface"].links[0].from_node
+        for name in ("Base Color", "Normal"):
+            for link in list(bsdf.inputs[name].links):
+                nt.links.remove(link)
+        bsdf.inputs["Base Color"].default_value = (0.1, 0.1, 0.1, 1.0)
+    return len(bsdfs)
+
+
+def render(scene, job):
+    import bpy
+
+    scene.render.engine = "BLENDER_EEVEE" if job.get("engine") == "EEVEE" else "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = job.get("samples", 8)
+    scene.cycles.use_denoising = False
+    scene.cycles.seed = 0
+    if hasattr(scene, "eevee"):
+        scene.eevee.taa_render_samples = job.get("samples", 8)
+    scene.render.film_transparent = True
+    scene.render.resolution_x = job["width"]
+    scene.render.resolution_y = job["height"]
+    scene.render.resolution_percentage = 100
+    scene.render.image_settings.file_format = "PNG"
+    scene.render.image_settings.color_mode = "RGBA"
+    scene.render.filepath = job["out"]
+    t0 = time.perf_counter()
+    bpy.ops.render.render(write_still=True)
+    return time.perf_counter() - t0
+
+
+def main():
+    import bpy
+
+    spec = json.loads(Path(sys.argv[1]).read_text())
+    report = {"validate": validate(spec["zip"])}
+    t0 = time.perf_counter()
+    report["install"] = sorted(bpy.ops.extensions.package_install_files(
+        filepath=spec["zip"], repo="user_default", enable_on_install=True))
+    report["install_s"] = time.perf_counter() - t0
+    report["addons"] = sorted(k for k in bpy.context.preferences.addons.keys() if "warp_texton" in k)
+    scene = bpy.context.scene
+    scene.render.engine = "CYCLES"
+    cube = bpy.data.objects["Cube"]
+    bpy.context.view_layer.objects.active = cube
+    t0 = time.perf_counter()
+    report["operator"] = sorted(bpy.ops.warp_texton.material_from_image(filepath=spec["image"],
+                                                                         **spec.get("operator", {})))
+    report["operator_s"] = time.perf_counter() - t0
+    report["package"] = sys.modules["warp_texton"].__file__  # the installed wheel's, not a checkout's
+    mat = cube.active_material
+    report["material"] = material_facts(mat)
+    report["osl"] = bool(scene.cycles.shading_system)
+    report["renders"] = []
+    for job in spec["renders"]:
+        copy = mat.copy()
+        cube.active_material = copy
+        show_branch(copy, job["branch"])
+        report["renders"].append({"out": job["out"], "seconds": render(scene, job)})
+        cube.active_material = mat
+    Path(spec["report"]).write_text(json.dumps(report))
+
+
+if __name__ == "__main__":  # Blender runs it; pytest's doctest collection only imports it
+    main()
