@@ -1,12 +1,14 @@
 """Install the extension zip in Blender, run its operator on the default cube, render (run by Blender's
 Python through clients.run_blender, with a user folder of its own: BLENDER_USER_RESOURCES).
 
-Argument: a JSON file: "zip" (the extension), "image" (the operator's filepath), "operator" (its other
-properties), "renders" (each: "out", a PNG path; "branch": "osl" the material as made, "baked" its EEVEE
-branch (the bake and normal map) shown in Cycles, "flat" the same lighting with a constant base colour
-and no bump; "engine": "CYCLES" (default) or "EEVEE"; "width", "height", "samples") and "report" (a
-JSON file: the validator's verdict, the install's and the operator's results, the material's nodes and
-images, the renders' times). Renders are RGBA with a transparent film: alpha marks the object.
+Argument: a JSON file: "zip" (the extension), "image" (the operator's filepath), "runs" and "report".
+Each run is the operator on the cube, with its other properties ("operator"), then "renders" of the
+material it made, each: "out", a PNG path; "branch": "material" the material as the operator made it
+(Cycles renders its OSL branch, EEVEE its bake), "baked" its EEVEE branch (the bake and normal map)
+shown in Cycles, "flat" the same lighting with a constant base colour and no bump; "engine": "CYCLES"
+(default) or "EEVEE"; "width", "height", "samples". The report (JSON): the validator's verdict, the
+install's result and, for each run, the operator's, the material's nodes and images, the renders'
+times. Renders are RGBA with a transparent film: alpha marks the object.
 This script imports nothing of warp_texton itself: the add-on, installed from the zip, does.
 """
 
@@ -90,24 +92,27 @@ def main():
     report["install_s"] = time.perf_counter() - t0
     report["addons"] = sorted(k for k in bpy.context.preferences.addons.keys() if "warp_texton" in k)
     scene = bpy.context.scene
-    scene.render.engine = "CYCLES"
     cube = bpy.data.objects["Cube"]
     bpy.context.view_layer.objects.active = cube
-    t0 = time.perf_counter()
-    report["operator"] = sorted(bpy.ops.warp_texton.material_from_image(filepath=spec["image"],
-                                                                         **spec.get("operator", {})))
-    report["operator_s"] = time.perf_counter() - t0
-    report["package"] = sys.modules["warp_texton"].__file__  # the installed wheel's, not a checkout's
-    mat = cube.active_material
-    report["material"] = material_facts(mat)
-    report["osl"] = bool(scene.cycles.shading_system)
-    report["renders"] = []
-    for job in spec["renders"]:
-        copy = mat.copy()
-        cube.active_material = copy
-        show_branch(copy, job["branch"])
-        report["renders"].append({"out": job["out"], "seconds": render(scene, job)})
-        cube.active_material = mat
+    report["runs"] = []
+    for run in spec["runs"]:  # each: the operator on the cube, then renders of its material
+        scene.render.engine = "CYCLES"
+        t0 = time.perf_counter()
+        done = {"operator": sorted(bpy.ops.warp_texton.material_from_image(filepath=spec["image"],
+                                                                            **run.get("operator", {})))}
+        done["operator_s"] = time.perf_counter() - t0
+        done["package"] = sys.modules["warp_texton"].__file__  # the installed wheel's, not a checkout's
+        mat = cube.active_material
+        done["material"] = material_facts(mat)
+        done["osl"] = bool(scene.cycles.shading_system)
+        done["renders"] = []
+        for job in run["renders"]:
+            copy = mat.copy()
+            cube.active_material = copy
+            show_branch(copy, job["branch"])
+            done["renders"].append({"out": job["out"], "seconds": render(scene, job)})
+            cube.active_material = mat
+        report["runs"].append(done)
     Path(spec["report"]).write_text(json.dumps(report))
 
 

@@ -151,14 +151,20 @@ def texture_contrast(path: Path) -> float:
 
 @pytest.fixture(scope="module")
 def blender_run(extension_zip, tmp_path_factory):
+    """Blender's report and its folder: the operator run twice on the default cube, first as a user
+    would (method "auto", the tiling model for the demo photograph, with the bake), then with the
+    texton model (the OSL surface shader) and no bake."""
     require(has_bpy(), "Blender's bpy module")
     out, _ = extension_zip
     d = tmp_path_factory.mktemp("blender")
     (d / "user").mkdir()
-    renders = [{"out": str(d / f"{b}.png"), "branch": b, "width": SIZE, "height": SIZE, "samples": 8}
-               for b in ("osl", "baked", "flat")]
-    spec = {"zip": str(out), "image": str(demo_texture_path()), "operator": {"resolution": 128},
-            "renders": renders, "report": str(d / "report.json")}
+
+    def job(name, branch):
+        return {"out": str(d / f"{name}.png"), "branch": branch, "width": SIZE, "height": SIZE, "samples": 8}
+
+    runs = [{"operator": {"resolution": 128}, "renders": [job(b, b) for b in ("material", "baked", "flat")]},
+            {"operator": {"method": "texton", "bake": False}, "renders": [job("texton", "material")]}]
+    spec = {"zip": str(out), "image": str(demo_texture_path()), "runs": runs, "report": str(d / "report.json")}
     (d / "spec.json").write_text(json.dumps(spec))
     # a user folder of its own, and a working folder outside the checkout (whose warp_texton would shadow the wheel's)
     run_blender(SCRIPT, d / "spec.json", timeout=900, cwd=d, env={"BLENDER_USER_RESOURCES": str(d / "user")})
@@ -176,16 +182,17 @@ def test_the_extension_installs_and_its_package_comes_from_its_wheels(blender_ru
     report, d = blender_run
     assert report["install"] == ["FINISHED"]
     assert report["addons"] == [f"bl_ext.user_default.{EXTENSION_ID}"]
-    assert Path(report["package"]).is_relative_to(d / "user" / "extensions"), report["package"]
+    for run in report["runs"]:
+        assert Path(run["package"]).is_relative_to(d / "user" / "extensions"), run["package"]
 
 
 @pytest.mark.slow
 def test_the_operator_gives_the_cube_an_osl_and_a_baked_material(blender_run):
-    report, _ = blender_run
-    assert report["operator"] == ["FINISHED"] and report["osl"]
-    mat = report["material"]
+    run = blender_run[0]["runs"][0]
+    assert run["operator"] == ["FINISHED"] and run["osl"]
+    mat = run["material"]
     assert sorted(mat["outputs"].values()) == ["CYCLES", "EEVEE"]
-    assert "ShaderNodeScript" in mat["node_types"] and mat["scripts"]
+    assert mat["scripts"] == ["tiling_plane.osl"] * 3  # the demo photograph's model: tiling, on three planes
     assert {"ShaderNodeNormalMap", "ShaderNodeBump", "ShaderNodeTexImage"} <= set(mat["node_types"])
     spaces = sorted(i["colorspace"] for i in mat["images"].values())
     assert spaces == ["Non-Color", "sRGB"]
@@ -193,12 +200,21 @@ def test_the_operator_gives_the_cube_an_osl_and_a_baked_material(blender_run):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("branch", ["osl", "baked"])
-def test_cycles_renders_the_cube_with_texture(blender_run, branch):
+def test_a_texton_material_is_one_surface_shader_without_a_bake(blender_run):
+    run = blender_run[0]["runs"][1]
+    assert run["operator"] == ["FINISHED"]
+    mat = run["material"]
+    assert mat["scripts"] == ["texton_surface.osl"] and not mat["images"]
+    assert list(mat["outputs"].values()) == ["ALL"]
+    assert "ShaderNodeTexCoord" not in mat["node_types"] and "ShaderNodeUVMap" not in mat["node_types"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["material", "baked", "texton"])  # Cycles: the OSL nodes, the bake, the texton
+def test_cycles_renders_the_cube_with_texture(blender_run, name):
     _, d = blender_run
-    lum, on = object_pixels(d / f"{branch}.png")
+    lum, on = object_pixels(d / f"{name}.png")
     flat_lum, flat_on = object_pixels(d / "flat.png")
     assert on.sum() > 0.05 * on.size and (on == flat_on).mean() > 0.99  # the same cube, in view
-    textured, flat = texture_contrast(d / f"{branch}.png"), texture_contrast(d / "flat.png")
+    textured, flat = texture_contrast(d / f"{name}.png"), texture_contrast(d / "flat.png")
     assert textured > 3.0 * max(flat, STEP), (textured, flat)
-

@@ -106,9 +106,9 @@ def bake_corners(model, positions, normals, uvs, *, texel_size: float = 0.01, re
     faces = np.arange(len(p)).reshape(-1, 3)
     mesh = trimesh.Trimesh(p, faces, vertex_normals=n, visual=trimesh.visual.TextureVisuals(uv=uv), process=False)
     say(0.6, f"baking {resolution} x {resolution} texels")
-    extra = {} if isinstance(model, TilingModel) else {"mni": SURFACE_MNI}
-    baked = bake_mesh(mesh, model, texel_size, resolution=resolution, seed=seed, uv="mesh", normals="mesh",
-                      name="the object", **extra)
+    # a tiling model takes the default MNI only (it has none): SURFACE_MNI is that default
+    baked = bake_mesh(mesh, model, texel_size, resolution=resolution, mni=SURFACE_MNI, seed=seed, uv="mesh",
+                      normals="mesh", name="the object")
     colour = np.asarray(baked.texture, np.float32)
     if colour.shape[2] == 1:
         colour = np.repeat(colour, 3, axis=2)
