@@ -91,6 +91,9 @@ def main():
         filepath=spec["zip"], repo="user_default", enable_on_install=True))
     report["install_s"] = time.perf_counter() - t0
     report["addons"] = sorted(k for k in bpy.context.preferences.addons.keys() if "warp_texton" in k)
+    panel = getattr(bpy.types, "WARP_TEXTON_PT_material", None)
+    report["panel"] = None if panel is None else {k: getattr(panel, k) for k in (
+        "bl_space_type", "bl_region_type", "bl_category")}
     scene = bpy.context.scene
     cube = bpy.data.objects["Cube"]
     bpy.context.view_layer.objects.active = cube

@@ -182,6 +182,8 @@ def test_the_extension_installs_and_its_package_comes_from_its_wheels(blender_ru
     report, d = blender_run
     assert report["install"] == ["FINISHED"]
     assert report["addons"] == [f"bl_ext.user_default.{EXTENSION_ID}"]
+    # its panel: the Shader editor's sidebar, tab "Warp Texton"
+    assert report["panel"] == {"bl_space_type": "NODE_EDITOR", "bl_region_type": "UI", "bl_category": "Warp Texton"}
     for run in report["runs"]:
         assert Path(run["package"]).is_relative_to(d / "user" / "extensions"), run["package"]
 
@@ -218,3 +220,41 @@ def test_cycles_renders_the_cube_with_texture(blender_run, name):
     assert on.sum() > 0.05 * on.size and (on == flat_on).mean() > 0.99  # the same cube, in view
     textured, flat = texture_contrast(d / f"{name}.png"), texture_contrast(d / "flat.png")
     assert textured > 3.0 * max(flat, STEP), (textured, flat)
+
+
+# ------------------------------------------------------------------ several platforms, off line
+def fake_wheel(folder: Path, name: str, version: str, tag: str) -> Path:
+    """A minimal valid wheel (metadata only): what pip needs to pick it for a platform."""
+    dist = name.replace("-", "_")
+    path = folder / f"{dist}-{version}-{tag}.whl"
+    info = f"{dist}-{version}.dist-info"
+    with zipfile.ZipFile(path, "w") as z:
+        z.writestr(f"{info}/METADATA", f"Metadata-Version: 2.1\nName: {name}\nVersion: {version}\n")
+        z.writestr(f"{info}/WHEEL", f"Wheel-Version: 1.0\nGenerator: test\nRoot-Is-Purelib: true\nTag: {tag}\n")
+        z.writestr(f"{info}/RECORD", "")
+    return path
+
+
+@pytest.mark.slow
+def test_each_platform_gets_its_wheels_and_a_pure_wheel_comes_once(tmp_path):
+    """Two platforms from a folder of wheels (nothing fetched): the binary dependencies of each, a
+    pure-Python one once, the manifest naming both platforms; a platform the folder lacks is one error."""
+    wheels = tmp_path / "wheels"
+    wheels.mkdir()
+    pure = {"tqdm", "trimesh"}
+    tags = {"linux-x64": "cp311-cp311-manylinux_2_28_x86_64", "windows-x64": "cp311-cp311-win_amd64"}
+    for req in requirements():
+        name = req.split(">")[0].split("=")[0].strip()
+        for tag in tags.values():
+            fake_wheel(wheels, name, "99.0", "py3-none-any" if name in pure else tag)
+    out = build_extension(tmp_path / "both.zip", platforms=["windows-x64", "linux-x64"], wheels_dir=wheels)
+    with zipfile.ZipFile(out) as z:
+        manifest = tomllib.loads(z.read(MANIFEST).decode())
+        names = [n for n in z.namelist() if n.startswith("wheels/")]
+    assert manifest["platforms"] == ["windows-x64", "linux-x64"]
+    assert len(names) == len(set(names)) == 1 + len(pure) + 2 * (len(requirements()) - len(pure))
+    for platform, tag in tags.items():
+        assert sum(n.endswith(f"-{tag}.whl") for n in names) == len(requirements()) - len(pure), platform
+    with pytest.raises(TextonError, match="macos-arm64"):
+        build_extension(tmp_path / "mac.zip", platforms=["macos-arm64"], wheels_dir=wheels)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["both.zip", "wheels"]

@@ -43,7 +43,7 @@ def build_extension(out, *, platforms=None, wheels_dir=None, overwrite: bool = F
         The zip to write (atomically; an existing file only with ``overwrite``).
     platforms : str or sequence of str, optional
         Blender's platforms the extension is for (:data:`~warp_texton.blender.manifest.PLATFORMS`:
-        ``"linux-x64"``, ``"windows-x64"``, ``"macos-arm64"``, ``"linux-arm64"``); default: this
+        ``"linux-x64"``, ``"windows-x64"``, ``"macos-arm64"``); default: this
         machine's. The zip holds the wheels of each; Blender installs those of the platform it runs on.
     wheels_dir : path, optional
         A folder of wheels downloaded before: the dependencies are taken from it, none fetched.

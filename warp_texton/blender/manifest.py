@@ -21,11 +21,11 @@ EXTENSION_ID = "warp_texton"
 BLENDER_PYTHON = "3.11"
 #: The first Blender with extensions (and with Python 3.11 up to 5.0).
 BLENDER_MIN = "4.2.0"
-#: Blender's platform names, each with the wheel platform tags accepted for it (best first).
+#: Blender's platform names, each with the wheel platform tags accepted for it (best first): those for which
+#: every dependency has a wheel (not linux-arm64 nor windows-arm64: no xatlas, no warp-lang wheel there).
 PLATFORMS: dict[str, tuple[str, ...]] = {
     "linux-x64": ("manylinux_2_28_x86_64", "manylinux_2_27_x86_64", "manylinux_2_17_x86_64",
                   "manylinux2014_x86_64"),
-    "linux-arm64": ("manylinux_2_28_aarch64", "manylinux_2_17_aarch64", "manylinux2014_aarch64"),
     "windows-x64": ("win_amd64",),
     "macos-arm64": ("macosx_11_0_arm64", "macosx_12_0_arm64", "macosx_13_0_arm64", "macosx_14_0_arm64",
                     "macosx_10_9_universal2"),

@@ -59,7 +59,7 @@ def _pip(args: list[str], what: str) -> None:
         lines = [ln.strip() for ln in (proc.stderr + proc.stdout).splitlines()
                  if ln.strip() and "is ignored" not in ln]
         errors = [ln for ln in lines if ln.startswith("ERROR")] or lines or ["pip failed"]
-        raise TextonError(f"{what}: {errors[0]}")
+        raise TextonError(f"{what}: {errors[0].removeprefix('ERROR: ')}")
 
 
 def own_wheel(dest: Path, wheels_dir: Path | None) -> Path:
