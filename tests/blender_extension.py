@@ -2,13 +2,15 @@
 Python through clients.run_blender, with a user folder of its own: BLENDER_USER_RESOURCES).
 
 Argument: a JSON file: "zip" (the extension), "image" (the operator's filepath), "runs" and "report".
-Each run is the operator on the cube, with its other properties ("operator"), then "renders" of the
-material it made, each: "out", a PNG path; "branch": "material" the material as the operator made it
+Each run is the operator on an object ("object": "Cube", the default, or "sphere without UVs", made
+for it), with its other properties ("operator", "filepath" among them to override "image"), then
+"renders" of the material it made, each: "out", a PNG path; "branch": "material" the material as the operator made it
 (Cycles renders its OSL branch, EEVEE its bake), "baked" its EEVEE branch (the bake and normal map)
 shown in Cycles, "flat" the same lighting with a constant base colour and no bump; "engine": "CYCLES"
 (default) or "EEVEE"; "width", "height", "samples". The report (JSON): the validator's verdict, the
-install's result and, for each run, the operator's, the material's nodes and images, the renders'
-times. Renders are RGBA with a transparent film: alpha marks the object.
+install's result and, for each run, the operator's (and its error, an operator that reports one
+raises in background mode), the object's UV layers before and after, whether its material is
+unchanged, the material's nodes and images, the renders' times. Renders are RGBA with a transparent film: alpha marks the object.
 This script imports nothing of warp_texton itself: the add-on, installed from the zip, does.
 """
 
@@ -59,6 +61,23 @@ def show_branch(mat, branch):
     return len(bsdfs)
 
 
+def target(name):
+    """The object a run is on: the default scene's ``Cube``, or ``"sphere without UVs"``, made hidden
+    from the camera beside it."""
+    import bpy
+
+    if name in bpy.data.objects:
+        return bpy.data.objects[name]
+    assert name == "sphere without UVs", name
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=2, radius=0.5, location=(0.0, 0.0, 5.0))
+    ob = bpy.context.active_object
+    while ob.data.uv_layers:
+        ob.data.uv_layers.remove(ob.data.uv_layers[0])
+    ob.name = name
+    ob.hide_render = True
+    return ob
+
+
 def render(scene, job):
     import bpy
 
@@ -95,26 +114,34 @@ def main():
     report["panel"] = None if panel is None else {k: getattr(panel, k) for k in (
         "bl_space_type", "bl_region_type", "bl_category")}
     scene = bpy.context.scene
-    cube = bpy.data.objects["Cube"]
-    bpy.context.view_layer.objects.active = cube
     report["runs"] = []
-    for run in spec["runs"]:  # each: the operator on the cube, then renders of its material
+    for run in spec["runs"]:  # each: the operator on an object, then renders of its material
+        ob = target(run.get("object", "Cube"))
+        bpy.context.view_layer.objects.active = ob
         scene.render.engine = "CYCLES"
+        before = ob.active_material.name if ob.active_material else None
+        done = {"uv_layers_before": len(ob.data.uv_layers)}
         t0 = time.perf_counter()
-        done = {"operator": sorted(bpy.ops.warp_texton.material_from_image(filepath=spec["image"],
-                                                                            **run.get("operator", {})))}
+        try:
+            done["operator"] = sorted(bpy.ops.warp_texton.material_from_image(
+                **{"filepath": spec["image"], **run.get("operator", {})}))
+        except RuntimeError as exc:  # an operator that reports an error raises, in background mode
+            done["operator"], done["error"] = ["CANCELLED"], str(exc)
         done["operator_s"] = time.perf_counter() - t0
-        done["package"] = sys.modules["warp_texton"].__file__  # the installed wheel's, not a checkout's
-        mat = cube.active_material
-        done["material"] = material_facts(mat)
-        done["osl"] = bool(scene.cycles.shading_system)
+        done["uv_layers_after"] = len(ob.data.uv_layers)
+        mat = ob.active_material
+        done["material_unchanged"] = (mat.name if mat else None) == before
+        if "error" not in done:
+            done["package"] = sys.modules["warp_texton"].__file__  # the installed wheel's, not a checkout's
+            done["material"] = material_facts(mat)
+            done["osl"] = bool(scene.cycles.shading_system)
         done["renders"] = []
-        for job in run["renders"]:
+        for job in run.get("renders", []):
             copy = mat.copy()
-            cube.active_material = copy
+            ob.active_material = copy
             show_branch(copy, job["branch"])
             done["renders"].append({"out": job["out"], "seconds": render(scene, job)})
-            cube.active_material = mat
+            ob.active_material = mat
         report["runs"].append(done)
     Path(spec["report"]).write_text(json.dumps(report))
 

@@ -162,8 +162,11 @@ def blender_run(extension_zip, tmp_path_factory):
     def job(name, branch):
         return {"out": str(d / f"{name}.png"), "branch": branch, "width": SIZE, "height": SIZE, "samples": 8}
 
+    (d / "not_an_image.png").write_bytes(b"not a png")
     runs = [{"operator": {"resolution": 128}, "renders": [job(b, b) for b in ("material", "baked", "flat")]},
-            {"operator": {"method": "texton", "bake": False}, "renders": [job("texton", "material")]}]
+            {"operator": {"method": "texton", "bake": False}, "renders": [job("texton", "material")]},
+            {"object": "sphere without UVs", "operator": {"method": "texton", "resolution": 64}},
+            {"operator": {"filepath": str(d / "not_an_image.png")}}]
     spec = {"zip": str(out), "image": str(demo_texture_path()), "runs": runs, "report": str(d / "report.json")}
     (d / "spec.json").write_text(json.dumps(spec))
     # a user folder of its own, and a working folder outside the checkout (whose warp_texton would shadow the wheel's)
@@ -184,7 +187,7 @@ def test_the_extension_installs_and_its_package_comes_from_its_wheels(blender_ru
     assert report["addons"] == [f"bl_ext.user_default.{EXTENSION_ID}"]
     # its panel: the Shader editor's sidebar, tab "Warp Texton"
     assert report["panel"] == {"bl_space_type": "NODE_EDITOR", "bl_region_type": "UI", "bl_category": "Warp Texton"}
-    for run in report["runs"]:
+    for run in report["runs"][:3]:  # those that finished
         assert Path(run["package"]).is_relative_to(d / "user" / "extensions"), run["package"]
 
 
@@ -209,6 +212,22 @@ def test_a_texton_material_is_one_surface_shader_without_a_bake(blender_run):
     assert mat["scripts"] == ["texton_surface.osl"] and not mat["images"]
     assert list(mat["outputs"].values()) == ["ALL"]
     assert "ShaderNodeTexCoord" not in mat["node_types"] and "ShaderNodeUVMap" not in mat["node_types"]
+
+
+@pytest.mark.slow
+def test_an_object_without_uvs_gets_them_for_the_bake(blender_run):
+    run = blender_run[0]["runs"][2]
+    assert run["operator"] == ["FINISHED"], run.get("error")
+    assert (run["uv_layers_before"], run["uv_layers_after"]) == (0, 1)
+    assert all(i["size"] == [64, 64] for i in run["material"]["images"].values())
+    assert len(run["material"]["images"]) == 2
+
+
+@pytest.mark.slow
+def test_an_unreadable_image_cancels_with_one_error_and_changes_nothing(blender_run):
+    run = blender_run[0]["runs"][3]
+    assert run["operator"] == ["CANCELLED"] and run["material_unchanged"]
+    assert "Warp Texton: " in run["error"] and "not_an_image.png" in run["error"], run["error"]
 
 
 @pytest.mark.slow
