@@ -43,7 +43,15 @@ def this_platform() -> str:
 
 
 def check_platforms(platforms) -> tuple[str, ...]:
-    """``platforms`` (None: this machine's; a name or a sequence of names) as a tuple of known names."""
+    """``platforms`` (None: this machine's; a name or a sequence of names) as a tuple of known names.
+
+    >>> check_platforms(["windows-x64", "linux-x64", "windows-x64"])
+    ('windows-x64', 'linux-x64')
+    >>> check_platforms("linux-386")
+    Traceback (most recent call last):
+    ...
+    warp_texton.core.errors.TextonError: platforms: linux-386; Blender platforms with wheels of the package's dependencies are linux-x64, windows-x64, macos-arm64
+    """
     if platforms is None:
         platforms = (this_platform(),)
     elif isinstance(platforms, str):
@@ -65,7 +73,13 @@ def _toml(value) -> str:
 
 def manifest_text(platforms: Sequence[str], wheels: Sequence[str], version: str = __version__) -> str:
     """``blender_manifest.toml`` of the extension: every required field of schema 1.0.0, the
-    ``platforms`` it was built for, its ``wheels`` (paths inside the zip) and its permissions."""
+    ``platforms`` it was built for, its ``wheels`` (paths inside the zip) and its permissions.
+
+    >>> import tomllib
+    >>> m = tomllib.loads(manifest_text(["linux-x64"], ["./wheels/tqdm-4.70.1-py3-none-any.whl"]))
+    >>> m["schema_version"], m["id"], m["type"], m["platforms"], sorted(m["permissions"])
+    ('1.0.0', 'warp_texton', 'add-on', ['linux-x64'], ['files'])
+    """
     fields = {
         "schema_version": "1.0.0",
         "id": EXTENSION_ID,
