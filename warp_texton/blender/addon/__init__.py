@@ -8,29 +8,18 @@ same noise on the object's UVs (made by Smart UV Project when it has none) with 
 panel in the Shader editor's sidebar (tab "Warp Texton") runs it.
 
 This file runs in Blender only (it is copied into the extension's zip); the computing is
-``warp_texton.blender.materials``, installed from the extension's wheels.
+``warp_texton.blender.materials``, installed from the extension's wheels. As Blender's extension rules
+ask, it leaves ``sys.path`` alone (Blender as a Python module, ``bpy`` from pip, lacks Blender's own
+``oslquery`` on it: the tests' runner adds it, tests/clients.py).
 """
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import bpy
 import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
-
-
-def _oslquery_on_path() -> None:
-    """Blender's Python modules (``oslquery``, used to compile Script nodes): on the path in Blender,
-    but not in Blender as a Python module (``bpy`` from pip)."""
-    try:
-        import oslquery  # noqa: F401
-    except ImportError:
-        local = Path(bpy.utils.resource_path("LOCAL"))
-        for p in sorted(local.glob("python/lib/python3*/site-packages")):
-            if str(p) not in sys.path:
-                sys.path.append(str(p))
 
 
 def _node(nt, kind, location, **inputs):
@@ -52,10 +41,9 @@ def _math(nt, op, a, b, location):
     return node.outputs[0]
 
 
-def _script_node(nt, text, location, report):
+def _script_node(nt, text, location):
     import cycles.osl
 
-    _oslquery_on_path()
     node = _node(nt, "ShaderNodeScript", location)
     node.mode = "INTERNAL"
     node.script = text
@@ -66,14 +54,14 @@ def _script_node(nt, text, location, report):
     return node
 
 
-def _cycles_surface(nt, shader, texel_size, report):
+def _cycles_surface(nt, shader, texel_size):
     """(colour socket, height socket) of the OSL shader: one Script node on the surface, or a
     tiling projected on the object's three coordinate planes, blended by the normal."""
     text = bpy.data.texts.get(shader.name) or bpy.data.texts.new(shader.name)
     text.clear()
     text.write(shader.source)
     if shader.coordinates == "surface":
-        node = _script_node(nt, text, (-600, 300), report)
+        node = _script_node(nt, text, (-600, 300))
         node.inputs["texel_size"].default_value = texel_size
         return node.outputs["Linear"], node.outputs["Value"]
     coords = _node(nt, "ShaderNodeTexCoord", (-1400, 300))
@@ -86,7 +74,7 @@ def _cycles_surface(nt, shader, texel_size, report):
         plane = _node(nt, "ShaderNodeCombineXYZ", (-1000, 600 - 300 * k))
         nt.links.new(xyz.outputs[a], plane.inputs[0])
         nt.links.new(xyz.outputs[b], plane.inputs[1])
-        node = _script_node(nt, text, (-800, 600 - 300 * k), report)
+        node = _script_node(nt, text, (-800, 600 - 300 * k))
         node.inputs["texel_size"].default_value = texel_size
         node.inputs["coordinates"].default_value = "input"
         nt.links.new(plane.outputs[0], node.inputs["Vector"])
@@ -214,11 +202,11 @@ class WARP_TEXTON_OT_material_from_image(bpy.types.Operator):
 
         ob = context.active_object
         if ob is None or ob.type != "MESH":
-            self.report({"ERROR"}, "the active object must be a mesh")
+            self.report({"ERROR"}, "Warp Texton: the active object must be a mesh")
             return {"CANCELLED"}
         path = bpy.path.abspath(self.filepath)
         if not Path(path).is_file():
-            self.report({"ERROR"}, f"filepath: {path} is not a file")
+            self.report({"ERROR"}, f"Warp Texton: filepath: {path} is not a file")
             return {"CANCELLED"}
         wm = context.window_manager
         wm.progress_begin(0, 100)
@@ -256,7 +244,7 @@ class WARP_TEXTON_OT_material_from_image(bpy.types.Operator):
         mat.use_nodes = True
         nt = mat.node_tree
         nt.nodes.clear()
-        colour, height = _cycles_surface(nt, shader, self.texel_size, self.report)
+        colour, height = _cycles_surface(nt, shader, self.texel_size)
         bump = _node(nt, "ShaderNodeBump", (-150, 0), Strength=self.bump, Distance=self.texel_size)
         nt.links.new(height, bump.inputs["Height"])
         bsdf = _node(nt, "ShaderNodeBsdfPrincipled", (100, 300), Roughness=0.8)
