@@ -163,15 +163,21 @@ def blender_run(extension_zip, tmp_path_factory):
         return {"out": str(d / f"{name}.png"), "branch": branch, "width": SIZE, "height": SIZE, "samples": 8}
 
     (d / "not_an_image.png").write_bytes(b"not a png")
+    # the photograph upscaled 4 times: too smooth for a texton of 64 (SmoothExampleWarning, docs/photographs.md)
+    grass = Image.open(demo_texture_path()).crop((0, 0, 128, 128))
+    grass.resize((512, 512), Image.BILINEAR).save(d / "smooth.png")
     runs = [{"operator": {"resolution": 128}, "renders": [job(b, b) for b in ("material", "baked", "flat")]},
             {"operator": {"method": "texton", "bake": False}, "renders": [job("texton", "material")]},
             {"object": "sphere without UVs", "operator": {"method": "texton", "resolution": 64}},
-            {"operator": {"filepath": str(d / "not_an_image.png")}}]
+            {"operator": {"filepath": str(d / "not_an_image.png")}},
+            {"operator": {"filepath": str(d / "smooth.png"), "method": "texton", "bake": False}}]
     spec = {"zip": str(out), "image": str(demo_texture_path()), "runs": runs, "report": str(d / "report.json")}
     (d / "spec.json").write_text(json.dumps(spec))
     # a user folder of its own, and a working folder outside the checkout (whose warp_texton would shadow the wheel's)
-    run_blender(SCRIPT, d / "spec.json", timeout=900, cwd=d, env={"BLENDER_USER_RESOURCES": str(d / "user")})
-    return json.loads((d / "report.json").read_text()), d
+    proc = run_blender(SCRIPT, d / "spec.json", timeout=900, cwd=d, env={"BLENDER_USER_RESOURCES": str(d / "user")})
+    report = json.loads((d / "report.json").read_text())
+    report["stdout"] = proc.stdout  # the operator's reports, as background mode prints them
+    return report, d
 
 
 @pytest.mark.slow
@@ -228,6 +234,16 @@ def test_an_unreadable_image_cancels_with_one_error_and_changes_nothing(blender_
     run = blender_run[0]["runs"][3]
     assert run["operator"] == ["CANCELLED"] and run["material_unchanged"]
     assert "Warp Texton: " in run["error"] and "not_an_image.png" in run["error"], run["error"]
+
+
+@pytest.mark.slow
+def test_the_analysis_warnings_are_the_operators_warnings(blender_run):
+    report, _ = blender_run
+    assert report["runs"][4]["operator"] == ["FINISHED"]
+    warned = [line for line in report["stdout"].splitlines() if line.startswith("Warning: Warp Texton: ")]
+    assert len(warned) == 1 and "smooth.png" in warned[0], warned
+    # and the steps as information
+    assert "Info: Warp Texton: analysing the image (texton or tiling, by the structure score)" in report["stdout"]
 
 
 @pytest.mark.slow

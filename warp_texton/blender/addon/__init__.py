@@ -15,6 +15,7 @@ ask, it leaves ``sys.path`` alone (Blender as a Python module, ``bpy`` from pip,
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import bpy
@@ -197,7 +198,7 @@ class WARP_TEXTON_OT_material_from_image(bpy.types.Operator):
         return self.execute(context)
 
     def execute(self, context):
-        from warp_texton import TextonError
+        from warp_texton import ExampleWarning, TextonError
         from warp_texton.blender import materials
 
         ob = context.active_object
@@ -216,7 +217,14 @@ class WARP_TEXTON_OT_material_from_image(bpy.types.Operator):
             self.report({"INFO"}, f"Warp Texton: {message}")
 
         try:
-            model = materials.model_of_image(path, method=self.method, seed=self.seed, progress=progress)
+            with warnings.catch_warnings(record=True) as caught:  # the analysis's ExampleWarnings, as reports
+                warnings.simplefilter("always", ExampleWarning)
+                model = materials.model_of_image(path, method=self.method, seed=self.seed, progress=progress)
+            for w in caught:
+                if isinstance(w.message, ExampleWarning):  # it names the image by its file
+                    self.report({"WARNING"}, f"Warp Texton: {w.message.in_words({'u': Path(path).name})}")
+                else:  # others as Python shows them
+                    warnings.showwarning(w.message, w.category, w.filename, w.lineno)
             shader = materials.osl_shader(model, texel_size=self.texel_size, seed=self.seed)
             bake = None
             if self.bake:
