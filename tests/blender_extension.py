@@ -6,7 +6,7 @@ Each run is the operator on an object ("object": "Cube", the default, or "sphere
 for it), with its other properties ("operator", "filepath" among them to override "image"), then
 "renders" of the material it made, each: "out", a PNG path; "branch": "material" the material as the operator made it
 (Cycles renders its OSL branch, EEVEE its bake), "baked" its EEVEE branch (the bake and normal map)
-shown in Cycles, "flat" the same lighting with a constant base colour and no bump; "engine": "CYCLES"
+shown in Cycles, "flat" the same lighting with a constant base colour and no bump or normal map; "engine": "CYCLES"
 (default) or "EEVEE"; "width", "height", "samples". The report (JSON): the validator's verdict, the
 install's result and, for each run, the operator's (and its error, an operator that reports one
 raises in background mode), the object's UV layers before and after, whether its material is
@@ -43,14 +43,13 @@ def material_facts(mat):
             "node_types": sorted({n.bl_idname for n in nt.nodes})}
 
 
-def show_branch(mat, branch):
-    """Make the Cycles output show ``branch``."""
+def show_branch(mat, branch, engine):
+    """Make the output ``engine`` renders show ``branch``."""
     nt = mat.node_tree
-    out = next(n for n in nt.nodes if n.bl_idname == "ShaderNodeOutputMaterial" and n.target in ("CYCLES", "ALL"))
-    bsdfs = [n for n in nt.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled"]
+    outputs = {n.target: n for n in nt.nodes if n.bl_idname == "ShaderNodeOutputMaterial"}
+    out = outputs.get(engine, outputs.get("ALL"))
     if branch == "baked":
-        eevee = next(n for n in nt.nodes if n.bl_idname == "ShaderNodeOutputMaterial" and n.target == "EEVEE")
-        baked = eevee.inputs["Surface"].links[0].from_node
+        baked = outputs["EEVEE"].inputs["Surface"].links[0].from_node
         nt.links.new(baked.outputs["BSDF"], out.inputs["Surface"])
     elif branch == "flat":
         bsdf = out.inputs["Surface"].links[0].from_node
@@ -58,7 +57,6 @@ def show_branch(mat, branch):
             for link in list(bsdf.inputs[name].links):
                 nt.links.remove(link)
         bsdf.inputs["Base Color"].default_value = (0.1, 0.1, 0.1, 1.0)
-    return len(bsdfs)
 
 
 def target(name):
@@ -139,7 +137,7 @@ def main():
         for job in run.get("renders", []):
             copy = mat.copy()
             ob.active_material = copy
-            show_branch(copy, job["branch"])
+            show_branch(copy, job["branch"], job.get("engine", "CYCLES"))
             done["renders"].append({"out": job["out"], "seconds": render(scene, job)})
             ob.active_material = mat
         report["runs"].append(done)

@@ -159,14 +159,19 @@ def blender_run(extension_zip, tmp_path_factory):
     d = tmp_path_factory.mktemp("blender")
     (d / "user").mkdir()
 
-    def job(name, branch):
-        return {"out": str(d / f"{name}.png"), "branch": branch, "width": SIZE, "height": SIZE, "samples": 8}
+    def job(name, branch, engine="CYCLES"):
+        return {"out": str(d / f"{name}.png"), "branch": branch, "width": SIZE, "height": SIZE, "samples": 8,
+                "engine": engine}
 
     (d / "not_an_image.png").write_bytes(b"not a png")
     # the photograph upscaled 4 times: too smooth for a texton of 64 (SmoothExampleWarning, docs/photographs.md)
     grass = Image.open(demo_texture_path()).crop((0, 0, 128, 128))
     grass.resize((512, 512), Image.BILINEAR).save(d / "smooth.png")
-    runs = [{"operator": {"resolution": 128}, "renders": [job(b, b) for b in ("material", "baked", "flat")]},
+    cycles = [job(b, b) for b in ("material", "baked", "flat")]
+    # EEVEE renders the bake: at 128² its texels are about the pixels' size on the cube's faces here (a finer
+    # bake is minified through mipmaps, which smooth the neighbouring pixels this test compares)
+    eevee = [job("eevee", "material", "EEVEE"), job("eevee_flat", "flat", "EEVEE")]
+    runs = [{"operator": {"resolution": 128}, "renders": cycles + eevee},
             {"operator": {"method": "texton", "bake": False}, "renders": [job("texton", "material")]},
             {"object": "sphere without UVs", "operator": {"method": "texton", "resolution": 64}},
             {"operator": {"filepath": str(d / "not_an_image.png")}},
@@ -247,13 +252,16 @@ def test_the_analysis_warnings_are_the_operators_warnings(blender_run):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["material", "baked", "texton"])  # Cycles: the OSL nodes, the bake, the texton
-def test_cycles_renders_the_cube_with_texture(blender_run, name):
+@pytest.mark.parametrize("name, flat_name", [
+    ("material", "flat"), ("baked", "flat"), ("texton", "flat"),  # Cycles: the OSL nodes, the bake, the texton
+    ("eevee", "eevee_flat"),  # EEVEE: the bake and its normal map
+])
+def test_the_cube_renders_with_texture(blender_run, name, flat_name):
     _, d = blender_run
     lum, on = object_pixels(d / f"{name}.png")
-    flat_lum, flat_on = object_pixels(d / "flat.png")
+    flat_lum, flat_on = object_pixels(d / f"{flat_name}.png")
     assert on.sum() > 0.05 * on.size and (on == flat_on).mean() > 0.99  # the same cube, in view
-    textured, flat = texture_contrast(d / f"{name}.png"), texture_contrast(d / "flat.png")
+    textured, flat = texture_contrast(d / f"{name}.png"), texture_contrast(d / f"{flat_name}.png")
     assert textured > 3.0 * max(flat, STEP), (textured, flat)
 
 
