@@ -31,7 +31,7 @@ PLATFORMS: dict[str, tuple[str, ...]] = {
                     "macosx_10_9_universal2"),
 }
 #: What the extension does with the machine, as the manifest declares it.
-PERMISSIONS = {"files": "Reads the example image and writes baked textures"}
+PERMISSIONS = {"files": "Reads the image a material is made from"}
 
 
 def this_platform() -> str:
