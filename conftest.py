@@ -9,3 +9,7 @@ import pytest
 def _doctest_in_tmp_path(request, tmp_path, monkeypatch):
     if type(request.node).__name__ == "DoctestItem":
         monkeypatch.chdir(tmp_path)
+
+
+#: The Blender add-on's source imports ``bpy``: it runs in Blender only (tests/blender/ installs it there).
+collect_ignore_glob = ["warp_texton/blender/addon/*"]

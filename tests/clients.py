@@ -86,12 +86,13 @@ def chromium_browser():
 
 
 def run_blender(script: str | Path, *args: str, timeout: float = 300.0,
-                cwd: str | Path | None = None) -> subprocess.CompletedProcess:
+                cwd: str | Path | None = None, env: dict[str, str] | None = None) -> subprocess.CompletedProcess:
     """Run ``script`` (a path, or Python source) with ``bpy`` importable, in its own process.
 
     The script reads its arguments from ``sys.argv[1:]``. Blender's bundled
     site-packages (which holds ``oslquery``, needed to compile OSL Script nodes
-    in background mode) is put on ``sys.path`` before the script runs. Raises
+    in background mode) is put on ``sys.path`` before the script runs; ``env`` adds to the
+    environment (``BLENDER_USER_RESOURCES``: a user folder of its own). Raises
     ``AssertionError`` with Blender's output when the script fails.
     """
     require(has_bpy(), "Blender's bpy module (python3 -m venv .blender-venv && .blender-venv/bin/pip install bpy)")
@@ -103,7 +104,7 @@ def run_blender(script: str | Path, *args: str, timeout: float = 300.0,
         "    sys.path.append(str(_p))\n"
     )
     proc = subprocess.run([str(blender_python()), "-c", prologue + source, *map(str, args)], capture_output=True,
-                          text=True, timeout=timeout, cwd=cwd)
+                          text=True, timeout=timeout, cwd=cwd, env=None if env is None else {**os.environ, **env})
     if proc.returncode != 0:
         raise AssertionError(f"Blender script failed (exit {proc.returncode}):\n{proc.stdout[-4000:]}\n"
                              f"{proc.stderr[-4000:]}")

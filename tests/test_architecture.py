@@ -26,7 +26,7 @@ KERNELS = ROOT / "kernels"
 
 #: The rooms of docs/architecture.md, lowest first: a module imports modules of lower rooms, and of
 #: lower layers of its own room (ROOM_LAYERS), only. Top-level modules are rooms of their own.
-ROOMS = ["_version", "core", "files", "model", "noise", "surface", "runtimes", "view", "demo", "cli", "__init__"]
+ROOMS = ["_version", "core", "files", "model", "noise", "surface", "runtimes", "view", "demo", "blender", "cli", "__init__"]
 #: The layers inside each room (a room's ``__init__``, its face, sits above them all).
 ROOM_LAYERS = {
     "core": {"errors": 0, "progress": 0, "lazy": 0, "limits": 1, "checks": 2, "runtime": 3},
@@ -42,10 +42,11 @@ ROOM_LAYERS = {
                  "osl.texton": 1, "osl.tiling": 2, "osl": 3, "languages": 4, "export": 5},
     "view": {"static": 0, "queries": 0, "cache": 0, "images": 0, "webgl": 0, "inputs": 1, "commands": 2,
              "viewer": 3, "server": 4},
-    "cli": {"options": 0, "info": 1, "images": 2, "surface": 2, "shader": 2, "view": 2, "parser": 3},
+    "blender": {"manifest": 0, "wheels": 1, "materials": 0, "extension": 2},
+    "cli": {"options": 0, "info": 1, "images": 2, "surface": 2, "shader": 2, "view": 2, "blender": 2, "parser": 3},
 }
 #: Package data with an ``__init__`` (no code): outside the rooms' order.
-DATA_PACKAGES = {"data", "view.static"}
+DATA_PACKAGES = {"data", "view.static", "blender.addon"}
 TOP_LEVEL_LIMIT = 8
 ROOM_SIZE = (3, 14)
 

@@ -25,7 +25,7 @@ import pytest
 
 import warp_texton
 
-ROOMS = ["core", "files", "model", "noise", "surface", "runtimes", "view", "cli"]
+ROOMS = ["core", "files", "model", "noise", "surface", "runtimes", "view", "blender", "cli"]
 
 
 @pytest.mark.parametrize("room", ROOMS)

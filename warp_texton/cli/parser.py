@@ -17,6 +17,7 @@ import threading
 import warnings
 
 from .._version import __version__
+from .blender import BLENDER_EXTENSION
 from .images import ANALYZE, DEMO, GAUSSIAN, MIX, RENDER_PLANE, SYNTHESIZE
 from .info import INFO
 from .options import Command, start_clock
@@ -27,7 +28,7 @@ from ..core.errors import ExampleWarning, TextonError
 
 #: The commands, in the order ``--help`` lists them.
 COMMANDS: dict[str, Command] = {c.name: c for c in (ANALYZE, GAUSSIAN, SYNTHESIZE, RENDER_PLANE, MIX, SURFACE,
-                                                     VIEW, DEMO, SHADER, INFO)}
+                                                     VIEW, DEMO, SHADER, BLENDER_EXTENSION, INFO)}
 
 
 class _Formatter(argparse.RawDescriptionHelpFormatter, argparse.ArgumentDefaultsHelpFormatter):
