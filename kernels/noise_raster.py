@@ -18,6 +18,7 @@ from typing import Any
 
 import warp as wp
 
+from .native_simd import VECTOR
 from .impacts import GOLDEN, Cells, avalanche, cell_span, cell_state, cell_walk, draw_count, next_impact
 
 # Forward evaluation only: no adjoints, which halves compile time.
@@ -360,12 +361,6 @@ VECTOR
     }
 }
 """
-#: The vector form is compiled by Clang for a CPU with 256-bit (AVX2, AVX-512) or
-#: 128-bit (NEON) SIMD, never for CUDA (as kernels/surface_native.py's loops).
-_VECTOR = ("#if defined(__clang__) && !defined(__CUDACC__) && !defined(__CUDA_ARCH__) "
-           "&& (defined(__AVX2__) || defined(__AVX512F__) || defined(__ARM_NEON))")
-
-
 #: Floats a vector of the splat's rows holds: 8, one 256-bit register (AVX2, and
 #: AVX-512 where Clang prefers 256-bit vectors), two NEON ones.
 WIDTH = 8
@@ -414,7 +409,7 @@ GROUP_ROWS = 4
 def _splat_row_source(lanes: int) -> str:
     shift = ", ".join(str(lanes + k) for k in range(WIDTH))
     groups = "".join(_rows_group(k) for k in (GROUP_ROWS, 2) if k > 1)
-    return _SPLAT_ROWS.replace("GROUPS", groups).replace("VECTOR", _VECTOR).replace("SHIFT", shift).replace("LANES", str(lanes)).replace("WIDTH", str(WIDTH))
+    return _SPLAT_ROWS.replace("GROUPS", groups).replace("VECTOR", VECTOR).replace("SHIFT", shift).replace("LANES", str(lanes)).replace("WIDTH", str(WIDTH))
 
 
 @wp.func_native(_splat_row_source(3))

@@ -32,7 +32,7 @@ from typing import Any
 
 from . import tiling_draw
 from .noise_filter import Filter, footprint_lookups
-from .noise_tiling_native import tiling_run1, tiling_run3, tiling_vector_form
+from .noise_tiling_native import tiling_run1, tiling_run3
 from .tiling_draw import CUTOFF, SQRT3_2, texel_address
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
@@ -880,9 +880,3 @@ def tiling_runs_native(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), 
 for _T in (wp.vec3, float):
     wp.overload(tiling_runs_native, {"example": wp.array2d(dtype=_T), "mean_img": wp.array2d(dtype=_T), "mean": _T,
                                      "out": wp.array2d(dtype=_T)})
-
-
-@wp.kernel
-def tiling_simd_probe(flag: wp.array(dtype=int)):
-    # which form of the native run loop this module's CPU code holds (tiling_vector_form)
-    flag[0] = tiling_vector_form()

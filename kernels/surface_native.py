@@ -37,14 +37,10 @@ references (``blocks_*`` in tests/test_reference.py) check their values.
 
 import warp as wp
 
+from .native_simd import VECTOR, vector_form
 from .noise_raster import PAD
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
-
-#: The vector forms are compiled by Clang for a CPU with 256-bit (AVX2, AVX-512)
-#: or 128-bit (NEON) SIMD, never for CUDA (NVRTC, or Clang's CUDA mode).
-_VECTOR = ("#if defined(__clang__) && !defined(__CUDACC__) && !defined(__CUDA_ARCH__) "
-           "&& (defined(__AVX2__) || defined(__AVX512F__) || defined(__ARM_NEON))")
 
 #: Vector types (16 lanes; 4-float texel rows); WT_MASKED: whether Clang has its
 #: generic masked loads and compressing stores (Clang 21 and later; a compile flag
@@ -103,7 +99,7 @@ _SLAB_ADD = r"""
     };
 """
 
-SCAN_CUBE = _VECTOR + _VECTOR_TYPES + r"""
+SCAN_CUBE = VECTOR + _VECTOR_TYPES + r"""
     if (simd != 0) {
         int count = 0;
         const float r0 = rel[0], r1 = rel[1], r2 = rel[2];
@@ -221,7 +217,7 @@ _LOAD_LANE = r"""
 #: normals and cube spans [span_lo, span_hi]; the list: runs r0 .. r0 + runs − 1,
 #: run r being cube cubes[run_cube[r]] with impacts u[u0 + run_end[r − 1] .. u0 +
 #: run_end[r] − 1]. Writes the raw sums (before normalisation) to out[dest[k]].
-CLUSTER_SUMS = (_SLAB_ADD + _VECTOR + _VECTOR_TYPES + r"""
+CLUSTER_SUMS = (_SLAB_ADD + VECTOR + _VECTOR_TYPES + r"""
     if (simd != 0) {
         const int np = k1 - k0;
         v16f nx, ny, nz, ax, ay, az, bx, by, bz;
@@ -390,7 +386,7 @@ LOAD_LANE
 #: values), the slab term is computed in every lane with slab_add's operations, and
 #: only the passing lanes keep it (a select, so the other lanes' sums are untouched):
 #: each lane's sum takes the plain loop's terms in its order, bit for bit.
-CLUSTER_SUMS1 = (_SLAB_ADD + _VECTOR + _VECTOR_TYPES + r"""
+CLUSTER_SUMS1 = (_SLAB_ADD + VECTOR + _VECTOR_TYPES + r"""
     if (simd != 0) {
         const int np = k1 - k0;
         v16f nx, ny, nz, ax, ay, az, bx, by, bz;
@@ -615,19 +611,5 @@ def cluster_sums(coeffs: wp.array2d(dtype=float), points: wp.array(dtype=wp.vec3
                   ux, uy, uz, u0, size, half, cen0, cen1, lo0, lo1, hi0, hi1, out, dest, simd)
 
 
-@wp.func_native(_VECTOR + """
-#if defined(__AVX512F__)
-    return 3;
-#elif defined(__AVX2__)
-    return 2;
-#else
-    return 1;
-#endif
-#else
-    return 0;
-#endif
-""")
-def vector_loops() -> int:
-    """Which form of the loops this module's CPU code holds: 3 the vector form built
-    for AVX-512, 2 for AVX2, 1 for NEON; 0 the plain form (CUDA, other CPUs)."""
-    ...
+#: 0.2's name of the build's form (kernels/native_simd.py).
+vector_loops = vector_form

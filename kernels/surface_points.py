@@ -21,7 +21,8 @@ import warp as wp
 from .surface_blocks import CubeBlocks, clamp_to_block
 from .impacts import Cells3, cell_walk3, cube_offset, cube_span, impact_offset3
 from .noise_raster import PAD, texton_value
-from .surface_native import cluster_sums, scan_cube, vector_loops
+from .native_simd import vector_form_probe
+from .surface_native import cluster_sums, scan_cube
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
 
@@ -755,10 +756,8 @@ for _lanes in (float, wp.vec3):
     wp.overload(gather_cluster_lists, {"coeffs": wp.array2d(dtype=_lanes), "out": wp.array(dtype=_lanes)})
 
 
-@wp.kernel
-def simd_probe(out: wp.array(dtype=wp.int32)):
-    """Which form of the loops of kernels/surface_native.py this build holds (vector_loops)."""
-    out[0] = vector_loops()
+#: 0.2's name of the probe of the native loops' form (kernels/native_simd.py).
+simd_probe = vector_form_probe
 
 
 __all__ = ["PAD", "SurfaceParams", "PointFrames", "Clusters", "evaluate_surface", "prepare_points", "frame_points",

@@ -15,7 +15,7 @@ import weakref
 
 import numpy as np
 
-from ..core.runtime import CHUNKS_PER_THREAD, init_warp, is_cpu, resolve_device, split_launch
+from ..core.runtime import CHUNKS_PER_THREAD, init_warp, is_cpu, resolve_device, split_launch, vector_form
 from ..kernels import noise_tiling, tiling_draw
 from ..core.errors import TextonError
 from ..model.tiling import TilingModel
@@ -168,13 +168,7 @@ def simd_loops(device="cpu") -> str:
     """The form of the tiling raster's CPU run loop (kernels/noise_tiling_native.py) that runs:
     "avx512", "avx2" or "neon" where its vector form was compiled for that instruction set,
     "scalar" otherwise (other CPUs, CUDA, or :data:`SIMD` off): all give the same values."""
-    wp = init_warp()
-    device = resolve_device(device)
-    if not is_cpu(device) or not SIMD:
-        return "scalar"
-    flag = wp.zeros(1, dtype=int, device=device)
-    wp.launch(noise_tiling.tiling_simd_probe, dim=1, inputs=[flag], device=device)
-    return ("scalar", "neon", "avx2", "avx512")[int(flag.numpy()[0])]
+    return vector_form(device, SIMD)
 
 
 def tiling_pixels(model: TilingModel, shape, origin, step, first, seed: int, device, period=None,

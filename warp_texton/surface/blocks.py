@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from ..core.runtime import CHUNKS_PER_THREAD, cpu_threads, resolve_device, split_launch
+from ..core.runtime import CHUNKS_PER_THREAD, cpu_threads, split_launch, vector_form
 from ..kernels import surface_blocks
 from ..kernels import surface_points
 from ..kernels.impacts import Cells3
@@ -338,10 +338,4 @@ def simd_loops(device="cpu") -> str:
     "avx512", "avx2" or "neon" where their vector form was compiled for that
     instruction set, "scalar" otherwise (other CPUs, CUDA, or ``SIMD`` off): all
     give the same values; benchmarks report which ran."""
-    device = resolve_device(device)
-    if not wp.get_device(device).is_cpu or not SIMD:
-        return "scalar"
-    with wp.ScopedDevice(device):
-        flag = wp.zeros(1, dtype=wp.int32)
-        wp.launch(surface_points.simd_probe, dim=1, inputs=[flag])
-        return ("scalar", "neon", "avx2", "avx512")[int(flag.numpy()[0])]
+    return vector_form(device, SIMD)
