@@ -195,7 +195,7 @@ MOVED_MODULES: dict[str, str | tuple[str, ...]] = {
     "warp_texton.kernels.noise2d": "warp_texton.kernels.noise_raster",
     "warp_texton.kernels.filter2d": "warp_texton.kernels.noise_filter",
     "warp_texton.kernels.colours": "warp_texton.kernels.noise_colours",
-    "warp_texton.kernels.surface": "warp_texton.kernels.surface_points",
+    "warp_texton.kernels.surface": ("warp_texton.kernels.surface_points", "warp_texton.kernels.surface_clusters"),
     "warp_texton.kernels.blocks": "warp_texton.kernels.surface_blocks",
     "warp_texton.kernels.render": "warp_texton.kernels.surface_render",
     "warp_texton.kernels.bake": "warp_texton.kernels.surface_bake",

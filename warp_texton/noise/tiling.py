@@ -16,7 +16,7 @@ import weakref
 import numpy as np
 
 from ..core.runtime import CHUNKS_PER_THREAD, init_warp, is_cpu, resolve_device, split_launch, vector_form
-from ..kernels import noise_tiling, tiling_draw
+from ..kernels import noise_tiling, noise_tiling_filter, tiling_draw
 from ..core.errors import TextonError
 from ..model.tiling import TilingModel
 from .colours import to_colours
@@ -321,7 +321,7 @@ def pyramid_struct(model: TilingModel, device: str):
                               wp.array(row0, dtype=int, device=device), wp.array(rows, dtype=int, device=device),
                               wp.array(cols, dtype=int, device=device),
                               wp.array(level_contrast(model, levels), dtype=float, device=device), len(levels))
-    pyr = noise_tiling.TilingPyramid()
+    pyr = noise_tiling_filter.TilingPyramid()
     pyr.texels, pyr.means, pyr.row0, pyr.rows, pyr.cols, pyr.contrast, pyr.levels = per_device[device]
     return pyr
 
@@ -370,11 +370,11 @@ def tiling_filtered_raster(model: TilingModel, shape, origin, step, first, J: np
         pyr = pyramid_struct(model, device)
         f = tiling_filter(options)
         at = wp.vec2i(int(first[0]) + r0, int(first[1]))
-        wp.launch(noise_tiling.tiling_filtered_raster, dim=(r1 - r0, w),
+        wp.launch(noise_tiling_filter.tiling_filtered_raster, dim=(r1 - r0, w),
                   inputs=[t, lat, pyr, f, o, sx, sy, at, jac[r0:r1] if per_pixel else jac, per_pixel, out[r0:r1]],
                   device=device)
 
-    split_launch(device, noise_tiling, h, launch)
+    split_launch(device, noise_tiling_filter, h, launch)
     return _channels(model, out.numpy())
 
 
@@ -399,8 +399,8 @@ def tiling_filtered_at(model: TilingModel, points: np.ndarray, J: np.ndarray, op
         lat = lattice_struct(model, period)
         pyr = pyramid_struct(model, device)
         f = tiling_filter(options)
-        wp.launch(noise_tiling.tiling_filtered_points, dim=k1 - k0,
+        wp.launch(noise_tiling_filter.tiling_filtered_points, dim=k1 - k0,
                   inputs=[t, lat, pyr, f, pts[k0:k1], jac[k0:k1] if per else jac, per, out[k0:k1]], device=device)
 
-    split_launch(device, noise_tiling, n, launch)
+    split_launch(device, noise_tiling_filter, n, launch)
     return _channels(model, out.numpy())
