@@ -4,6 +4,8 @@ The example's MIP pyramid (``TilingPyramid``, built on the host by warp_texton/n
 at the footprint's level, each patch's deviation from the mean scaled by the level's contrast; the
 blend's weights, vertices and lattice are kernels/noise_tiling.py's, so a footprint of one texel is the
 unfiltered model.
+
+Driven by: ``warp_texton.noise.tiling``.
 """
 
 import warp as wp

@@ -33,7 +33,8 @@ from .core.errors import ExampleWarning, TextonError
 
 if TYPE_CHECKING:  # what type checkers and documentation tools see; at run time, __getattr__
     from .model.analysis import analyze, model_error
-    from .surface.bake import BakedMesh, bake_mesh, render_baked
+    from .surface.bake import BakedMesh, bake_mesh
+    from .surface.render import render_baked
     from .model.spot_noise import dsn
     from .model.analysis_options import AnalysisOptions
     from .model.example_checks import downscale
@@ -57,7 +58,7 @@ if TYPE_CHECKING:  # what type checkers and documentation tools see; at run time
 #: The module of each public name that is imported on first use.
 _LAZY = {
     "analyze": "model.analysis", "model_error": "model.analysis",
-    "BakedMesh": "surface.bake", "bake_mesh": "surface.bake", "render_baked": "surface.bake", "write_baked": "surface.mesh_files",
+    "BakedMesh": "surface.bake", "bake_mesh": "surface.bake", "render_baked": "surface.render", "write_baked": "surface.mesh_files",
     "dsn": "model.spot_noise",
     "FilterOptions": "noise.filter_options", "NoiseOptions": "noise.noise_options", "AnalysisOptions": "model.analysis_options",
     "downscale": "model.example_checks",

@@ -3,6 +3,8 @@
 One CPU launch runs on one thread, and Warp releases the GIL during it, so
 CPU work is cut into contiguous parts (row bands of a raster, chunks of
 points) launched from a pool of threads. On CUDA one launch covers it all.
+
+Kernels driven here: ``warp_texton.kernels.native_simd`` (which form of the native loops was built).
 """
 
 from __future__ import annotations

@@ -1,10 +1,11 @@
 """Tiling and blending on rasters and points: the drivers of the tiling kernels.
 
-The model, its files and its measures live in :mod:`warp_texton.model.tiling` (NumPy only);
+The model and its files live in :mod:`warp_texton.model.tiling`, its measures in :mod:`warp_texton.model.structure` (NumPy only);
 this module packs a :class:`~warp_texton.model.tiling.TilingModel` into the kernels' struct and
 launches them (docs/tiling.md).
 
-Kernels driven here: ``warp_texton.kernels.noise_tiling`` (its vertex draw: ``warp_texton.kernels.tiling_draw``).
+Kernels driven here: ``warp_texton.kernels.noise_tiling`` (its vertex draw: ``warp_texton.kernels.tiling_draw``),
+``warp_texton.kernels.noise_tiling_filter``.
 """
 
 from __future__ import annotations

@@ -19,7 +19,7 @@ Package-internal (documented in docs/architecture.md): users call
 :func:`warp_texton.surface_noise`.
 
 Kernels driven here: ``warp_texton.kernels.impacts``, ``warp_texton.kernels.surface_blocks``,
-``warp_texton.kernels.surface_points``.
+``warp_texton.kernels.surface_points``, ``warp_texton.kernels.surface_clusters``.
 """
 
 from __future__ import annotations
