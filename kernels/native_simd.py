@@ -6,7 +6,17 @@ Warp's CPU compiler (its bundled Clang, for the host CPU) targets 256-bit (AVX2,
 128-bit (NEON) SIMD, and as plain C++ for other CPUs and for CUDA (NVRTC is not Clang, and Clang's
 CUDA mode is not the host). :data:`VECTOR` is the preprocessor test that picks the form, opened by
 every snippet and closed by its ``#endif``; :func:`vector_form` says which form a build holds.
+
+Written once for every channel count, declared once per channel count: a snippet's C++ is one template
+(:func:`for_channels` keeps the lines of one or three channels), but Warp cannot make a
+``wp.func_native`` (nor a ``wp.struct``) generic over its arrays' element type, so each channel count
+has its own declaration (``cluster_sums1``, ``cluster_sums3``; ``tiling_run1``, ``tiling_run3``; the
+``…1`` structs of the device API) and one overloaded ``wp.func`` of both is what kernels call.
+
+Driven by: ``warp_texton.core.runtime``.
 """
+
+import re
 
 import warp as wp
 
@@ -18,6 +28,24 @@ VECTOR = ("#if defined(__clang__) && !defined(__CUDACC__) && !defined(__CUDA_ARC
 
 #: What :func:`vector_form` returns, as names: the plain form, then the vector form for each instruction set.
 VECTOR_FORMS = ("scalar", "neon", "avx2", "avx512")
+
+
+#: A line of a channel template (:func:`for_channels`) that opens the lines of one channel count, or closes them.
+_CHANNEL_MARK = re.compile(r"\s*//@ (3|1|end)\s*")
+
+
+def for_channels(template: str, channels: int) -> str:
+    """The lines of a C++ snippet written once for one and three channels: between ``//@ 3`` and the next
+    mark the three-channel form's, between ``//@ 1`` and the next mark the one-channel form's, up to
+    ``//@ end``; the other lines are both forms'."""
+    keep, lines = None, []
+    for line in template.split("\n"):
+        mark = _CHANNEL_MARK.fullmatch(line)
+        if mark:
+            keep = None if mark.group(1) == "end" else int(mark.group(1))
+        elif keep is None or keep == channels:
+            lines.append(line)
+    return "\n".join(lines)
 
 
 @wp.func_native(VECTOR + """
@@ -44,4 +72,4 @@ def vector_form_probe(flag: wp.array(dtype=wp.int32)):
     flag[0] = vector_form()
 
 
-__all__ = ["VECTOR", "VECTOR_FORMS", "vector_form", "vector_form_probe"]
+__all__ = ["VECTOR", "VECTOR_FORMS", "for_channels", "vector_form", "vector_form_probe"]
