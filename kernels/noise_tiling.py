@@ -186,21 +186,20 @@ def patch_term3(t: Tiling, q: wp.vec2, k: float, acc: wp.vec3, macc: wp.vec3):
 
 
 @wp.func
+def triangle_weights(a: int, b: int, u: float, v: float):
+    # (a0, b0, w0, w1, w2): the first vertex of the triangle of x (lower-left cell (a, b), barycentric (u, v)),
+    # (a, b) in a lower triangle, (a + 1, b + 1) in an upper one (u + v > 1), and the weights of it, of
+    # (a + 1, b) and of (a, b + 1): the fixed order of every evaluator's blend
+    if u + v > 1.0:
+        return a + 1, b + 1, u + v - 1.0, 1.0 - v, 1.0 - u
+    return a, b, 1.0 - u - v, u, v
+
+
+@wp.func
 def tiling_value(t: Tiling, x: wp.vec2d):
     # the tiling's value at x (noise units): the patches of the three vertices of x's triangle, blended
     a, b, u, v = triangle_of(t, x)
-    # the triangle's vertices (fixed order) and barycentric coordinates
-    a0 = a
-    b0 = b
-    w0 = 1.0 - u - v
-    w1 = u
-    w2 = v
-    if u + v > 1.0:
-        a0 = a + 1
-        b0 = b + 1
-        w0 = u + v - 1.0
-        w1 = 1.0 - v
-        w2 = 1.0 - u
+    a0, b0, w0, w1, w2 = triangle_weights(a, b, u, v)
     q0 = wp.vec2(0.0)
     q1 = wp.vec2(0.0)
     q2 = wp.vec2(0.0)
@@ -332,6 +331,13 @@ def lattice_vertex(t: Tiling, lat: Lattice, a: int, b: int):
 
 
 @wp.func
+def lattice_point(t: Tiling, lat: Lattice, x: wp.vec2d, a: int, b: int):
+    # where vertex (a, b)'s patch reads the example for x: patch_point through lattice_vertex
+    c, p = lattice_vertex(t, lat, a, b)
+    return wp.vec2(float(c[0]) + float(x[0] - p[0]), float(c[1]) + float(x[1] - p[1]))
+
+
+@wp.func
 def cached_slot(t: Tiling, lat: Lattice, c: VertexCache, a: int, b: int):
     # the slot of vertex (a, b) in the cache, hashing it into a slot when absent
     for k in range(SLOTS):
@@ -405,17 +411,7 @@ def blend_at(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean_img: 
              skip: float, c: VertexCache, x: wp.vec2d):
     # tiling_value(t, x) bit for bit on the plain lattice (any texel type), its vertices through the cache c
     a, b, u, v = lattice_triangle(t, lat, x)
-    a0 = a
-    b0 = b
-    w0 = 1.0 - u - v
-    w1 = u
-    w2 = v
-    if u + v > 1.0:
-        a0 = a + 1
-        b0 = b + 1
-        w0 = u + v - 1.0
-        w1 = 1.0 - v
-        w2 = 1.0 - u
+    a0, b0, w0, w1, w2 = triangle_weights(a, b, u, v)
     s0 = int(0)
     s1 = int(0)
     s2 = int(0)
@@ -557,17 +553,7 @@ def tiling_runs(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any),  # noqa
         a = floor_int64(sx)
         u = float(sx - wp.float64(a))
         v = float(sy - fb)
-        a0 = a
-        b0 = b
-        w0 = 1.0 - u - v
-        w1 = u
-        w2 = v
-        if u + v > 1.0:
-            a0 = a + 1
-            b0 = b + 1
-            w0 = u + v - 1.0
-            w1 = 1.0 - v
-            w2 = 1.0 - u
+        a0, b0, w0, w1, w2 = triangle_weights(a, b, u, v)
         k0 = float(0.0)
         k1 = float(0.0)
         k2 = float(0.0)

@@ -11,7 +11,8 @@ Driven by: ``warp_texton.noise.tiling``.
 import warp as wp
 
 from .noise_filter import Filter, footprint_lookups
-from .noise_tiling import Lattice, Tiling, bilinear, kept_normalised, lattice_triangle, lattice_vertex, sharpened
+from .noise_tiling import (Lattice, Tiling, bilinear, kept_normalised, lattice_point, lattice_triangle, sharpened,
+                           triangle_weights)
 from .tiling_draw import texel_address
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
@@ -79,23 +80,10 @@ def patch_deviation(t: Tiling, pyr: TilingPyramid, q: wp.vec2, l0: int, l1: int,
 def blend_levels(t: Tiling, lat: Lattice, pyr: TilingPyramid, x: wp.vec2d, l0: int, l1: int, w1: float):
     # the blend at x (tiling_value's weights) of the three patches, each read filtered between levels l0, l1
     a, b, u, v = lattice_triangle(t, lat, x)
-    a0 = a
-    b0 = b
-    w0 = 1.0 - u - v
-    wa = u
-    wb = v
-    if u + v > 1.0:
-        a0 = a + 1
-        b0 = b + 1
-        w0 = u + v - 1.0
-        wa = 1.0 - v
-        wb = 1.0 - u
-    c0, p0 = lattice_vertex(t, lat, a0, b0)
-    c1, p1 = lattice_vertex(t, lat, a + 1, b)
-    c2, p2 = lattice_vertex(t, lat, a, b + 1)
-    q0 = wp.vec2(float(c0[0]) + float(x[0] - p0[0]), float(c0[1]) + float(x[1] - p0[1]))
-    q1 = wp.vec2(float(c1[0]) + float(x[0] - p1[0]), float(c1[1]) + float(x[1] - p1[1]))
-    q2 = wp.vec2(float(c2[0]) + float(x[0] - p2[0]), float(c2[1]) + float(x[1] - p2[1]))
+    a0, b0, w0, wa, wb = triangle_weights(a, b, u, v)
+    q0 = lattice_point(t, lat, x, a0, b0)
+    q1 = lattice_point(t, lat, x, a + 1, b)
+    q2 = lattice_point(t, lat, x, a, b + 1)
     g0 = float(0.0)
     g1 = float(0.0)
     g2 = float(0.0)
