@@ -26,8 +26,8 @@ import warp as wp
 
 from .impacts import cell_walk
 from .noise_raster import PAD, NoiseParams, TextonLookup, bspline_weight
-from .noise_tiling import Lattice, Tiling, lattice_point, lattice_triangle, sharpened, triangle_weights
-from .tiling_draw import CUTOFF, texel_address
+from .noise_tiling import Lattice, Tiling, cut_weights, lattice_point, lattice_triangle, sharpened, triangle_weights
+from .tiling_draw import texel_address
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
 
@@ -226,13 +226,7 @@ def tiling_slope(t: Tiling, lat: Lattice, x: wp.vec2d):
     k0 = sharpened(w[0], t.squarings, t.guide_weight, g0[0] - gm[0])
     k1 = sharpened(w[1], t.squarings, t.guide_weight, g1[0] - gm[0])
     k2 = sharpened(w[2], t.squarings, t.guide_weight, g2[0] - gm[0])
-    km = wp.max(k0, wp.max(k1, k2)) * CUTOFF
-    if k0 < km:
-        k0 = 0.0
-    if k1 < km:
-        k1 = 0.0
-    if k2 < km:
-        k2 = 0.0
+    k0, k1, k2 = cut_weights(k0, k1, k2)
     # dk/dx = k (s ∇w / w + β (∇g − ∇g_max)), s = 2^squarings
     s = float(1 << t.squarings)
     dgm = wp.vec2(gm[1], gm[2])

@@ -161,8 +161,18 @@ def sharpened(w: float, squarings: int, guide_weight: float, dg: float):
 
 
 @wp.func
-def kept_normalised(k0: float, k1: float, k2: float):
-    # the cutoff (weights below CUTOFF × the largest become 0), then k / Σ k: every blend's weights
+def guided_weights(t: Tiling, w0: float, w1: float, w2: float, g0: float, g1: float, g2: float):
+    # the three unnormalised weights of a blend: barycentric w sharpened, times exp(guide_weight (g − max g))
+    gm = wp.max(g0, wp.max(g1, g2))
+    k0 = sharpened(w0, t.squarings, t.guide_weight, g0 - gm)
+    k1 = sharpened(w1, t.squarings, t.guide_weight, g1 - gm)
+    k2 = sharpened(w2, t.squarings, t.guide_weight, g2 - gm)
+    return k0, k1, k2
+
+
+@wp.func
+def cut_weights(k0: float, k1: float, k2: float):
+    # the cutoff: weights below CUTOFF × the largest become 0 (their patches are not read)
     km = wp.max(k0, wp.max(k1, k2)) * CUTOFF
     if k0 < km:
         k0 = 0.0
@@ -170,6 +180,13 @@ def kept_normalised(k0: float, k1: float, k2: float):
         k1 = 0.0
     if k2 < km:
         k2 = 0.0
+    return k0, k1, k2
+
+
+@wp.func
+def kept_normalised(k0: float, k1: float, k2: float):
+    # the cutoff, then k / Σ k: every blend's weights
+    k0, k1, k2 = cut_weights(k0, k1, k2)
     total = k0 + k1 + k2
     return k0 / total, k1 / total, k2 / total
 
@@ -213,10 +230,7 @@ def tiling_value(t: Tiling, x: wp.vec2d):
         g0 = bilinear(t.guide, q0, t.wrap)
         g1 = bilinear(t.guide, q1, t.wrap)
         g2 = bilinear(t.guide, q2, t.wrap)
-    gm = wp.max(g0, wp.max(g1, g2))
-    k0 = sharpened(w0, t.squarings, t.guide_weight, g0 - gm)
-    k1 = sharpened(w1, t.squarings, t.guide_weight, g1 - gm)
-    k2 = sharpened(w2, t.squarings, t.guide_weight, g2 - gm)
+    k0, k1, k2 = guided_weights(t, w0, w1, w2, g0, g1, g2)
     # weights below CUTOFF × the largest are dropped (their patches are not read)
     k0, k1, k2 = kept_normalised(k0, k1, k2)
     acc = wp.vec3(0.0)
@@ -407,6 +421,20 @@ def quick_weight(w: float, squarings: int, skip: float):
 
 
 @wp.func
+def guide_weights(t: Tiling, lat: Lattice, c: VertexCache, x: wp.vec2d, a0: int, b0: int, a: int, b: int,
+                  w0: float, w1: float, w2: float):
+    # the guided weights of blend_at (each slot read as soon as it is found: the next lookup may replace it)
+    c, s0 = cached_slot(t, lat, c, a0, b0)
+    g0 = bilinear(t.guide, slot_point(c, s0, x), t.wrap)
+    c, s1 = cached_slot(t, lat, c, a + 1, b)
+    g1 = bilinear(t.guide, slot_point(c, s1, x), t.wrap)
+    c, s2 = cached_slot(t, lat, c, a, b + 1)
+    g2 = bilinear(t.guide, slot_point(c, s2, x), t.wrap)
+    k0, k1, k2 = guided_weights(t, w0, w1, w2, g0, g1, g2)
+    return c, k0, k1, k2
+
+
+@wp.func
 def blend_at(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean_img: wp.array2d(dtype=Any), mean: Any,
              skip: float, c: VertexCache, x: wp.vec2d):
     # tiling_value(t, x) bit for bit on the plain lattice (any texel type), its vertices through the cache c
@@ -415,24 +443,11 @@ def blend_at(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean_img: 
     s0 = int(0)
     s1 = int(0)
     s2 = int(0)
-    g0 = float(0.0)
-    g1 = float(0.0)
-    g2 = float(0.0)
     k0 = float(0.0)
     k1 = float(0.0)
     k2 = float(0.0)
     if t.guide_weight != 0.0:
-        # each slot is read as soon as it is found: the next lookup may replace it
-        c, s0 = cached_slot(t, lat, c, a0, b0)
-        g0 = bilinear(t.guide, slot_point(c, s0, x), t.wrap)
-        c, s1 = cached_slot(t, lat, c, a + 1, b)
-        g1 = bilinear(t.guide, slot_point(c, s1, x), t.wrap)
-        c, s2 = cached_slot(t, lat, c, a, b + 1)
-        g2 = bilinear(t.guide, slot_point(c, s2, x), t.wrap)
-        gm = wp.max(g0, wp.max(g1, g2))
-        k0 = sharpened(w0, t.squarings, t.guide_weight, g0 - gm)
-        k1 = sharpened(w1, t.squarings, t.guide_weight, g1 - gm)
-        k2 = sharpened(w2, t.squarings, t.guide_weight, g2 - gm)
+        c, k0, k1, k2 = guide_weights(t, lat, c, x, a0, b0, a, b, w0, w1, w2)
     else:
         k0 = quick_weight(w0, t.squarings, skip)
         k1 = quick_weight(w1, t.squarings, skip)
@@ -457,33 +472,10 @@ def blend_at(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean_img: 
 
 
 @wp.func
-def guide_weights(t: Tiling, lat: Lattice, c: VertexCache, x: wp.vec2d, a0: int, b0: int, a: int, b: int,
-                  w0: float, w1: float, w2: float):
-    # the guided weights of blend_at (each slot read as soon as it is found: the next lookup may replace it)
-    c, s0 = cached_slot(t, lat, c, a0, b0)
-    g0 = bilinear(t.guide, slot_point(c, s0, x), t.wrap)
-    c, s1 = cached_slot(t, lat, c, a + 1, b)
-    g1 = bilinear(t.guide, slot_point(c, s1, x), t.wrap)
-    c, s2 = cached_slot(t, lat, c, a, b + 1)
-    g2 = bilinear(t.guide, slot_point(c, s2, x), t.wrap)
-    gm = wp.max(g0, wp.max(g1, g2))
-    k0 = sharpened(w0, t.squarings, t.guide_weight, g0 - gm)
-    k1 = sharpened(w1, t.squarings, t.guide_weight, g1 - gm)
-    k2 = sharpened(w2, t.squarings, t.guide_weight, g2 - gm)
-    return c, k0, k1, k2
-
-
-@wp.func
 def kept_weights(k0: float, k1: float, k2: float):
     # the cutoff and the normalisation of tiling_value; with one vertex kept (most pixels at high
     # sharpness) its weight k/k is 1 and √(1²) = 1: returned without the divisions, with one = True
-    km = wp.max(k0, wp.max(k1, k2)) * CUTOFF
-    if k0 < km:
-        k0 = 0.0
-    if k1 < km:
-        k1 = 0.0
-    if k2 < km:
-        k2 = 0.0
+    k0, k1, k2 = cut_weights(k0, k1, k2)
     n = int(k0 > 0.0) + int(k1 > 0.0) + int(k2 > 0.0)
     if n == 1:
         return wp.float32(k0 > 0.0), wp.float32(k1 > 0.0), wp.float32(k2 > 0.0), True

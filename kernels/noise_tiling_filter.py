@@ -11,7 +11,7 @@ Driven by: ``warp_texton.noise.tiling``.
 import warp as wp
 
 from .noise_filter import Filter, footprint_lookups
-from .noise_tiling import (Lattice, Tiling, bilinear, kept_normalised, lattice_point, lattice_triangle, sharpened,
+from .noise_tiling import (Lattice, Tiling, bilinear, guided_weights, kept_normalised, lattice_point, lattice_triangle,
                            triangle_weights)
 from .tiling_draw import texel_address
 
@@ -91,10 +91,7 @@ def blend_levels(t: Tiling, lat: Lattice, pyr: TilingPyramid, x: wp.vec2d, l0: i
         g0 = bilinear(t.guide, q0, t.wrap)
         g1 = bilinear(t.guide, q1, t.wrap)
         g2 = bilinear(t.guide, q2, t.wrap)
-    gm = wp.max(g0, wp.max(g1, g2))
-    k0 = sharpened(w0, t.squarings, t.guide_weight, g0 - gm)
-    k1 = sharpened(wa, t.squarings, t.guide_weight, g1 - gm)
-    k2 = sharpened(wb, t.squarings, t.guide_weight, g2 - gm)
+    k0, k1, k2 = guided_weights(t, w0, wa, wb, g0, g1, g2)
     k0, k1, k2 = kept_normalised(k0, k1, k2)
     acc = wp.vec3(0.0)
     macc = wp.vec3(0.0)
