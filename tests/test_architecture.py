@@ -177,6 +177,18 @@ def test_no_private_names_across_package_modules():
     assert not {k: v for k, v in wrong.items() if v}
 
 
+def test_no_private_names_across_kernel_modules():
+    # kernels/ share device code by public names too (kernels/native_simd.VECTOR, not a copied or imported _VECTOR)
+    trees = {p.stem: ast.parse(p.read_text(), str(p)) for p in sorted(KERNELS.glob("*.py"))}
+    wrong = {name: uses for name, tree in trees.items() if (uses := list(_private_uses(tree, name)))}
+    assert not wrong
+
+
+def test_the_private_name_rule_sees_a_kernel_import():
+    tree = ast.parse("from .surface_native import _VECTOR\nfrom .impacts import avalanche")
+    assert list(_private_uses(tree, "noise_tiling_native")) == ["from surface_native import _VECTOR"]
+
+
 @pytest.mark.parametrize("folder", ["tests", "benchmarks", "docs"])
 def test_tests_benchmarks_and_docs_use_public_names(folder):
     wrong = {str(p.relative_to(ROOT)): uses for p in sorted((ROOT / folder).rglob("*.py"))
