@@ -26,8 +26,9 @@ from .colours import to_colours
 MAX_TILING_REACH = float(1 << 30)
 
 
-def refuse_texton_options(options: dict) -> None:
-    """One error naming the texton-noise options given to a tiling model."""
+def texton_options_given(options: dict) -> list[str]:
+    """The names of ``options`` (name=(value, default)) given other values than their defaults: what a
+    tiling model refuses (a bool is never a number's default, a default of None takes only None)."""
     def same(value, default):
         if value is default:
             return True
@@ -35,7 +36,12 @@ def refuse_texton_options(options: dict) -> None:
             return False
         return isinstance(value, (str, numbers.Real)) and type(value) is not bool and value == default
 
-    given = [name for name, (value, default) in options.items() if not same(value, default)]
+    return [name for name, (value, default) in options.items() if not same(value, default)]
+
+
+def refuse_texton_options(options: dict) -> None:
+    """One error naming the texton-noise options given to a tiling model in the plane."""
+    given = texton_options_given(options)
     if given:
         raise TextonError(f"{', '.join(given)} do not apply to a tiling model (method 'tiling'); "
                           "they are texton-noise options", param=given[0])

@@ -47,7 +47,7 @@ from .points import (check_method, check_surface_work, evaluate_points, floor_vi
                       surface_setup, texel_positions)
 from ..model.texton import Texton
 from ..model.tiling import TilingModel
-from .tiling import SURFACE_MNI, check_model
+from .tiling import SURFACE_MNI, check_surface_model
 
 if TYPE_CHECKING:
     import trimesh
@@ -335,7 +335,7 @@ def bake_mesh(
     import trimesh
 
     mesh = check_mesh(mesh)
-    check_model(texton, mni=(mni, SURFACE_MNI), method=(method, "auto"))
+    check_surface_model(texton, mni=(mni, SURFACE_MNI), method=(method, "auto"))
     texel = check_positive(texel_size, "texel_size")
     res = check_int(resolution, "resolution", minimum=1)
     if res > MAX_RESOLUTION:
@@ -564,7 +564,7 @@ def check_bake_arguments(texton: Texton | TilingModel, resolution: int, *, mni: 
         Over the memory or the work budget, naming ``resolution``, ``supersample``
         and ``mni``; and the errors of :func:`bake_mesh` for these arguments.
     """
-    check_model(texton, mni=(mni, SURFACE_MNI))
+    check_surface_model(texton, mni=(mni, SURFACE_MNI))
     res = check_int(resolution, "resolution", minimum=1, maximum=MAX_RESOLUTION)
     supersample, _ = _check_choices(res, uv, supersample, None, CHART_METHODS[0], PNG_DTYPES[0])
     what = f"a {res}x{res} bake" + ("" if supersample is None else f" with {supersample}x{supersample} samples a texel")

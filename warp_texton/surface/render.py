@@ -28,7 +28,7 @@ from .points import (check_method, evaluate_points, floor_visits, plan_points, s
                       texel_positions)
 from ..model.texton import Texton
 from ..model.tiling import TilingModel
-from .tiling import SURFACE_MNI, check_model
+from .tiling import SURFACE_MNI, check_surface_model
 
 #: Largest render, in pixels (64 Mpx: about 4 GB at the peak of a render).
 MAX_RENDER_PIXELS = 1 << 26
@@ -472,7 +472,7 @@ def render_mesh(
     >>> upright = render_mesh(box, texton, (96, 64), up="y", orbit=(-60, 15), fov=45, device="cpu")
     """
     mesh = check_mesh(mesh)
-    check_model(texton, mni=(mni, SURFACE_MNI), method=(method, "auto"))
+    check_surface_model(texton, mni=(mni, SURFACE_MNI), method=(method, "auto"))
     h, w = check_shape(shape, max_pixels=MAX_RENDER_PIXELS)
     texel = default_texel_size(mesh) if texel_size is None else check_positive(texel_size, "texel_size")
     seed = check_seed(seed)
