@@ -44,8 +44,8 @@ class SurfaceParams:
     shift: wp.vec3  # λ (r/2) ∫h: the mean of the raw sum (CGF Prop. 3)
     inv_scale: float  # 1 / √(λ r / 3)
     mean: wp.vec3
-    up: wp.vec3  # the frame rule's directions a and b
-    side: wp.vec3
+    up: wp.vec3  # the frame rule's directions a and b (``side`` a direction, the public ``side`` of surfaces;
+    side: wp.vec3  # a tiling model's ``side`` is its triangles' length, in kernels/noise_tiling.Tiling)
 
 
 @wp.func

@@ -118,11 +118,12 @@ class TilingParams:
     blend: surface_tiling.Triplanar
 
 
-def tiling_params(model: TilingModel, seed: int, up, side) -> TilingParams:
-    """The planes' seeds and the ``Triplanar`` blend of the frame rule's (up, side)."""
+def tiling_params(model: TilingModel, seed: int, up, side_dir) -> TilingParams:
+    """The planes' seeds and the ``Triplanar`` blend of the frame rule's (up, side): ``side_dir`` is the public
+    ``side``, a direction (``model.side`` is the triangles' side, a length)."""
     wp = init_warp()
     seed = check_seed(seed)
-    a, b = frame_rule(up, side)
+    a, b = frame_rule(up, side_dir)
     right = b - a * float(a @ b)
     norm = float(np.linalg.norm(right))
     if norm < 1e-9:
