@@ -10,8 +10,9 @@ every snippet and closed by its ``#endif``; :func:`vector_form` says which form 
 Written once for every channel count, declared once per channel count: a snippet's C++ is one template
 (:func:`for_channels` keeps the lines of one or three channels), but Warp cannot make a
 ``wp.func_native`` (nor a ``wp.struct``) generic over its arrays' element type, so each channel count
-has its own declaration (``cluster_sums1``, ``cluster_sums3``; ``tiling_run1``, ``tiling_run3``; the
-``…1`` structs of the device API) and one overloaded ``wp.func`` of both is what kernels call.
+has its own declaration, overloads of one name that Warp picks by the arguments' types
+(``surface_native.cluster_sums``, ``noise_tiling_native.tiling_run_native``); the device API's structs
+have their ``…1`` twins (``PlaneNoise1``, ``SurfaceNoise1``) for the same reason.
 
 Driven by: ``warp_texton.core.runtime``.
 """

@@ -31,7 +31,7 @@ import warp as wp
 from typing import Any
 
 from . import tiling_draw
-from .noise_tiling_native import tiling_run1, tiling_run3
+from .noise_tiling_native import tiling_run_native
 from .tiling_draw import CUTOFF, SQRT3_2, texel_address
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
@@ -627,23 +627,13 @@ for _T in (wp.vec3, float):
 
 # ------------------------------------------------------------------ the run loop in native C++ (CPU)
 @wp.func
-def tiling_run(t: Tiling, lat: Lattice, example: wp.array2d(dtype=wp.vec3), mean_img: wp.array2d(dtype=wp.vec3),
-               mean: wp.vec3, skip: float, origin: wp.vec2d, step_x: wp.vec2d, step_y: wp.vec2d, first: wp.vec2i,
-               i: int, j0: int, j1: int, simd: int, out: wp.array2d(dtype=wp.vec3)):
-    # three channels
-    tiling_run3(example, mean, mean_img, out, i, j0, j1, first[0], first[1], origin, step_x, step_y, t.side, t.lo,
-                t.count, t.wrap, t.rank, t.modulus, t.k1, t.k2, t.squarings, skip, t.variance_preserving, t.seed,
-                lat.periodic, lat.cols, lat.rows, lat.dx, lat.dy, lat.px, lat.py, simd)
-
-
-@wp.func
-def tiling_run(t: Tiling, lat: Lattice, example: wp.array2d(dtype=float),  # noqa: F811 (an overload)
-               mean_img: wp.array2d(dtype=float), mean: float, skip: float, origin: wp.vec2d, step_x: wp.vec2d,
-               step_y: wp.vec2d, first: wp.vec2i, i: int, j0: int, j1: int, simd: int, out: wp.array2d(dtype=float)):
-    # one channel (a grey example)
-    tiling_run1(example, mean, mean_img, out, i, j0, j1, first[0], first[1], origin, step_x, step_y, t.side, t.lo,
-                t.count, t.wrap, t.rank, t.modulus, t.k1, t.k2, t.squarings, skip, t.variance_preserving, t.seed,
-                lat.periodic, lat.cols, lat.rows, lat.dx, lat.dy, lat.px, lat.py, simd)
+def tiling_run(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean_img: wp.array2d(dtype=Any), mean: Any,
+               skip: float, origin: wp.vec2d, step_x: wp.vec2d, step_y: wp.vec2d, first: wp.vec2i, i: int, j0: int,
+               j1: int, simd: int, out: wp.array2d(dtype=Any)):
+    # the native run loop of the texel type (noise_tiling_native.tiling_run_native's overloads), the structs unpacked
+    tiling_run_native(example, mean, mean_img, out, i, j0, j1, first[0], first[1], origin, step_x, step_y, t.side,
+                      t.lo, t.count, t.wrap, t.rank, t.modulus, t.k1, t.k2, t.squarings, skip, t.variance_preserving,
+                      t.seed, lat.periodic, lat.cols, lat.rows, lat.dx, lat.dy, lat.px, lat.py, simd)
 
 
 @wp.kernel

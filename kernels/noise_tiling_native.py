@@ -538,8 +538,9 @@ RUN_TEMPLATE = VECTOR + r"""
 RUN_SOURCE = RUN_TEMPLATE.replace("@TILING_DRAW@", draw_code("cpp", periodic=True))
 
 
+# one channel and three: overloads of one name (Warp picks the declaration by the arrays' types)
 @wp.func_native(RUN_SOURCE.replace("CHN", "1").replace("MEAN_C", "mean"))
-def tiling_run1(example: wp.array2d(dtype=float), mean: float, mean_img: wp.array2d(dtype=float),
+def tiling_run_native(example: wp.array2d(dtype=float), mean: float, mean_img: wp.array2d(dtype=float),
                 out: wp.array2d(dtype=float), i: int, j0: int, j1: int, first_i: int, first_j: int, origin: wp.vec2d,
                 step_x: wp.vec2d, step_y: wp.vec2d, side: float, lo: wp.vec2i, count: wp.vec2i, wrap: wp.vec2i,
                 rank: int, modulus: int, k1: wp.vec2i, k2: wp.vec2i, squarings: int, skip: float, vp: int,
@@ -550,7 +551,7 @@ def tiling_run1(example: wp.array2d(dtype=float), mean: float, mean_img: wp.arra
 
 
 @wp.func_native(RUN_SOURCE.replace("CHN", "3").replace("MEAN_C", "mean[c]"))
-def tiling_run3(example: wp.array2d(dtype=wp.vec3), mean: wp.vec3, mean_img: wp.array2d(dtype=wp.vec3),
+def tiling_run_native(example: wp.array2d(dtype=wp.vec3), mean: wp.vec3, mean_img: wp.array2d(dtype=wp.vec3),  # noqa: F811
                 out: wp.array2d(dtype=wp.vec3), i: int, j0: int, j1: int, first_i: int, first_j: int,
                 origin: wp.vec2d, step_x: wp.vec2d, step_y: wp.vec2d, side: float, lo: wp.vec2i, count: wp.vec2i,
                 wrap: wp.vec2i, rank: int, modulus: int, k1: wp.vec2i, k2: wp.vec2i, squarings: int, skip: float,

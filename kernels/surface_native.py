@@ -452,7 +452,7 @@ LOAD_LANE
 
 
 def cluster_sums_source(channels: int) -> str:
-    """The C++ of ``cluster_sums3`` (3) or ``cluster_sums1`` (1): the template for that channel count."""
+    """The C++ of ``cluster_sums`` for ``channels`` (3 or 1): the template for that channel count."""
     body = for_channels(CLUSTER_SUMS_TEMPLATE, channels).replace("WT_CH", str(channels))
     return (_SLAB_ADD + VECTOR + _VECTOR_TYPES + body).replace("PADV", str(PAD)).replace("LOAD_LANE", _LOAD_LANE)
 
@@ -461,34 +461,8 @@ CLUSTER_SUMS = cluster_sums_source(3)
 CLUSTER_SUMS1 = cluster_sums_source(1)
 
 
-@wp.func_native(CLUSTER_SUMS1)
-def cluster_sums1(coeffs: wp.array2d(dtype=float), points: wp.array(dtype=wp.vec3d),
-                  normals: wp.array(dtype=wp.vec3), u1s: wp.array(dtype=wp.vec3), u2s: wp.array(dtype=wp.vec3),
-                  span_lo: wp.array(dtype=wp.vec3i), span_hi: wp.array(dtype=wp.vec3i), k0: int, k1: int,
-                  cubes: wp.array(dtype=wp.vec3i), run_cube: wp.array(dtype=wp.int32),
-                  run_end: wp.array(dtype=wp.int32), r0: int, runs: int, ux: wp.array(dtype=float),
-                  uy: wp.array(dtype=float), uz: wp.array(dtype=float), u0: int, size: float, half: float,
-                  cen0: float, cen1: float, lo0: float, lo1: float, hi0: float, hi1: float,
-                  out: wp.array(dtype=float), dest: wp.array(dtype=wp.int64), simd: int):
-    """``cluster_sums`` for a one-channel texton: float coefficients and sums."""
-    ...
-
-
+# cluster_sums for three channels and one: Warp overloads a func_native on its argument types
 @wp.func_native(CLUSTER_SUMS)
-def cluster_sums3(coeffs: wp.array2d(dtype=wp.vec3), points: wp.array(dtype=wp.vec3d),
-                 normals: wp.array(dtype=wp.vec3), u1s: wp.array(dtype=wp.vec3), u2s: wp.array(dtype=wp.vec3),
-                 span_lo: wp.array(dtype=wp.vec3i), span_hi: wp.array(dtype=wp.vec3i), k0: int, k1: int,
-                 cubes: wp.array(dtype=wp.vec3i), run_cube: wp.array(dtype=wp.int32),
-                 run_end: wp.array(dtype=wp.int32), r0: int, runs: int, ux: wp.array(dtype=float),
-                 uy: wp.array(dtype=float), uz: wp.array(dtype=float), u0: int, size: float, half: float,
-                 cen0: float, cen1: float, lo0: float, lo1: float, hi0: float, hi1: float,
-                 out: wp.array(dtype=wp.vec3), dest: wp.array(dtype=wp.int64), simd: int):
-    """The raw slab sums (order-1 texton) of a cluster's points over its list,
-    written to out[dest[k]] for point k."""
-    ...
-
-
-@wp.func
 def cluster_sums(coeffs: wp.array2d(dtype=wp.vec3), points: wp.array(dtype=wp.vec3d),
                  normals: wp.array(dtype=wp.vec3), u1s: wp.array(dtype=wp.vec3), u2s: wp.array(dtype=wp.vec3),
                  span_lo: wp.array(dtype=wp.vec3i), span_hi: wp.array(dtype=wp.vec3i), k0: int, k1: int,
@@ -497,13 +471,13 @@ def cluster_sums(coeffs: wp.array2d(dtype=wp.vec3), points: wp.array(dtype=wp.ve
                  uy: wp.array(dtype=float), uz: wp.array(dtype=float), u0: int, size: float, half: float,
                  cen0: float, cen1: float, lo0: float, lo1: float, hi0: float, hi1: float,
                  out: wp.array(dtype=wp.vec3), dest: wp.array(dtype=wp.int64), simd: int):
-    # three channels (vec3 coefficients and sums)
-    cluster_sums3(coeffs, points, normals, u1s, u2s, span_lo, span_hi, k0, k1, cubes, run_cube, run_end, r0, runs,
-                  ux, uy, uz, u0, size, half, cen0, cen1, lo0, lo1, hi0, hi1, out, dest, simd)
+    """The raw slab sums (order-1 texton) of a cluster's points over its list,
+    written to out[dest[k]] for point k (vec3 coefficients and sums)."""
+    ...
 
 
-@wp.func
-def cluster_sums(coeffs: wp.array2d(dtype=float), points: wp.array(dtype=wp.vec3d),  # noqa: F811 (a Warp overload)
+@wp.func_native(CLUSTER_SUMS1)
+def cluster_sums(coeffs: wp.array2d(dtype=float), points: wp.array(dtype=wp.vec3d),  # noqa: F811 (an overload)
                  normals: wp.array(dtype=wp.vec3), u1s: wp.array(dtype=wp.vec3), u2s: wp.array(dtype=wp.vec3),
                  span_lo: wp.array(dtype=wp.vec3i), span_hi: wp.array(dtype=wp.vec3i), k0: int, k1: int,
                  cubes: wp.array(dtype=wp.vec3i), run_cube: wp.array(dtype=wp.int32),
@@ -511,9 +485,8 @@ def cluster_sums(coeffs: wp.array2d(dtype=float), points: wp.array(dtype=wp.vec3
                  uy: wp.array(dtype=float), uz: wp.array(dtype=float), u0: int, size: float, half: float,
                  cen0: float, cen1: float, lo0: float, lo1: float, hi0: float, hi1: float,
                  out: wp.array(dtype=float), dest: wp.array(dtype=wp.int64), simd: int):
-    # one channel (float coefficients and sums)
-    cluster_sums1(coeffs, points, normals, u1s, u2s, span_lo, span_hi, k0, k1, cubes, run_cube, run_end, r0, runs,
-                  ux, uy, uz, u0, size, half, cen0, cen1, lo0, lo1, hi0, hi1, out, dest, simd)
+    """``cluster_sums`` for a one-channel texton: float coefficients and sums."""
+    ...
 
 
 #: 0.2's name of the build's form (kernels/native_simd.py).
