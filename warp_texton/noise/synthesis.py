@@ -23,7 +23,7 @@ from ..core.checks import check_seed
 from ..core.runtime import progress_bar, resolve_device
 from .canvas import Canvas, check_output, lanes_for, result_bytes, strips
 from ..core.errors import TextonError
-from .filtering import (COST_HINT_NAMES, tiling_filter_work, tiling_options, tiling_supersampled, COST_SAMPLES, FILTER_BYTES_PER_PIXEL, FilterOptions, RasterPixels,
+from .filtering import (COST_HINT_NAMES, COST_SAMPLES, FILTER_BYTES_PER_PIXEL, FilterOptions, RasterPixels,
                         check_jacobian, filter_pixels, filter_work, needs_filtering, pixel_cost, pixel_shares)
 from .engine import (CELL_FACTOR, POINT_BYTES, NoiseSetup, check_cell_range, check_points_cost, noise_params,
                      noise_setup, params_record, params_struct, point_values)
@@ -33,7 +33,8 @@ from .raster import (MAX_PIXEL_INDEX, RasterWindow, TextonStack, check_method, c
                      resolve_method, window_block)
 from ..model.texton import Texton
 from ..model.tiling import TilingModel
-from .tiling import MAX_TILING_REACH, tiling_at, tiling_filtered_raster, tiling_pixels
+from .tiling import MAX_TILING_REACH, tiling_at, tiling_pixels
+from .tiling_filtering import tiling_filter_work, tiling_filtered_raster, tiling_options, tiling_supersampled
 from .tiling import refuse_texton_options as _refuse_texton_options
 from ..core.limits import check_memory, check_work
 
