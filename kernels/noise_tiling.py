@@ -435,6 +435,16 @@ def guide_weights(t: Tiling, lat: Lattice, c: VertexCache, x: wp.vec2d, a0: int,
 
 
 @wp.func
+def cached_weights(t: Tiling, lat: Lattice, c: VertexCache, x: wp.vec2d, a0: int, b0: int, a: int, b: int,
+                   w0: float, w1: float, w2: float, skip: float):
+    # (cache, k0, k1, k2): the unnormalised weights of the run kernels' blend, guided (guide_weights) or not
+    # (quick_weight, which skips the powers of weights that the cutoff drops)
+    if t.guide_weight != 0.0:
+        return guide_weights(t, lat, c, x, a0, b0, a, b, w0, w1, w2)
+    return c, quick_weight(w0, t.squarings, skip), quick_weight(w1, t.squarings, skip), quick_weight(w2, t.squarings, skip)
+
+
+@wp.func
 def blend_at(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean_img: wp.array2d(dtype=Any), mean: Any,
              skip: float, c: VertexCache, x: wp.vec2d):
     # tiling_value(t, x) bit for bit on the plain lattice (any texel type), its vertices through the cache c
@@ -443,15 +453,7 @@ def blend_at(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean_img: 
     s0 = int(0)
     s1 = int(0)
     s2 = int(0)
-    k0 = float(0.0)
-    k1 = float(0.0)
-    k2 = float(0.0)
-    if t.guide_weight != 0.0:
-        c, k0, k1, k2 = guide_weights(t, lat, c, x, a0, b0, a, b, w0, w1, w2)
-    else:
-        k0 = quick_weight(w0, t.squarings, skip)
-        k1 = quick_weight(w1, t.squarings, skip)
-        k2 = quick_weight(w2, t.squarings, skip)
+    c, k0, k1, k2 = cached_weights(t, lat, c, x, a0, b0, a, b, w0, w1, w2, skip)
     k0, k1, k2 = kept_normalised(k0, k1, k2)
     acc = mean - mean
     macc = mean - mean
@@ -546,15 +548,7 @@ def tiling_runs(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any),  # noqa
         u = float(sx - wp.float64(a))
         v = float(sy - fb)
         a0, b0, w0, w1, w2 = triangle_weights(a, b, u, v)
-        k0 = float(0.0)
-        k1 = float(0.0)
-        k2 = float(0.0)
-        if t.guide_weight != 0.0:
-            c, k0, k1, k2 = guide_weights(t, lat, c, x, a0, b0, a, b, w0, w1, w2)
-        else:
-            k0 = quick_weight(w0, t.squarings, skip)
-            k1 = quick_weight(w1, t.squarings, skip)
-            k2 = quick_weight(w2, t.squarings, skip)
+        c, k0, k1, k2 = cached_weights(t, lat, c, x, a0, b0, a, b, w0, w1, w2, skip)
         k0, k1, k2, one = kept_weights(k0, k1, k2)
         acc = mean - mean
         macc = mean - mean
