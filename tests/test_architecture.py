@@ -33,7 +33,7 @@ ROOM_LAYERS = {
     "files": {"readers": 0, "folders": 0, "images": 1},
     "model": {"bspline": 0, "histogram": 0, "example_checks": 0, "analysis_options": 1, "gaussian": 2,
               "lattice": 3, "structure": 3, "tiling": 4, "lattice_detection": 4, "texton": 5, "tiling_fit": 5, "spot_noise": 6, "analysis": 7,
-              "translation": 1, "judges": 6},
+              "translation": 1, "judges": 6, "noise_tables": 6},
     "noise": {"filter_options": 0, "noise_options": 0, "tiling": 2, "engine": 1, "colours": 1, "canvas": 2, "filtering": 3, "raster": 3,
               "tiling_filtering": 4, "synthesis": 5, "ground_plane": 5, "mixing": 5, "dask_arrays": 6, "batches": 6,
               "relief": 6},

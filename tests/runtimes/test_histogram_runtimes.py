@@ -84,7 +84,7 @@ def test_plane_colour_is_evaluate(which, request, device):
     pts = np.random.default_rng(1).uniform(-80, 80, (400, 2))
     kw = dict(mni=20, seed=5, period=(40.0, 36.0))
     got = launch(user.plane_colour_at, len(pts), [td.pack_plane(texton, device=device, **kw),
-                                                  td.pack_colours(texton, device=device),
+                                                  td.pack_colours(texton, mni=kw["mni"], device=device),
                                                   wp.array(pts, dtype=wp.vec2d, device=device)], device)
     c = texton.channels
     want = evaluate(texton, pts, device=device, **kw)
@@ -112,7 +112,7 @@ def test_filtered_colour_is_filtered_synthesize(rgb, rgb_example, options, devic
     pixels = RasterPixels((h, w), *raster_geometry((h, w), *place.values()), J)
     J32 = wp.array(J.reshape(-1, 2, 2).astype(np.float32), dtype=wp.mat22, device=device)
     noise = td.pack_filtered(rgb, filter=options, device=device, **kw)
-    cmap = td.pack_colours(rgb, device=device)
+    cmap = td.pack_colours(rgb, mni=kw["mni"], device=device)
     got = launch(user.filtered_colour_at, h * w, [noise, cmap, wp.array(pixels.centres(0, h * w), dtype=wp.vec2d,
                                                                          device=device), J32], device)
     same(got.reshape(h, w, 3), raster, device)

@@ -95,7 +95,9 @@ SHADER = Command(
     "shader", "texton noise as GLSL or OSL shader code, and a WebGL2 preview page",
     "Export the texton noise of INPUT (a texton file, or an example image analysed first with the analysis "
     "options) as shader code that draws the same impacts as the Warp kernels: -o DIR writes the shader, the "
-    "texton as textures and a description; --html PAGE writes one self-contained page that draws the window "
+    "texton as textures and a description (the shaders carry the noise's exact gradient: GLSL texton_noise_grad, "
+    "OSL GradientX, GradientY, NormalMap and BumpNormal outputs); --html PAGE writes one self-contained page that "
+    "draws the window "
     "'synthesize' gives with the same --width, --height, --scale, --rotation, --offset, --period, --mni and "
     "--seed, with WebGL2.",
     _arguments, _shader,

@@ -37,7 +37,7 @@ from .example_checks import warn_large, warn_unsuited
 from ..core.limits import check_memory, check_work
 from .histogram import NOISE_MNI, REFINE_MAX_PIXELS, REFINE_ROUNDS, HistogramTransform, check_histogram, gauss_grid
 from .gaussian import FFT_WORKERS, normalized_kernel
-from .judges import (impact_spectrum, judged_texton, model_error, noise_sample,  # noqa: F401 - its names too
+from .judges import (impact_spectrum, judged_texton, model_error, noise_sample, preserve_steps, translated_texton,  # noqa: F401 - its names too
                      relative_texton_error, texton_half_spectrum)
 from .texton import Texton, lag0_covariance
 from .translation import noise_cdf, texton_values  # noqa: F401 - this module's names too
@@ -52,7 +52,7 @@ AUTO_TILING_FRACTION = 1.0
 AUTO_MNI = 30.0
 #: The fits of ``histogram="preserve"`` (the first is the default): the translation process's
 #: inverse (``translation.translated_kernel``) or the judged refits (``judges.judged_texton``).
-PRESERVE_FITS = ("judges",)
+PRESERVE_FITS = ("judges", "translation")
 #: The fit ``analyze(..., histogram="preserve")`` uses (benchmarks/bench_colour.py sets it).
 PRESERVE_FIT = PRESERVE_FITS[0]
 
@@ -443,11 +443,17 @@ def _texton_analysis(u, size, order, iterations, seed, periodic, color_correctio
         # coherent (docs/histogram.md); grey keeps the per-frequency correction. Both are
         # then refitted and judged on samples of their noise (judged_texton)
         colour = c > 1
+        steps = preserve_steps(progress)  # one bar over the stages, not the projections' own
+        progress = False
         transform = HistogramTransform.fit(u, axes="rgb" if colour else "pca")
         z = transform.decorrelate(u).astype(np.float32)
         mean, t = normalized_kernel(transform.to_gaussian(u).astype(np.float32), periodic=periodic)
         tz = normalized_kernel(z, periodic=periodic)[1]
+        if PRESERVE_FIT == "translation":
+            return translated_texton(u, transform, t, tz, mean, size, order, iterations, seed, periodic,
+                                     color_correction, support, texton_from_spectrum, steps)
         t = transform.gaussian_kernel(t, tz, size if colour else None)
+        steps.step()
     else:
         mean, t = normalized_kernel(u, periodic=periodic)
     t_hat = sfft.rfft2(t, axes=(0, 1), workers=FFT_WORKERS)
@@ -460,6 +466,7 @@ def _texton_analysis(u, size, order, iterations, seed, periodic, color_correctio
     texton.metadata.update(periodic=bool(periodic))
     if transform is None:
         return texton
+    steps.step()
     if m * n <= REFINE_MAX_PIXELS:
         texton, transform, judges = judged_texton(u, texton, transform, t, t_hat, tz, n, mean, size, order,
                                                   iterations, seed, flat.T @ flat if color_correction else None,
@@ -469,6 +476,8 @@ def _texton_analysis(u, size, order, iterations, seed, periodic, color_correctio
         # the tables take the noise's own marginal (compound Poisson, skewed at MNI 30) to
         # the example's, not a Gaussian's (docs/histogram.md, "The noise's own marginal")
         transform = transform.for_noise(u, noise_cdf(texton, NOISE_MNI, gauss_grid(transform.lut.shape[1])))
+    steps.step()
+    steps.close()
     texton.metadata.update(histogram=histogram, histogram_mni=NOISE_MNI)
     return replace(texton, histogram=transform)
 

@@ -9,7 +9,7 @@ example (docs/histogram.md, "Judged refits").
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.fft as sfft
@@ -20,10 +20,10 @@ from ..core.limits import check_memory
 from .analysis_options import ANALYSIS_BYTES_PER_VALUE
 from .bspline import bhat, bspline
 from .gaussian import FFT_WORKERS, normalized_kernel, relative_model_error_half
-from .histogram import (MARGINAL_SAMPLES, NOISE_MNI, REFINE_ROUNDS, REFINE_SAMPLES, ZERO_SUM_SPECTRUM_MARGIN,
+from .histogram import (MARGINAL_SAMPLES, NOISE_MNI, REFINE_MAX_PIXELS, REFINE_ROUNDS, REFINE_SAMPLES, ZERO_SUM_SPECTRUM_MARGIN,
                         ZERO_SUM_SPECTRUM_SLACK, HistogramTransform, gauss_grid, ring_spectrum_error)
 from .texton import Texton
-from .translation import noise_cdf
+from .translation import half_plane_covariance, noise_cdf, translated_kernel
 
 @dataclass(frozen=True)
 class Candidate:
@@ -35,12 +35,13 @@ class Candidate:
 
 
 def judged_texton(u, texton: Texton, transform: HistogramTransform, t, t_hat, tz, n, mean, size, order,
-                  iterations, seed, covariance, support, fit) -> tuple[Texton, HistogramTransform, dict]:
+                  iterations, seed, covariance, support, fit, rounds: int = REFINE_ROUNDS
+                  ) -> tuple[Texton, HistogramTransform, dict]:
     """(texton, transform, metadata): the texton ``analyze(..., histogram="preserve")``
     keeps for a grey or colour example of at most REFINE_MAX_PIXELS pixels, the
     transform fitted to its noise, and the judges' figures for its metadata.
 
-    Two families of candidates, each a first texton and REFINE_ROUNDS refits:
+    Two families of candidates, each a first texton and ``rounds`` (REFINE_ROUNDS) refits:
     the plain fit (``texton``) and the zero-sum fit (``fit``, the analysis's
     ``texton_from_spectrum``, with ``zero_sum``: no power at frequency 0). Each refit filters the Gaussian kernel
     t by the gain between the example's spectrum and the one the last texton's
@@ -83,9 +84,9 @@ def judged_texton(u, texton: Texton, transform: HistogramTransform, t, t_hat, tz
         return Candidate(tx, tr, float(np.mean([tr.spectrum_error(g, target, bins) for g in samples(tx)])))
 
     def family(first: Texton, zero_sum: bool) -> list[Candidate]:
-        kernel, current = t, first
+        kernel, current = t, first  # t: the kernel the refits filter (unused without refits)
         out = [judged(first)]
-        for _ in range(REFINE_ROUNDS):
+        for _ in range(rounds):
             kernel = transform.refined_kernel(kernel, np.abs(current.spectrum((m, n))) ** 2, target, size)
             current = fit(sfft.rfft2(kernel, axes=(0, 1), workers=FFT_WORKERS), n, mean, size,
                                            order, iterations, seed, covariance=covariance, support=support,
@@ -118,6 +119,49 @@ def judged_texton(u, texton: Texton, transform: HistogramTransform, t, t_hat, tz
             best = best_free
     metadata["zero_sum"] = best is best_free
     return best.texton, best.transform, metadata
+
+
+def preserve_steps(progress: bool):
+    """The bar of ``histogram="preserve"`` (``analyze(..., progress=True)``): its stages (tables,
+    texton, judges) on one bar, redrawn while a stage runs, shown once the analysis has run for
+    PROGRESS_DELAY (a second); a stand-in that shows nothing without ``progress``."""
+    from ..core.progress import NamedSteps
+    from ..core.runtime import progress_bar
+
+    names = ["tables", "texton", "judges"]
+    return NamedSteps(progress_bar(progress, len(names), f"analyze: {names[0]}", "step"), names, "analyze",
+                      tick=progress)
+
+
+def translated_texton(u, transform: HistogramTransform, t, tz, mean, size, order, iterations, seed, periodic,
+                      color_correction, support, fit, steps) -> Texton:
+    """``histogram="preserve"`` by the translation process (``analysis.PRESERVE_FIT == "translation"``):
+    the Gaussian field's cross-covariances that the tables map onto the example's, inverted lag by lag
+    (``translation.translated_kernel``), one texton fitted to them (``fit``, the analysis's
+    ``texton_from_spectrum``), and it or its zero-sum variant kept by :func:`judged_texton` without
+    refits (docs/histogram.md, "The translation fit"). ``steps``: :func:`preserve_steps`."""
+    m, n, c = t.shape
+    grid = gauss_grid(transform.lut.shape[1])
+    g_hat, meta = translated_kernel(np.asarray(t, np.float64), np.asarray(tz, np.float64), transform.lut, grid,
+                                    size)
+    cov = half_plane_covariance(g_hat, n) if color_correction else None
+    g_hat = g_hat.astype(np.complex64)
+    steps.step()
+    texton = fit(g_hat, n, mean, size, order, iterations, seed, covariance=cov, support=support)
+    steps.step()
+    texton.metadata.update(periodic=bool(periodic))
+    if m * n <= REFINE_MAX_PIXELS:
+        # the plain texton or the zero-sum one (no power at frequency 0), judged as the refits
+        # are but without refits: both start from the translation's kernel
+        texton, transform, judges = judged_texton(u, texton, transform, t, g_hat, tz, n, mean, size, order,
+                                                  iterations, seed, cov, support, fit, rounds=0)
+        texton.metadata.update(periodic=bool(periodic), **judges)
+    else:
+        transform = transform.for_noise(u, noise_cdf(texton, NOISE_MNI, grid))
+    steps.step()
+    steps.close()
+    texton.metadata.update(histogram="preserve", histogram_mni=NOISE_MNI, histogram_fit="translation", **meta)
+    return replace(texton, histogram=transform)
 
 
 def texton_half_spectrum(texton: Texton, shape: tuple[int, int]) -> np.ndarray:

@@ -19,6 +19,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..model.noise_tables import at_mni
 from ..core.checks import check_int, check_positive, check_seed, check_shape
 from ..core.runtime import progress_bar, resolve_device
 from .canvas import Canvas, check_output, group_size, lanes_for, result_bytes
@@ -382,6 +383,7 @@ def synthesize_batch(
                    mentions=("shape", "mni"))
     params = draw_batch_params(len(textons), count, seed, scale, rotation, offset, texton_index)
     setups = [noise_setup(t, mni, period, cell_factor) for t in textons]
+    textons = [at_mni(t, mni) for t in textons]  # the histogram tables of this MNI's noise
     stack = TextonStack.of([s.coeffs for s in setups], lanes)
     windows, filtered = {}, []
     for k in range(count):

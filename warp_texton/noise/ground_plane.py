@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..model.noise_tables import at_mni
 from ..core.checks import check_positive, check_real, check_seed, check_shape
 from ..core.runtime import progress_bar, resolve_device
 from .canvas import Canvas, check_output, fill_pixels, lanes_for, result_bytes, strips
@@ -319,6 +320,7 @@ def render_plane(
         values = _tiling_plane(texton, camera, None, options, mni, seed, device).reshape(h, w, -1)
         return _tiling_result(values, output, device)
     setup = noise_setup(texton, mni)  # a bad texton or mni is refused before anything is allocated
+    texton = at_mni(texton, setup.mni)  # the histogram tables of this MNI's noise
     check_seed(seed)
     device = resolve_device(device)
     check_plane_cost(texton, setup, camera, None, options)
@@ -419,6 +421,7 @@ def plane_pixels(texton: Texton | TilingModel, camera: PlaneCamera, pixels, *, m
         return None
     seed = check_seed(seed)
     setup = noise_setup(texton, mni)
+    texton = at_mni(texton, setup.mni)  # the histogram tables of this MNI's noise
     device = resolve_device(device)
     p = noise_params(texton, setup, seed)
     h, w = camera.shape

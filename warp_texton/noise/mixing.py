@@ -26,6 +26,7 @@ from dataclasses import replace
 import numpy as np
 import scipy.fft as sfft
 
+from ..model.noise_tables import at_mni
 from ..core.checks import as_image, as_real_array, check_bool, check_mni, check_seed, check_shape
 from ..core.runtime import resolve_device
 from ..model.analysis import (check_analysis_cost, check_size_fits, texton_from_spectrum,
@@ -481,6 +482,7 @@ def synthesize_mixed(
     rho = _check_weights(weights, (h, w))
     seed = check_seed(seed)
     mni = check_mni(mni)
+    textons = [at_mni(t, mni) for t in textons]  # the histogram tables of this MNI's noise
     # one λ for every texton: that of the widest support (zero textons are allowed in a mix)
     widest = max(textons, key=lambda t: t.support_area)
     setup = noise_setup(widest, mni)

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..model.noise_tables import at_mni
 from ..core.checks import check_positive, check_seed
 from ..core.errors import TextonError
 from ..core.limits import check_memory
@@ -66,6 +67,7 @@ def value_slopes(model, pts: np.ndarray, noise: NoiseOptions | None, seed: int, 
     else:
         assert noise is not None
         setup = noise_setup(model, noise.mni, noise.period, noise.cell_factor)
+        model = at_mni(model, noise.mni)  # the histogram tables of this MNI's noise (and their slopes)
         if n:
             check_cell_range(pts[:, 0].min() - setup.hi[0], pts[:, 0].max() - setup.lo[0], setup.cell[0], "points")
             check_cell_range(pts[:, 1].min() - setup.hi[1], pts[:, 1].max() - setup.lo[1], setup.cell[1], "points")

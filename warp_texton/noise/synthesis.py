@@ -31,6 +31,7 @@ from .noise_options import NoiseOptions, check_period
 from .raster import (MAX_PIXEL_INDEX, RasterWindow, TextonStack, check_method, check_pixel_offset,  # noqa: F401 (0.2 names)
                      check_points, check_raster_cost, raster_cost, raster_placement, raster_reach, rasters,
                      resolve_method, window_block)
+from ..model.noise_tables import at_mni
 from ..model.texton import Texton
 from ..model.tiling import TilingModel
 from .tiling import MAX_TILING_REACH, tiling_at, tiling_pixels
@@ -310,6 +311,7 @@ def synthesize(
                                                    method=(method, "auto"), noise=(noise, None)))
     (h, w), first, origin, step = raster_placement(shape, scale, rotation, offset, pixel_offset)
     noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
+    texton = at_mni(texton, noise.mni)  # the histogram tables of this MNI's noise
     seed = noise.seed
     check_method(method)
     output = check_output(output)
@@ -464,6 +466,7 @@ def evaluate(
         per = check_tiling_period(period)
         return _tiling_output(tiling_at(texton, np.ascontiguousarray(pts), seed, device, per), output, device)
     noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
+    texton = at_mni(texton, noise.mni)  # the histogram tables of this MNI's noise
     output = check_output(output)
     setup = noise_setup(texton, noise.mni, noise.period, noise.cell_factor)
     if pts.size:

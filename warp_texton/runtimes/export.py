@@ -73,7 +73,11 @@ def export_shader(texton: Texton | TilingModel, lang: str, out_dir, *, mni: floa
         n)``; the files are listed in Notes. ``"osl"``: Open Shading
         Language shaders (Cycles, Arnold, RenderMan, V-Ray) with a colour
         output: surface noise on ``P`` and ``N`` (no UVs) and plane noise on
-        object coordinates or UVs, the texton embedded in the source.
+        object coordinates or UVs, the texton embedded in the source. Both
+        carry the exact gradient of the plane noise (GLSL: ``texton_noise_grad``,
+        ``tiling_noise_grad``; OSL: the plane shaders' ``GradientX``,
+        ``GradientY``, ``Height``, ``NormalMap`` and ``BumpNormal`` outputs;
+        docs/relief.md, "Shaders").
     out_dir : str or Path
         The folder to create; its parent must exist.
     mni, seed, period, poisson, cell_factor

@@ -77,7 +77,7 @@ from __future__ import annotations
 
 import warp as wp
 
-from ..core.checks import check_positive
+from ..core.checks import check_mni, check_positive
 from ..core.runtime import resolve_device
 from ..core.errors import TextonError
 from ..noise.filter_options import FilterOptions
@@ -94,6 +94,7 @@ from ..noise.engine import CELL_FACTOR, noise_params, noise_setup
 from ..noise.noise_options import NoiseOptions
 from ..surface.points import CELL_FACTOR as SURFACE_CELL_FACTOR
 from ..surface.points import surface_options, surface_params, surface_setup
+from ..model.noise_tables import at_mni
 from ..model.texton import Texton
 from ..model.tiling import TilingModel
 
@@ -343,7 +344,7 @@ def pack_surface(
     return struct
 
 
-def pack_colours(texton: Texton | TilingModel, *, device=None) -> ColourMap:
+def pack_colours(texton: Texton | TilingModel, *, mni: float | None = None, device=None) -> ColourMap:
     """The histogram transform of ``texton`` packed for ``colour_value`` and ``filtered_colour``.
 
     A texton analysed with ``analyze(..., histogram="preserve")`` evaluates
@@ -364,6 +365,12 @@ def pack_colours(texton: Texton | TilingModel, *, device=None) -> ColourMap:
         (:func:`pack_tiling`). Its struct holds no footprint shares (the
         package filters such a model by supersampling only), so only
         ``colour_value`` and ``colour_share`` apply to it.
+    mni : float, optional
+        The MNI of the noise the colours map (that of :func:`pack_plane` or
+        :func:`pack_surface`): a texton's tables are those of its noise at
+        that MNI (docs/histogram.md, "Tables for the MNI in use"). None: the
+        MNI the analysis fitted them for (``texton.metadata["histogram_mni"]``,
+        30). Tiling models have no MNI and ignore it.
     device : str, optional
         Where the struct's arrays live, as in :func:`pack_plane`.
 
@@ -405,10 +412,13 @@ def pack_colours(texton: Texton | TilingModel, *, device=None) -> ColourMap:
     >>> int(cmap.enabled), cmap.tables.shape
     (1, (33, 1, 1024))
     """
+    mni = None if mni is None else check_mni(mni)
     if isinstance(texton, TilingModel):
         return make_colour_map(texton, resolve_device(device), False)
     if not isinstance(texton, Texton):
         raise TextonError(f"texton must be a Texton or a TilingModel, got {type(texton).__name__}", param="texton")
+    if mni is not None:
+        texton = at_mni(texton, mni)
     return make_colour_map(texton, resolve_device(device), True)
 
 

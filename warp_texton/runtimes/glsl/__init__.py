@@ -32,7 +32,7 @@ from . import texton, tiling
 from .page import META_FILE, texture_data
 from .texton import FILTER_MODES
 
-__all__ = ["FILES", "FILTER_MODES", "META_FILE", "files", "library", "preview", "texture_data"]
+__all__ = ["FILES", "FILTER_MODES", "META_FILE", "files", "gradient_window", "library", "preview", "texture_data"]
 
 #: Every file a GLSL export of either kind may write.
 FILES = texton.FILES | tiling.FILES
@@ -65,6 +65,19 @@ def preview(model, shape, *, scale: float = 1.0, rotation: float = 0.0, offset=(
         seed = refuse_export_options(noise)
         return tiling.tiling_preview_html(model, shape, seed=seed, scale=scale, rotation=rotation, offset=offset)
     return texton.preview_html(model, shape, scale=scale, rotation=rotation, offset=offset, noise=noise)
+
+
+def gradient_window(model, shape, *, scale: float = 1.0, rotation: float = 0.0, offset=(0.0, 0.0),
+                    noise: NoiseOptions | None = None) -> dict:
+    """The data of a page that draws the derivatives per pixel of ``synthesize(model, shape, ...)``'s window
+    (those ``gradient(model, shape=shape, ...)`` gives) with the library's gradient functions: ``library``,
+    ``main``, ``textures``, ``uniforms``, ``width``, ``height``, ``channels``; its ``main()`` draws
+    ∂/∂column (``tn_output`` 0), ∂/∂row (1) or the value (2). Of ``noise`` a tiling model takes the seed
+    and refuses the other options."""
+    if isinstance(model, TilingModel):
+        seed = refuse_export_options(noise)
+        return tiling.gradient_window(model, shape, seed=seed, scale=scale, rotation=rotation, offset=offset)
+    return texton.gradient_window(model, shape, scale=scale, rotation=rotation, offset=offset, noise=noise)
 
 
 def library(model, *, noise: NoiseOptions | None = None, filter=None):

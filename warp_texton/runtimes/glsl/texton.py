@@ -15,6 +15,10 @@ the kernels' ``Pyramid`` holds them. A GL mip chain is not used: GL halves odd
 sides down, the package's pyramid pads them up (block means of zero-padded
 2 × 2 blocks), and its levels carry the same zero margin as level 0.
 
+Beside the plane noise the library has its exact gradient, ``texton_noise_grad(_at)``
+(``kernels/noise_gradient.py``'s ``texton_slope`` over the same impacts); :func:`gradient_window`
+is what a page draws a window's derivatives with (:data:`GRADIENT_MAIN`).
+
 A texton with a histogram transform adds ``texton_colours`` (its inverse-CDF
 tables, one row per variance share) and ``texton_shares`` (its footprint
 shares), which the library's ``texton_noise*`` functions use to return the
@@ -35,6 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...model.noise_tables import at_mni
 from ...core.checks import check_shape
 from ..._version import __version__
 from ...core.errors import TextonError
@@ -51,7 +56,7 @@ from ...surface.points import surface_params, surface_setup
 from ...model.texton import Texton
 from ..shared import template
 from .page import (JS_FILE, MAX_PREVIEW_SIDE, MAX_TEXTURE_SIZE, META_FILE, PREVIEW_FILE, export_files, glsl_float,
-                   preview_page)
+                   preview_page, texture_data)
 
 #: The orders the GLSL reproduces (all of the package's).
 ORDERS = (0, 1, 3, 5)
@@ -184,6 +189,7 @@ def glsl_noise(texton: Texton, *, mni: float = 30.0, seed: int = 0, period=None,
     noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
     mni, seed, period, poisson, cell_factor = noise.mni, noise.seed, noise.period, noise.poisson, noise.cell_factor
     setup = noise_setup(texton, mni, period, cell_factor)
+    texton = at_mni(texton, mni)  # the histogram tables of this MNI's noise
     rec = params_record(texton, setup, seed, poisson)
     pyr = pyramid_stack(texton, options.fade_energy)
     textures = {"texton_coeffs": _rgba(setup.coeffs), "texton_pyramid": _rgba(pyr.coeffs[:int(pyr.rows[:pyr.levels].sum())])}
@@ -351,3 +357,48 @@ def preview_html(texton: Texton, shape=(512, 512), *, mni: float = 30.0, seed: i
     if not all(math.isfinite(v) for v in origin):
         raise TextonError("offset must be finite", param="offset")
     return _page(g, (h, w), _placement(g, (h, w), scale, rotation, offset))
+
+
+#: A main() that draws a window's derivatives with the library's gradient (``texton_noise_grad_at``):
+#: ``tn_output`` 0 the derivatives per pixel along the columns, 1 along the rows (the texel gradient
+#: times the raster's steps, as ``gradient(texton, shape=...)`` gives them), 2 the value beside them.
+GRADIENT_MAIN = """
+uniform ivec2 tn_base;
+uniform vec2 tn_origin;
+uniform vec2 tn_step_x;
+uniform vec2 tn_step_y;
+uniform int tn_height;
+uniform int tn_output;  // 0: d/dcolumn, 1: d/drow, 2: the value
+out vec4 tn_colour;
+void main() {
+  int j = int(gl_FragCoord.x);
+  int i = tn_height - 1 - int(gl_FragCoord.y);
+  vec2 rel = tn_origin + tn_step_x * (float(j) + 0.5) + tn_step_y * (float(i) + 0.5);
+  vec3 dx, dy;
+  vec3 v = texton_noise_grad_at(tn_base, rel, dx, dy);
+  if (tn_output == 0) v = dx * tn_step_x.x + dy * tn_step_x.y;
+  else if (tn_output == 1) v = dx * tn_step_y.x + dy * tn_step_y.y;
+  tn_colour = vec4(v, 1.0);
+}
+"""
+
+
+def gradient_window(texton: Texton, shape, *, scale: float = 1.0, rotation: float = 0.0, offset=(0.0, 0.0),
+                    noise: NoiseOptions | None = None) -> dict:
+    """What a WebGL2 page needs to draw the derivatives of ``synthesize(texton, shape, ...)``'s window
+    with the library's ``texton_noise_grad_at`` (:data:`GRADIENT_MAIN`), as a preview page's data
+    holds it: ``library``, ``main``, ``textures`` (``texture_data``), ``uniforms`` (the window's
+    placement), ``width``, ``height``, ``channels``. Draw it with ``TextonNoise.program`` and set
+    ``tn_output`` (0: ∂/∂column, 1: ∂/∂row, 2: the value)."""
+    h, w = check_shape(shape)
+    if max(h, w) > MAX_PREVIEW_SIDE:
+        raise TextonError(f"a window is at most {MAX_PREVIEW_SIDE} pixels a side (the largest render target "
+                          f"WebGL2 guarantees), got {w} x {h}", param="shape")
+    noise = NoiseOptions() if noise is None else NoiseOptions.given(noise)
+    g = glsl_noise(texton, noise=noise)
+    setup = noise_setup(texton, noise.mni, noise.period, noise.cell_factor)
+    origin, step = raster_geometry((h, w), scale, rotation, offset)
+    raster_reach(origin, step, (h, w), setup)
+    return {"library": g.source, "main": GRADIENT_MAIN, "textures": texture_data(g.textures),
+            "uniforms": _placement(g, (h, w), scale, rotation, offset), "width": w, "height": h,
+            "channels": g.channels}

@@ -9,7 +9,10 @@
   weight, CGF Prop. 3's normalisation);
 * ``texton_plane.osl``: plane noise (``evaluate``: ``kernels/noise_raster.py``,
   ``evaluate_points``) at a texel-space point made from the UVs or from the
-  object-space x, y.
+  object-space x, y, with its exact gradient (``kernels/noise_gradient.py``
+  ``plane_slope``) and the relief made of it: the outputs ``GradientX``,
+  ``GradientY``, ``Height``, ``NormalMap`` and ``BumpNormal`` (:func:`relief_code`,
+  shared with tiling models' shader).
 
 Both draw the impacts of ``kernels/impacts.py`` in its order (the cell hash
 ``avalanche``/``cell_state``/``cell_state3``, Warp's PCG ``rand_pcg``,
@@ -44,6 +47,7 @@ from string import Template
 import numpy as np
 
 from ..._version import __version__
+from ...model.noise_tables import at_mni
 from ...core.checks import check_positive
 from ...core.runtime import init_warp
 from ...core.errors import TextonError
@@ -133,10 +137,12 @@ def coefficient_array(coeffs: np.ndarray, channels: int) -> str:
     return ",\n".join(lines)
 
 
-def colour_map_code(texton: Texton | TilingModel) -> str:
+def colour_map_code(texton: Texton | TilingModel, slopes: bool = False) -> str:
     """The statements that map the noise value g to the example's colours through the
     texton's histogram transform, as kernels/noise_colours.py ``colour_value`` does (the
-    unfiltered table, embedded; float32 arithmetic in the same order); none without one."""
+    unfiltered table, embedded; float32 arithmetic in the same order); none without one.
+    ``slopes``: the gradient (gx, gy) of g is mapped too, through the tables' slopes
+    (:func:`colour_slope_code`), before g is."""
     tr = texton.histogram
     if tr is None:
         return ""
@@ -154,7 +160,7 @@ def colour_map_code(texton: Texton | TilingModel) -> str:
     }};
     float mu[{c}] = {{{", ".join(f32(v) for v in mean)}}};
     float sd[{c}] = {{{", ".join(f32(v) for v in std)}}};
-    color z = 0;
+{colour_slope_code(texton) if slopes else ""}    color z = 0;
     for (int c = 0; c < {c}; c++) {{
         float gz = (g[c] - mu[c]) / sd[c];
         float pos = clamp((gz + {f32(GAUSS_RANGE)}) * {per}, 0.0, {float(k - 1):.1f});
@@ -164,6 +170,106 @@ def colour_map_code(texton: Texton | TilingModel) -> str:
     }}
 {mix}
 """
+
+
+def colour_slope_code(model: Texton | TilingModel) -> str:
+    """The statements that map the gradient (gx, gy) of the noise value g through the histogram
+    tables' derivative, d colour_r = Σ_c P[c, r] T_c'(g_c) / σ_c dg_c (T' the slope of the table's
+    linear segment, 0 where it clamps: ``noise.relief.table_slopes``), with the tables L, mu and sd
+    that :func:`colour_map_code` declares."""
+    tr = model.histogram
+    if tr is None:
+        return ""
+    c = model.channels
+    k = tr.lut.shape[1]
+    per = f32(np.float32(k - 1) / (np.float32(2.0) * np.float32(GAUSS_RANGE)))
+    mix = "\n".join(f"    {v}[{r}] = " + " + ".join(f"s{v}[{q}] * {f32(tr.matrix[q, r])}" for q in range(c)) + ";"
+                     for v in ("gx", "gy") for r in range(c))
+    return f"""    // the gradient through the tables: T'(g) / sd, 0 where a table clamps (docs/relief.md)
+    color sgx = 0;
+    color sgy = 0;
+    for (int c = 0; c < {c}; c++) {{
+        float pos = ((g[c] - mu[c]) / sd[c] + {f32(GAUSS_RANGE)}) * {per};
+        float t = 0.0;
+        if (pos >= 0.0 && pos <= {float(k - 1):.1f}) {{
+            int i0 = min(int(pos), {k - 2});
+            t = (L[c * {k} + i0 + 1] - L[c * {k} + i0]) * {per} / sd[c];
+        }}
+        sgx[c] = t * gx[c];
+        sgy[c] = t * gy[c];
+    }}
+{mix}
+"""
+
+
+#: The plane shaders' relief parameters and outputs (before the shared ones).
+RELIEF_PARAMETERS = """\
+    float strength = 1.0,  // the relief: the height of one standard deviation of Height, in texels
+    output color GradientX = 0,  // d Color / dx per channel, per texel along the noise's x (right)
+    output color GradientY = 0,  // d Color / dy per channel, per texel along the noise's y (down)
+    output float Height = 0,  // the luminance (channel mean) of Color: a Bump node's Height
+    output color NormalMap = color(0.5, 0.5, 1.0),  // tangent space, OpenGL (green up): a Normal Map node's Color
+    output normal BumpNormal = N,  // N bent by the relief (exact gradient): a BSDF's Normal
+"""
+
+
+def relief_code(model: Texton | TilingModel) -> dict[str, str]:
+    """The plane shaders' relief (docs/relief.md, "Shaders"): the placeholders RELIEF_FUNCTIONS (the
+    function ``relief``), RELIEF_PARAMETERS and RELIEF (its call, from the colour g and its gradient
+    gx, gy along the noise's x and y). The height is the luminance L (the channel mean, as
+    ``normal_map`` takes it) standardised by its model standard deviation (``covariance``) and
+    scaled by ``strength``, in texels: the normal map is ``normal_map``'s at one pixel a texel."""
+    c = model.channels
+    wts = np.full(c, 1.0 / c)
+    cov = np.atleast_2d(model.covariance())
+    std = float(np.sqrt(max(float(wts @ cov @ wts), 1e-30)))
+    luma = (lambda v: f"({v}[0] + {v}[1] + {v}[2]) / 3.0") if c == 3 else (lambda v: f"{v}[0]")
+    spread = (lambda v: v) if c == 3 else (lambda v: f"color({v}[0], {v}[0], {v}[0])")
+    functions = f"""// the relief outputs from the colour g and its gradient (gx, gy) along the noise's x and y (texels)
+void relief(color g, color gx, color gy, string coordinates, vector Vector, float strength,
+            output color GradientX, output color GradientY, output float Height, output color NormalMap,
+            output normal BumpNormal)
+{{
+    GradientX = {spread("gx")};
+    GradientY = {spread("gy")};
+    Height = {luma("g")};
+    // the height strength (L - mean) / sd in texels; its tangent-space normal (-dh/dx, dh/dy, 1): y down
+    float k = strength / {f32(std)};
+    float hx = k * {luma("gx")};
+    float hy = k * {luma("gy")};
+    vector nt = normalize(vector(-hx, hy, 1.0));
+    NormalMap = color(0.5 * nt[0] + 0.5, 0.5 * nt[1] + 0.5, 0.5 * nt[2] + 0.5);
+    BumpNormal = N;
+    if (coordinates == "input") {{
+        // the UVs' tangent frame from the ray differentials, dP = T_u du + T_v dv (as a Normal Map node's)
+        vector dV0 = Dx(Vector);
+        vector dV1 = Dy(Vector);
+        vector dP0 = Dx(P);
+        vector dP1 = Dy(P);
+        float det = dV0[0] * dV1[1] - dV0[1] * dV1[0];
+        if (det != 0.0) {{
+            vector tu = (dP0 * dV1[1] - dP1 * dV0[1]) / det;
+            vector tv = (dP1 * dV0[0] - dP0 * dV1[0]) / det;
+            vector t = tu - N * dot(N, tu);
+            if (length(t) > 0.0) {{
+                t = normalize(t);
+                vector b = cross(N, t);
+                if (dot(b, tv) < 0.0)
+                    b = -b;
+                BumpNormal = normalize(nt[0] * t + nt[1] * b + nt[2] * N);
+            }}
+        }}
+    }} else {{
+        // the height's gradient in the coordinates' space, (dh/dx, -dh/dy, 0) per unit (x = q[0] / texel,
+        // y = -q[1] / texel), is a covector: transformed as a normal; N less its tangential part
+        normal G = transform(coordinates, "common", normal(hx, -hy, 0.0));
+        BumpNormal = normalize(N - (G - N * dot(N, G)));
+    }}
+}}
+"""
+    call = ("    relief(g, gx, gy, coordinates, Vector, strength, GradientX, GradientY, Height, NormalMap, "
+            "BumpNormal);\n")
+    return {"RELIEF_FUNCTIONS": functions, "RELIEF_PARAMETERS": RELIEF_PARAMETERS, "RELIEF": call}
 
 
 def colour_of(channels: int) -> str:
@@ -273,14 +379,18 @@ def osl_files(
         "TEXEL_SIZE": f32(texel_size), "EXACT": "1" if poisson == "exact" else "0",
         "VALUE": "g[0]", "COLOUR": "g" if channels == 3 else "color(g[0], g[0], g[0])",
         "MAP": colour_map_code(texton),
+        "RELIEF_FUNCTIONS": "", "RELIEF": "",
     }
     cells = rec["cells"]
+    # the plane's tables are those of its noise at this MNI; the surface's those the analysis
+    # fitted, as surface_noise applies them (docs/histogram.md, "Tables for the MNI in use")
     plane = dict(common, **{
         "CW": f32(cells["size"][0]), "CH": f32(cells["size"][1]), "PX": str(int(cells["period"][0])),
         "PY": str(int(cells["period"][1])), "LO0": f32(rec["lo"][0]), "LO1": f32(rec["lo"][1]),
         "HI0": f32(rec["hi"][0]), "HI1": f32(rec["hi"][1]), "LAM": f32(rec["lam"]),
         "MEAN": colour_literal(rec["mean"]), "INTEGRAL": colour_literal(rec["integral"]),
         **{f"K_{k}": v for k, v in counts_constants(cells["mean_count"]).items()},
+        **relief_code(texton), "MAP": colour_map_code(at_mni(texton, mni), slopes=True),
     })
     surface = dict(common, **{
         "C": f32(sp.cells.size), "HALF": f32(sp.half), "R": f32(2.0 * sp.half),

@@ -18,6 +18,11 @@
 //   vec3 texton_surface_noise(vec3 y, vec3 n)                  y in texels (world / texel size), n unit
 //   vec3 texton_surface_noise_at(ivec3 cube, vec3 rel, vec3 n) y = cube * TN_CUBE + rel
 //   vec3 texton_impacts_at(ivec2 cell, vec2 rel)               (impact count, Σ d.x, Σ d.y): diagnostics
+// and, beside the value, its exact gradient (docs/relief.md): the value returned, its derivatives
+// per channel along x and y (texel units) in dx and dy; texton_gaussian_noise_grad(_at) for the
+// Gaussian values. Unfiltered plane noise only: the filtered and surface variants have none.
+//   vec3 texton_noise_grad(vec2 x, out vec3 dx, out vec3 dy)
+//   vec3 texton_noise_grad_at(ivec2 cell, vec2 rel, out vec3 dx, out vec3 dy)
 // Textures (RGBA32F, read with texelFetch, no filtering): texton_coeffs, the padded
 // coefficients; texton_pyramid, the MIP levels stacked in rows (the filtered variant).
 precision highp float;
@@ -201,9 +206,79 @@ vec3 tn_texton_value(highp sampler2D tex, int row0, int rows, int cols, vec2 y, 
     return acc;
 }
 
+float tn_bspline_slope(float t, int order) {
+    // dψ/dt of tn_bspline's ψ for order 3 or 5 (kernels/noise_gradient.py bspline_slope), odd in t
+    float a = abs(t);
+    float s = t < 0.0 ? -1.0 : 1.0;
+    if (order == 3) {
+        if (a < 1.0) return s * (-2.0 * a + 1.5 * a * a);
+        if (a < 2.0) {
+            float b = 2.0 - a;
+            return -s * 0.5 * b * b;
+        }
+        return 0.0;
+    }
+    float acc = 0.0;
+    vec4 c = vec4(1.0, -6.0, 15.0, -20.0);
+    for (int j = 0; j < 4; j++) {
+        float u = 3.0 - a - float(j);
+        if (u > 0.0) acc = acc + c[j] * u * u * u * u;
+    }
+    return -s * acc * (5.0 / 120.0);
+}
+
+vec3 tn_texton_slope(highp sampler2D tex, int row0, int rows, int cols, vec2 y, int order, out vec3 dx,
+                     out vec3 dy) {
+    // h(y) as tn_texton_value computes it, and its derivatives ∂h/∂x, ∂h/∂y in dx, dy
+    // (kernels/noise_gradient.py texton_slope): order 1 one-sided on its kinks (the slope of the
+    // cell its floor reads), order 0 zero
+    dx = vec3(0.0);
+    dy = vec3(0.0);
+    if (order == 1) {
+        float fx = floor(y.x);
+        float fy = floor(y.y);
+        float tx = y.x - fx;
+        float ty = y.y - fy;
+        int j = clamp(int(fx) + TN_PAD, 0, cols - 2);
+        int i = row0 + clamp(int(fy) + TN_PAD, 0, rows - 2);
+        vec3 a = tn_coeff(tex, i, j);
+        vec3 b = tn_coeff(tex, i, j + 1);
+        vec3 c = tn_coeff(tex, i + 1, j);
+        vec3 d = tn_coeff(tex, i + 1, j + 1);
+        vec3 top = a * (1.0 - tx) + b * tx;
+        vec3 bottom = c * (1.0 - tx) + d * tx;
+        dx = (b - a) * (1.0 - ty) + (d - c) * ty;
+        dy = bottom - top;
+        return top * (1.0 - ty) + bottom * ty;
+    }
+    if (order == 0) return tn_texton_value(tex, row0, rows, cols, y, order);
+    int half_ = (order + 1) / 2;
+    int j0 = int(floor(y.x)) - half_ + 1;
+    int i0 = int(floor(y.y)) - half_ + 1;
+    vec3 acc = vec3(0.0);
+    for (int a = 0; a <= order; a++) {
+        int i = i0 + a;
+        float wy = tn_bspline(y.y - float(i), order);
+        float sy = tn_bspline_slope(y.y - float(i), order);
+        int ii = row0 + clamp(i + TN_PAD, 0, rows - 1);
+        vec3 row = vec3(0.0);
+        vec3 drow = vec3(0.0);
+        for (int b = 0; b <= order; b++) {
+            int j = j0 + b;
+            vec3 c = tn_coeff(tex, ii, clamp(j + TN_PAD, 0, cols - 1));
+            row = row + c * tn_bspline(y.x - float(j), order);
+            drow = drow + c * tn_bspline_slope(y.x - float(j), order);
+        }
+        acc = acc + row * wy;
+        dx = dx + drow * wy;
+        dy = dy + row * sy;
+    }
+    return acc;
+}
+
 // ---------------------------------------------------------------- the plane's walk
-// What a walk adds at each impact: the texton (kind 0), the filtered lookups (kind 1), or
-// (1, d) for the diagnostics (kind 2).
+// What a walk adds at each impact: the texton (kind 0), the filtered lookups (kind 1),
+// (1, d) for the diagnostics (kind 2), or the texton with its gradient (kind 3, into gx, gy).
 struct TnLevel {
     int row0;
     int rows;
@@ -270,11 +345,11 @@ vec3 tn_add_lookups(TnLook c, vec2 d, vec3 acc) {
     return acc;
 }
 
-vec3 tn_walk(ivec2 base, vec2 rel, vec2 lo, vec2 hi, TnLook look) {
-    // Σ over the impacts q with x − q in [lo, hi], x = base · cell + rel. The kernels find the
-    // cells in float64; here the cell index is split off as an integer, so only rel (small) is
-    // rounded. The span is widened by 1e-4 of a cell against that rounding: an extra cell is
-    // harmless, the per-impact test below decides.
+vec3 tn_walk_slopes(ivec2 base, vec2 rel, vec2 lo, vec2 hi, TnLook look, inout vec3 gx, inout vec3 gy) {
+    // Σ over the impacts q with x − q in [lo, hi], x = base · cell + rel (kind 3 also adds the
+    // texton's gradient to gx, gy). The kernels find the cells in float64; here the cell index is
+    // split off as an integer, so only rel (small) is rounded. The span is widened by 1e-4 of a
+    // cell against that rounding: an extra cell is harmless, the per-impact test below decides.
     vec2 cs = vec2(TN_CELL_W, TN_CELL_H);
     ivec2 c0 = base + ivec2(floor((rel - hi) / cs - 1.0e-4));
     ivec2 c1 = base + ivec2(floor((rel - lo) / cs + 1.0e-4));
@@ -292,12 +367,25 @@ vec3 tn_walk(ivec2 base, vec2 rel, vec2 lo, vec2 hi, TnLook look) {
                     if (look.kind == 0) acc = acc + tn_texton_value(texton_coeffs, 0, TN_COEFF_ROWS,
                                                                     TN_COEFF_COLS, d, TN_ORDER);
                     else if (look.kind == 1) acc = tn_add_lookups(look, d, acc);
+                    else if (look.kind == 3) {
+                        vec3 sx, sy;
+                        acc = acc + tn_texton_slope(texton_coeffs, 0, TN_COEFF_ROWS, TN_COEFF_COLS, d, TN_ORDER,
+                                                    sx, sy);
+                        gx = gx + sx;
+                        gy = gy + sy;
+                    }
                     else acc = acc + vec3(1.0, d);
                 }
             }
         }
     }
     return acc;
+}
+
+vec3 tn_walk(ivec2 base, vec2 rel, vec2 lo, vec2 hi, TnLook look) {
+    vec3 gx = vec3(0.0);
+    vec3 gy = vec3(0.0);
+    return tn_walk_slopes(base, rel, lo, hi, look, gx, gy);
 }
 
 ivec2 tn_cell_of(vec2 x) {
@@ -314,6 +402,23 @@ vec3 texton_gaussian_noise_at(ivec2 cell, vec2 rel) {
 vec3 texton_gaussian_noise(vec2 x) {
     ivec2 cell = tn_cell_of(x);
     return texton_gaussian_noise_at(cell, x - vec2(cell) * vec2(TN_CELL_W, TN_CELL_H));
+}
+
+vec3 texton_gaussian_noise_grad_at(ivec2 cell, vec2 rel, out vec3 dx, out vec3 dy) {
+    // texton_gaussian_noise_at and its gradient Σ ∇h(x − q) / √λ over the same impacts
+    TnLook look;
+    look.kind = 3;
+    vec3 gx = vec3(0.0);
+    vec3 gy = vec3(0.0);
+    vec3 acc = tn_walk_slopes(cell, rel, TN_LO, TN_HI, look, gx, gy);
+    dx = gx / TN_SQRT_LAM;
+    dy = gy / TN_SQRT_LAM;
+    return TN_MEAN + (acc - TN_INTEGRAL * TN_LAM) / TN_SQRT_LAM;
+}
+
+vec3 texton_gaussian_noise_grad(vec2 x, out vec3 dx, out vec3 dy) {
+    ivec2 cell = tn_cell_of(x);
+    return texton_gaussian_noise_grad_at(cell, x - vec2(cell) * vec2(TN_CELL_W, TN_CELL_H), dx, dy);
 }
 
 vec3 texton_impacts_at(ivec2 cell, vec2 rel) {
@@ -511,6 +616,42 @@ vec3 texton_colour(vec3 v) {
     return tn_mapped(v, TN_SHARE_STEPS - 1, 0.0);
 }
 
+float tn_table_slope(int row, int c, float g) {
+    // the slope of tn_table's linear segment at g; 0 where the table clamps
+    float k = float(TN_LUT_SIZE - 1);
+    float per = k / (2.0 * TN_GAUSS_RANGE);
+    float pos = (g + TN_GAUSS_RANGE) * per;
+    if (!(pos >= 0.0 && pos <= k)) return 0.0;
+    int i0 = min(int(pos), TN_LUT_SIZE - 2);
+    return (texelFetch(texton_colours, ivec2(i0 + 1, row), 0)[c] - texelFetch(texton_colours, ivec2(i0, row), 0)[c])
+           * per;
+}
+
+vec3 texton_colour_grad(vec3 v, inout vec3 dx, inout vec3 dy) {
+    // texton_colour(v), and the gradient (dx, dy) of v mapped through the tables' derivative:
+    // ∂colour_r = Σ_c P[r][c] T_c'(g_c) / σ_c ∂v_c (docs/relief.md)
+    if (!TN_HISTOGRAM) return v;
+    int row = TN_SHARE_STEPS - 1;
+    vec3 sx = vec3(0.0);
+    vec3 sy = vec3(0.0);
+    for (int c = 0; c < TN_CHANNELS; c++) {
+        float t = tn_table_slope(row, c, (v[c] - TN_MEAN[c]) / TN_NOISE_STD[c]) / TN_NOISE_STD[c];
+        sx[c] = t * dx[c];
+        sy[c] = t * dy[c];
+    }
+    for (int r = 0; r < TN_CHANNELS; r++) {
+        float ax = 0.0;
+        float ay = 0.0;
+        for (int c = 0; c < TN_CHANNELS; c++) {
+            ax += sx[c] * TN_COLOUR_MATRIX[r][c];
+            ay += sy[c] * TN_COLOUR_MATRIX[r][c];
+        }
+        dx[r] = ax;
+        dy[r] = ay;
+    }
+    return tn_mapped(v, row, 0.0);
+}
+
 vec3 texton_colour_share(vec3 v, float share) {
     // the colour of a value that kept the share `share` of the noise's variance
     if (!TN_HISTOGRAM) return v;
@@ -580,6 +721,17 @@ vec3 texton_noise_at(ivec2 cell, vec2 rel) {
 
 vec3 texton_noise(vec2 x) {
     return texton_colour(texton_gaussian_noise(x));
+}
+
+vec3 texton_noise_grad_at(ivec2 cell, vec2 rel, out vec3 dx, out vec3 dy) {
+    // texton_noise_at, and its gradient: the derivatives per channel along x (dx) and y (dy)
+    vec3 v = texton_gaussian_noise_grad_at(cell, rel, dx, dy);
+    return texton_colour_grad(v, dx, dy);
+}
+
+vec3 texton_noise_grad(vec2 x, out vec3 dx, out vec3 dy) {
+    ivec2 cell = tn_cell_of(x);
+    return texton_noise_grad_at(cell, x - vec2(cell) * vec2(TN_CELL_W, TN_CELL_H), dx, dy);
 }
 
 vec3 texton_noise_filtered_at(ivec2 cell, vec2 rel, vec2 dx, vec2 dy) {

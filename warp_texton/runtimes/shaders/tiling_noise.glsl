@@ -19,6 +19,13 @@
 //   vec3 tiling_noise_at(ivec2 anchor, vec2 frac, vec2 rel)   the same, for a model without a lattice
 //   vec3 tiling_blend(vec2 x), tiling_blend_at(...)             the blend before the histogram tables
 //   vec3 tiling_colour(vec3 v)                                  the tables applied to a blended value
+// and, beside each, its exact gradient (docs/relief.md): the value returned, its derivatives per
+// channel along x and y (noise units) in dx and dy (the blend with its weights' derivative, the
+// bilinear example one-sided on its texel rows and columns, the tables through their slope):
+//   vec3 tiling_noise_grad(vec2 x, out vec3 dx, out vec3 dy)
+//   vec3 tiling_noise_grad_at(ivec2 anchor, ivec2 anchor_mod, vec2 frac, vec2 rel, out vec3 dx, out vec3 dy)
+//   vec3 tiling_noise_grad_at(ivec2 anchor, vec2 frac, vec2 rel, out vec3 dx, out vec3 dy)
+//   vec3 tiling_blend_grad(vec2 x, ...), tiling_blend_grad_at(...)   before the tables
 // where anchor = (a, b) is a lattice vertex, p(a, b) = side (a + b/2, b sqrt(3)/2) its position,
 // P(a, b) = floor(p(a, b) + 1/2) that position rounded to whole texels (computed in float64 by
 // the host: warp_texton.runtimes.glsl.tiling.tiling_anchor), frac = p(a, b) - P(a, b) and
@@ -243,4 +250,202 @@ vec3 tiling_noise_at(ivec2 anchor, vec2 frac, vec2 rel) {
 
 vec3 tiling_noise(vec2 x) {
     return tiling_colour(tiling_blend(x));
+}
+
+// ---------------------------------------------------------------- gradients (kernels/noise_gradient.py)
+vec4 tl_fetch(int which, int i, int j) {
+    return which == 0 ? tl_texel(i, j) : tl_mean_texel(i, j);
+}
+
+vec4 tl_bilinear_slope(int which, vec2 q, out vec4 gx, out vec4 gy) {
+    // tl_bilinear (which 0) or tl_bilinear_mean (1) at q, and its derivatives: on a texel row or
+    // column the slope of the cell to the right / below (one-sided, where the value's floor puts it);
+    // past a clamped edge, where the image is constant, 0
+    float fx = q.x - 0.5;
+    float fy = q.y - 0.5;
+    float x0 = floor(fx);
+    float y0 = floor(fy);
+    float tx = fx - x0;
+    float ty = fy - y0;
+    int j0 = int(x0);
+    int i0 = int(y0);
+    float sx = tl_texel_address(j0, TL_COLS, TL_WRAP.x) == tl_texel_address(j0 + 1, TL_COLS, TL_WRAP.x) ? 0.0 : 1.0;
+    float sy = tl_texel_address(i0, TL_ROWS, TL_WRAP.y) == tl_texel_address(i0 + 1, TL_ROWS, TL_WRAP.y) ? 0.0 : 1.0;
+    vec4 a = tl_fetch(which, i0, j0);
+    vec4 b = tl_fetch(which, i0, j0 + 1);
+    vec4 c = tl_fetch(which, i0 + 1, j0);
+    vec4 d = tl_fetch(which, i0 + 1, j0 + 1);
+    vec4 top = a * (1.0 - tx) + b * tx;
+    vec4 bottom = c * (1.0 - tx) + d * tx;
+    gx = ((b - a) * (1.0 - ty) + (d - c) * ty) * sx;
+    gy = (bottom - top) * sy;
+    if (tx == 0.0 && ty == 0.0) return a;
+    return top * (1.0 - ty) + bottom * ty;
+}
+
+vec2 tl_weight_slope(float k, float w, vec2 dw, vec4 g, vec4 gm) {
+    // ∇k of k = w^s exp(β (g − g_max)): k (s ∇w / w + β (∇g − ∇g_max)); 0 for a dropped weight
+    if (k <= 0.0) return vec2(0.0);
+    float s = float(1 << TL_SQUARINGS);
+    return k * (dw * (s / w) + TL_GUIDE_WEIGHT * (g.yz - gm.yz));
+}
+
+vec3 tiling_blend_grad_at(ivec2 anchor, ivec2 anchor_mod, vec2 frac, vec2 rel, out vec3 dx, out vec3 dy) {
+    // tiling_blend_at and its gradient: the quotient R = Σ k_i r_i / N (N = Σ k_i, or √(Σ k_i²) for
+    // the variance-preserving blend) with r_i = e_i − mean (or − m_i, plus the lattice mean's
+    // M = Σ k_i m_i / Σ k_i), differentiated with its weights (kernels/noise_gradient.py tiling_slope)
+    vec2 d = rel - frac;
+    float qx = d.x / TL_SIDE;
+    float qy = d.y / TL_SIDE;
+    float sy = qy / TL_SQRT3_2;
+    float sx = qx - sy * 0.5;
+    float fa = floor(sx);
+    float fb = floor(sy);
+    float u = sx - fa;
+    float v = sy - fb;
+    int a = anchor.x + int(fa);
+    int b = anchor.y + int(fb);
+    // d(u, v)/d(x, y) of the skewed coordinates
+    float hy = TL_SIDE * TL_SQRT3_2;
+    vec2 du = vec2(1.0 / TL_SIDE, -0.5 / hy);
+    vec2 dv = vec2(0.0, 1.0 / hy);
+    int a0 = a, b0 = b;
+    float w0 = 1.0 - u - v, w1 = u, w2 = v;
+    vec2 dw0 = -du - dv, dw1 = du, dw2 = dv;
+    if (u + v > 1.0) {
+        a0 = a + 1;
+        b0 = b + 1;
+        w0 = u + v - 1.0;
+        w1 = 1.0 - v;
+        w2 = 1.0 - u;
+        dw0 = du + dv;
+        dw1 = -dv;
+        dw2 = -du;
+    }
+    vec2 q0 = tl_patch_point(anchor, anchor_mod, frac, rel, a0, b0);
+    vec2 q1 = tl_patch_point(anchor, anchor_mod, frac, rel, a + 1, b);
+    vec2 q2 = tl_patch_point(anchor, anchor_mod, frac, rel, a, b + 1);
+    // the guide (A) with its gradient, as (value, ∂x, ∂y, -)
+    vec4 g0 = vec4(0.0), g1 = vec4(0.0), g2 = vec4(0.0);
+    vec4 ex[3], ey[3], e[3];
+    e[0] = tl_bilinear_slope(0, q0, ex[0], ey[0]);
+    e[1] = tl_bilinear_slope(0, q1, ex[1], ey[1]);
+    e[2] = tl_bilinear_slope(0, q2, ex[2], ey[2]);
+    if (TL_GUIDE_WEIGHT != 0.0) {
+        g0 = vec4(e[0].a, ex[0].a, ey[0].a, 0.0);
+        g1 = vec4(e[1].a, ex[1].a, ey[1].a, 0.0);
+        g2 = vec4(e[2].a, ex[2].a, ey[2].a, 0.0);
+    }
+    // the largest guide value and its gradient (the first of equals: ties are a null set)
+    vec4 gm = g0;
+    if (g1.x > gm.x) gm = g1;
+    if (g2.x > gm.x) gm = g2;
+    float k0 = tl_sharpened(w0, g0.x - gm.x);
+    float k1 = tl_sharpened(w1, g1.x - gm.x);
+    float k2 = tl_sharpened(w2, g2.x - gm.x);
+    float km = max(k0, max(k1, k2)) * TL_CUTOFF;
+    if (k0 < km) k0 = 0.0;
+    if (k1 < km) k1 = 0.0;
+    if (k2 < km) k2 = 0.0;
+    vec2 dk0 = tl_weight_slope(k0, w0, dw0, g0, gm);
+    vec2 dk1 = tl_weight_slope(k1, w1, dw1, g1, gm);
+    vec2 dk2 = tl_weight_slope(k2, w2, dw2, g2, gm);
+    float total = k0 + k1 + k2;
+    vec2 dtotal = dk0 + dk1 + dk2;
+    // the value, as tiling_blend_at computes it (normalised weights)
+    float n0 = k0 / total, n1 = k1 / total, n2 = k2 / total;
+    vec3 acc = vec3(0.0);
+    vec3 macc = vec3(0.0);
+    if (n0 > 0.0) tl_patch_term(q0, n0, acc, macc);
+    if (n1 > 0.0) tl_patch_term(q1, n1, acc, macc);
+    if (n2 > 0.0) tl_patch_term(q2, n2, acc, macc);
+    if (TL_VARIANCE_PRESERVING) acc = acc / sqrt(n0 * n0 + n1 * n1 + n2 * n2);
+    // the residuals r_i and their gradients, the lattice mean's m_i
+    vec3 r[3], rx[3], ry[3], m[3], mx[3], my[3];
+    vec2 qs[3] = vec2[3](q0, q1, q2);
+    for (int i = 0; i < 3; i++) {
+        m[i] = TL_MEAN;
+        mx[i] = vec3(0.0);
+        my[i] = vec3(0.0);
+        if (TL_RANK != 0) {
+            vec4 gx, gy;
+            m[i] = tl_bilinear_slope(1, qs[i], gx, gy).rgb;
+            mx[i] = gx.rgb;
+            my[i] = gy.rgb;
+        }
+        r[i] = e[i].rgb - m[i];
+        rx[i] = ex[i].rgb - mx[i];
+        ry[i] = ey[i].rgb - my[i];
+    }
+    float norm = total;
+    vec2 dnorm = dtotal;
+    if (TL_VARIANCE_PRESERVING) {
+        norm = sqrt(k0 * k0 + k1 * k1 + k2 * k2);
+        dnorm = (dk0 * k0 + dk1 * k1 + dk2 * k2) / norm;
+    }
+    vec3 R = (r[0] * k0 + r[1] * k1 + r[2] * k2) / norm;
+    dx = (r[0] * dk0.x + r[1] * dk1.x + r[2] * dk2.x + rx[0] * k0 + rx[1] * k1 + rx[2] * k2 - R * dnorm.x) / norm;
+    dy = (r[0] * dk0.y + r[1] * dk1.y + r[2] * dk2.y + ry[0] * k0 + ry[1] * k1 + ry[2] * k2 - R * dnorm.y) / norm;
+    if (TL_RANK == 0) return TL_MEAN + acc;
+    vec3 M = (m[0] * k0 + m[1] * k1 + m[2] * k2) / total;
+    dx += (m[0] * dk0.x + m[1] * dk1.x + m[2] * dk2.x + mx[0] * k0 + mx[1] * k1 + mx[2] * k2 - M * dtotal.x) / total;
+    dy += (m[0] * dk0.y + m[1] * dk1.y + m[2] * dk2.y + my[0] * k0 + my[1] * k1 + my[2] * k2 - M * dtotal.y) / total;
+    return macc + acc;
+}
+
+float tl_table_slope(int c, float g) {
+    // the slope of tl_table's linear segment at g; 0 where the table clamps
+    float k = float(TL_LUT_SIZE - 1);
+    float per = k / (2.0 * TL_GAUSS_RANGE);
+    float pos = (g + TL_GAUSS_RANGE) * per;
+    if (!(pos >= 0.0 && pos <= k)) return 0.0;
+    int i0 = min(int(pos), TL_LUT_SIZE - 2);
+    return (texelFetch(tiling_colours, ivec2(i0 + 1, 0), 0)[c] - texelFetch(tiling_colours, ivec2(i0, 0), 0)[c]) * per;
+}
+
+vec3 tiling_colour_grad(vec3 v, inout vec3 dx, inout vec3 dy) {
+    // tiling_colour(v), and the gradient (dx, dy) of v through the tables' derivative:
+    // ∂colour_r = Σ_c P[r][c] T_c'(g_c) / σ_c ∂v_c
+    if (!TL_HISTOGRAM) return v;
+    vec3 sx = vec3(0.0);
+    vec3 sy = vec3(0.0);
+    for (int c = 0; c < TL_CHANNELS; c++) {
+        float t = tl_table_slope(c, (v[c] - TL_NOISE_MEAN[c]) / TL_NOISE_STD[c]) / TL_NOISE_STD[c];
+        sx[c] = t * dx[c];
+        sy[c] = t * dy[c];
+    }
+    for (int r = 0; r < TL_CHANNELS; r++) {
+        float ax = 0.0;
+        float ay = 0.0;
+        for (int c = 0; c < TL_CHANNELS; c++) {
+            ax += sx[c] * TL_COLOUR_MATRIX[r][c];
+            ay += sy[c] * TL_COLOUR_MATRIX[r][c];
+        }
+        dx[r] = ax;
+        dy[r] = ay;
+    }
+    return tiling_colour(v);
+}
+
+vec3 tiling_blend_grad_at(ivec2 anchor, vec2 frac, vec2 rel, out vec3 dx, out vec3 dy) {
+    return tiling_blend_grad_at(anchor, ivec2(0), frac, rel, dx, dy);
+}
+
+vec3 tiling_blend_grad(vec2 x, out vec3 dx, out vec3 dy) {
+    return tiling_blend_grad_at(ivec2(0), ivec2(0), vec2(0.0), x, dx, dy);
+}
+
+vec3 tiling_noise_grad_at(ivec2 anchor, ivec2 anchor_mod, vec2 frac, vec2 rel, out vec3 dx, out vec3 dy) {
+    vec3 v = tiling_blend_grad_at(anchor, anchor_mod, frac, rel, dx, dy);
+    return tiling_colour_grad(v, dx, dy);
+}
+
+vec3 tiling_noise_grad_at(ivec2 anchor, vec2 frac, vec2 rel, out vec3 dx, out vec3 dy) {
+    vec3 v = tiling_blend_grad_at(anchor, frac, rel, dx, dy);
+    return tiling_colour_grad(v, dx, dy);
+}
+
+vec3 tiling_noise_grad(vec2 x, out vec3 dx, out vec3 dy) {
+    vec3 v = tiling_blend_grad(x, dx, dy);
+    return tiling_colour_grad(v, dx, dy);
 }
