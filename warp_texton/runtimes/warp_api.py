@@ -127,8 +127,11 @@ def _with_coeffs(three, one, coeffs, channels: int, device):
     return struct
 
 
-def _plane_settings(texton, noise: NoiseOptions):
-    """(setup, NoiseParams) of the plane noise, checked as ``evaluate`` checks them."""
+def _plane_settings(texton, channels, noise: NoiseOptions | None, **options):
+    """(setup, NoiseParams) of the plane noise, its keywords (``options``: mni, seed, period, poisson,
+    cell_factor) and ``channels`` checked as ``evaluate`` checks them: the packers' one check."""
+    noise = NoiseOptions.given(noise, **options)
+    _check_channels(texton, channels)
     setup = noise_setup(texton, noise.mni, noise.period, noise.cell_factor)
     return setup, noise_params(texton, setup, noise.seed, noise.poisson)
 
@@ -191,9 +194,8 @@ def pack_plane(
     >>> pack_plane(texton, device="cpu", channels=1).coeffs.dtype.__name__
     'float32'
     """
-    noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
-    _check_channels(texton, channels)
-    setup, params = _plane_settings(texton, noise)
+    setup, params = _plane_settings(texton, channels, noise, mni=mni, seed=seed, period=period, poisson=poisson,
+                                    cell_factor=cell_factor)
     device = resolve_device(device)
     struct: PlaneNoise | PlaneNoise1 = _with_coeffs(PlaneNoise, PlaneNoise1, setup.coeffs, channels, device)
     struct.params = params
@@ -260,9 +262,8 @@ def pack_filtered(
         raise TextonError(f"filter must be a footprint filter, mip or anisotropic, for filtered_value; got "
                           f"{options.kind!r} (use pack_plane and plane_value for the unfiltered noise)",
                           param="filter")
-    noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
-    _check_channels(texton, channels)
-    _, params = _plane_settings(texton, noise)
+    _, params = _plane_settings(texton, channels, noise, mni=mni, seed=seed, period=period, poisson=poisson,
+                                cell_factor=cell_factor)
     device = resolve_device(device)
     struct: FilteredNoise | FilteredNoise1 = FilteredNoise1() if channels == 1 else FilteredNoise()
     struct.params = params
