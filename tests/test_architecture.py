@@ -41,9 +41,9 @@ ROOM_LAYERS = {
                 "mesh_files": 4, "render": 4, "bake": 5, "jobs": 6, "relief": 5},
     "runtimes": {"warp_api": 0, "shared": 0, "glsl.page": 1, "glsl.texton": 2, "glsl.tiling": 2, "glsl": 3,
                  "osl.texton": 1, "osl.tiling": 2, "osl": 3, "languages": 4, "export": 5},
-    "view": {"static": 0, "queries": 0, "cache": 0, "images": 0, "webgl": 0, "inputs": 1, "commands": 2,
+    "view": {"static": 0, "queries": 0, "cache": 0, "pictures": 0, "webgl": 0, "inputs": 1, "commands": 2,
              "viewer": 3, "server": 4},
-    "cli": {"options": 0, "info": 1, "images": 2, "surface": 2, "shader": 2, "view": 2, "parser": 3},
+    "cli": {"options": 0, "info": 1, "image_commands": 2, "surface": 2, "shader": 2, "view": 2, "parser": 3},
 }
 #: Package data with an ``__init__`` (no code): outside the rooms' order.
 DATA_PACKAGES = {"data", "view.static"}

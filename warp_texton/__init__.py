@@ -176,14 +176,14 @@ MOVED_MODULES: dict[str, str | tuple[str, ...]] = {
     "warp_texton.view_core": "warp_texton.view.viewer",
     "warp_texton.view_query": "warp_texton.view.queries",
     "warp_texton.view_cache": "warp_texton.view.cache",
-    "warp_texton.view_images": "warp_texton.view.images",
+    "warp_texton.view_images": "warp_texton.view.pictures",
     "warp_texton.view_inputs": "warp_texton.view.inputs",
     "warp_texton.view_commands": "warp_texton.view.commands",
     "warp_texton.view_webgl": "warp_texton.view.webgl",
     "warp_texton.viewer": "warp_texton.view.static",
     "warp_texton.cli": "warp_texton.cli.parser",
     "warp_texton.cli_options": "warp_texton.cli.options",
-    "warp_texton.cli_images": "warp_texton.cli.images",
+    "warp_texton.cli_images": "warp_texton.cli.image_commands",
     "warp_texton.cli_surface": "warp_texton.cli.surface",
     "warp_texton.cli_shader": "warp_texton.cli.shader",
     "warp_texton.cli_view": "warp_texton.cli.view",
@@ -204,6 +204,9 @@ MOVED_MODULES: dict[str, str | tuple[str, ...]] = {
     # 0.3's tiling shaders (GLSL and OSL in one module): each language's port now, and what both share
     "warp_texton.runtimes.tiling_shaders": ("warp_texton.runtimes.glsl.tiling", "warp_texton.runtimes.osl.tiling",
                                             "warp_texton.runtimes.shared"),
+    # 0.3's three images.py, two of them named now for what they hold (files.images, image files, stays)
+    "warp_texton.view.images": "warp_texton.view.pictures",
+    "warp_texton.cli.images": "warp_texton.cli.image_commands",
 }
 
 
