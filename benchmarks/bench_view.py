@@ -41,7 +41,7 @@ from common import machine_line, make_texture, report_header, run_main  # noqa: 
 
 from warp_texton import synthesize, write_image  # noqa: E402
 from warp_texton.view.server import serve  # noqa: E402
-from warp_texton.view.images import PNG_LEVEL, png_bytes, to_8bit  # noqa: E402
+from warp_texton.view.pictures import PNG_LEVEL, png_bytes, to_8bit  # noqa: E402
 
 VIEW = (1280, 720)
 TILE = 256

@@ -2,6 +2,12 @@
 
 Shipped as ``warp_texton.kernels``. Host code never holds kernel source, and
 kernels never read files or parse options (see docs/architecture.md).
+
+Generic over channels where Warp allows it: ``@wp.func``s take ``Any`` texel types, and a native
+snippet's C++ is written once for one and three channels (``native_simd.for_channels``). A
+``wp.struct`` cannot be generic over its arrays' element type, so each struct of three-channel arrays
+has a one-channel twin (``TextonLookup1``, ``SlabLookup1``, ``PyramidLookup1``, ``PlaneNoise1``,
+``FilteredNoise1``, ``SurfaceNoise1``) and the functions that take them are overloads of one name.
 """
 
 

@@ -114,22 +114,28 @@ def draw_count(state: wp.uint32, mean_count: float, exact_poisson: int):
 
 
 @wp.func
-def next_impact(state: wp.uint32):
-    # the next impact's position in its plane cell, in cell units [0, 1)²: (u, advanced state)
+def uniform(state: wp.uint32):
+    # one uniform in [0, 1) of the stream (Warp's PCG, wp.randf): (u, advanced state). Every uniform of the
+    # impact stream and of the tiling's vertex draw (kernels/tiling_draw.py) is drawn here.
     s = state
-    ux = wp.randf(s)
-    uy = wp.randf(s)
+    u = wp.randf(s)
+    return u, s
+
+
+@wp.func
+def next_impact(state: wp.uint32):
+    # the next impact's position in its plane cell, in cell units [0, 1)²: (u, advanced state), x first
+    ux, s = uniform(state)
+    uy, s = uniform(s)
     return wp.vec2(ux, uy), s
 
 
 @wp.func
 def next_impact3(state: wp.uint32):
-    # the next impact's position in its cube, in cell units [0, 1)³: (u, advanced state)
-    s = state
-    ux = wp.randf(s)
-    uy = wp.randf(s)
-    uz = wp.randf(s)
-    return wp.vec3(ux, uy, uz), s
+    # the next impact's position in its cube, in cell units [0, 1)³: (u, advanced state), x, y, then z
+    u, s = next_impact(state)
+    uz, s = uniform(s)
+    return wp.vec3(u[0], u[1], uz), s
 
 
 @wp.func

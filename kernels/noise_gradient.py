@@ -20,12 +20,14 @@ so the host maps histogram tables through T'(g) ∇g with the g the value kernel
 Driven by: ``warp_texton.noise.relief``.
 """
 
+from typing import Any
+
 import warp as wp
 
 from .impacts import cell_walk
-from .noise_raster import PAD, NoiseParams, bspline_weight
-from .noise_tiling import Lattice, Tiling, lattice_triangle, lattice_vertex, sharpened
-from .tiling_draw import CUTOFF, texel_address
+from .noise_raster import PAD, NoiseParams, TextonLookup, bspline_weight
+from .noise_tiling import Lattice, Tiling, cut_weights, lattice_point, lattice_triangle, sharpened, triangle_weights
+from .tiling_draw import texel_address
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
 
@@ -99,17 +101,8 @@ def texton_slope(coeffs: wp.array2d(dtype=wp.vec3), row0: int, rows: int, y: wp.
     return wp.matrix_from_rows(val, gx, gy)
 
 
-@wp.struct
-class SlopeLookup:
-    # one padded texton (noise_raster.TextonLookup's fields)
-    coeffs: wp.array2d(dtype=wp.vec3)
-    row0: int
-    rows: int
-    order: int
-
-
 @wp.func
-def add_slope(t: SlopeLookup, d: wp.vec2, acc: wp.mat33):
+def add_slope(t: TextonLookup, d: wp.vec2, acc: wp.mat33):
     return acc + texton_slope(t.coeffs, t.row0, t.rows, d, t.order)
 
 
@@ -125,7 +118,7 @@ sum_slopes = cell_walk(add_slope, "sum_slopes", zero=zero_slope)
 @wp.func
 def plane_slope(p: NoiseParams, coeffs: wp.array2d(dtype=wp.vec3), x: wp.vec2d):
     """(g(x), ∂g/∂x, ∂g/∂y) of texton noise as the rows of a mat33 (noise_raster.plane_value's value)."""
-    look = SlopeLookup()
+    look = TextonLookup()
     look.coeffs = coeffs
     look.row0 = 0
     look.rows = coeffs.shape[0]
@@ -145,9 +138,9 @@ def texton_gradient_points(p: NoiseParams, coeffs: wp.array2d(dtype=wp.vec3), po
 
 # ------------------------------------------------------------------ tiling models
 @wp.func
-def bilinear_slope(img: wp.array2d(dtype=wp.vec3), q: wp.vec2, wrap: wp.vec2i):
-    # (value, ∂/∂x, ∂/∂y) of noise_tiling.bilinear3 at q: its taps and addressing; on a texel row or column
-    # the slope of the cell to the right / below (one-sided, where the value's floor puts it)
+def bilinear_slope(img: wp.array2d(dtype=Any), q: wp.vec2, wrap: wp.vec2i):
+    # (value, ∂/∂x, ∂/∂y) of noise_tiling.bilinear at q, for either texel type: its taps and addressing; on a
+    # texel row or column the slope of the cell to the right / below (one-sided, where the value's floor puts it)
     rows = img.shape[0]
     cols = img.shape[1]
     fx = q[0] - 0.5
@@ -176,44 +169,21 @@ def bilinear_slope(img: wp.array2d(dtype=wp.vec3), q: wp.vec2, wrap: wp.vec2i):
     val = top * (1.0 - ty) + bottom * ty
     if tx == 0.0 and ty == 0.0:
         val = a
-    return wp.matrix_from_rows(val, ((b - a) * (1.0 - ty) + (d - c) * ty) * sx, (bottom - top) * sy)
+    return val, ((b - a) * (1.0 - ty) + (d - c) * ty) * sx, (bottom - top) * sy
+
+
+@wp.func
+def example_slope(img: wp.array2d(dtype=wp.vec3), q: wp.vec2, wrap: wp.vec2i):
+    # bilinear_slope of the example (or the mean image) as the rows of a mat33
+    val, dx, dy = bilinear_slope(img, q, wrap)
+    return wp.matrix_from_rows(val, dx, dy)
 
 
 @wp.func
 def guide_slope(img: wp.array2d(dtype=float), q: wp.vec2, wrap: wp.vec2i):
-    # (value, ∂/∂x, ∂/∂y) of noise_tiling.bilinear1 at q
-    rows = img.shape[0]
-    cols = img.shape[1]
-    fx = q[0] - 0.5
-    fy = q[1] - 0.5
-    x0 = wp.floor(fx)
-    y0 = wp.floor(fy)
-    tx = fx - x0
-    ty = fy - y0
-    j0 = texel_address(int(x0), cols, wrap[0])
-    i0 = texel_address(int(y0), rows, wrap[1])
-    j1 = texel_address(int(x0) + 1, cols, wrap[0])
-    i1 = texel_address(int(y0) + 1, rows, wrap[1])
-    sx = 1.0
-    sy = 1.0
-    if j0 == j1:
-        sx = 0.0
-    if i0 == i1:
-        sy = 0.0
-    a = img[i0, j0]
-    b = img[i0, j1]
-    c = img[i1, j0]
-    d = img[i1, j1]
-    top = a * (1.0 - tx) + b * tx
-    bottom = c * (1.0 - tx) + d * tx
-    return wp.vec3(top * (1.0 - ty) + bottom * ty, ((b - a) * (1.0 - ty) + (d - c) * ty) * sx, (bottom - top) * sy)
-
-
-@wp.func
-def patch_at(t: Tiling, lat: Lattice, x: wp.vec2d, a: int, b: int):
-    # where vertex (a, b)'s patch reads the example for x (noise_tiling.patch_point, through lattice_vertex)
-    c, p = lattice_vertex(t, lat, a, b)
-    return wp.vec2(float(c[0]) + float(x[0] - p[0]), float(c[1]) + float(x[1] - p[1]))
+    # bilinear_slope of the guide as (value, ∂/∂x, ∂/∂y)
+    val, dx, dy = bilinear_slope(img, q, wrap)
+    return wp.vec3(val, dx, dy)
 
 
 @wp.func
@@ -228,22 +198,18 @@ def tiling_slope(t: Tiling, lat: Lattice, x: wp.vec2d):
         hy = t.side * 0.8660254037844386
     du = wp.vec2(1.0 / hx, -0.5 / hy)
     dv = wp.vec2(0.0, 1.0 / hy)
-    a0 = a
-    b0 = b
-    w = wp.vec3(1.0 - u - v, u, v)
+    a0, b0, w0, w1, w2 = triangle_weights(a, b, u, v)
+    w = wp.vec3(w0, w1, w2)
     dw0 = -du - dv
     dw1 = du
     dw2 = dv
     if u + v > 1.0:
-        a0 = a + 1
-        b0 = b + 1
-        w = wp.vec3(u + v - 1.0, 1.0 - v, 1.0 - u)
         dw0 = du + dv
         dw1 = -dv
         dw2 = -du
-    q0 = patch_at(t, lat, x, a0, b0)
-    q1 = patch_at(t, lat, x, a + 1, b)
-    q2 = patch_at(t, lat, x, a, b + 1)
+    q0 = lattice_point(t, lat, x, a0, b0)
+    q1 = lattice_point(t, lat, x, a + 1, b)
+    q2 = lattice_point(t, lat, x, a, b + 1)
     g0 = wp.vec3(0.0)
     g1 = wp.vec3(0.0)
     g2 = wp.vec3(0.0)
@@ -260,13 +226,7 @@ def tiling_slope(t: Tiling, lat: Lattice, x: wp.vec2d):
     k0 = sharpened(w[0], t.squarings, t.guide_weight, g0[0] - gm[0])
     k1 = sharpened(w[1], t.squarings, t.guide_weight, g1[0] - gm[0])
     k2 = sharpened(w[2], t.squarings, t.guide_weight, g2[0] - gm[0])
-    km = wp.max(k0, wp.max(k1, k2)) * CUTOFF
-    if k0 < km:
-        k0 = 0.0
-    if k1 < km:
-        k1 = 0.0
-    if k2 < km:
-        k2 = 0.0
+    k0, k1, k2 = cut_weights(k0, k1, k2)
     # dk/dx = k (s ∇w / w + β (∇g − ∇g_max)), s = 2^squarings
     s = float(1 << t.squarings)
     dgm = wp.vec2(gm[1], gm[2])
@@ -280,17 +240,17 @@ def tiling_slope(t: Tiling, lat: Lattice, x: wp.vec2d):
     if k2 > 0.0:
         dk2 = k2 * (dw2 * (s / w[2]) + t.guide_weight * (wp.vec2(g2[1], g2[2]) - dgm))
     # residuals r_i = e_i − mean (or − m_i with a lattice) and their gradients; the mean's part m_i
-    e0 = bilinear_slope(t.example, q0, t.wrap)
-    e1 = bilinear_slope(t.example, q1, t.wrap)
-    e2 = bilinear_slope(t.example, q2, t.wrap)
+    e0 = example_slope(t.example, q0, t.wrap)
+    e1 = example_slope(t.example, q1, t.wrap)
+    e2 = example_slope(t.example, q2, t.wrap)
     zero = wp.vec3(0.0)
     m0 = wp.matrix_from_rows(t.mean, zero, zero)
     m1 = m0
     m2 = m0
     if t.rank != 0:
-        m0 = bilinear_slope(t.mean_image, q0, t.wrap)
-        m1 = bilinear_slope(t.mean_image, q1, t.wrap)
-        m2 = bilinear_slope(t.mean_image, q2, t.wrap)
+        m0 = example_slope(t.mean_image, q0, t.wrap)
+        m1 = example_slope(t.mean_image, q1, t.wrap)
+        m2 = example_slope(t.mean_image, q2, t.wrap)
     r0 = e0 - m0
     r1 = e1 - m1
     r2 = e2 - m2

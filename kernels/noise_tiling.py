@@ -31,8 +31,7 @@ import warp as wp
 from typing import Any
 
 from . import tiling_draw
-from .noise_filter import Filter, footprint_lookups
-from .noise_tiling_native import tiling_run1, tiling_run3, tiling_vector_form
+from .noise_tiling_native import tiling_run_native
 from .tiling_draw import CUTOFF, SQRT3_2, texel_address
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
@@ -82,47 +81,40 @@ def vertex_position(t: Tiling, a: int, b: int):
 
 
 @wp.func
-def bilinear3(img: wp.array2d(dtype=wp.vec3), q: wp.vec2, wrap: wp.vec2i):
-    # the example at q = (x, y) in texel units (texel (i, j) centred at (j + ½, i + ½)), clamped to its edge or
-    # wrapped per axis (wrap: x, y)
-    rows = img.shape[0]
-    cols = img.shape[1]
-    fx = q[0] - 0.5
-    fy = q[1] - 0.5
-    x0 = wp.floor(fx)
-    y0 = wp.floor(fy)
-    tx = fx - x0
-    ty = fy - y0
-    j0 = texel_address(int(x0), cols, wrap[0])
-    i0 = texel_address(int(y0), rows, wrap[1])
-    if tx == 0.0 and ty == 0.0:  # on a texel centre (scale 1): the texel itself, the same value as below
-        return img[i0, j0]
-    j1 = texel_address(int(x0) + 1, cols, wrap[0])
-    i1 = texel_address(int(y0) + 1, rows, wrap[1])
-    top = img[i0, j0] * (1.0 - tx) + img[i0, j1] * tx
-    bottom = img[i1, j0] * (1.0 - tx) + img[i1, j1] * tx
-    return top * (1.0 - ty) + bottom * ty
+def floor_int(x: float):
+    # ⌊x⌋ as an int for |x| < 2³¹ without a call to floorf (CPU builds target baseline x86-64, where floorf
+    # is a library call): truncate, then step down below negative non-integers. float(⌊x⌋) is wp.floor(x).
+    i = int(x)
+    if float(i) > x:
+        i = i - 1
+    return i
 
 
 @wp.func
-def bilinear1(img: wp.array2d(dtype=float), q: wp.vec2, wrap: wp.vec2i):
+def bilinear(img: wp.array2d(dtype=Any), q: wp.vec2, wrap: wp.vec2i):
+    # the example (or the guide, the mean image) at q = (x, y) in texel units (texel (i, j) centred at
+    # (j + ½, i + ½)), clamped to its edge or wrapped per axis (wrap: x, y), for either texel type
     rows = img.shape[0]
     cols = img.shape[1]
     fx = q[0] - 0.5
     fy = q[1] - 0.5
-    x0 = wp.floor(fx)
-    y0 = wp.floor(fy)
-    tx = fx - x0
-    ty = fy - y0
-    j0 = texel_address(int(x0), cols, wrap[0])
-    i0 = texel_address(int(y0), rows, wrap[1])
-    if tx == 0.0 and ty == 0.0:  # on a texel centre (scale 1): the texel itself, the same value as below
+    ix = floor_int(fx)
+    iy = floor_int(fy)
+    tx = fx - float(ix)
+    ty = fy - float(iy)
+    j0 = texel_address(ix, cols, wrap[0])
+    i0 = texel_address(iy, rows, wrap[1])
+    if tx == 0.0 and ty == 0.0:
         return img[i0, j0]
-    j1 = texel_address(int(x0) + 1, cols, wrap[0])
-    i1 = texel_address(int(y0) + 1, rows, wrap[1])
+    j1 = texel_address(ix + 1, cols, wrap[0])
+    i1 = texel_address(iy + 1, rows, wrap[1])
     top = img[i0, j0] * (1.0 - tx) + img[i0, j1] * tx
     bottom = img[i1, j0] * (1.0 - tx) + img[i1, j1] * tx
     return top * (1.0 - ty) + bottom * ty
+
+
+#: 0.2's names of the example's (three channels) and the guide's (one) lookup.
+bilinear3 = bilinear1 = bilinear
 
 
 @wp.func
@@ -169,8 +161,18 @@ def sharpened(w: float, squarings: int, guide_weight: float, dg: float):
 
 
 @wp.func
-def kept_normalised(k0: float, k1: float, k2: float):
-    # the cutoff (weights below CUTOFF × the largest become 0), then k / Σ k: every blend's weights
+def guided_weights(t: Tiling, w0: float, w1: float, w2: float, g0: float, g1: float, g2: float):
+    # the three unnormalised weights of a blend: barycentric w sharpened, times exp(guide_weight (g − max g))
+    gm = wp.max(g0, wp.max(g1, g2))
+    k0 = sharpened(w0, t.squarings, t.guide_weight, g0 - gm)
+    k1 = sharpened(w1, t.squarings, t.guide_weight, g1 - gm)
+    k2 = sharpened(w2, t.squarings, t.guide_weight, g2 - gm)
+    return k0, k1, k2
+
+
+@wp.func
+def cut_weights(k0: float, k1: float, k2: float):
+    # the cutoff: weights below CUTOFF × the largest become 0 (their patches are not read)
     km = wp.max(k0, wp.max(k1, k2)) * CUTOFF
     if k0 < km:
         k0 = 0.0
@@ -178,6 +180,13 @@ def kept_normalised(k0: float, k1: float, k2: float):
         k1 = 0.0
     if k2 < km:
         k2 = 0.0
+    return k0, k1, k2
+
+
+@wp.func
+def kept_normalised(k0: float, k1: float, k2: float):
+    # the cutoff, then k / Σ k: every blend's weights
+    k0, k1, k2 = cut_weights(k0, k1, k2)
     total = k0 + k1 + k2
     return k0 / total, k1 / total, k2 / total
 
@@ -186,29 +195,28 @@ def kept_normalised(k0: float, k1: float, k2: float):
 def patch_term3(t: Tiling, q: wp.vec2, k: float, acc: wp.vec3, macc: wp.vec3):
     # one kept patch's part of the blend: (e − mean) k without a lattice; with one, the residual around the
     # lattice-periodic mean, (e − m) k, and the mean's part m k (the blend keeps Σ m k: docs/tiling.md, "Lattices")
-    e = bilinear3(t.example, q, t.wrap)
+    e = bilinear(t.example, q, t.wrap)
     if t.rank == 0:
         return acc + (e - t.mean) * k, macc
-    m = bilinear3(t.mean_image, q, t.wrap)
+    m = bilinear(t.mean_image, q, t.wrap)
     return acc + (e - m) * k, macc + m * k
+
+
+@wp.func
+def triangle_weights(a: int, b: int, u: float, v: float):
+    # (a0, b0, w0, w1, w2): the first vertex of the triangle of x (lower-left cell (a, b), barycentric (u, v)),
+    # (a, b) in a lower triangle, (a + 1, b + 1) in an upper one (u + v > 1), and the weights of it, of
+    # (a + 1, b) and of (a, b + 1): the fixed order of every evaluator's blend
+    if u + v > 1.0:
+        return a + 1, b + 1, u + v - 1.0, 1.0 - v, 1.0 - u
+    return a, b, 1.0 - u - v, u, v
 
 
 @wp.func
 def tiling_value(t: Tiling, x: wp.vec2d):
     # the tiling's value at x (noise units): the patches of the three vertices of x's triangle, blended
     a, b, u, v = triangle_of(t, x)
-    # the triangle's vertices (fixed order) and barycentric coordinates
-    a0 = a
-    b0 = b
-    w0 = 1.0 - u - v
-    w1 = u
-    w2 = v
-    if u + v > 1.0:
-        a0 = a + 1
-        b0 = b + 1
-        w0 = u + v - 1.0
-        w1 = 1.0 - v
-        w2 = 1.0 - u
+    a0, b0, w0, w1, w2 = triangle_weights(a, b, u, v)
     q0 = wp.vec2(0.0)
     q1 = wp.vec2(0.0)
     q2 = wp.vec2(0.0)
@@ -219,13 +227,10 @@ def tiling_value(t: Tiling, x: wp.vec2d):
         q0 = patch_point(t, x, a0, b0)
         q1 = patch_point(t, x, a + 1, b)
         q2 = patch_point(t, x, a, b + 1)
-        g0 = bilinear1(t.guide, q0, t.wrap)
-        g1 = bilinear1(t.guide, q1, t.wrap)
-        g2 = bilinear1(t.guide, q2, t.wrap)
-    gm = wp.max(g0, wp.max(g1, g2))
-    k0 = sharpened(w0, t.squarings, t.guide_weight, g0 - gm)
-    k1 = sharpened(w1, t.squarings, t.guide_weight, g1 - gm)
-    k2 = sharpened(w2, t.squarings, t.guide_weight, g2 - gm)
+        g0 = bilinear(t.guide, q0, t.wrap)
+        g1 = bilinear(t.guide, q1, t.wrap)
+        g2 = bilinear(t.guide, q2, t.wrap)
+    k0, k1, k2 = guided_weights(t, w0, w1, w2, g0, g1, g2)
     # weights below CUTOFF × the largest are dropped (their patches are not read)
     k0, k1, k2 = kept_normalised(k0, k1, k2)
     acc = wp.vec3(0.0)
@@ -340,6 +345,13 @@ def lattice_vertex(t: Tiling, lat: Lattice, a: int, b: int):
 
 
 @wp.func
+def lattice_point(t: Tiling, lat: Lattice, x: wp.vec2d, a: int, b: int):
+    # where vertex (a, b)'s patch reads the example for x: patch_point through lattice_vertex
+    c, p = lattice_vertex(t, lat, a, b)
+    return wp.vec2(float(c[0]) + float(x[0] - p[0]), float(c[1]) + float(x[1] - p[1]))
+
+
+@wp.func
 def cached_slot(t: Tiling, lat: Lattice, c: VertexCache, a: int, b: int):
     # the slot of vertex (a, b) in the cache, hashing it into a slot when absent
     for k in range(SLOTS):
@@ -366,44 +378,12 @@ def slot_point(c: VertexCache, k: int, x: wp.vec2d):
 
 
 @wp.func
-def floor_int(x: float):
-    # ⌊x⌋ as an int for |x| < 2³¹ without a call to floorf (CPU builds target baseline x86-64, where floorf
-    # is a library call): truncate, then step down below negative non-integers. float(⌊x⌋) is wp.floor(x).
-    i = int(x)
-    if float(i) > x:
-        i = i - 1
-    return i
-
-
-@wp.func
 def floor_int64(x: wp.float64):
     # floor_int for float64
     i = int(x)
     if wp.float64(i) > x:
         i = i - 1
     return i
-
-
-@wp.func
-def bilinear(img: wp.array2d(dtype=Any), q: wp.vec2, wrap: wp.vec2i):
-    # bilinear3 / bilinear1 for either texel type: the same operations per channel
-    rows = img.shape[0]
-    cols = img.shape[1]
-    fx = q[0] - 0.5
-    fy = q[1] - 0.5
-    ix = floor_int(fx)
-    iy = floor_int(fy)
-    tx = fx - float(ix)
-    ty = fy - float(iy)
-    j0 = texel_address(ix, cols, wrap[0])
-    i0 = texel_address(iy, rows, wrap[1])
-    if tx == 0.0 and ty == 0.0:
-        return img[i0, j0]
-    j1 = texel_address(ix + 1, cols, wrap[0])
-    i1 = texel_address(iy + 1, rows, wrap[1])
-    top = img[i0, j0] * (1.0 - tx) + img[i0, j1] * tx
-    bottom = img[i1, j0] * (1.0 - tx) + img[i1, j1] * tx
-    return top * (1.0 - ty) + bottom * ty
 
 
 @wp.func
@@ -441,46 +421,39 @@ def quick_weight(w: float, squarings: int, skip: float):
 
 
 @wp.func
+def guide_weights(t: Tiling, lat: Lattice, c: VertexCache, x: wp.vec2d, a0: int, b0: int, a: int, b: int,
+                  w0: float, w1: float, w2: float):
+    # the guided weights of blend_at (each slot read as soon as it is found: the next lookup may replace it)
+    c, s0 = cached_slot(t, lat, c, a0, b0)
+    g0 = bilinear(t.guide, slot_point(c, s0, x), t.wrap)
+    c, s1 = cached_slot(t, lat, c, a + 1, b)
+    g1 = bilinear(t.guide, slot_point(c, s1, x), t.wrap)
+    c, s2 = cached_slot(t, lat, c, a, b + 1)
+    g2 = bilinear(t.guide, slot_point(c, s2, x), t.wrap)
+    k0, k1, k2 = guided_weights(t, w0, w1, w2, g0, g1, g2)
+    return c, k0, k1, k2
+
+
+@wp.func
+def cached_weights(t: Tiling, lat: Lattice, c: VertexCache, x: wp.vec2d, a0: int, b0: int, a: int, b: int,
+                   w0: float, w1: float, w2: float, skip: float):
+    # (cache, k0, k1, k2): the unnormalised weights of the run kernels' blend, guided (guide_weights) or not
+    # (quick_weight, which skips the powers of weights that the cutoff drops)
+    if t.guide_weight != 0.0:
+        return guide_weights(t, lat, c, x, a0, b0, a, b, w0, w1, w2)
+    return c, quick_weight(w0, t.squarings, skip), quick_weight(w1, t.squarings, skip), quick_weight(w2, t.squarings, skip)
+
+
+@wp.func
 def blend_at(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean_img: wp.array2d(dtype=Any), mean: Any,
              skip: float, c: VertexCache, x: wp.vec2d):
     # tiling_value(t, x) bit for bit on the plain lattice (any texel type), its vertices through the cache c
     a, b, u, v = lattice_triangle(t, lat, x)
-    a0 = a
-    b0 = b
-    w0 = 1.0 - u - v
-    w1 = u
-    w2 = v
-    if u + v > 1.0:
-        a0 = a + 1
-        b0 = b + 1
-        w0 = u + v - 1.0
-        w1 = 1.0 - v
-        w2 = 1.0 - u
+    a0, b0, w0, w1, w2 = triangle_weights(a, b, u, v)
     s0 = int(0)
     s1 = int(0)
     s2 = int(0)
-    g0 = float(0.0)
-    g1 = float(0.0)
-    g2 = float(0.0)
-    k0 = float(0.0)
-    k1 = float(0.0)
-    k2 = float(0.0)
-    if t.guide_weight != 0.0:
-        # each slot is read as soon as it is found: the next lookup may replace it
-        c, s0 = cached_slot(t, lat, c, a0, b0)
-        g0 = bilinear(t.guide, slot_point(c, s0, x), t.wrap)
-        c, s1 = cached_slot(t, lat, c, a + 1, b)
-        g1 = bilinear(t.guide, slot_point(c, s1, x), t.wrap)
-        c, s2 = cached_slot(t, lat, c, a, b + 1)
-        g2 = bilinear(t.guide, slot_point(c, s2, x), t.wrap)
-        gm = wp.max(g0, wp.max(g1, g2))
-        k0 = sharpened(w0, t.squarings, t.guide_weight, g0 - gm)
-        k1 = sharpened(w1, t.squarings, t.guide_weight, g1 - gm)
-        k2 = sharpened(w2, t.squarings, t.guide_weight, g2 - gm)
-    else:
-        k0 = quick_weight(w0, t.squarings, skip)
-        k1 = quick_weight(w1, t.squarings, skip)
-        k2 = quick_weight(w2, t.squarings, skip)
+    c, k0, k1, k2 = cached_weights(t, lat, c, x, a0, b0, a, b, w0, w1, w2, skip)
     k0, k1, k2 = kept_normalised(k0, k1, k2)
     acc = mean - mean
     macc = mean - mean
@@ -501,33 +474,10 @@ def blend_at(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean_img: 
 
 
 @wp.func
-def guide_weights(t: Tiling, lat: Lattice, c: VertexCache, x: wp.vec2d, a0: int, b0: int, a: int, b: int,
-                  w0: float, w1: float, w2: float):
-    # the guided weights of blend_at (each slot read as soon as it is found: the next lookup may replace it)
-    c, s0 = cached_slot(t, lat, c, a0, b0)
-    g0 = bilinear(t.guide, slot_point(c, s0, x), t.wrap)
-    c, s1 = cached_slot(t, lat, c, a + 1, b)
-    g1 = bilinear(t.guide, slot_point(c, s1, x), t.wrap)
-    c, s2 = cached_slot(t, lat, c, a, b + 1)
-    g2 = bilinear(t.guide, slot_point(c, s2, x), t.wrap)
-    gm = wp.max(g0, wp.max(g1, g2))
-    k0 = sharpened(w0, t.squarings, t.guide_weight, g0 - gm)
-    k1 = sharpened(w1, t.squarings, t.guide_weight, g1 - gm)
-    k2 = sharpened(w2, t.squarings, t.guide_weight, g2 - gm)
-    return c, k0, k1, k2
-
-
-@wp.func
 def kept_weights(k0: float, k1: float, k2: float):
     # the cutoff and the normalisation of tiling_value; with one vertex kept (most pixels at high
     # sharpness) its weight k/k is 1 and √(1²) = 1: returned without the divisions, with one = True
-    km = wp.max(k0, wp.max(k1, k2)) * CUTOFF
-    if k0 < km:
-        k0 = 0.0
-    if k1 < km:
-        k1 = 0.0
-    if k2 < km:
-        k2 = 0.0
+    k0, k1, k2 = cut_weights(k0, k1, k2)
     n = int(k0 > 0.0) + int(k1 > 0.0) + int(k2 > 0.0)
     if n == 1:
         return wp.float32(k0 > 0.0), wp.float32(k1 > 0.0), wp.float32(k2 > 0.0), True
@@ -547,163 +497,6 @@ def lattice_points(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean
 for _T in (wp.vec3, float):
     wp.overload(lattice_points, {"example": wp.array2d(dtype=_T), "mean_img": wp.array2d(dtype=_T), "mean": _T,
                                  "out": wp.array(dtype=_T)})
-
-
-# ------------------------------------------------------------------ filtered tiling (mip, anisotropic)
-@wp.struct
-class TilingPyramid:
-    # the example's MIP levels (2 × 2 box means, edge texels repeated on odd sides), stacked by rows:
-    # level ℓ in rows [row0[ℓ], row0[ℓ] + rows[ℓ]) and columns [0, cols[ℓ]) of `texels`; its texel (i, j) is
-    # centred at 2^ℓ (j + ½, i + ½) in level-0 texels. contrast[ℓ] scales a patch's deviation from the mean
-    # read at level ℓ down to what a footprint of 2^ℓ texels keeps of the blend of independent patches.
-    texels: wp.array2d(dtype=wp.vec3)
-    means: wp.array2d(dtype=wp.vec3)  # the lattice-periodic mean's levels, the same layout (rank ≠ 0); (1, 1) else
-    row0: wp.array(dtype=int)
-    rows: wp.array(dtype=int)
-    cols: wp.array(dtype=int)
-    contrast: wp.array(dtype=float)
-    levels: int
-
-
-@wp.func
-def level_lookup(pyr: TilingPyramid, texels: wp.array2d(dtype=wp.vec3), lvl: int, q: wp.vec2, wrap: wp.vec2i):
-    # bilinear lookup of level lvl of `texels` (the pyramid's texels or means) at q (level-0 texel units),
-    # clamped to the level or wrapped per axis; at level 0 the same operations as bilinear3 (q · 1 is q)
-    inv = 1.0 / float(1 << lvl)
-    fx = q[0] * inv - 0.5
-    fy = q[1] * inv - 0.5
-    r0 = pyr.row0[lvl]
-    rows = pyr.rows[lvl]
-    cols = pyr.cols[lvl]
-    x0 = wp.floor(fx)
-    y0 = wp.floor(fy)
-    tx = fx - x0
-    ty = fy - y0
-    j0 = texel_address(int(x0), cols, wrap[0])
-    i0 = texel_address(int(y0), rows, wrap[1]) + r0
-    if tx == 0.0 and ty == 0.0:
-        return texels[i0, j0]
-    j1 = texel_address(int(x0) + 1, cols, wrap[0])
-    i1 = texel_address(int(y0) + 1, rows, wrap[1]) + r0
-    top = texels[i0, j0] * (1.0 - tx) + texels[i0, j1] * tx
-    bottom = texels[i1, j0] * (1.0 - tx) + texels[i1, j1] * tx
-    return top * (1.0 - ty) + bottom * ty
-
-
-@wp.func
-def patch_deviation(t: Tiling, pyr: TilingPyramid, q: wp.vec2, l0: int, l1: int, w1: float):
-    # (deviation, mean): a patch's deviation from the mean at q, read between levels l0 and l1 (weight w1 on
-    # l1), times the levels' contrast (trilinear filtering of the patch); the mean is the example's, or with a
-    # lattice the lattice-periodic mean read between the same levels, and the deviation the residual around it
-    e = level_lookup(pyr, pyr.texels, l0, q, t.wrap)
-    c = pyr.contrast[l0]
-    if w1 > 0.0:
-        e = e * (1.0 - w1) + level_lookup(pyr, pyr.texels, l1, q, t.wrap) * w1
-        c = c * (1.0 - w1) + pyr.contrast[l1] * w1
-    if t.rank == 0:
-        return (e - t.mean) * c, t.mean
-    m = level_lookup(pyr, pyr.means, l0, q, t.wrap)
-    if w1 > 0.0:
-        m = m * (1.0 - w1) + level_lookup(pyr, pyr.means, l1, q, t.wrap) * w1
-    return (e - m) * c, m
-
-
-@wp.func
-def blend_levels(t: Tiling, lat: Lattice, pyr: TilingPyramid, x: wp.vec2d, l0: int, l1: int, w1: float):
-    # the blend at x (tiling_value's weights) of the three patches, each read filtered between levels l0, l1
-    a, b, u, v = lattice_triangle(t, lat, x)
-    a0 = a
-    b0 = b
-    w0 = 1.0 - u - v
-    wa = u
-    wb = v
-    if u + v > 1.0:
-        a0 = a + 1
-        b0 = b + 1
-        w0 = u + v - 1.0
-        wa = 1.0 - v
-        wb = 1.0 - u
-    c0, p0 = lattice_vertex(t, lat, a0, b0)
-    c1, p1 = lattice_vertex(t, lat, a + 1, b)
-    c2, p2 = lattice_vertex(t, lat, a, b + 1)
-    q0 = wp.vec2(float(c0[0]) + float(x[0] - p0[0]), float(c0[1]) + float(x[1] - p0[1]))
-    q1 = wp.vec2(float(c1[0]) + float(x[0] - p1[0]), float(c1[1]) + float(x[1] - p1[1]))
-    q2 = wp.vec2(float(c2[0]) + float(x[0] - p2[0]), float(c2[1]) + float(x[1] - p2[1]))
-    g0 = float(0.0)
-    g1 = float(0.0)
-    g2 = float(0.0)
-    if t.guide_weight != 0.0:
-        g0 = bilinear1(t.guide, q0, t.wrap)
-        g1 = bilinear1(t.guide, q1, t.wrap)
-        g2 = bilinear1(t.guide, q2, t.wrap)
-    gm = wp.max(g0, wp.max(g1, g2))
-    k0 = sharpened(w0, t.squarings, t.guide_weight, g0 - gm)
-    k1 = sharpened(wa, t.squarings, t.guide_weight, g1 - gm)
-    k2 = sharpened(wb, t.squarings, t.guide_weight, g2 - gm)
-    k0, k1, k2 = kept_normalised(k0, k1, k2)
-    acc = wp.vec3(0.0)
-    macc = wp.vec3(0.0)
-    if k0 > 0.0:
-        d, m = patch_deviation(t, pyr, q0, l0, l1, w1)
-        acc = acc + d * k0
-        macc = macc + m * k0
-    if k1 > 0.0:
-        d, m = patch_deviation(t, pyr, q1, l0, l1, w1)
-        acc = acc + d * k1
-        macc = macc + m * k1
-    if k2 > 0.0:
-        d, m = patch_deviation(t, pyr, q2, l0, l1, w1)
-        acc = acc + d * k2
-        macc = macc + m * k2
-    if t.variance_preserving != 0:
-        acc = acc / wp.sqrt(k0 * k0 + k1 * k1 + k2 * k2)
-    if t.rank != 0:
-        return macc + acc
-    return t.mean + acc
-
-
-@wp.func
-def tiling_filtered(t: Tiling, lat: Lattice, pyr: TilingPyramid, f: Filter, x: wp.vec2d, J: wp.mat22):
-    # the tiling averaged over the footprint x + J [−½, ½]² ("mip": one probe; "anisotropic": n probes along
-    # the major axis), each probe a blend of patches read at the footprint's level; the mean past the last level
-    major, axis, n, lod = footprint_lookups(f, J)
-    if wp.isnan(lod) or lod >= float(pyr.levels - 1):
-        return t.mean
-    l0 = int(wp.floor(lod))
-    w1 = lod - float(l0)
-    l1 = wp.min(l0 + 1, pyr.levels - 1)
-    spread = axis * (major * (0.5 - 0.5 / float(n)))
-    stride = wp.vec2(0.0)
-    if n > 1:
-        stride = spread * (2.0 / float(n - 1))
-    acc = wp.vec3(0.0)
-    for k in range(n):
-        d = stride * float(k) - spread
-        acc = acc + blend_levels(t, lat, pyr, x + wp.vec2d(wp.float64(d[0]), wp.float64(d[1])), l0, l1, w1)
-    return acc / float(n)
-
-
-@wp.kernel
-def tiling_filtered_raster(t: Tiling, lat: Lattice, pyr: TilingPyramid, f: Filter, origin: wp.vec2d,
-                           step_x: wp.vec2d, step_y: wp.vec2d, first: wp.vec2i, jac: wp.array2d(dtype=wp.mat22),
-                           per_pixel: int, out: wp.array2d(dtype=wp.vec3)):
-    # pixel (i, j) of a window (positions as tiling_runs places them), footprint jac[i, j] or jac[0, 0]
-    i, j = wp.tid()
-    I = wp.float64(first[0] + i) + wp.float64(0.5)
-    J = wp.float64(first[1] + j) + wp.float64(0.5)
-    x = origin + step_x * J + step_y * I
-    F = jac[0, 0]
-    if per_pixel != 0:
-        F = jac[i, j]
-    out[i, j] = tiling_filtered(t, lat, pyr, f, x, F)
-
-
-@wp.kernel
-def tiling_filtered_points(t: Tiling, lat: Lattice, pyr: TilingPyramid, f: Filter,
-                           points: wp.array(dtype=wp.vec2d), jac: wp.array(dtype=wp.mat22), per_point: int,
-                           out: wp.array(dtype=wp.vec3)):
-    k = wp.tid()
-    out[k] = tiling_filtered(t, lat, pyr, f, points[k], jac[k * per_point])
 
 
 @wp.kernel
@@ -754,26 +547,8 @@ def tiling_runs(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any),  # noqa
         a = floor_int64(sx)
         u = float(sx - wp.float64(a))
         v = float(sy - fb)
-        a0 = a
-        b0 = b
-        w0 = 1.0 - u - v
-        w1 = u
-        w2 = v
-        if u + v > 1.0:
-            a0 = a + 1
-            b0 = b + 1
-            w0 = u + v - 1.0
-            w1 = 1.0 - v
-            w2 = 1.0 - u
-        k0 = float(0.0)
-        k1 = float(0.0)
-        k2 = float(0.0)
-        if t.guide_weight != 0.0:
-            c, k0, k1, k2 = guide_weights(t, lat, c, x, a0, b0, a, b, w0, w1, w2)
-        else:
-            k0 = quick_weight(w0, t.squarings, skip)
-            k1 = quick_weight(w1, t.squarings, skip)
-            k2 = quick_weight(w2, t.squarings, skip)
+        a0, b0, w0, w1, w2 = triangle_weights(a, b, u, v)
+        c, k0, k1, k2 = cached_weights(t, lat, c, x, a0, b0, a, b, w0, w1, w2, skip)
         k0, k1, k2, one = kept_weights(k0, k1, k2)
         acc = mean - mean
         macc = mean - mean
@@ -846,23 +621,13 @@ for _T in (wp.vec3, float):
 
 # ------------------------------------------------------------------ the run loop in native C++ (CPU)
 @wp.func
-def tiling_run(t: Tiling, lat: Lattice, example: wp.array2d(dtype=wp.vec3), mean_img: wp.array2d(dtype=wp.vec3),
-               mean: wp.vec3, skip: float, origin: wp.vec2d, step_x: wp.vec2d, step_y: wp.vec2d, first: wp.vec2i,
-               i: int, j0: int, j1: int, simd: int, out: wp.array2d(dtype=wp.vec3)):
-    # three channels
-    tiling_run3(example, mean, mean_img, out, i, j0, j1, first[0], first[1], origin, step_x, step_y, t.side, t.lo,
-                t.count, t.wrap, t.rank, t.modulus, t.k1, t.k2, t.squarings, skip, t.variance_preserving, t.seed,
-                lat.periodic, lat.cols, lat.rows, lat.dx, lat.dy, lat.px, lat.py, simd)
-
-
-@wp.func
-def tiling_run(t: Tiling, lat: Lattice, example: wp.array2d(dtype=float),  # noqa: F811 (an overload)
-               mean_img: wp.array2d(dtype=float), mean: float, skip: float, origin: wp.vec2d, step_x: wp.vec2d,
-               step_y: wp.vec2d, first: wp.vec2i, i: int, j0: int, j1: int, simd: int, out: wp.array2d(dtype=float)):
-    # one channel (a grey example)
-    tiling_run1(example, mean, mean_img, out, i, j0, j1, first[0], first[1], origin, step_x, step_y, t.side, t.lo,
-                t.count, t.wrap, t.rank, t.modulus, t.k1, t.k2, t.squarings, skip, t.variance_preserving, t.seed,
-                lat.periodic, lat.cols, lat.rows, lat.dx, lat.dy, lat.px, lat.py, simd)
+def tiling_run(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), mean_img: wp.array2d(dtype=Any), mean: Any,
+               skip: float, origin: wp.vec2d, step_x: wp.vec2d, step_y: wp.vec2d, first: wp.vec2i, i: int, j0: int,
+               j1: int, simd: int, out: wp.array2d(dtype=Any)):
+    # the native run loop of the texel type (noise_tiling_native.tiling_run_native's overloads), the structs unpacked
+    tiling_run_native(example, mean, mean_img, out, i, j0, j1, first[0], first[1], origin, step_x, step_y, t.side,
+                      t.lo, t.count, t.wrap, t.rank, t.modulus, t.k1, t.k2, t.squarings, skip, t.variance_preserving,
+                      t.seed, lat.periodic, lat.cols, lat.rows, lat.dx, lat.dy, lat.px, lat.py, simd)
 
 
 @wp.kernel
@@ -880,9 +645,3 @@ def tiling_runs_native(t: Tiling, lat: Lattice, example: wp.array2d(dtype=Any), 
 for _T in (wp.vec3, float):
     wp.overload(tiling_runs_native, {"example": wp.array2d(dtype=_T), "mean_img": wp.array2d(dtype=_T), "mean": _T,
                                      "out": wp.array2d(dtype=_T)})
-
-
-@wp.kernel
-def tiling_simd_probe(flag: wp.array(dtype=int)):
-    # which form of the native run loop this module's CPU code holds (tiling_vector_form)
-    flag[0] = tiling_vector_form()

@@ -37,14 +37,10 @@ references (``blocks_*`` in tests/test_reference.py) check their values.
 
 import warp as wp
 
+from .native_simd import VECTOR, for_channels, vector_form
 from .noise_raster import PAD
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
-
-#: The vector forms are compiled by Clang for a CPU with 256-bit (AVX2, AVX-512)
-#: or 128-bit (NEON) SIMD, never for CUDA (NVRTC, or Clang's CUDA mode).
-_VECTOR = ("#if defined(__clang__) && !defined(__CUDACC__) && !defined(__CUDA_ARCH__) "
-           "&& (defined(__AVX2__) || defined(__AVX512F__) || defined(__ARM_NEON))")
 
 #: Vector types (16 lanes; 4-float texel rows); WT_MASKED: whether Clang has its
 #: generic masked loads and compressing stores (Clang 21 and later; a compile flag
@@ -103,7 +99,7 @@ _SLAB_ADD = r"""
     };
 """
 
-SCAN_CUBE = _VECTOR + _VECTOR_TYPES + r"""
+SCAN_CUBE = VECTOR + _VECTOR_TYPES + r"""
     if (simd != 0) {
         int count = 0;
         const float r0 = rel[0], r1 = rel[1], r2 = rel[2];
@@ -217,17 +213,28 @@ _LOAD_LANE = r"""
         xl[l] = lo3[0]; yl[l] = lo3[1]; zl[l] = lo3[2];
         xh[l] = hi3[0]; yh[l] = hi3[1]; zh[l] = hi3[2];"""
 
-#: One cluster's gather. Points k0 .. k1 − 1 (at most 16) with frames u1s, u2s,
-#: normals and cube spans [span_lo, span_hi]; the list: runs r0 .. r0 + runs − 1,
-#: run r being cube cubes[run_cube[r]] with impacts u[u0 + run_end[r − 1] .. u0 +
-#: run_end[r] − 1]. Writes the raw sums (before normalisation) to out[dest[k]].
-CLUSTER_SUMS = (_SLAB_ADD + _VECTOR + _VECTOR_TYPES + r"""
+#: One cluster's gather, for WT_CH = 3 or 1 channels (``for_channels`` keeps a channel count's lines,
+#: kernels/native_simd.py). Points k0 .. k1 − 1 (at most 16) with frames u1s, u2s, normals and cube
+#: spans [span_lo, span_hi]; the list: runs r0 .. r0 + runs − 1, run r being cube cubes[run_cube[r]]
+#: with impacts u[u0 + run_end[r − 1] .. u0 + run_end[r] − 1]. Writes the raw sums (before
+#: normalisation) to out[dest[k]]. Three channels: each passing (impact, point) pair reads its four
+#: texels as 4-float vectors and weighs the channels at once. One channel (a grey texton: float
+#: coefficients, float sums): the vector form weighs the 16 lanes at once: each passing lane's four
+#: texels are copied into 16-float rows (their slots of lanes that do not pass keep old, finite
+#: values), the slab term is computed in every lane with slab_add's operations, and only the passing
+#: lanes keep it (a select, so the other lanes' sums are untouched): each lane's sum takes the plain
+#: loop's terms in its order, bit for bit.
+CLUSTER_SUMS_TEMPLATE = r"""
     if (simd != 0) {
         const int np = k1 - k0;
         v16f nx, ny, nz, ax, ay, az, bx, by, bz;
         v16i xl, xh, yl, yh, zl, zh, live;
         v16d px, py, pz;
+//@ 3
         v4f acc[16] = {};
+//@ 1
+        v16f acc = 0.0f;
+//@ end
         for (int l = 0; l < 16; ++l) {
             const int k = k0 + (l < np ? l : 0);
             live[l] = l < np ? -1 : 0;
@@ -236,10 +243,15 @@ LOAD_LANE
             px[l] = y[0]; py[l] = y[1]; pz[l] = y[2];
         }
         const float* cf = (const float*)coeffs.data;
-        const int row = 3 * coeffs.shape[1];
+        const int row = WT_CH * coeffs.shape[1];
         const double cd = (double)size;
+//@ 3
         alignas(64) float l_mtx[16], l_tx[16], l_mty[16], l_ty[16], l_w[16];
+//@ end
         alignas(64) int l_i00[16];
+//@ 1
+        alignas(64) float g00[16] = {}, g01[16] = {}, g10[16] = {}, g11[16] = {};
+//@ end
         int start = 0;
         for (int r = 0; r < runs; ++r) {
             const int end = run_end.data[r0 + r];
@@ -278,6 +290,7 @@ LOAD_LANE
                     const v16f fy = __builtin_elementwise_floor(zb);
                     const v16f tx = za - fx;
                     const v16f ty = zb - fy;
+//@ 3
                     // lane values, stored once for the pairs below
                     *(v16f*)l_mtx = 1.0f - tx;
                     *(v16f*)l_tx = tx;
@@ -286,165 +299,7 @@ LOAD_LANE
                     *(v16f*)l_w = w;
                     *(v16i*)l_i00 = (__builtin_convertvector(fy, v16i) + PADV) * row
                                     + (__builtin_convertvector(fx, v16i) + PADV) * 3;
-                    while (bits != 0) {
-                        const int l = __builtin_ctz(bits);
-                        bits &= bits - 1u;
-                        // the four texels as 4-float loads: channels 0-2 and one float of the
-                        // next texel (the texton's zero margin holds the last one's)
-                        const float* p0 = cf + l_i00[l];
-                        v4f c00, c01, c10, c11;
-                        __builtin_memcpy(&c00, p0, sizeof(v4f));
-                        __builtin_memcpy(&c01, p0 + 3, sizeof(v4f));
-                        __builtin_memcpy(&c10, p0 + row, sizeof(v4f));
-                        __builtin_memcpy(&c11, p0 + row + 3, sizeof(v4f));
-                        acc[l] = slab_add(acc[l], c00, c01, c10, c11, l_mtx[l], l_tx[l], l_mty[l], l_ty[l], l_w[l]);
-                    }
-                }
-            }
-            start = end;
-        }
-        for (int l = 0; l < np; ++l)
-            out.data[dest.data[k0 + l]] = wp::vec3(acc[l][0], acc[l][1], acc[l][2]);
-        return;
-    }
-#endif
-    // the same loop over lanes in plain C++ (up to 16 points, impact by impact)
-    const int np = k1 - k0;
-    float nx[16], ny[16], nz[16], ax[16], ay[16], az[16], bx[16], by[16], bz[16];
-    float rx[16], ry[16], rz[16], s0[16], s1[16], s2[16];
-    int xl[16], xh[16], yl[16], yh[16], zl[16], zh[16];
-    bool inside[16];
-    for (int l = 0; l < np; ++l) {
-        const int k = k0 + l;
-LOAD_LANE
-        s0[l] = 0.0f; s1[l] = 0.0f; s2[l] = 0.0f;
-    }
-    const float* cf = (const float*)coeffs.data;
-    const int row = 3 * coeffs.shape[1];
-    const double cd = (double)size;
-    int start = 0;
-    for (int r = 0; r < runs; ++r) {
-        const int end = run_end.data[r0 + r];
-        const wp::vec3i cc = cubes.data[run_cube.data[r0 + r]];
-        const double mx = (double)cc[0] * cd;
-        const double my = (double)cc[1] * cd;
-        const double mz = (double)cc[2] * cd;
-        bool any = false;
-        for (int l = 0; l < np; ++l) {
-            inside[l] = cc[0] >= xl[l] && cc[0] <= xh[l] && cc[1] >= yl[l] && cc[1] <= yh[l] && cc[2] >= zl[l]
-                        && cc[2] <= zh[l];
-            any = any || inside[l];
-            const wp::vec3d y = points.data[k0 + l];
-            const double ex = y[0] - mx;
-            const double ey = y[1] - my;
-            const double ez = y[2] - mz;
-            rx[l] = (float)ex;
-            ry[l] = (float)ey;
-            rz[l] = (float)ez;
-        }
-        if (any) {
-            for (int e = u0 + start; e < u0 + end; ++e) {
-                const float qx = ux.data[e] * size;
-                const float qy = uy.data[e] * size;
-                const float qz = uz.data[e] * size;
-                for (int l = 0; l < np; ++l) {
-                    const float dx = rx[l] - qx;
-                    const float dy = ry[l] - qy;
-                    const float dz = rz[l] - qz;
-                    const float t = dx * nx[l] + dy * ny[l] + dz * nz[l];
-                    const float at = fabsf(t);
-                    if (!inside[l] || !(at < half))
-                        continue;
-                    const float da = dx * ax[l] + dy * ay[l] + dz * az[l];
-                    const float db = dx * bx[l] + dy * by[l] + dz * bz[l];
-                    const float za = da + cen0;
-                    const float zb = db + cen1;
-                    if (!(za >= lo0 && za <= hi0 && zb >= lo1 && zb <= hi1))
-                        continue;
-                    const float q = at / half;
-                    const float w = 1.0f - q;
-                    const float fx = floorf(za);
-                    const float fy = floorf(zb);
-                    const float tx = za - fx;
-                    const float ty = zb - fy;
-                    const float mtx = 1.0f - tx;
-                    const float mty = 1.0f - ty;
-                    const float* p00 = cf + ((int)fy + PADV) * row + ((int)fx + PADV) * 3;
-                    const float* p10 = p00 + row;
-                    s0[l] = slab_add(s0[l], p00[0], p00[3], p10[0], p10[3], mtx, tx, mty, ty, w);
-                    s1[l] = slab_add(s1[l], p00[1], p00[4], p10[1], p10[4], mtx, tx, mty, ty, w);
-                    s2[l] = slab_add(s2[l], p00[2], p00[5], p10[2], p10[5], mtx, tx, mty, ty, w);
-                }
-            }
-        }
-        start = end;
-    }
-    for (int l = 0; l < np; ++l)
-        out.data[dest.data[k0 + l]] = wp::vec3(s0[l], s1[l], s2[l]);
-""").replace("PADV", str(PAD)).replace("LOAD_LANE", _LOAD_LANE)
-
-
-#: The same gather for a one-channel (grey) texton: float coefficients, float sums.
-#: The vector form weighs the 16 lanes at once: each passing lane's four texels are
-#: copied into 16-float rows (their slots of lanes that do not pass keep old, finite
-#: values), the slab term is computed in every lane with slab_add's operations, and
-#: only the passing lanes keep it (a select, so the other lanes' sums are untouched):
-#: each lane's sum takes the plain loop's terms in its order, bit for bit.
-CLUSTER_SUMS1 = (_SLAB_ADD + _VECTOR + _VECTOR_TYPES + r"""
-    if (simd != 0) {
-        const int np = k1 - k0;
-        v16f nx, ny, nz, ax, ay, az, bx, by, bz;
-        v16i xl, xh, yl, yh, zl, zh, live;
-        v16d px, py, pz;
-        v16f acc = 0.0f;
-        for (int l = 0; l < 16; ++l) {
-            const int k = k0 + (l < np ? l : 0);
-            live[l] = l < np ? -1 : 0;
-LOAD_LANE
-            const wp::vec3d y = points.data[k];
-            px[l] = y[0]; py[l] = y[1]; pz[l] = y[2];
-        }
-        const float* cf = (const float*)coeffs.data;
-        const int row = coeffs.shape[1];
-        const double cd = (double)size;
-        alignas(64) int l_i00[16];
-        alignas(64) float g00[16] = {}, g01[16] = {}, g10[16] = {}, g11[16] = {};
-        int start = 0;
-        for (int r = 0; r < runs; ++r) {
-            const int end = run_end.data[r0 + r];
-            const wp::vec3i cc = cubes.data[run_cube.data[r0 + r]];
-            const v16i inside = live & (cc[0] >= xl) & (cc[0] <= xh) & (cc[1] >= yl) & (cc[1] <= yh)
-                                & (cc[2] >= zl) & (cc[2] <= zh);
-            if (lane_bits(inside) != 0) {
-                const double mx = (double)cc[0] * cd;
-                const double my = (double)cc[1] * cd;
-                const double mz = (double)cc[2] * cd;
-                const v16f rx = __builtin_convertvector(px - mx, v16f);
-                const v16f ry = __builtin_convertvector(py - my, v16f);
-                const v16f rz = __builtin_convertvector(pz - mz, v16f);
-                for (int e = u0 + start; e < u0 + end; ++e) {
-                    const float qx = ux.data[e] * size;
-                    const float qy = uy.data[e] * size;
-                    const float qz = uz.data[e] * size;
-                    const v16f dx = rx - qx;
-                    const v16f dy = ry - qy;
-                    const v16f dz = rz - qz;
-                    const v16f t = dx * nx + dy * ny + dz * nz;
-                    const v16f da = dx * ax + dy * ay + dz * az;
-                    const v16f db = dx * bx + dy * by + dz * bz;
-                    const v16f za = da + cen0;
-                    const v16f zb = db + cen1;
-                    const v16f at = __builtin_elementwise_abs(t);
-                    const v16i ok = inside & (at < half) & (za >= lo0) & (za <= hi0) & (zb >= lo1) & (zb <= hi1);
-                    unsigned bits = lane_bits(ok);
-                    if (bits == 0)
-                        continue;
-                    const v16f q = at / half;
-                    const v16f w = 1.0f - q;
-                    const v16f fx = __builtin_elementwise_floor(za);
-                    const v16f fy = __builtin_elementwise_floor(zb);
-                    const v16f tx = za - fx;
-                    const v16f ty = zb - fy;
+//@ 1
                     const v16i i00 = (__builtin_convertvector(fy, v16i) + PADV) * row
                                      + (__builtin_convertvector(fx, v16i) + PADV);
 #if defined(__AVX512F__)
@@ -461,15 +316,28 @@ LOAD_LANE
                                                                                           4));
 #else
                     *(v16i*)l_i00 = i00;
+//@ end
                     while (bits != 0) {
                         const int l = __builtin_ctz(bits);
                         bits &= bits - 1u;
+                        // the four texels as 4-float loads: channels 0-2 and one float of the
+                        // next texel (the texton's zero margin holds the last one's)
                         const float* p0 = cf + l_i00[l];
+//@ 3
+                        v4f c00, c01, c10, c11;
+                        __builtin_memcpy(&c00, p0, sizeof(v4f));
+                        __builtin_memcpy(&c01, p0 + 3, sizeof(v4f));
+                        __builtin_memcpy(&c10, p0 + row, sizeof(v4f));
+                        __builtin_memcpy(&c11, p0 + row + 3, sizeof(v4f));
+                        acc[l] = slab_add(acc[l], c00, c01, c10, c11, l_mtx[l], l_tx[l], l_mty[l], l_ty[l], l_w[l]);
+//@ 1
                         g00[l] = p0[0];
                         g01[l] = p0[1];
                         g10[l] = p0[row];
                         g11[l] = p0[row + 1];
+//@ end
                     }
+//@ 1
                     const v16f c00 = *(const v16f*)g00, c01 = *(const v16f*)g01, c10 = *(const v16f*)g10,
                                c11 = *(const v16f*)g11;
 #endif
@@ -477,28 +345,41 @@ LOAD_LANE
                     // the passing lanes take the new sum, the others keep theirs
                     acc = __builtin_bit_cast(v16f, (__builtin_bit_cast(v16i, sum) & ok)
                                                    | (__builtin_bit_cast(v16i, acc) & ~ok));
+//@ end
                 }
             }
             start = end;
         }
         for (int l = 0; l < np; ++l)
+//@ 3
+            out.data[dest.data[k0 + l]] = wp::vec3(acc[l][0], acc[l][1], acc[l][2]);
+//@ 1
             out.data[dest.data[k0 + l]] = acc[l];
+//@ end
         return;
     }
 #endif
     // the same loop over lanes in plain C++ (up to 16 points, impact by impact)
     const int np = k1 - k0;
     float nx[16], ny[16], nz[16], ax[16], ay[16], az[16], bx[16], by[16], bz[16];
+//@ 3
+    float rx[16], ry[16], rz[16], s0[16], s1[16], s2[16];
+//@ 1
     float rx[16], ry[16], rz[16], s0[16];
+//@ end
     int xl[16], xh[16], yl[16], yh[16], zl[16], zh[16];
     bool inside[16];
     for (int l = 0; l < np; ++l) {
         const int k = k0 + l;
 LOAD_LANE
+//@ 3
+        s0[l] = 0.0f; s1[l] = 0.0f; s2[l] = 0.0f;
+//@ 1
         s0[l] = 0.0f;
+//@ end
     }
     const float* cf = (const float*)coeffs.data;
-    const int row = coeffs.shape[1];
+    const int row = WT_CH * coeffs.shape[1];
     const double cd = (double)size;
     int start = 0;
     for (int r = 0; r < runs; ++r) {
@@ -547,47 +428,41 @@ LOAD_LANE
                     const float ty = zb - fy;
                     const float mtx = 1.0f - tx;
                     const float mty = 1.0f - ty;
-                    const float* p00 = cf + ((int)fy + PADV) * row + ((int)fx + PADV);
+                    const float* p00 = cf + ((int)fy + PADV) * row + ((int)fx + PADV) * WT_CH;
                     const float* p10 = p00 + row;
+//@ 3
+                    s0[l] = slab_add(s0[l], p00[0], p00[3], p10[0], p10[3], mtx, tx, mty, ty, w);
+                    s1[l] = slab_add(s1[l], p00[1], p00[4], p10[1], p10[4], mtx, tx, mty, ty, w);
+                    s2[l] = slab_add(s2[l], p00[2], p00[5], p10[2], p10[5], mtx, tx, mty, ty, w);
+//@ 1
                     s0[l] = slab_add(s0[l], p00[0], p00[1], p10[0], p10[1], mtx, tx, mty, ty, w);
+//@ end
                 }
             }
         }
         start = end;
     }
     for (int l = 0; l < np; ++l)
+//@ 3
+        out.data[dest.data[k0 + l]] = wp::vec3(s0[l], s1[l], s2[l]);
+//@ 1
         out.data[dest.data[k0 + l]] = s0[l];
-""").replace("PADV", str(PAD)).replace("LOAD_LANE", _LOAD_LANE)
+//@ end
+"""
 
 
-@wp.func_native(CLUSTER_SUMS1)
-def cluster_sums1(coeffs: wp.array2d(dtype=float), points: wp.array(dtype=wp.vec3d),
-                  normals: wp.array(dtype=wp.vec3), u1s: wp.array(dtype=wp.vec3), u2s: wp.array(dtype=wp.vec3),
-                  span_lo: wp.array(dtype=wp.vec3i), span_hi: wp.array(dtype=wp.vec3i), k0: int, k1: int,
-                  cubes: wp.array(dtype=wp.vec3i), run_cube: wp.array(dtype=wp.int32),
-                  run_end: wp.array(dtype=wp.int32), r0: int, runs: int, ux: wp.array(dtype=float),
-                  uy: wp.array(dtype=float), uz: wp.array(dtype=float), u0: int, size: float, half: float,
-                  cen0: float, cen1: float, lo0: float, lo1: float, hi0: float, hi1: float,
-                  out: wp.array(dtype=float), dest: wp.array(dtype=wp.int64), simd: int):
-    """``cluster_sums`` for a one-channel texton: float coefficients and sums."""
-    ...
+def cluster_sums_source(channels: int) -> str:
+    """The C++ of ``cluster_sums`` for ``channels`` (3 or 1): the template for that channel count."""
+    body = for_channels(CLUSTER_SUMS_TEMPLATE, channels).replace("WT_CH", str(channels))
+    return (_SLAB_ADD + VECTOR + _VECTOR_TYPES + body).replace("PADV", str(PAD)).replace("LOAD_LANE", _LOAD_LANE)
 
 
+CLUSTER_SUMS = cluster_sums_source(3)
+CLUSTER_SUMS1 = cluster_sums_source(1)
+
+
+# cluster_sums for three channels and one: Warp overloads a func_native on its argument types
 @wp.func_native(CLUSTER_SUMS)
-def cluster_sums3(coeffs: wp.array2d(dtype=wp.vec3), points: wp.array(dtype=wp.vec3d),
-                 normals: wp.array(dtype=wp.vec3), u1s: wp.array(dtype=wp.vec3), u2s: wp.array(dtype=wp.vec3),
-                 span_lo: wp.array(dtype=wp.vec3i), span_hi: wp.array(dtype=wp.vec3i), k0: int, k1: int,
-                 cubes: wp.array(dtype=wp.vec3i), run_cube: wp.array(dtype=wp.int32),
-                 run_end: wp.array(dtype=wp.int32), r0: int, runs: int, ux: wp.array(dtype=float),
-                 uy: wp.array(dtype=float), uz: wp.array(dtype=float), u0: int, size: float, half: float,
-                 cen0: float, cen1: float, lo0: float, lo1: float, hi0: float, hi1: float,
-                 out: wp.array(dtype=wp.vec3), dest: wp.array(dtype=wp.int64), simd: int):
-    """The raw slab sums (order-1 texton) of a cluster's points over its list,
-    written to out[dest[k]] for point k."""
-    ...
-
-
-@wp.func
 def cluster_sums(coeffs: wp.array2d(dtype=wp.vec3), points: wp.array(dtype=wp.vec3d),
                  normals: wp.array(dtype=wp.vec3), u1s: wp.array(dtype=wp.vec3), u2s: wp.array(dtype=wp.vec3),
                  span_lo: wp.array(dtype=wp.vec3i), span_hi: wp.array(dtype=wp.vec3i), k0: int, k1: int,
@@ -596,13 +471,13 @@ def cluster_sums(coeffs: wp.array2d(dtype=wp.vec3), points: wp.array(dtype=wp.ve
                  uy: wp.array(dtype=float), uz: wp.array(dtype=float), u0: int, size: float, half: float,
                  cen0: float, cen1: float, lo0: float, lo1: float, hi0: float, hi1: float,
                  out: wp.array(dtype=wp.vec3), dest: wp.array(dtype=wp.int64), simd: int):
-    # three channels (vec3 coefficients and sums)
-    cluster_sums3(coeffs, points, normals, u1s, u2s, span_lo, span_hi, k0, k1, cubes, run_cube, run_end, r0, runs,
-                  ux, uy, uz, u0, size, half, cen0, cen1, lo0, lo1, hi0, hi1, out, dest, simd)
+    """The raw slab sums (order-1 texton) of a cluster's points over its list,
+    written to out[dest[k]] for point k (vec3 coefficients and sums)."""
+    ...
 
 
-@wp.func
-def cluster_sums(coeffs: wp.array2d(dtype=float), points: wp.array(dtype=wp.vec3d),  # noqa: F811 (a Warp overload)
+@wp.func_native(CLUSTER_SUMS1)
+def cluster_sums(coeffs: wp.array2d(dtype=float), points: wp.array(dtype=wp.vec3d),  # noqa: F811 (an overload)
                  normals: wp.array(dtype=wp.vec3), u1s: wp.array(dtype=wp.vec3), u2s: wp.array(dtype=wp.vec3),
                  span_lo: wp.array(dtype=wp.vec3i), span_hi: wp.array(dtype=wp.vec3i), k0: int, k1: int,
                  cubes: wp.array(dtype=wp.vec3i), run_cube: wp.array(dtype=wp.int32),
@@ -610,24 +485,9 @@ def cluster_sums(coeffs: wp.array2d(dtype=float), points: wp.array(dtype=wp.vec3
                  uy: wp.array(dtype=float), uz: wp.array(dtype=float), u0: int, size: float, half: float,
                  cen0: float, cen1: float, lo0: float, lo1: float, hi0: float, hi1: float,
                  out: wp.array(dtype=float), dest: wp.array(dtype=wp.int64), simd: int):
-    # one channel (float coefficients and sums)
-    cluster_sums1(coeffs, points, normals, u1s, u2s, span_lo, span_hi, k0, k1, cubes, run_cube, run_end, r0, runs,
-                  ux, uy, uz, u0, size, half, cen0, cen1, lo0, lo1, hi0, hi1, out, dest, simd)
-
-
-@wp.func_native(_VECTOR + """
-#if defined(__AVX512F__)
-    return 3;
-#elif defined(__AVX2__)
-    return 2;
-#else
-    return 1;
-#endif
-#else
-    return 0;
-#endif
-""")
-def vector_loops() -> int:
-    """Which form of the loops this module's CPU code holds: 3 the vector form built
-    for AVX-512, 2 for AVX2, 1 for NEON; 0 the plain form (CUDA, other CPUs)."""
+    """``cluster_sums`` for a one-channel texton: float coefficients and sums."""
     ...
+
+
+#: 0.2's name of the build's form (kernels/native_simd.py).
+vector_loops = vector_form

@@ -54,7 +54,7 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from .impacts import AVALANCHE_M1, AVALANCHE_M2, GOLDEN, PCG_INC, PCG_MUL, PCG_OUT, avalanche
+from .impacts import AVALANCHE_M1, AVALANCHE_M2, GOLDEN, PCG_INC, PCG_MUL, PCG_OUT, avalanche, next_impact
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
 
@@ -91,10 +91,8 @@ def centre_axis(u: float, lo: int, n: int):
 @wp.func
 def vertex_centre(hs: wp.uint32, a: int, b: int, lo: wp.vec2i, n: wp.vec2i):
     # the example texel (column, row) that vertex (a, b) shows on itself: two PCG uniforms, column first
-    s = vertex_state(hs, a, b)
-    ux = wp.randf(s)
-    uy = wp.randf(s)
-    return wp.vec2i(centre_axis(ux, lo[0], n[0]), centre_axis(uy, lo[1], n[1]))
+    u, s = next_impact(vertex_state(hs, a, b))  # the stream's two uniforms, as a plane impact's
+    return wp.vec2i(centre_axis(u[0], lo[0], n[0]), centre_axis(u[1], lo[1], n[1]))
 
 
 @wp.func

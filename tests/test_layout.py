@@ -61,6 +61,16 @@ def test_the_tiling_shaders_of_0_3_resolve_in_each_language():
     assert old.refuse_texton_options is shared.refuse_texton_options and old.GLSL_FILE == "tiling_noise.glsl"
 
 
+@pytest.mark.parametrize("old, new, name", [("warp_texton.view.images", "warp_texton.view.pictures", "to_8bit"),
+                                           ("warp_texton.cli.images", "warp_texton.cli.image_commands", "SYNTHESIZE")])
+def test_the_images_modules_of_0_3_import_with_a_warning(old, new, name, forget):
+    """0.3's view.images and cli.images are named for what they hold now (files.images keeps its name)."""
+    forget(old)
+    with pytest.warns(DeprecationWarning, match=rf"{old} moved to {new};"):
+        module = importlib.import_module(old)
+    assert getattr(module, name) is getattr(importlib.import_module(new), name)
+
+
 @pytest.mark.parametrize("face, name", [("glsl", "glsl_noise"), ("glsl", "preview_html"), ("glsl", "GLSL_FILE"),
                                         ("osl", "osl_files"), ("osl", "i32"), ("osl", "PLANE_FILE")])
 def test_names_of_a_module_that_became_a_language_package_warn(face, name):

@@ -33,7 +33,8 @@ from .core.errors import ExampleWarning, TextonError
 
 if TYPE_CHECKING:  # what type checkers and documentation tools see; at run time, __getattr__
     from .model.analysis import analyze, model_error
-    from .surface.bake import BakedMesh, bake_mesh, render_baked
+    from .surface.bake import BakedMesh, bake_mesh
+    from .surface.render import render_baked
     from .model.spot_noise import dsn
     from .model.analysis_options import AnalysisOptions
     from .model.example_checks import downscale
@@ -57,7 +58,7 @@ if TYPE_CHECKING:  # what type checkers and documentation tools see; at run time
 #: The module of each public name that is imported on first use.
 _LAZY = {
     "analyze": "model.analysis", "model_error": "model.analysis",
-    "BakedMesh": "surface.bake", "bake_mesh": "surface.bake", "render_baked": "surface.bake", "write_baked": "surface.mesh_files",
+    "BakedMesh": "surface.bake", "bake_mesh": "surface.bake", "render_baked": "surface.render", "write_baked": "surface.mesh_files",
     "dsn": "model.spot_noise",
     "FilterOptions": "noise.filter_options", "NoiseOptions": "noise.noise_options", "AnalysisOptions": "model.analysis_options",
     "downscale": "model.example_checks",
@@ -175,14 +176,14 @@ MOVED_MODULES: dict[str, str | tuple[str, ...]] = {
     "warp_texton.view_core": "warp_texton.view.viewer",
     "warp_texton.view_query": "warp_texton.view.queries",
     "warp_texton.view_cache": "warp_texton.view.cache",
-    "warp_texton.view_images": "warp_texton.view.images",
+    "warp_texton.view_images": "warp_texton.view.pictures",
     "warp_texton.view_inputs": "warp_texton.view.inputs",
     "warp_texton.view_commands": "warp_texton.view.commands",
     "warp_texton.view_webgl": "warp_texton.view.webgl",
     "warp_texton.viewer": "warp_texton.view.static",
     "warp_texton.cli": "warp_texton.cli.parser",
     "warp_texton.cli_options": "warp_texton.cli.options",
-    "warp_texton.cli_images": "warp_texton.cli.images",
+    "warp_texton.cli_images": "warp_texton.cli.image_commands",
     "warp_texton.cli_surface": "warp_texton.cli.surface",
     "warp_texton.cli_shader": "warp_texton.cli.shader",
     "warp_texton.cli_view": "warp_texton.cli.view",
@@ -195,7 +196,7 @@ MOVED_MODULES: dict[str, str | tuple[str, ...]] = {
     "warp_texton.kernels.noise2d": "warp_texton.kernels.noise_raster",
     "warp_texton.kernels.filter2d": "warp_texton.kernels.noise_filter",
     "warp_texton.kernels.colours": "warp_texton.kernels.noise_colours",
-    "warp_texton.kernels.surface": "warp_texton.kernels.surface_points",
+    "warp_texton.kernels.surface": ("warp_texton.kernels.surface_points", "warp_texton.kernels.surface_clusters"),
     "warp_texton.kernels.blocks": "warp_texton.kernels.surface_blocks",
     "warp_texton.kernels.render": "warp_texton.kernels.surface_render",
     "warp_texton.kernels.bake": "warp_texton.kernels.surface_bake",
@@ -203,6 +204,9 @@ MOVED_MODULES: dict[str, str | tuple[str, ...]] = {
     # 0.3's tiling shaders (GLSL and OSL in one module): each language's port now, and what both share
     "warp_texton.runtimes.tiling_shaders": ("warp_texton.runtimes.glsl.tiling", "warp_texton.runtimes.osl.tiling",
                                             "warp_texton.runtimes.shared"),
+    # 0.3's three images.py, two of them named now for what they hold (files.images, image files, stays)
+    "warp_texton.view.images": "warp_texton.view.pictures",
+    "warp_texton.cli.images": "warp_texton.cli.image_commands",
 }
 
 

@@ -8,7 +8,8 @@ import pytest
 
 from benchmarks.synthetic_lattices import CASES, lattice_texture, same_lattice
 from warp_texton import TextonError, analyze, evaluate, load_texton, synthesize
-from warp_texton.model.lattice import Lattice, detect_lattices, lattice_mean, seam_ratios
+from warp_texton.model.lattice import Lattice, lattice_mean, seam_ratios
+from warp_texton.model.lattice_detection import detect_lattices
 from warp_texton.model.tiling import TilingModel
 from warp_texton.model.tiling_fit import example_wrap, fit_tiling, snap_centres
 

@@ -955,7 +955,7 @@ class TestMixArgumentsFirst:
         (["--steps", "1"], r"--steps must be at least 2"),
     ])
     def test_refused_before_reading(self, tmp_path, monkeypatch, capsys, extra, match):
-        import warp_texton.cli.images as C
+        import warp_texton.cli.image_commands as C
 
         read = []
         monkeypatch.setattr(C, "_load_texture", lambda path: read.append(path))
@@ -965,7 +965,7 @@ class TestMixArgumentsFirst:
         assert not read and not list(tmp_path.iterdir())
 
     def test_missing_output_folder_refused_first(self, tmp_path, monkeypatch, capsys):
-        import warp_texton.cli.images as C
+        import warp_texton.cli.image_commands as C
 
         monkeypatch.setattr(C, "_load_texture", lambda path: pytest.fail("read before the output was checked"))
         assert run_cli(["mix", "a.png", "b.png", "-o", tmp_path / "no" / "m.png"]) == 2

@@ -114,9 +114,8 @@ def test_bad_filter_options(brick, call, param):
 
 def test_filtered_points_equal_the_filtered_raster(brick):
     # tiling_filtered at a pixel's position and footprint (the kernels' filtered point evaluation) is the pixel
-    from warp_texton.noise.filtering import tiling_options
     from warp_texton.noise.raster import raster_geometry
-    from warp_texton.noise.tiling import tiling_filtered_at
+    from warp_texton.noise.tiling_filtering import tiling_filtered_at, tiling_options
 
     shape, kw = (16, 24), dict(scale=0.2, rotation=30.0, offset=(-50.0, 80.0))
     raster = synthesize(brick, shape, filter="anisotropic", seed=9, device="cpu", **kw)

@@ -32,7 +32,7 @@ from warp_texton import (TextonError, analyze, load_texton, read_image, render_p
 from warp_texton.demo import demo_texture_path
 from warp_texton.view.server import serve
 from warp_texton.view.viewer import Viewer
-from warp_texton.view.images import to_8bit
+from warp_texton.view.pictures import to_8bit
 from warp_texton.view.queries import Analysis, Mix, Noise, Tile, rotate, tile_window, view_window
 from helpers import ctrl_c_default
 

@@ -20,7 +20,7 @@ from PIL import Image
 
 from warp_texton import analyze, read_image, render_plane, synthesize
 from warp_texton.view.server import serve
-from warp_texton.view.images import to_8bit
+from warp_texton.view.pictures import to_8bit
 from warp_texton.view.queries import Noise, Tile, tile_window, view_window
 
 from test_view import DEVICE, SIZE, run_cli, small_rgb

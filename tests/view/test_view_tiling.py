@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from warp_texton import analyze, load_texton, read_image, synthesize
-from warp_texton.view.images import to_8bit
+from warp_texton.view.pictures import to_8bit
 from warp_texton.view.queries import Noise, Tile, tile_window, view_window
 from warp_texton.view.server import serve
 from warp_texton.model.lattice import Lattice

@@ -35,7 +35,7 @@ from test_view import DEVICE, SIZE, small_rgb
 from warp_texton import analyze, read_image, synthesize
 from warp_texton.runtimes.glsl.texton import glsl_noise
 from warp_texton.view.server import serve
-from warp_texton.view.images import to_8bit
+from warp_texton.view.pictures import to_8bit
 from warp_texton.view.queries import view_window
 from warp_texton.view.webgl import VIEW_UNIFORMS
 

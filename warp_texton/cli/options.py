@@ -236,7 +236,7 @@ def read_example(path, iterations: int, crop=None, downscale: int = 1, *, histog
     from ..model.analysis import check_analysis_cost
     from ..model.example_checks import crop_box
     from ..model.example_checks import downscale as shrink
-    from ..model.tiling import check_tiling_analysis, tiling_affordable
+    from ..model.structure import check_tiling_analysis, tiling_affordable
     from ..files.images import image_size, read_image
 
     size = image_size(path)

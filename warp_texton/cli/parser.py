@@ -1,6 +1,6 @@
 """The ``warp-texton`` command line: the parser made from the commands, and ``main``.
 
-The commands live in :mod:`~warp_texton.cli.images`, :mod:`~warp_texton.cli.surface`
+The commands live in :mod:`~warp_texton.cli.image_commands`, :mod:`~warp_texton.cli.surface`
 and :mod:`~warp_texton.cli.view`, each a :class:`~warp_texton.cli.options.Command`
 (its arguments, its handler, and the library arguments its options set); a new
 command is one more record in :data:`COMMANDS`. Nothing is imported from the
@@ -18,7 +18,7 @@ import warnings
 
 from .._version import __version__
 from .blender import BLENDER_EXTENSION
-from .images import ANALYZE, DEMO, GAUSSIAN, MIX, RENDER_PLANE, SYNTHESIZE
+from .image_commands import ANALYZE, DEMO, GAUSSIAN, MIX, RENDER_PLANE, SYNTHESIZE
 from .info import INFO
 from .options import Command, start_clock
 from .shader import SHADER

@@ -171,15 +171,15 @@ def _executor(scheduler):
 def _surface_texton(args):
     """The batch's texton: a texton file, or an example image analysed once (a bad one fails the batch)."""
     from ..model.texton import is_texton_path, load_texton
-    from ..surface.tiling import SURFACE_MNI, check_model
+    from ..surface.tiling import SURFACE_MNI, check_surface_model
 
     if is_texton_path(args.texton):
         # checked once here (a tiling model's options too); the jobs read it themselves
-        check_model(load_texton(args.texton), mni=(args.mni, SURFACE_MNI))
+        check_surface_model(load_texton(args.texton), mni=(args.mni, SURFACE_MNI))
         return args.texton
     try:
         texton = texton_of(args, args.texton)
-        check_model(texton, mni=(args.mni, SURFACE_MNI))
+        check_surface_model(texton, mni=(args.mni, SURFACE_MNI))
         return texton
     except TextonError as exc:
         if exc.param == "u" or "u" in exc.mentions or args.texton in str(exc):

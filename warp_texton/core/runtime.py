@@ -3,6 +3,8 @@
 One CPU launch runs on one thread, and Warp releases the GIL during it, so
 CPU work is cut into contiguous parts (row bands of a raster, chunks of
 points) launched from a pool of threads. On CUDA one launch covers it all.
+
+Kernels driven here: ``warp_texton.kernels.native_simd`` (which form of the native loops was built).
 """
 
 from __future__ import annotations
@@ -81,6 +83,21 @@ def resolve_device(device=None) -> str:
 
 def is_cpu(device) -> bool:
     return wp.get_device(device).is_cpu
+
+
+def vector_form(device, enabled: bool = True) -> str:
+    """The form of the native CPU loops (kernels/native_simd.py) that runs on ``device``: "avx512",
+    "avx2" or "neon" where their vector form was compiled for that instruction set, "scalar"
+    otherwise (other CPUs, CUDA, or ``enabled`` False): all forms give the same values."""
+    from ..kernels import native_simd
+
+    init_warp()
+    device = resolve_device(device)
+    if not is_cpu(device) or not enabled:
+        return "scalar"
+    flag = wp.zeros(1, dtype=wp.int32, device=device)
+    wp.launch(native_simd.vector_form_probe, dim=1, inputs=[flag], device=device)
+    return native_simd.VECTOR_FORMS[int(flag.numpy()[0])]
 
 
 def cpu_threads() -> int:

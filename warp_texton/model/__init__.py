@@ -15,7 +15,8 @@ if TYPE_CHECKING:
     from .gaussian import gaussian_texture, periodic_component
     from .histogram import HistogramTransform
     from .spot_noise import dsn
-    from .tiling import TilingModel, structure_score, suggest_method
+    from .structure import structure_score
+    from .tiling import TilingModel, suggest_method
     from .analysis_options import AnalysisOptions
     from .example_checks import downscale
 
@@ -30,7 +31,7 @@ _LAZY = {
     "HistogramTransform": "histogram",
     "dsn": "spot_noise",
     "TilingModel": "tiling",
-    "structure_score": "tiling",
+    "structure_score": "structure",
     "suggest_method": "tiling",
     "AnalysisOptions": "analysis_options",
     "downscale": "example_checks",

@@ -25,7 +25,8 @@ import numpy as np
 import scipy.fft as sfft
 
 from ..core.checks import as_image, check_bool, check_int, check_seed
-from .tiling import MIN_SIDE, TILING_KIND, TilingModel, patch_distance, scorable, tiling_affordable
+from .structure import patch_distance, scorable, tiling_affordable
+from .tiling import MIN_SIDE, TILING_KIND, TilingModel
 from .spot_noise import dsn
 from .tiling_fit import LATTICE_AUTO, PROBE_SAMPLES, PROBE_DIRECTIONS, PROBE_SEEDS, PROBE_SIDE, fit_tiling
 from .bspline import bhat
@@ -348,7 +349,7 @@ def analyze(
         texton-only options (``size``, ``order``, ``iterations``,
         ``color_correction``, ``support``) must keep their
         defaults. Its ``metadata["structure"]`` is the measured structure
-        score (:func:`~warp_texton.model.tiling.structure_score`) and
+        score (:func:`~warp_texton.model.structure.structure_score`) and
         ``metadata["fit"]`` what the fit found (seams, lattices, the
         candidates' distances). ``"auto"``: the tiling model where its probe
         is closer to the example, by the patch distance, than the

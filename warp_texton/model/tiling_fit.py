@@ -12,7 +12,7 @@ model (docs/tiling.md, "Seamless examples", "Lattices"):
    model whose output is *probed* — a raster made by :func:`probe`, the model's own draw evaluated in
    NumPy at scale 1 with its centres drawn from NumPy's generator (a statistical twin of the kernels'
    output: the same blend of the same patches, another stream) — and the candidate whose probe has
-   the lowest patch distance to the example (:func:`~warp_texton.model.tiling.patch_distance`) is
+   the lowest patch distance to the example (:func:`~warp_texton.model.structure.patch_distance`) is
    kept. ``model.metadata["fit"]`` records the seams, the lattices, every candidate's distance.
 
 The probe is NumPy because the model layer runs no kernels (docs/architecture.md); it reads texels
@@ -29,15 +29,16 @@ import numpy as np
 from ..core.checks import as_image
 from ..core.errors import TextonError
 from .histogram import HistogramTransform, check_histogram, gauss_grid
-from .lattice import Lattice, detect_lattices, lattice_of, seam_ratios
-from .tiling import (CUTOFF_FRACTION, MIN_SIDE, PROBE_LIMIT, SHARPNESS, TILING_KIND, TilingModel, centre_box,
-                     check_tiling_analysis, patch_distance, scorable, structure_parts)
+from .lattice import Lattice, lattice_of, seam_ratios
+from .lattice_detection import detect_lattices
+from .structure import PROBE_LIMIT, check_tiling_analysis, patch_distance, scorable, structure_parts
+from .tiling import CUTOFF_FRACTION, MIN_SIDE, SHARPNESS, TILING_KIND, TilingModel, centre_box
 
 __all__ = ["fit_tiling", "LATTICE_AUTO", "example_wrap", "probe", "probe_distance", "gaussianised", "PROBE_SIDE", "SIDE_FRACTIONS",
            "CROP_SIDE_FRACTIONS", "snap_centres"]
 
 #: The probe raster's side (texels; at most twice the example's): the outputs' usual size, where a side
-#: of half the example shows a few triangles (priced as tiling.PROBE_LIMIT).
+#: of half the example shows a few triangles (priced as structure.PROBE_LIMIT).
 PROBE_SIDE = PROBE_LIMIT
 #: Candidate sides, as fractions of the example's smaller side: wrapped on both axes, and otherwise.
 SIDE_FRACTIONS = (1 / 4, 1 / 3, 1 / 2)

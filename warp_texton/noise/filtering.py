@@ -23,7 +23,6 @@ Kernels driven here: ``warp_texton.kernels.noise_filter``, ``warp_texton.kernels
 
 from __future__ import annotations
 
-import dataclasses
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 
@@ -42,8 +41,6 @@ from ..core.limits import check_memory, check_work
 from .colours import footprint_shares, shares_of
 from .engine import NoiseSetup, cell_limit, params_mean, point_values, support_reach, visits_per_point, walk_cost
 from ..model.texton import Texton, lag0_covariance
-from ..model.tiling import TilingModel
-from . import tiling
 
 MAX_FOOTPRINT = 1.0e12
 """Footprint entries are clamped to ±this many texels: far past the coarsest
@@ -576,14 +573,12 @@ def _splitmix64(x):
         return x ^ (x >> np.uint64(31))
 
 
-def supersampled(p, coeffs, pixels: PixelSet, n: int, seed: int, device, limit: float,
-                 progress: bool = False) -> np.ndarray:
-    """(pixels.count, 3) averages of n × n stratified jittered evaluations per pixel.
-
-    Sub-pixels that see no noise (NaN positions) and those beyond ±``limit``
-    texels (whose cells the kernels cannot index) count as the mean.
-    """
-    out = np.zeros((pixels.count, 3), np.float32)
+def jittered_means(pixels, n: int, seed: int, limit: float, mean, values_at, progress: bool = False) -> np.ndarray:
+    """(pixels.count, C) means of n × n stratified jittered evaluations per pixel (``values_at(points)``:
+    (N, C) values at (N, 2) positions); sub-pixels that see no noise (NaN positions) and those beyond
+    ±``limit`` texels (whose cells the kernels cannot index) count as ``mean`` (C,)."""
+    channels = len(mean)
+    out = np.zeros((pixels.count, channels), np.float32)
     per = max(1, SUPERSAMPLE_BATCH // (n * n))
     chunks = range(0, pixels.count, per)
     if progress:
@@ -595,56 +590,19 @@ def supersampled(p, coeffs, pixels: PixelSet, n: int, seed: int, device, limit: 
         with np.errstate(invalid="ignore"):
             pts = pixels.subpixels(sel, subpixel_jitter(seed, pixels.keys[sel], n)).reshape(-1, 2)
             good = (np.abs(pts) < limit).all(axis=1)  # False for NaN too
-        vals = np.empty((pts.shape[0], 3), np.float32)
-        vals[~good] = params_mean(p)
-        vals[good] = point_values(p, coeffs, np.ascontiguousarray(pts[good]), device)
-        out[sel] = vals.reshape(sel.size, n * n, 3).mean(axis=1)
-    return out
-
-
-# ------------------------------------------------------------------ tiling models
-
-
-def tiling_supersampled(model: TilingModel, pixels, n: int, seed: int, device, period=None,
-                        reach: float = float(1 << 30)) -> np.ndarray:
-    """(pixels.count, C) means of n × n stratified jittered evaluations per pixel (a
-    :class:`~warp_texton.noise.filtering.PixelSet`), the reference of the footprint filters; sub-pixels
-    that see no plane or lie beyond ``reach`` count as the mean."""
-    out = np.zeros((pixels.count, model.channels), np.float32)
-    per = max(1, SUPERSAMPLE_BATCH // (n * n))
-    mean = model.mean3[:model.channels]
-    for start in range(0, pixels.count, per):
-        sel = np.arange(start, min(start + per, pixels.count))
-        with np.errstate(invalid="ignore"):
-            pts = pixels.subpixels(sel, subpixel_jitter(seed, pixels.keys[sel], n)).reshape(-1, 2)
-            good = (np.abs(pts) < reach).all(axis=1)
-        vals = np.empty((pts.shape[0], model.channels), np.float32)
+        vals = np.empty((pts.shape[0], channels), np.float32)
         vals[~good] = mean
-        vals[good] = tiling.tiling_at(model, np.ascontiguousarray(pts[good]), seed, device, period)
-        out[sel] = vals.reshape(sel.size, n * n, model.channels).mean(axis=1)
+        vals[good] = values_at(np.ascontiguousarray(pts[good]))
+        out[sel] = vals.reshape(sel.size, n * n, channels).mean(axis=1)
     return out
 
 
-def tiling_options(options):
-    """``options`` with the tiling's level bias where it has none (:data:`TILING_LOD_BIAS`), so that
-    :func:`~warp_texton.noise.filtering.footprint_levels` and ``needs_filtering`` see the kernels' choice."""
-    if options.fade_energy != FADE_ENERGY:
-        raise TextonError("fade_energy does not apply to a tiling model: its MIP pyramid keeps every level of the "
-                          "example (footprints past the last one see the mean)", param="fade_energy")
-    if options.spec.footprint and options.lod_bias is None:
-        return dataclasses.replace(options, lod_bias=tiling.TILING_LOD_BIAS[options.kind])
-    return options
+def supersampled(p, coeffs, pixels: PixelSet, n: int, seed: int, device, limit: float,
+                 progress: bool = False) -> np.ndarray:
+    """(pixels.count, 3) averages of n × n stratified jittered evaluations per pixel.
 
-
-#: Operations of one blend (a triangle, three hashed vertices, three lookups), for the work budget.
-BLEND_WORK = 64
-
-
-def tiling_filter_work(options, count: int) -> float:
-    """Operations of filtering ``count`` pixels of a tiling model with ``options``: a blend per probe
-    (two levels per lookup) or per sub-pixel."""
-    if options.spec.supersamples:
-        return float(count) * BLEND_WORK * options.supersample ** 2
-    if options.spec.axis_lookups:
-        return float(count) * BLEND_WORK * 2 * options.max_aniso
-    return float(count) * BLEND_WORK * 2
+    Sub-pixels that see no noise (NaN positions) and those beyond ±``limit``
+    texels (whose cells the kernels cannot index) count as the mean.
+    """
+    return jittered_means(pixels, n, seed, limit, params_mean(p), lambda pts: point_values(p, coeffs, pts, device),
+                          progress)

@@ -488,8 +488,8 @@ def _tiling_plane(model: TilingModel, camera: PlaneCamera, keys, options: Filter
     as ``options`` say: the footprint kinds through the same kernel function as ``synthesize``'s filtered
     rasters (``tiling_filtered``), "supersample" with each sub-pixel projected exactly. Pixels that see no
     plane, or whose centre lies beyond ±2³⁰ texels, hold the example's mean."""
-    from .filtering import tiling_filter_work, tiling_options, tiling_supersampled
-    from .tiling import MAX_TILING_REACH, refuse_texton_options, tiling_at, tiling_filtered_at
+    from .tiling import MAX_TILING_REACH, refuse_texton_options, tiling_at
+    from .tiling_filtering import tiling_filter_work, tiling_filtered_at, tiling_options, tiling_supersampled
     from ..core.limits import check_work
 
     refuse_texton_options(dict(mni=(mni, 30.0)))

@@ -19,12 +19,13 @@ Kernels driven here: ``warp_texton.kernels.noise_raster``.
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
 
 import numpy as np
 import warp as wp
 
-from ..core.checks import check_positive, check_real
+from ..core.checks import as_real_array, check_positive, check_real, check_shape
 from ..core.runtime import BANDS_PER_THREAD, is_cpu, split_launch
 from .canvas import LANES, VEC3_BYTES, Canvas, strips
 from ..core.errors import TextonError
@@ -54,6 +55,47 @@ CELL_BYTES = 8
 #: Standard deviations of the Poisson count added to a block's expected impacts:
 #: a bound that a block's real count exceeds with negligible probability.
 IMPACT_SIGMAS = 10
+
+#: Pixel windows are placed with int32 indices in the kernels.
+MAX_PIXEL_INDEX = 1 << 30
+
+
+def check_pixel_offset(pixel_offset) -> tuple[int, int]:
+    """A pair (row, column) of integers within ±2**30: where a window starts in the global raster."""
+    try:
+        r, c = pixel_offset
+    except (TypeError, ValueError):
+        raise TextonError(f"pixel_offset must be a pair (row, column) of integers, got {pixel_offset!r}") from None
+    out = []
+    for v, name in ((r, "pixel_offset[0] (row)"), (c, "pixel_offset[1] (column)")):
+        if isinstance(v, bool) or not isinstance(v, numbers.Integral):
+            raise TextonError(f"{name} must be an integer, got {v!r}")
+        if abs(int(v)) > MAX_PIXEL_INDEX:
+            raise TextonError(f"{name} must be within ±2**30, got {v}")
+        out.append(int(v))
+    return out[0], out[1]
+
+
+def raster_placement(shape, scale, rotation, offset, pixel_offset=(0, 0)):
+    """((H, W), first, origin, step): a raster's checked shape and pixel offset and the geometry
+    (:func:`raster_geometry`) that places its pixels, for every front end that takes a raster."""
+    h, w = check_shape(shape)
+    first = check_pixel_offset(pixel_offset)
+    origin, step = raster_geometry((h, w), scale, rotation, offset)
+    return (h, w), first, origin, step
+
+
+def check_points(points, bytes_per_point: float, what: str) -> np.ndarray:
+    """Positions (N, 2) (x, y) in texel units, checked: shape, memory (``bytes_per_point`` each, priced before
+    any pass over them: a broadcast array of 10**9 points is 16 bytes, its copy 16 GB) and finite values."""
+    pts = as_real_array(points, "points", "an array of shape (N, 2) of numbers")
+    if pts.ndim != 2 or pts.shape[1] != 2:
+        raise TextonError(f"points must have shape (N, 2), got {pts.shape}", param="points")
+    check_memory(pts.shape[0] * bytes_per_point, f"{what} {pts.shape[0]} points", "use fewer points", param="points")
+    if not np.isfinite(pts).all():
+        raise TextonError(f"points contain {int((~np.isfinite(pts)).sum())} NaN or infinite values", param="points")
+    return pts
+
 
 def raster_geometry(shape, scale, rotation, offset):
     """Pixel (i, j) ↦ x = offset + R(rotation) ((j + ½)/scale, (i + ½)/scale):

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..model.noise_tables import at_mni
-from ..core.checks import as_real_array, check_positive, check_seed, check_shape
+from ..core.checks import check_positive, check_seed
 from ..core.errors import TextonError
 from ..core.limits import check_memory
 from ..core.runtime import init_warp, resolve_device, split_launch
@@ -26,8 +26,8 @@ from .colours import noise_moments
 from .filter_options import FilterOptions
 from .engine import CELL_FACTOR, POINT_BYTES, check_cell_range, check_points_cost, noise_params, noise_setup
 from .noise_options import NoiseOptions
-from .raster import raster_geometry
-from .synthesis import check_pixel_offset, check_tiling_period, check_tiling_reach, synthesize
+from .raster import check_points, raster_placement
+from .synthesis import check_tiling_period, check_tiling_reach, synthesize
 from .tiling import lattice_struct, refuse_texton_options, tiling_struct
 
 #: Bytes a point of a gradient holds on its way (its position, the kernels' 3 × 3 result, the (C, 2) output).
@@ -196,19 +196,9 @@ def gradient(
     if isinstance(model, Texton):
         opts = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
     if points is not None:
-        pts = as_real_array(points, "points", "an array of shape (N, 2) of numbers")
-        if pts.ndim != 2 or pts.shape[1] != 2:
-            raise TextonError(f"points must have shape (N, 2), got {pts.shape}", param="points")
-        check_memory(pts.shape[0] * GRADIENT_BYTES, f"gradients at {pts.shape[0]} points", "use fewer points",
-                     param="points")
-        if not np.isfinite(pts).all():
-            raise TextonError(f"points contain {int((~np.isfinite(pts)).sum())} NaN or infinite values",
-                              param="points")
-        pts = np.ascontiguousarray(pts, np.float64)
+        pts = np.ascontiguousarray(check_points(points, GRADIENT_BYTES, "gradients at"), np.float64)
         return _colour_gradient(model, value_slopes(model, pts, opts, seed, period, device, texton_options))
-    h, w = check_shape(shape)
-    first = check_pixel_offset(pixel_offset)
-    origin, step = raster_geometry((h, w), scale, rotation, offset)
+    (h, w), first, origin, step = raster_placement(shape, scale, rotation, offset, pixel_offset)
     check_memory(float(h * w) * (GRADIENT_BYTES + 16), f"gradients of a {w}x{h} raster", "use a smaller shape",
                  param="shape")
     jj, ii = np.meshgrid(np.arange(w, dtype=np.float64) + first[1] + 0.5,

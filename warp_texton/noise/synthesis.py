@@ -15,51 +15,32 @@ one gather launch (CUDA).
 
 from __future__ import annotations
 
-import numbers
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..core.checks import as_real_array, check_seed, check_shape
+from ..core.checks import check_seed
 from ..core.runtime import progress_bar, resolve_device
 from .canvas import Canvas, check_output, lanes_for, result_bytes, strips
 from ..core.errors import TextonError
-from .filtering import (COST_HINT_NAMES, tiling_filter_work, tiling_options, tiling_supersampled, COST_SAMPLES, FILTER_BYTES_PER_PIXEL, FilterOptions, RasterPixels,
+from .filtering import (COST_HINT_NAMES, COST_SAMPLES, FILTER_BYTES_PER_PIXEL, FilterOptions, RasterPixels,
                         check_jacobian, filter_pixels, filter_work, needs_filtering, pixel_cost, pixel_shares)
 from .engine import (CELL_FACTOR, POINT_BYTES, NoiseSetup, check_cell_range, check_points_cost, noise_params,
                      noise_setup, params_record, params_struct, point_values)
 from .noise_options import NoiseOptions, check_period
-from .raster import (RasterWindow, TextonStack, check_method, check_raster_cost, raster_cost, raster_geometry,
-                     raster_reach, rasters, resolve_method, window_block)
+from .raster import (MAX_PIXEL_INDEX, RasterWindow, TextonStack, check_method, check_pixel_offset,  # noqa: F401 (0.2 names)
+                     check_points, check_raster_cost, raster_cost, raster_placement, raster_reach, rasters,
+                     resolve_method, window_block)
 from ..model.noise_tables import at_mni
 from ..model.texton import Texton
 from ..model.tiling import TilingModel
-from .tiling import MAX_TILING_REACH, tiling_at, tiling_filtered_raster, tiling_pixels
+from .tiling import MAX_TILING_REACH, tiling_at, tiling_pixels
+from .tiling_filtering import tiling_filter_work, tiling_filtered_raster, tiling_options, tiling_supersampled
 from .tiling import refuse_texton_options as _refuse_texton_options
 from ..core.limits import check_memory, check_work
 
 if TYPE_CHECKING:
     import warp as wp
-
-#: Pixel windows are placed with int32 indices in the kernels.
-MAX_PIXEL_INDEX = 1 << 30
-
-
-def check_pixel_offset(pixel_offset) -> tuple[int, int]:
-    """A pair (row, column) of integers within ±2**30."""
-    try:
-        r, c = pixel_offset
-    except (TypeError, ValueError):
-        raise TextonError(f"pixel_offset must be a pair (row, column) of integers, got {pixel_offset!r}") from None
-    out = []
-    for v, name in ((r, "pixel_offset[0] (row)"), (c, "pixel_offset[1] (column)")):
-        if isinstance(v, bool) or not isinstance(v, numbers.Integral):
-            raise TextonError(f"{name} must be an integer, got {v!r}")
-        if abs(int(v)) > MAX_PIXEL_INDEX:
-            raise TextonError(f"{name} must be within ±2**30, got {v}")
-        out.append(int(v))
-    return out[0], out[1]
-
 
 def synthesize(
     texton: Texton | TilingModel,
@@ -328,15 +309,13 @@ def synthesize(
                                   texton_only=dict(mni=(mni, 30.0),
                                                    poisson=(poisson, "exact"), cell_factor=(cell_factor, CELL_FACTOR),
                                                    method=(method, "auto"), noise=(noise, None)))
-    h, w = check_shape(shape)
+    (h, w), first, origin, step = raster_placement(shape, scale, rotation, offset, pixel_offset)
     noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
     texton = at_mni(texton, noise.mni)  # the histogram tables of this MNI's noise
     seed = noise.seed
     check_method(method)
-    first = check_pixel_offset(pixel_offset)
     output = check_output(output)
     setup = noise_setup(texton, noise.mni, noise.period, noise.cell_factor)
-    origin, step = raster_geometry((h, w), scale, rotation, offset)
     options = FilterOptions.of(filter)
     J = step if jacobian is None else check_jacobian(jacobian, (h, w))
     device = resolve_device(device)
@@ -477,13 +456,7 @@ def evaluate(
     >>> polar.reshape(360, 100, 1).shape
     (360, 100, 1)
     """
-    pts = as_real_array(points, "points", "an array of shape (N, 2) of numbers")
-    if pts.ndim != 2 or pts.shape[1] != 2:
-        raise TextonError(f"points must have shape (N, 2), got {pts.shape}")
-    # before any pass over them: a broadcast array of 10**9 points is 16 bytes, its copy 16 GB
-    check_memory(pts.shape[0] * POINT_BYTES, f"evaluating {pts.shape[0]} points", "use fewer points", param="points")
-    if not np.isfinite(pts).all():
-        raise TextonError(f"points contain {int((~np.isfinite(pts)).sum())} NaN or infinite values")
+    pts = check_points(points, POINT_BYTES, "evaluating")
     if isinstance(texton, TilingModel):
         _refuse_texton_options(dict(mni=(mni, 30.0), poisson=(poisson, "exact"),
                                     cell_factor=(cell_factor, CELL_FACTOR), noise=(noise, None)))
@@ -555,11 +528,9 @@ def _synthesize_tiling(model: TilingModel, shape, *, seed, scale, rotation, offs
     _refuse_texton_options(texton_only)
     period = check_tiling_period(period)
     options = tiling_options(FilterOptions.of(filter))
-    h, w = check_shape(shape)
+    (h, w), first, origin, step = raster_placement(shape, scale, rotation, offset, pixel_offset)
     seed = check_seed(seed)
-    first = check_pixel_offset(pixel_offset)
     output = check_output(output)
-    origin, step = raster_geometry((h, w), scale, rotation, offset)
     corners = origin[:, None] + step @ np.array([[first[1], first[1] + w, first[1], first[1] + w],
                                                  [first[0], first[0], first[0] + h, first[0] + h]], np.float64)
     check_tiling_reach(corners.T)

@@ -3,7 +3,7 @@
 The templates (``shaders/``, package data) are read here, for the GLSL and the OSL
 ports alike. A tiling model exports the unfiltered plane tiling in every language:
 the texton-noise, filter and surface options are refused for it in one error
-(:func:`tiling_seed`, :func:`refuse_texton_options`), and its description records
+(:func:`tiling_seed`, :func:`refuse_export_options`), and its description records
 the same settings (:func:`tiling_settings`: the blend's, where the centres lie, the
 axes the example is read wrapped on and its lattice).
 """
@@ -25,14 +25,14 @@ def template(name: str) -> str:
     return resources.files("warp_texton.runtimes").joinpath("shaders").joinpath(name).read_text(encoding="utf-8")
 
 
-def check_model(model) -> TilingModel:
+def check_tiling_model(model) -> TilingModel:
     """``model`` if it is a :class:`~warp_texton.model.tiling.TilingModel`, else one error."""
     if not isinstance(model, TilingModel):
         raise TextonError(f"model must be a TilingModel, got {type(model).__name__}", param="texton")
     return model
 
 
-def refuse_texton_options(noise: NoiseOptions | None, **options) -> int:
+def refuse_export_options(noise: NoiseOptions | None, **options) -> int:
     """The seed of a tiling model's export; one error naming the texton-noise options given
     (``noise``'s mni, period, poisson, cell_factor other than their defaults, and any of
     ``options`` that is not None)."""
@@ -63,8 +63,15 @@ def _default_up(up) -> bool:
 def tiling_seed(noise: NoiseOptions | None, filter, up, side) -> int:
     """The seed of a tiling model's export in any language, refusing (one error) the texton-noise
     options, a filter other than "none" and the surface frame options (no surface variant)."""
-    return refuse_texton_options(noise, filter=None if filter in (None, "none") else filter,
+    return refuse_export_options(noise, filter=None if filter in (None, "none") else filter,
                                  up=None if _default_up(up) else up, side=side)
+
+
+#: 0.3's names (``warp_texton.runtimes.tiling_shaders``): the shader export's model check and option refusal,
+#: named now for what they check (``surface.tiling.check_surface_model`` and ``noise.tiling.refuse_texton_options``
+#: are the surfaces' and the plane's).
+check_model = check_tiling_model
+refuse_texton_options = refuse_export_options
 
 
 def tiling_settings(model: TilingModel, seed: int) -> dict:

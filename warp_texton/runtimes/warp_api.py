@@ -114,8 +114,24 @@ def _check_channels(texton, channels) -> None:
                           "(use channels=3)", param="channels")
 
 
-def _plane_settings(texton, noise: NoiseOptions):
-    """(setup, NoiseParams) of the plane noise, checked as ``evaluate`` checks them."""
+def _with_coeffs(three, one, coeffs, channels: int, device):
+    """A device-API struct holding a texton's padded coefficients on ``device``: ``one()`` with one float a
+    texel for ``channels=1`` (a grey texton), ``three()`` with a ``wp.vec3`` a texel otherwise. (Warp structs
+    cannot be generic over their arrays' element type: each struct has its ``…1`` twin.)"""
+    if channels == 1:
+        struct = one()
+        struct.coeffs = wp.array(coeffs[..., 0].copy(), dtype=wp.float32, device=device)
+    else:
+        struct = three()
+        struct.coeffs = wp.array(coeffs, dtype=wp.vec3, device=device)
+    return struct
+
+
+def _plane_settings(texton, channels, noise: NoiseOptions | None, **options):
+    """(setup, NoiseParams) of the plane noise, its keywords (``options``: mni, seed, period, poisson,
+    cell_factor) and ``channels`` checked as ``evaluate`` checks them: the packers' one check."""
+    noise = NoiseOptions.given(noise, **options)
+    _check_channels(texton, channels)
     setup = noise_setup(texton, noise.mni, noise.period, noise.cell_factor)
     return setup, noise_params(texton, setup, noise.seed, noise.poisson)
 
@@ -178,17 +194,10 @@ def pack_plane(
     >>> pack_plane(texton, device="cpu", channels=1).coeffs.dtype.__name__
     'float32'
     """
-    noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
-    _check_channels(texton, channels)
-    setup, params = _plane_settings(texton, noise)
+    setup, params = _plane_settings(texton, channels, noise, mni=mni, seed=seed, period=period, poisson=poisson,
+                                    cell_factor=cell_factor)
     device = resolve_device(device)
-    struct: PlaneNoise | PlaneNoise1
-    if channels == 1:
-        struct = PlaneNoise1()
-        struct.coeffs = wp.array(setup.coeffs[..., 0].copy(), dtype=wp.float32, device=device)
-    else:
-        struct = PlaneNoise()
-        struct.coeffs = wp.array(setup.coeffs, dtype=wp.vec3, device=device)
+    struct: PlaneNoise | PlaneNoise1 = _with_coeffs(PlaneNoise, PlaneNoise1, setup.coeffs, channels, device)
     struct.params = params
     return struct
 
@@ -253,9 +262,8 @@ def pack_filtered(
         raise TextonError(f"filter must be a footprint filter, mip or anisotropic, for filtered_value; got "
                           f"{options.kind!r} (use pack_plane and plane_value for the unfiltered noise)",
                           param="filter")
-    noise = NoiseOptions.given(noise, mni=mni, seed=seed, period=period, poisson=poisson, cell_factor=cell_factor)
-    _check_channels(texton, channels)
-    _, params = _plane_settings(texton, noise)
+    _, params = _plane_settings(texton, channels, noise, mni=mni, seed=seed, period=period, poisson=poisson,
+                                cell_factor=cell_factor)
     device = resolve_device(device)
     struct: FilteredNoise | FilteredNoise1 = FilteredNoise1() if channels == 1 else FilteredNoise()
     struct.params = params
@@ -331,13 +339,7 @@ def pack_surface(
     setup = surface_setup(texton, noise.mni, noise.cell_factor)
     params = surface_params(texton, setup, noise.seed, noise.poisson, up, side)
     device = resolve_device(device)
-    struct: SurfaceNoise | SurfaceNoise1
-    if channels == 1:
-        struct = SurfaceNoise1()
-        struct.coeffs = wp.array(setup.coeffs[..., 0].copy(), dtype=wp.float32, device=device)
-    else:
-        struct = SurfaceNoise()
-        struct.coeffs = wp.array(setup.coeffs, dtype=wp.vec3, device=device)
+    struct: SurfaceNoise | SurfaceNoise1 = _with_coeffs(SurfaceNoise, SurfaceNoise1, setup.coeffs, channels, device)
     struct.params = params
     struct.texel_size = texel
     return struct

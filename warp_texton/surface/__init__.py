@@ -15,7 +15,8 @@ if TYPE_CHECKING:
     from .mesh import texture_mesh
     from .mesh_files import write_baked
     from .render import Camera, render_mesh
-    from .bake import BakedMesh, bake_mesh, render_baked
+    from .bake import BakedMesh, bake_mesh
+    from .render import render_baked
     from .jobs import SurfaceJob, run_surface_job
 
 #: The module of each name of this room's face, imported on first use (PEP 562).
@@ -28,7 +29,7 @@ _LAZY = {
     "render_mesh": "render",
     "BakedMesh": "bake",
     "bake_mesh": "bake",
-    "render_baked": "bake",
+    "render_baked": "render",
     "SurfaceJob": "jobs",
     "run_surface_job": "jobs",
 }

@@ -19,7 +19,7 @@ Package-internal (documented in docs/architecture.md): users call
 :func:`warp_texton.surface_noise`.
 
 Kernels driven here: ``warp_texton.kernels.impacts``, ``warp_texton.kernels.surface_blocks``,
-``warp_texton.kernels.surface_points``.
+``warp_texton.kernels.surface_points``, ``warp_texton.kernels.surface_clusters``.
 """
 
 from __future__ import annotations
@@ -30,9 +30,9 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from ..core.runtime import CHUNKS_PER_THREAD, cpu_threads, resolve_device, split_launch
+from ..core.runtime import CHUNKS_PER_THREAD, cpu_threads, split_launch, vector_form
 from ..kernels import surface_blocks
-from ..kernels import surface_points
+from ..kernels import surface_clusters, surface_points
 from ..kernels.impacts import Cells3
 from ..core.limits import check_memory
 
@@ -252,11 +252,11 @@ def gather_blocks(p: surface_points.SurfaceParams, coeffs, pos: np.ndarray, nrm:
 
 
 class ClusterLists:
-    """Room for the impact lists of ``size`` clusters (``surface_points.Clusters`` without ``first``),
+    """Room for the impact lists of ``size`` clusters (``surface_clusters.Clusters`` without ``first``),
     allocated once per call and reused by every round."""
 
     def __init__(self, size: int, device):
-        cl = surface_points.Clusters()
+        cl = surface_clusters.Clusters()
         cl.cap = CLUSTER_CAP
         cl.cap_runs = CLUSTER_RUNS
         cl.first = wp.empty(1, dtype=wp.int32, device=device)  # set per round
@@ -312,24 +312,24 @@ def gather_round(p: surface_points.SurfaceParams, coeffs, sorted_points: Blocked
         first: wp.array = wp.array(cfirst, dtype=wp.int32, device=device)
 
         def gather(a, b):
-            wp.launch(surface_points.gather_cluster_lists, dim=b - a, inputs=[p, coeffs, pts, nrms, tans, int(tan is not None),
+            wp.launch(surface_clusters.gather_cluster_lists, dim=b - a, inputs=[p, coeffs, pts, nrms, tans, int(tan is not None),
                                                                  frames, owners, blocks, first,
                                                                  ClusterLists(1, device).clusters, a, CLUSTER_MIN, simd, res,
                                                                  dest])
 
-        split_launch(device, surface_points, len(mine), gather)
+        split_launch(device, surface_clusters, len(mine), gather)
     else:
         assert lists is not None, "gather_blocks lists the clusters unless by_cluster"
         cl = lists.clusters
         for m0 in range(0, len(mine), CLUSTERS_PER_ROUND):
             m1 = min(m0 + CLUSTERS_PER_ROUND, len(mine))
             cl.first = wp.array(cfirst[m0:m1 + 1], dtype=wp.int32, device=device)
-            split_launch(device, surface_points, m1 - m0, lambda a, b: wp.launch(
-                surface_points.list_cluster_impacts, dim=b - a, inputs=[p, pts, nrms, frames, owners, blocks, cl, a, CLUSTER_MIN,
+            split_launch(device, surface_clusters, m1 - m0, lambda a, b: wp.launch(
+                surface_clusters.list_cluster_impacts, dim=b - a, inputs=[p, pts, nrms, frames, owners, blocks, cl, a, CLUSTER_MIN,
                                                            simd]))
             k0, k1 = int(cfirst[m0]), int(cfirst[m1])
-            split_launch(device, surface_points, k1 - k0, lambda a, b, m0=m0, k0=k0: wp.launch(
-                surface_points.gather_clustered, dim=b - a, inputs=[p, coeffs, pts, nrms, frames, owners, blocks, cluster_of, cl,
+            split_launch(device, surface_clusters, k1 - k0, lambda a, b, m0=m0, k0=k0: wp.launch(
+                surface_clusters.gather_clustered, dim=b - a, inputs=[p, coeffs, pts, nrms, frames, owners, blocks, cluster_of, cl,
                                                        m0, a + k0, res, dest]))
 
 
@@ -338,10 +338,4 @@ def simd_loops(device="cpu") -> str:
     "avx512", "avx2" or "neon" where their vector form was compiled for that
     instruction set, "scalar" otherwise (other CPUs, CUDA, or ``SIMD`` off): all
     give the same values; benchmarks report which ran."""
-    device = resolve_device(device)
-    if not wp.get_device(device).is_cpu or not SIMD:
-        return "scalar"
-    with wp.ScopedDevice(device):
-        flag = wp.zeros(1, dtype=wp.int32)
-        wp.launch(surface_points.simd_probe, dim=1, inputs=[flag])
-        return ("scalar", "neon", "avx2", "avx512")[int(flag.numpy()[0])]
+    return vector_form(device, SIMD)

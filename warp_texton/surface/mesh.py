@@ -22,7 +22,7 @@ from .frames import UP, up_vector
 from .points import surface_noise, surface_setup, texel_positions
 from ..model.texton import Texton
 from ..model.tiling import TilingModel
-from .tiling import SURFACE_MNI, check_model
+from .tiling import SURFACE_MNI, check_surface_model
 
 if TYPE_CHECKING:
     import trimesh
@@ -432,7 +432,7 @@ def texture_mesh(
     check_normals(normals, crease_angle)
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
     faces = np.asarray(mesh.faces, dtype=np.int64)
-    check_model(texton, mni=(mni, SURFACE_MNI))
+    check_surface_model(texton, mni=(mni, SURFACE_MNI))
     texel_positions(vertices, texel, surface_setup(texton, mni), "the mesh's vertices")
     if max_edge is not None:
         edge = check_positive(max_edge, "max_edge") * texel

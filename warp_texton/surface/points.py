@@ -204,8 +204,8 @@ def density_visits(setup: SurfaceSetup, density: float) -> float:
     of :func:`block_visits` before the points exist."""
     if isinstance(setup, TilingSetup):
         return TILING_POINT_OPS
-    side = BLOCK_CUBES * setup.cell
-    per_block = density * side * side
+    block_side = BLOCK_CUBES * setup.cell
+    per_block = density * block_side * block_side
     if not per_block >= AUTO_MIN_DENSITY:
         return surface_visits(setup)
     e = 2.0 * walk_reach(setup.r) / setup.cell + 1.0  # cubes a block reaches past its points, per axis
@@ -270,10 +270,10 @@ def plan_points(setup: SurfaceSetup, pos: np.ndarray, nrm: np.ndarray, method: s
     return PointsPlan("blocks", block_visits(setup, blocked), blocked)
 
 
-def surface_params(texton: Texton | TilingModel, setup: SurfaceSetup, seed: int, poisson: str, up, side) -> surface_points.SurfaceParams:
+def surface_params(texton: Texton | TilingModel, setup: SurfaceSetup, seed: int, poisson: str, up, side_dir) -> surface_points.SurfaceParams:
     """The kernels' ``SurfaceParams`` (CGF Prop. 3 normalisation, the frame rule's directions)."""
     if isinstance(texton, TilingModel):  # the triplanar planes' seeds and blend instead
-        return tiling_params(texton, seed, up, side)
+        return tiling_params(texton, seed, up, side_dir)
     check_poisson(poisson)
     cells = Cells3()
     cells.size = setup.cell
@@ -295,7 +295,7 @@ def surface_params(texton: Texton | TilingModel, setup: SurfaceSetup, seed: int,
     p.shift = wp.vec3(*(setup.lam * setup.r / 2.0 * integral))
     p.inv_scale = 1.0 / math.sqrt(setup.lam * setup.r / 3.0)
     p.mean = wp.vec3(*mean)
-    a, b = frame_rule(up, side)
+    a, b = frame_rule(up, side_dir)
     p.up = wp.vec3(*a)
     p.side = wp.vec3(*b)
     return p

@@ -1,5 +1,5 @@
 """Ray-cast renders of meshes with surface texton noise (CGF §6, Fig. 8): the
-camera, the ray cast, and :func:`render_mesh`.
+camera, the ray cast, :func:`render_mesh`, and :func:`render_baked` (a bake's texture looked up at each hit).
 
 The defaults live in a Z-up frame (view, light) and turn with the world's up
 axis (:func:`warp_texton.surface.frames.up_rotation`), so a Y-up glTF scene is seen as a
@@ -22,12 +22,13 @@ from ..core.errors import TextonError
 from .frames import UP, as_direction, as_point, up_rotation, up_vector
 from ..kernels import surface_render
 from ..core.limits import check_memory, check_work
+from .atlas import check_uvs, mesh_uvs
 from .mesh import CREASE_ANGLE, check_mesh, check_normals, corner_normals, default_texel_size
 from .points import (check_method, evaluate_points, floor_visits, plan_points, surface_params, surface_setup,
                       texel_positions)
 from ..model.texton import Texton
 from ..model.tiling import TilingModel
-from .tiling import SURFACE_MNI, check_model
+from .tiling import SURFACE_MNI, check_surface_model
 
 #: Largest render, in pixels (64 Mpx: about 4 GB at the peak of a render).
 MAX_RENDER_PIXELS = 1 << 26
@@ -471,7 +472,7 @@ def render_mesh(
     >>> upright = render_mesh(box, texton, (96, 64), up="y", orbit=(-60, 15), fov=45, device="cpu")
     """
     mesh = check_mesh(mesh)
-    check_model(texton, mni=(mni, SURFACE_MNI), method=(method, "auto"))
+    check_surface_model(texton, mni=(mni, SURFACE_MNI), method=(method, "auto"))
     h, w = check_shape(shape, max_pixels=MAX_RENDER_PIXELS)
     texel = default_texel_size(mesh) if texel_size is None else check_positive(texel_size, "texel_size")
     seed = check_seed(seed)
@@ -522,4 +523,110 @@ def render_mesh(
                                                  int(texton.channels == 1), img_w]))
         if not on_cpu:
             img = img_w.numpy()
+    return img
+
+
+def lookup(texture: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """Bilinear lookups of ``texture`` (R, R, C) at ``uv`` (N, 2), as a renderer makes them:
+    texel (i, j) at ((j + ½)/R, 1 − (i + ½)/R), clamped at the border."""
+    r, c = texture.shape[0], texture.shape[1]
+    x = np.asarray(uv[:, 0], np.float64) * c - 0.5
+    y = (1.0 - np.asarray(uv[:, 1], np.float64)) * r - 0.5
+    x0 = np.floor(x)
+    y0 = np.floor(y)
+    fx = (x - x0)[:, None]
+    fy = (y - y0)[:, None]
+    x0 = x0.astype(np.int64)
+    y0 = y0.astype(np.int64)
+    xs = np.clip(x0, 0, c - 1), np.clip(x0 + 1, 0, c - 1)
+    ys = np.clip(y0, 0, r - 1), np.clip(y0 + 1, 0, r - 1)
+    t = np.asarray(texture, np.float64)
+    top = t[ys[0], xs[0]] * (1 - fx) + t[ys[0], xs[1]] * fx
+    bottom = t[ys[1], xs[0]] * (1 - fx) + t[ys[1], xs[1]] * fx
+    return top * (1 - fy) + bottom * fy
+
+
+def render_baked(baked, shape=(512, 512), *, camera=None, up=UP, orbit=None, fov=None, light=None,
+                 background=(0.92, 0.92, 0.92), device=None) -> np.ndarray:
+    """Render a textured mesh as a renderer shows it: each pixel's hit looks its UV up
+    in the texture (bilinear), shaded as :func:`warp_texton.render_mesh` shades.
+
+    Parameters
+    ----------
+    baked : BakedMesh or trimesh.Trimesh
+        A bake, or a mesh with UVs and a material holding an image (a GLB or OBJ
+        written by :func:`write_baked`, read back with trimesh).
+    shape : (height, width)
+        As in :func:`warp_texton.render_mesh`.
+    camera : Camera, optional
+        As in :func:`warp_texton.render_mesh`: the same camera gives the same pixels, so the two renders
+        compare pixel by pixel.
+    up : str or (x, y, z)
+        As in :func:`warp_texton.render_mesh`.
+    orbit : (azimuth, elevation), optional
+        As in :func:`warp_texton.render_mesh`.
+    fov : float, optional
+        As in :func:`warp_texton.render_mesh`.
+    light : (x, y, z), optional
+        As in :func:`warp_texton.render_mesh`.
+    background : (r, g, b)
+        As in :func:`warp_texton.render_mesh`.
+    device : str, optional
+        As in :func:`warp_texton.render_mesh`.
+
+    Returns
+    -------
+    float32 array (height, width, 3) in [0, 1]
+
+    Raises
+    ------
+    TextonError
+        For a mesh without UVs or texture image, and the camera errors of
+        :func:`warp_texton.render_mesh`.
+
+    Notes
+    -----
+    Lookups are bilinear and clamped at the texture's border. With the same
+    camera the render differs from :func:`warp_texton.render_mesh`'s by the
+    bake's resolution only (``tests/test_bake.py`` checks a written GLB this
+    way).
+
+    Examples
+    --------
+    >>> import numpy as np, trimesh
+    >>> from warp_texton import Texton, bake_mesh, render_baked, render_mesh
+    >>> t = Texton(np.random.default_rng(0).standard_normal((8, 8, 1)) / 8, [0.5])
+    >>> torus = trimesh.creation.torus(major_radius=1.0, minor_radius=0.35)
+    >>> baked = bake_mesh(torus, t, texel_size=0.02, resolution=128, device="cpu")
+    >>> preview = render_baked(baked, (48, 64), device="cpu")
+    >>> reference = render_mesh(torus, t, (48, 64), texel_size=0.02, device="cpu")
+    >>> preview.shape, reference.shape
+    ((48, 64, 3), (48, 64, 3))
+    """
+    if isinstance(getattr(baked, "texture", None), np.ndarray) and hasattr(baked, "mesh"):  # a BakedMesh (bake.py)
+        mesh, texture = baked.mesh, np.clip(baked.texture, 0.0, 1.0)
+    else:
+        mesh = check_mesh(baked)
+        uv = mesh_uvs(mesh)
+        material = getattr(mesh.visual, "material", None)
+        image = getattr(material, "baseColorTexture", None) or getattr(material, "image", None)
+        if uv is None or image is None:
+            raise TextonError("baked must be a BakedMesh or a mesh with UVs and a texture image")
+        texture = np.asarray(image.convert("RGB"), np.float64) / 255.0
+    from trimesh.visual import TextureVisuals
+
+    assert isinstance(mesh.visual, TextureVisuals), "a baked mesh, or one with UVs"
+    uv = check_uvs(np.asarray(mesh.visual.uv, np.float64), len(mesh.vertices))
+    bg = check_background(background)
+    hits = cast_rays(mesh, shape, camera, up=up, orbit=orbit, fov=fov, light=light, device=device)
+    img = np.empty(hits.face.shape + (3,), np.float32)
+    img[:] = bg.astype(np.float32)
+    hit = hits.hit
+    if hit.any():
+        tri = hits.faces[hits.face[hit]]
+        at = np.einsum("nk,nkd->nd", hits.bary[hit], uv[tri])
+        values = lookup(texture, at)
+        if values.shape[1] == 1:
+            values = np.repeat(values, 3, axis=1)
+        img[hit] = values * hits.shade[hit][:, None]
     return img

@@ -12,7 +12,7 @@ surface noise: docs/tiling.md, "Surfaces".
 
 The surface room's entry points (``surface_noise``, ``texture_mesh``,
 ``render_mesh``, ``bake_mesh``, jobs) take a tiling model through the hooks here:
-:func:`check_model` refuses the texton-noise options, :class:`TilingSetup` stands
+:func:`check_surface_model` refuses the texton-noise options, :class:`TilingSetup` stands
 for a texton's ``SurfaceSetup`` and :func:`tiling_values` evaluates points.
 
 Kernels driven here: ``warp_texton.kernels.surface_tiling``.
@@ -21,7 +21,6 @@ Kernels driven here: ``warp_texton.kernels.surface_tiling``.
 from __future__ import annotations
 
 import math
-import numbers
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,10 +32,10 @@ from ..core.runtime import init_warp, map_points, resolve_device
 from ..kernels import surface_tiling
 from ..model.texton import Texton
 from ..model.tiling import TilingModel
-from ..noise.tiling import tiling_colours, tiling_struct
+from ..noise.tiling import texton_options_given, tiling_colours, tiling_struct
 from .frames import UP, as_points, check_lengths, frame_rule
 
-__all__ = ["TilingSetup", "TilingParams", "check_model", "tiling_setup", "tiling_params", "tiling_values",
+__all__ = ["TilingSetup", "TilingParams", "check_surface_model", "tiling_setup", "tiling_params", "tiling_values",
            "tiling_surface_noise", "check_tiling_reach", "plane_seeds", "TRIPLANAR_SHARPNESS", "TILING_POINT_OPS"]
 
 #: Exponent on the normal's components (a power of two, by repeated squaring): measured in
@@ -72,20 +71,12 @@ def plane_seeds(seed: int) -> tuple[int, int, int]:
     return _avalanche(seed ^ PLANE_TAGS[0]), _avalanche(seed ^ PLANE_TAGS[1]), seed
 
 
-def _same(value, default) -> bool:
-    if value is default:
-        return True
-    if default is None or isinstance(value, (bool, np.bool_)) or isinstance(default, bool):
-        return False
-    return isinstance(value, (str, numbers.Real)) and value == default
-
-
-def check_model(texton, **options) -> None:
+def check_surface_model(texton, **options) -> None:
     """Refuse what is neither a Texton nor a TilingModel, and for a tiling model the
     texton-noise options (name=(value, default)) given other values than their defaults:
     one TextonError naming them."""
     if isinstance(texton, TilingModel):
-        given = [name for name, (value, default) in options.items() if not _same(value, default)]
+        given = texton_options_given(options)
         if given:
             many = len(given) > 1
             raise TextonError(f"{', '.join(given)} {'do' if many else 'does'} not apply to a tiling model (method "
@@ -96,6 +87,10 @@ def check_model(texton, **options) -> None:
         raise TextonError(f"texton must be a Texton or a TilingModel, got {type(texton).__name__}",
                           param="texton")
 
+
+
+#: The name before 0.4 (runtimes.shared.check_tiling_model is the shader export's model check).
+check_model = check_surface_model
 
 @dataclass(frozen=True)
 class TilingSetup:
@@ -108,7 +103,7 @@ class TilingSetup:
 
 
 def tiling_setup(model: TilingModel, mni: float = SURFACE_MNI) -> TilingSetup:
-    check_model(model, mni=(mni, SURFACE_MNI))
+    check_surface_model(model, mni=(mni, SURFACE_MNI))
     return TilingSetup(model)
 
 
@@ -123,11 +118,12 @@ class TilingParams:
     blend: surface_tiling.Triplanar
 
 
-def tiling_params(model: TilingModel, seed: int, up, side) -> TilingParams:
-    """The planes' seeds and the ``Triplanar`` blend of the frame rule's (up, side)."""
+def tiling_params(model: TilingModel, seed: int, up, side_dir) -> TilingParams:
+    """The planes' seeds and the ``Triplanar`` blend of the frame rule's (up, side): ``side_dir`` is the public
+    ``side``, a direction (``model.side`` is the triangles' side, a length)."""
     wp = init_warp()
     seed = check_seed(seed)
-    a, b = frame_rule(up, side)
+    a, b = frame_rule(up, side_dir)
     right = b - a * float(a @ b)
     norm = float(np.linalg.norm(right))
     if norm < 1e-9:
@@ -182,7 +178,7 @@ def tiling_surface_noise(model: TilingModel, points, normals, texel_size, *, see
                          side=None, options: dict | None = None) -> np.ndarray:
     """``surface_noise`` for a tiling model: (N, C) float32; ``options`` the texton-noise
     options as name=(value, default), refused unless at their defaults."""
-    check_model(model, **(options or {}))
+    check_surface_model(model, **(options or {}))
     pts = as_points(points, "points")
     raw = as_points(normals, "normals")
     if raw.shape != pts.shape:

@@ -34,7 +34,7 @@ import numpy as np
 from .._version import __version__
 from ..core.errors import TextonError
 from .viewer import ClientGone, Viewer
-from .images import PNG_LEVEL
+from .pictures import PNG_LEVEL
 from .inputs import MAX_UPLOAD_BYTES, digest
 from .queries import MNI_RANGE, ORDERS, TEXTON_SIZES, VIEW_FILTERS, Analysis, BadRequest, Noise, Query
 

@@ -54,7 +54,7 @@ from ..model.tiling import TilingModel
 from ..runtimes.shared import model_note
 from .cache import Memo
 from .commands import plan_mix, plan_noise, plan_plane
-from .images import PNG_LEVEL, data_url, log_spectra, png_bytes, texton_picture
+from .pictures import PNG_LEVEL, data_url, log_spectra, png_bytes, texton_picture
 from .inputs import (MAX_UPLOAD_BYTES, MAX_UPLOADS, Source, decode_upload, digest, load_source,
                           price_upload, safe_name)
 from .webgl import shader_payload, tiling_payload

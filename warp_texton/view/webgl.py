@@ -37,7 +37,7 @@ from ..noise.filter_options import FilterOptions
 from ..noise.engine import CELL_FACTOR, MAX_CELL_MEAN
 from ..noise.noise_options import NoiseOptions
 from ..runtimes.languages import WEBGL, language
-from ..runtimes.shared import check_model, model_note
+from ..runtimes.shared import check_tiling_model, model_note
 from ..model.texton import Texton
 from ..model.tiling import TilingModel
 
@@ -114,7 +114,7 @@ def tiling_payload(model: TilingModel) -> dict:
     histogram-preserving model's tables, a lattice model's lattice-periodic mean), and what the page places
     the view with: the lattice side (float32, as the kernels hold it), √3/2 (the vertex draw's) and the
     example lattice's modulus (1 without one). Its one filter is "none"."""
-    model = check_model(model)
+    model = check_tiling_model(model)
     glsl = language(WEBGL).port()
     lib = glsl.library(model)
     h, w, c = model.example.shape

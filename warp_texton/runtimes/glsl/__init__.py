@@ -27,7 +27,7 @@ from ...core.lazy import moved_names
 from ...model.tiling import TilingModel
 from ...noise.noise_options import NoiseOptions
 from ...surface.frames import UP
-from ..shared import refuse_texton_options, tiling_seed
+from ..shared import refuse_export_options, tiling_seed
 from . import texton, tiling
 from .page import META_FILE, texture_data
 from .texton import FILTER_MODES
@@ -62,7 +62,7 @@ def preview(model, shape, *, scale: float = 1.0, rotation: float = 0.0, offset=(
     """The HTML page that draws ``synthesize(model, shape, ...)``'s window with WebGL2 (of ``noise``, a
     tiling model takes the seed and refuses the other options)."""
     if isinstance(model, TilingModel):
-        seed = refuse_texton_options(noise)
+        seed = refuse_export_options(noise)
         return tiling.tiling_preview_html(model, shape, seed=seed, scale=scale, rotation=rotation, offset=offset)
     return texton.preview_html(model, shape, scale=scale, rotation=rotation, offset=offset, noise=noise)
 
@@ -75,7 +75,7 @@ def gradient_window(model, shape, *, scale: float = 1.0, rotation: float = 0.0, 
     ∂/∂column (``tn_output`` 0), ∂/∂row (1) or the value (2). Of ``noise`` a tiling model takes the seed
     and refuses the other options."""
     if isinstance(model, TilingModel):
-        seed = refuse_texton_options(noise)
+        seed = refuse_export_options(noise)
         return tiling.gradient_window(model, shape, seed=seed, scale=scale, rotation=rotation, offset=offset)
     return texton.gradient_window(model, shape, scale=scale, rotation=rotation, offset=offset, noise=noise)
 

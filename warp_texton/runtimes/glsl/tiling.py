@@ -40,7 +40,7 @@ from ...model.tiling import TilingModel
 from ...noise.colours import noise_moments
 from ...noise.raster import raster_geometry
 from ...noise.synthesis import MAX_TILING_REACH
-from ..shared import check_model, lattice_ints, model_note, template, tiling_settings
+from ..shared import check_tiling_model, lattice_ints, model_note, template, tiling_settings
 from .page import (JS_FILE, MAX_PREVIEW_SIDE, MAX_TEXTURE_SIZE, META_FILE, PREVIEW_FILE, export_files, glsl_float,
                    preview_page, texture_data)
 
@@ -223,7 +223,7 @@ class TilingLibrary:
 
 def library(model: TilingModel, seed: int = 0) -> TilingLibrary:
     """The GLSL library of a tiling model and seed, its textures, and the main() of a page that draws it."""
-    model = check_model(model)
+    model = check_tiling_model(model)
     seed = check_seed(seed)
     return TilingLibrary(glsl_source(model, seed), textures(model), model.channels, PREVIEW_MAIN)
 
@@ -301,7 +301,7 @@ def tiling_preview_html(model: TilingModel, shape=(512, 512), *, seed: int = 0, 
 
     ``anchored=False`` draws it with ``tiling_noise(x)``, x in float32 from the origin (as a
     shader without an anchor, and the OSL port, compute it), to measure what float32 keeps."""
-    model = check_model(model)
+    model = check_tiling_model(model)
     h, w = check_shape(shape)
     if max(h, w) > MAX_PREVIEW_SIDE:
         raise TextonError(f"a preview is at most {MAX_PREVIEW_SIDE} pixels a side (the largest render target "
@@ -347,7 +347,7 @@ def gradient_window(model: TilingModel, shape, *, seed: int = 0, scale: float = 
     window with the library's ``tiling_noise_grad_at`` (:data:`GRADIENT_MAIN`), as a preview page's data
     holds it: ``library``, ``main``, ``textures`` (``texture_data``), ``uniforms`` (the window's
     placement), ``width``, ``height``, ``channels``; ``tn_output`` 0: ∂/∂column, 1: ∂/∂row, 2: the value."""
-    model = check_model(model)
+    model = check_tiling_model(model)
     h, w = check_shape(shape)
     if max(h, w) > MAX_PREVIEW_SIDE:
         raise TextonError(f"a window is at most {MAX_PREVIEW_SIDE} pixels a side (the largest render target "

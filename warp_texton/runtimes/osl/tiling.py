@@ -26,7 +26,7 @@ from ...core.checks import check_positive, check_seed
 from ...core.errors import TextonError
 from ...kernels import tiling_draw
 from ...model.tiling import TilingModel
-from ..shared import check_model, lattice_ints, model_note, template, tiling_settings
+from ..shared import check_tiling_model, lattice_ints, model_note, template, tiling_settings
 from .texton import META_FILE, colour_map_code, f32, i32, relief_code
 
 #: The shader of a tiling model's OSL export (beside its description, texton_noise_osl.json).
@@ -44,7 +44,7 @@ def tiling_osl_files(model: TilingModel, seed: int = 0, texel_size: float = 0.01
     ``tiling_plane`` (the model at a texel-space point made from object coordinates or UVs,
     as ``texton_plane``), the example embedded (at most :data:`MAX_OSL_FLOATS` floats, the guide
     and a lattice model's lattice-periodic mean beside each texel)."""
-    model = check_model(model)
+    model = check_tiling_model(model)
     seed = check_seed(seed)
     texel_size = check_positive(texel_size, "texel_size")
     h, w, c = model.example.shape

@@ -32,7 +32,8 @@ def _analyze(args) -> None:
     from ..model.analysis import analyze
     from .info import structure_lines, summary
     from .options import analysis_kwargs, read_example
-    from ..model.tiling import TilingModel, scorable, structure_score, suggest_method
+    from ..model.structure import scorable, structure_score
+    from ..model.tiling import TilingModel, suggest_method
 
     out = Path(args.output)
     if out.suffix.lower() not in (".exr", ".texton"):
