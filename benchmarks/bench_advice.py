@@ -246,7 +246,7 @@ def default_advisers(skipped: list, extra=()) -> dict:
 
 def run(args) -> dict:
     shape = QUICK_SHAPE if args.quick else (args.shape, args.shape)
-    seeds = SEEDS[:1] if args.quick else SEEDS
+    seeds = SEEDS[:1] if args.quick else (SEEDS if args.seeds is None else tuple(range(1, args.seeds + 1)))
     examples, skipped = examples_of(args.set, args.quick)
     if args.only:
         examples = [e for e in examples if any(s in e.name for s in args.only)]
@@ -302,6 +302,9 @@ def main(argv=None) -> int:
         parser.add_argument("--advice", nargs="*", help="more advice to score, as module:function (u → method)")
         parser.add_argument("--labels", type=Path, default=LABELS, help="the label cache (JSON)")
         parser.add_argument("--relabel", action="store_true", help="label every example again")
+        parser.add_argument("--seeds", type=int, choices=range(1, 17), metavar="N", default=None,
+                            help="label with outputs of seeds 1..N (default: 1, 2); a patch distance is heavy-tailed "
+                                 "over seeds, so more seeds make steadier labels")
 
     given = sys.argv[1:] if argv is None else list(argv)
     which = "all"
