@@ -170,7 +170,7 @@ def methods_of(u: np.ndarray) -> tuple[dict, dict, dict]:
 
 def measure(example: Example, shape, seeds, gallery: dict | None = None) -> dict:
     """The row of one example: its classification and lattice, and each method's measures."""
-    from warp_texton.model.lattice_detection import seam_ratios
+    from warp_texton.model.lattice import seam_ratios
 
     u = example.load()
     seams = seam_ratios(u)

@@ -35,7 +35,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import gaussian_laplace
 
-from warp_texton.model.tiling import PATCH, SCALES, half_distance, patch_distance
+from warp_texton.model.structure import PATCH, SCALES, half_distance, patch_distance
 
 try:
     from .bench_quality import autocorrelation, repetition

@@ -34,7 +34,7 @@ skipped with the reason.
 GIMP patterns follow the same rule (their stems are names: ``brick``, ``wood1``, ``marble2``);
 scikit-image's three are fixed: ``brick`` structured, ``grass`` and ``gravel`` stochastic.
 
-Each kept example reports whether it is seamless: ``warp_texton.model.lattice_detection.seam_ratios(u).wrap``
+Each kept example reports whether it is seamless: ``warp_texton.model.lattice.seam_ratios(u).wrap``
 on both axes (:func:`seamless`).
 
 Licences (each package's ``/usr/share/doc/<package>/copyright``): nexuiz-textures, openarena-081-textures
@@ -375,7 +375,7 @@ def select(which: str = "all", *, sources: tuple[str, ...] | None = None) -> tup
 
 def seamless(u) -> bool:
     """Whether an example tiles: ``seam_ratios(u).wrap`` on both axes."""
-    from warp_texton.model.lattice_detection import seam_ratios
+    from warp_texton.model.lattice import seam_ratios
 
     wx, wy = seam_ratios(u).wrap
     return bool(wx and wy)
