@@ -330,14 +330,17 @@ def test_lost_context_hands_over_to_the_tiles(gl_page):
 
 def test_webgl_shows_the_colours_of_a_histogram_transform(browser, rgb_path, tmp_path):
     """The exported GLSL maps the noise through a texton's histogram transform: WebGL shows
-    the tiles' pixels (the example's colours), near and zoomed out (the prefiltered tables)."""
+    the tiles' pixels (the example's colours), near and zoomed out (the prefiltered tables), and
+    at another MNI with that MNI's tables."""
     texton = analyze(read_image(rgb_path), size=SIZE, seed=0, histogram="preserve")
     path = tmp_path / "preserve.exr"
     texton.save(path)
     with serve(path, port=0, size=SIZE, device=DEVICE) as handle:
         p = Page(browser, handle.url + "?render=webgl")
         try:
-            for zoom in (0, -3):
+            for zoom, mni in ((0, None), (-3, None), (0, 12)):
+                if mni is not None:  # another MNI: the tables of that MNI (a new program), as the tiles'
+                    p.set_input("#mni", mni)
                 p.eval(f"window.viewer.setView({{ zoom: {zoom}, left: -40.5, top: 17.25 }})")
                 p.idle()
                 assert p.render()["drawing"] == "webgl"

@@ -78,6 +78,9 @@ class Query:
                 raise BadRequest(f"parameter {k!r} given twice")
             self._values[k] = v
 
+    def __contains__(self, name: str) -> bool:
+        return name in self._values
+
     def text(self, name: str, default=None) -> str:
         if name not in self._values:
             if default is None:

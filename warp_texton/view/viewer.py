@@ -343,6 +343,8 @@ class Viewer:
         """The page's WebGL2 program for an analysis (:func:`~warp_texton.view.webgl.shader_payload`):
         the analysis first, as for a tile, then the library and textures within a view's bounds."""
         analysis = parse_analysis(q, self.defaults[0])
+        # the MNI of the view: a texton's histogram tables are those of its noise at that MNI
+        mni = q.number("mni", *MNI_RANGE) if "mni" in q else None
         q.finish()
         model = self.source.texton
         if isinstance(model, TilingModel):
@@ -353,8 +355,8 @@ class Viewer:
         key = self._analysis_key(analysis)
         if key not in self._shaders:
             self._analysed(alive, analysis)
-        return self._shaders.get(key, lambda: self._compute(alive, lambda: shader_payload(
-            cast(Texton, self.texton(analysis)), filters=VIEW_FILTERS)))
+        return self._shaders.get((key, mni), lambda: self._compute(alive, lambda: shader_payload(
+            cast(Texton, self.texton(analysis)), filters=VIEW_FILTERS, mni=mni)))
 
     def _analysis_key(self, analysis: Analysis) -> Analysis | None:
         """Analysis settings change nothing when the input is a texton file."""

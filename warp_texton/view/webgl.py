@@ -38,7 +38,9 @@ from ..noise.engine import CELL_FACTOR, MAX_CELL_MEAN
 from ..noise.noise_options import NoiseOptions
 from ..runtimes.languages import WEBGL, language
 from ..runtimes.shared import check_tiling_model, model_note
+from ..model.noise_tables import at_mni
 from ..model.texton import Texton
+from ..runtimes.glsl.texton import colour_textures
 from ..model.tiling import TilingModel
 
 #: The library's constants the page sets as uniforms, with their GLSL types.
@@ -76,16 +78,20 @@ def with_uniforms(source: str, names=VIEW_UNIFORMS) -> str:
     return source
 
 
-def shader_payload(texton: Texton, *, filters, cell_factor: float = CELL_FACTOR) -> dict:
+def shader_payload(texton: Texton, *, filters, cell_factor: float = CELL_FACTOR, mni: float | None = None) -> dict:
     """The page's WebGL2 program for ``texton``: the library with :data:`VIEW_UNIFORMS`,
     its main, the textures (base64 float32) and what the uniforms are computed from.
 
     ``filters`` are the names the page offers, each with its mode and level bias.
-    The unperiodic plane and exact Poisson counts, as the viewer's tiles.
+    The unperiodic plane and exact Poisson counts, as the viewer's tiles. ``mni``: the view's,
+    whose histogram tables the colour texture holds (``noise_tables.at_mni``; None: the fitted
+    ones); the page asks again when its MNI changes.
     """
     glsl = language(WEBGL).port()
     # the MNI only sets constants that become uniforms: one that every texton's cells accept
     g = glsl.library(texton, filter="anisotropic", noise=NoiseOptions(mni=1.0, cell_factor=cell_factor))
+    if texton.histogram is not None:  # the tables of the view's MNI, not of the placeholder 1
+        g.textures.update(colour_textures(texton if mni is None else at_mni(texton, mni)))
     cw, ch = g.cell
     options = {name: FilterOptions.of(name) for name in filters}
     return {
@@ -101,6 +107,7 @@ def shader_payload(texton: Texton, *, filters, cell_factor: float = CELL_FACTOR)
                            "bias": float(np.float32(o.bias if o.spec.footprint else 0.0))}
                     for name, o in options.items()},
         "texton": f"{texton.size[1]}×{texton.size[0]}, order {texton.order}",
+        "histogram": texton.histogram is not None,  # its tables depend on the MNI: asked for again per MNI
     }
 
 

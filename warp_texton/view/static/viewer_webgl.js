@@ -163,24 +163,29 @@
     let loading = null;           // the analysis whose texton is being fetched
     const failed = new Map();     // analysis -> why WebGL does not draw it (the tiles do)
     const uniforms = (noise) => noiseUniforms(current.payload, noise.mni, noise.seed, noise.filter);
-    function load(key) {
-      if (loading === key) return;
-      loading = key;
+    // a histogram-preserving texton's tables are those of its MNI: its program is fetched per MNI
+    // (the payload says "histogram"); any other's once per analysis
+    const wanted = (key, noise) => (current && current.key === key && !current.payload.histogram) ||
+                                   (current && current.key === key && current.mni === noise.mni);
+    function load(key, mni) {
+      const id = `${key}&mni=${mni}`;
+      if (loading === id) return;
+      loading = id;
       let retry = 0;
-      fetch(`/api/shader?${key}`)
+      fetch(`/api/shader?${id}`)
         .then(async (r) => {
           if (r.status === 503) { retry = 1000; return null; }  // the server is busy: ask again in a moment
           if (!r.ok) throw new Error((await r.text()).trim() || `HTTP ${r.status}`);
           return r.json();
         })
         .then((payload) => {
-          if (payload === null || loading !== key) return;
+          if (payload === null || loading !== id) return;
           const made = create(ctx.gl, payload);
           if (current) current.dispose();
-          current = Object.assign(made, { key });
+          current = Object.assign(made, { key, mni });
         })
-        .catch((e) => { if (loading === key) failed.set(key, e.message); })
-        .finally(() => setTimeout(() => { if (loading === key) loading = null; onChange(); }, retry));
+        .catch((e) => { if (loading === id) failed.set(key, e.message); })
+        .finally(() => setTimeout(() => { if (loading === id) loading = null; onChange(); }, retry));
     }
     let lost = false;
     glCanvas.addEventListener("webglcontextlost", () => {
@@ -197,19 +202,20 @@
       // why it does not
       failure: (key) => (lost ? "the WebGL2 context was lost" : failed.get(key) ||
                          (current && current.payload.refused) || "the MNI is too high for this texton's cells"),
-      // draw a frame; returns 1 while the texton of key loads (the last frame stays), else 0
+      // draw a frame; returns 1 while the texton of key (or its tables for another MNI) loads, else 0
       draw(key, noise, view) {
-        if (!current || current.key !== key) {
-          load(key);
-          return 1;
+        const stale = !wanted(key, noise);  // 1 until the program of this analysis (and MNI) is in
+        if (stale) {
+          load(key, noise.mni);
+          if (!current || current.key !== key) return 1;  // another analysis: the last frame stays
         }
         if (glCanvas.width !== view.width || glCanvas.height !== view.height) {
           glCanvas.width = view.width;
           glCanvas.height = view.height;
         }
-        current.draw(uniforms(noise), view);
+        current.draw(uniforms(noise), view);  // another MNI's tables meanwhile: redrawn once in
         glCanvas.hidden = false;
-        return 0;
+        return stale ? 1 : 0;
       },
       readFloat: (noise, view) => current.readFloat(uniforms(noise), view),
       noiseUniforms: (noise) => uniforms(noise),
