@@ -74,6 +74,18 @@ def claim_texels(
                 wp.atomic_add(cover, i, j, 1)
 
 
+@wp.func
+def norm3(v: wp.vec3d):
+    # the square root of the squares summed in order (NumPy's norm over three components)
+    return wp.sqrt((v[0] * v[0] + v[1] * v[1]) + v[2] * v[2])
+
+
+@wp.func
+def cross3(a: wp.vec3d, b: wp.vec3d):
+    # NumPy's cross product: each component a product minus a product, in its order
+    return wp.vec3d(a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
 @wp.kernel
 def sample_points(
     texels: wp.array(dtype=wp.int64),
@@ -110,23 +122,11 @@ def sample_points(
     pts[t] = p / texel
     f = faces[k]
     n = (cnormals[f, 0] * w0 + cnormals[f, 1] * w1) + cnormals[f, 2] * w2
-    length = wp.sqrt((n[0] * n[0] + n[1] * n[1]) + n[2] * n[2])
+    length = norm3(n)
     if length > wp.float64(1e-6):
         nrm[t] = n / length
     else:
         nrm[t] = fn[k]
-
-
-@wp.func
-def norm3(v: wp.vec3d):
-    # the square root of the squares summed in order (NumPy's norm over three components)
-    return wp.sqrt((v[0] * v[0] + v[1] * v[1]) + v[2] * v[2])
-
-
-@wp.func
-def cross3(a: wp.vec3d, b: wp.vec3d):
-    # NumPy's cross product: each component a product minus a product, in its order
-    return wp.vec3d(a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
 @wp.kernel
