@@ -150,8 +150,10 @@ float tl_sharpened(float w, float dg) {
     return k;
 }
 
-vec3 tiling_blend_at(ivec2 anchor, ivec2 anchor_mod, vec2 frac, vec2 rel) {
-    // the triangle: skewed coordinates of x - p(anchor), the lattice's vertices on Z^2
+// The triangle of x - p(anchor): skewed coordinates, its vertices (a0, b0), (a + 1, b), (a, b + 1)
+// on Z^2, their barycentric weights w0, w1, w2; true for the upper triangle (u + v > 1)
+bool tl_triangle(ivec2 anchor, vec2 frac, vec2 rel, out int a, out int b, out int a0, out int b0,
+                 out float w0, out float w1, out float w2) {
     vec2 d = rel - frac;
     float qx = d.x / TL_SIDE;
     float qy = d.y / TL_SIDE;
@@ -161,17 +163,28 @@ vec3 tiling_blend_at(ivec2 anchor, ivec2 anchor_mod, vec2 frac, vec2 rel) {
     float fb = floor(sy);
     float u = sx - fa;
     float v = sy - fb;
-    int a = anchor.x + int(fa);
-    int b = anchor.y + int(fb);
-    int a0 = a, b0 = b;
-    float w0 = 1.0 - u - v, w1 = u, w2 = v;
+    a = anchor.x + int(fa);
+    b = anchor.y + int(fb);
+    a0 = a;
+    b0 = b;
+    w0 = 1.0 - u - v;
+    w1 = u;
+    w2 = v;
     if (u + v > 1.0) {
         a0 = a + 1;
         b0 = b + 1;
         w0 = u + v - 1.0;
         w1 = 1.0 - v;
         w2 = 1.0 - u;
+        return true;
     }
+    return false;
+}
+
+vec3 tiling_blend_at(ivec2 anchor, ivec2 anchor_mod, vec2 frac, vec2 rel) {
+    int a, b, a0, b0;
+    float w0, w1, w2;
+    tl_triangle(anchor, frac, rel, a, b, a0, b0, w0, w1, w2);
     vec2 q0 = tl_patch_point(anchor, anchor_mod, frac, rel, a0, b0);
     vec2 q1 = tl_patch_point(anchor, anchor_mod, frac, rel, a + 1, b);
     vec2 q2 = tl_patch_point(anchor, anchor_mod, frac, rel, a, b + 1);
@@ -294,30 +307,15 @@ vec3 tiling_blend_grad_at(ivec2 anchor, ivec2 anchor_mod, vec2 frac, vec2 rel, o
     // tiling_blend_at and its gradient: the quotient R = Σ k_i r_i / N (N = Σ k_i, or √(Σ k_i²) for
     // the variance-preserving blend) with r_i = e_i − mean (or − m_i, plus the lattice mean's
     // M = Σ k_i m_i / Σ k_i), differentiated with its weights (kernels/noise_gradient.py tiling_slope)
-    vec2 d = rel - frac;
-    float qx = d.x / TL_SIDE;
-    float qy = d.y / TL_SIDE;
-    float sy = qy / TL_SQRT3_2;
-    float sx = qx - sy * 0.5;
-    float fa = floor(sx);
-    float fb = floor(sy);
-    float u = sx - fa;
-    float v = sy - fb;
-    int a = anchor.x + int(fa);
-    int b = anchor.y + int(fb);
-    // d(u, v)/d(x, y) of the skewed coordinates
+    int a, b, a0, b0;
+    float w0, w1, w2;
+    bool upper = tl_triangle(anchor, frac, rel, a, b, a0, b0, w0, w1, w2);
+    // d(u, v)/d(x, y) of the skewed coordinates, and the weights' gradients
     float hy = TL_SIDE * TL_SQRT3_2;
     vec2 du = vec2(1.0 / TL_SIDE, -0.5 / hy);
     vec2 dv = vec2(0.0, 1.0 / hy);
-    int a0 = a, b0 = b;
-    float w0 = 1.0 - u - v, w1 = u, w2 = v;
     vec2 dw0 = -du - dv, dw1 = du, dw2 = dv;
-    if (u + v > 1.0) {
-        a0 = a + 1;
-        b0 = b + 1;
-        w0 = u + v - 1.0;
-        w1 = 1.0 - v;
-        w2 = 1.0 - u;
+    if (upper) {
         dw0 = du + dv;
         dw1 = -dv;
         dw2 = -du;
